@@ -1,0 +1,29 @@
+# Two entry points: `make run` (derive the Puma 560, generate its code, print a
+# summary) and `make test` (the whole suite).  Both set up .venv on first use.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test generate bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test,plot]'
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/symdyn run
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+generate: $(STAMP)
+	$(BIN)/symdyn generate --all
+
+bench: $(STAMP)
+	$(BIN)/symdyn bench
+
+clean:
+	rm -rf $(VENV) build *.egg-info

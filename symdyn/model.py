@@ -1,0 +1,428 @@
+"""Robot model: links with kinematic, inertial, motor and friction parameters.
+
+The first stage of the flow model → derive → simplify → program → emit.
+`Link` and `Robot` are frozen dataclasses; every operation (payload,
+nofriction, subs, to_modified) returns a new robot.  A parameter may be a
+number or a sympy expression; numeric consumers (the reference) ask for
+`robot.require_numeric()` first.  Conventions follow Corke's Robotics
+Toolbox (see the README of shared/reference).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import sympy as sp
+
+CONVENTIONS = ("standard", "modified")
+JOINT_TYPES = ("revolute", "prismatic")
+
+Number = Any  # int, float or sympy expression
+
+
+# --------------------------------------------------------------------------- exact trig
+
+def exact_cos_sin(angle: Number) -> tuple[Number, Number]:
+    """cos and sin of a constant angle, exact for multiples of π/2.
+
+    A float within 1e-12 of k·π/2 gives exact integers (cos(π/2) is 0, never
+    6.1e-17); a sympy expression gives sympy's cos/sin; any other float gives
+    floats.  Both derivations and the reference use this one function.
+    """
+    if isinstance(angle, sp.Basic) and not angle.is_Number:
+        return sp.cos(angle), sp.sin(angle)
+    value = float(angle)
+    quarter = value / (math.pi / 2)
+    k = round(quarter)
+    if abs(quarter - k) < 1e-12:
+        return ((1, 0), (0, 1), (-1, 0), (0, -1))[k % 4]
+    return math.cos(value), math.sin(value)
+
+
+def rotx(angle: Number) -> tuple:
+    """4×4 homogeneous rotation about x (exact for multiples of π/2)."""
+    c, s = exact_cos_sin(angle)
+    return ((1, 0, 0, 0), (0, c, -s, 0), (0, s, c, 0), (0, 0, 0, 1))
+
+
+def roty(angle: Number) -> tuple:
+    """4×4 homogeneous rotation about y (exact for multiples of π/2)."""
+    c, s = exact_cos_sin(angle)
+    return ((c, 0, s, 0), (0, 1, 0, 0), (-s, 0, c, 0), (0, 0, 0, 1))
+
+
+def rotz(angle: Number) -> tuple:
+    """4×4 homogeneous rotation about z (exact for multiples of π/2)."""
+    c, s = exact_cos_sin(angle)
+    return ((c, -s, 0, 0), (s, c, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+
+
+def transl(x: Number, y: Number, z: Number) -> tuple:
+    """4×4 homogeneous translation."""
+    return ((1, 0, 0, x), (0, 1, 0, y), (0, 0, 1, z), (0, 0, 0, 1))
+
+
+IDENTITY = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+
+
+# --------------------------------------------------------------------------- helpers
+
+def _is_symbolic(x: Number) -> bool:
+    return isinstance(x, sp.Basic) and not x.is_Number
+
+
+def _scalar(x: Number, what: str) -> Number:
+    """Accept an int, float or sympy expression; reject anything else by name."""
+    if isinstance(x, bool):
+        raise ValueError(f"{what} must be a number or sympy expression, got a bool")
+    if isinstance(x, (int, float)):
+        if not math.isfinite(x):
+            raise ValueError(f"{what} must be finite, got {x}")
+        return x
+    if isinstance(x, np.generic) and np.issubdtype(type(x), np.number):
+        return _scalar(x.item(), what)
+    if isinstance(x, sp.Basic):
+        if x.is_Number:
+            if x.is_Integer:
+                return int(x)
+            if x.is_Rational:
+                return x  # keep exact rationals exact
+            return _scalar(float(x), what)
+        return x
+    raise ValueError(f"{what} must be a number or sympy expression, got {type(x).__name__} {x!r}")
+
+
+def _vector(v: Sequence, length: int, what: str) -> tuple:
+    try:
+        items = list(v.tolist() if hasattr(v, "tolist") and not isinstance(v, sp.Basic) else v)
+    except TypeError:
+        raise ValueError(f"{what} must be a sequence of {length} numbers, got {v!r}") from None
+    if isinstance(v, sp.MatrixBase):
+        items = list(v)
+    if len(items) != length:
+        raise ValueError(f"{what} must have {length} elements, got {len(items)}: {v!r}")
+    return tuple(_scalar(x, f"{what}[{i}]") for i, x in enumerate(items))
+
+
+def _matrix(m: Sequence, rows: int, cols: int, what: str) -> tuple:
+    if isinstance(m, sp.MatrixBase):
+        m = m.tolist()
+    elif isinstance(m, np.ndarray):
+        m = m.tolist()
+    try:
+        rows_ = [list(r) for r in m]
+    except TypeError:
+        raise ValueError(f"{what} must be a {rows}×{cols} matrix, got {m!r}") from None
+    if len(rows_) != rows or any(len(r) != cols for r in rows_):
+        shape = f"{len(rows_)}×{'/'.join(str(len(r)) for r in rows_)}"
+        raise ValueError(f"{what} must be a {rows}×{cols} matrix, got {shape}")
+    return tuple(tuple(_scalar(x, f"{what}[{i},{j}]") for j, x in enumerate(r))
+                 for i, r in enumerate(rows_))
+
+
+def _canonical(x: Any) -> str:
+    """A stable text form of a parameter for hashing (exact for sympy)."""
+    if isinstance(x, sp.Basic):
+        return sp.srepr(x)
+    if isinstance(x, float):
+        return repr(x)
+    if isinstance(x, (tuple, list)):
+        return "(" + ",".join(_canonical(e) for e in x) + ")"
+    return repr(x)
+
+
+# --------------------------------------------------------------------------- Link
+
+@dataclass(frozen=True)
+class Link:
+    """One link and the joint that moves it (Corke's `Link`).
+
+    Kinematics (DH): `theta` (constant part for a prismatic joint), `d`
+    (constant part for a revolute joint), `a`, `alpha`, `offset` (added to
+    the joint variable), `qlim` (lower, upper) or None.  In the modified
+    convention `a`, `alpha` are Craig's a_{i-1}, α_{i-1}.
+    Inertia: mass `m`, centre of mass `r` in the link frame, inertia `I`
+    (3×3, symmetric, about the COM, link-frame axes).
+    Motor (motor side, as the Toolbox): rotor inertia `Jm`, viscous friction
+    `B`, Coulomb friction `Tc` = (Tc⁺, Tc⁻) with Tc⁻ ≤ 0, gear ratio `G`.
+    """
+
+    joint: str = "revolute"
+    theta: Number = 0
+    d: Number = 0
+    a: Number = 0
+    alpha: Number = 0
+    offset: Number = 0
+    qlim: tuple | None = None
+    m: Number = 0
+    r: tuple = (0, 0, 0)
+    I: tuple = ((0, 0, 0), (0, 0, 0), (0, 0, 0))
+    Jm: Number = 0
+    B: Number = 0
+    Tc: tuple = (0, 0)
+    G: Number = 1
+
+    def __post_init__(self) -> None:
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
+        if self.joint not in JOINT_TYPES:
+            raise ValueError(f"unknown joint type {self.joint!r}: expected one of {JOINT_TYPES}")
+        for name in ("theta", "d", "a", "alpha", "offset", "m", "Jm", "B", "G"):
+            set_(name, _scalar(getattr(self, name), name))
+        set_("r", _vector(self.r, 3, "r"))
+        set_("I", _matrix(self.I, 3, 3, "I"))
+        set_("Tc", _vector(self.Tc, 2, "Tc"))
+        if self.qlim is not None:
+            lo, hi = _vector(self.qlim, 2, "qlim")
+            if not _is_symbolic(lo) and not _is_symbolic(hi) and not lo < hi:
+                raise ValueError(f"joint limits reversed or empty: qlim = ({lo}, {hi}); expected lower < upper")
+            set_("qlim", (lo, hi))
+
+    @property
+    def is_revolute(self) -> bool:
+        return self.joint == "revolute"
+
+    def _params(self) -> tuple:
+        return tuple(getattr(self, f.name) for f in dataclasses.fields(self))
+
+
+def _check_link_physics(link: Link, i: int) -> None:
+    """Mass ≥ 0, inertia symmetric and positive semidefinite, sane motor params."""
+    label = f"link {i + 1}"
+    if not _is_symbolic(link.m) and link.m < 0:
+        raise ValueError(f"mass of {label} is negative: m = {link.m}")
+    I = link.I
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        x, y = I[a][b], I[b][a]
+        if _is_symbolic(x) or _is_symbolic(y):
+            if sp.simplify(sp.sympify(x) - y) != 0:
+                raise ValueError(f"inertia of {label} is not symmetric: I[{a},{b}]={x}, I[{b},{a}]={y}")
+        elif abs(x - y) > 1e-12 * (1 + abs(x) + abs(y)):
+            raise ValueError(f"inertia of {label} is not symmetric: I[{a},{b}]={x}, I[{b},{a}]={y}")
+    if not any(_is_symbolic(x) for row in I for x in row):
+        eig = np.linalg.eigvalsh(np.array(I, dtype=float))
+        if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
+            raise ValueError(f"inertia of {label} is not positive semidefinite: eigenvalues {eig.tolist()}")
+    for name in ("Jm", "B"):
+        v = getattr(link, name)
+        if not _is_symbolic(v) and v < 0:
+            raise ValueError(f"{name} of {label} is negative: {v}")
+    tp, tn = link.Tc
+    if (not _is_symbolic(tp) and tp < 0) or (not _is_symbolic(tn) and tn > 0):
+        raise ValueError(f"Coulomb friction of {label} must be Tc = (Tc+ >= 0, Tc- <= 0), got {link.Tc}")
+    if not _is_symbolic(link.G) and link.G == 0:
+        motor = [link.Jm, link.B, *link.Tc]
+        if any(_is_symbolic(x) or x != 0 for x in motor):
+            raise ValueError(f"gear ratio of {label} is 0 but it has motor parameters "
+                             f"(Jm, B, Tc) = ({link.Jm}, {link.B}, {link.Tc}); give the ratio G")
+
+
+# --------------------------------------------------------------------------- Robot
+
+@dataclass(frozen=True)
+class Robot:
+    """A serial-link arm: links, DH convention, gravity, base and tool.
+
+    `gravity` is Corke's: the base's upward acceleration in the world, e.g.
+    (0, 0, 9.81) for a z-up base.  `base` and `tool` are 4×4 homogeneous
+    transforms.  `poses` maps names (qz, qr, …) to joint vectors.  Use
+    `dataclasses.replace(robot, base=T, gravity=g)` for variants.
+    """
+
+    name: str
+    links: tuple
+    convention: str = "standard"
+    gravity: tuple = (0, 0, 9.81)
+    base: tuple = IDENTITY
+    tool: tuple = IDENTITY
+    poses: Mapping[str, tuple] = field(default_factory=dict, compare=False, hash=False)
+    source: str = field(default="", compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
+        if self.convention not in CONVENTIONS:
+            raise ValueError(f"unknown DH convention {self.convention!r}: expected one of {CONVENTIONS}")
+        links = tuple(self.links)
+        if not links:
+            raise ValueError(f"robot {self.name!r} has no links")
+        for i, link in enumerate(links):
+            if not isinstance(link, Link):
+                raise ValueError(f"links[{i}] of robot {self.name!r} is a {type(link).__name__}, expected Link")
+            _check_link_physics(link, i)
+        set_("links", links)
+        set_("gravity", _vector(self.gravity, 3, "gravity"))
+        set_("base", _transform(self.base, "base"))
+        set_("tool", _transform(self.tool, "tool"))
+        poses = {}
+        for k, v in dict(self.poses).items():
+            poses[k] = _vector(v, len(links), f"pose {k}")
+        set_("poses", poses)
+
+    # ---- basic facts
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return len(self.links)
+
+    @property
+    def is_symbolic(self) -> bool:
+        return bool(self.free_symbols)
+
+    @property
+    def free_symbols(self) -> frozenset:
+        """The sympy symbols among the robot's parameters."""
+        syms: set = set()
+        for v in _walk(self._params()):
+            if isinstance(v, sp.Basic):
+                syms |= v.free_symbols
+        return frozenset(syms)
+
+    @property
+    def qlim(self) -> np.ndarray:
+        """Joint limits as an (n, 2) float array; ±π (revolute) or ±1 m (prismatic) where unset."""
+        out = np.empty((self.n, 2))
+        for i, link in enumerate(self.links):
+            if link.qlim is None:
+                out[i] = (-math.pi, math.pi) if link.is_revolute else (-1.0, 1.0)
+            else:
+                out[i] = [float(x) for x in link.qlim]
+        return out
+
+    def __getattr__(self, name: str):
+        # poses as attributes: robot.qz, robot.qr, ...
+        poses = self.__dict__.get("poses", {})
+        if name in poses:
+            return np.array(poses[name], dtype=float)
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    def _params(self) -> tuple:
+        return (self.convention, self.gravity, self.base, self.tool,
+                tuple(link._params() for link in self.links))
+
+    def fingerprint(self) -> str:
+        """SHA-256 of every parameter that affects the dynamics (not name or poses)."""
+        return hashlib.sha256(_canonical(self._params()).encode()).hexdigest()
+
+    def require_numeric(self, what: str = "this operation") -> None:
+        if self.is_symbolic:
+            names = ", ".join(sorted(str(s) for s in self.free_symbols))
+            raise ValueError(f"{what} needs a numeric robot, but {self.name!r} has symbolic "
+                             f"parameters {names}; substitute values with robot.subs({{...}})")
+
+    # ---- variants
+    def subs(self, values: Mapping) -> "Robot":
+        """Substitute values for symbolic parameters; returns a new robot."""
+        mapping = {sp.Symbol(k) if isinstance(k, str) else k: v for k, v in values.items()}
+        unknown = [k for k in mapping if k not in self.free_symbols]
+        if unknown:
+            raise KeyError(f"robot {self.name!r} has no parameter(s) {unknown}; "
+                           f"its symbols are {sorted(map(str, self.free_symbols))}")
+
+        def sub(x):
+            if isinstance(x, sp.Basic):
+                y = x.xreplace(mapping)
+                return y if not y.is_Number else (float(y) if isinstance(y, sp.Float) else y)
+            if isinstance(x, tuple):
+                return tuple(sub(e) for e in x)
+            return x
+
+        links = tuple(dataclasses.replace(link, **{f.name: sub(getattr(link, f.name))
+                                                   for f in dataclasses.fields(link) if f.name != "joint"})
+                      for link in self.links)
+        return dataclasses.replace(self, links=links, gravity=sub(self.gravity),
+                                   base=sub(self.base), tool=sub(self.tool))
+
+    def nofriction(self, all: bool = False) -> "Robot":  # noqa: A002 (Toolbox name)
+        """Remove Coulomb friction; with `all=True` remove viscous friction too."""
+        links = tuple(dataclasses.replace(link, Tc=(0, 0), B=0 if all else link.B)
+                      for link in self.links)
+        return dataclasses.replace(self, links=links)
+
+    def payload(self, m: Number, p: Sequence = (0, 0, 0), *, additive: bool = False) -> "Robot":
+        """Attach a payload of mass m at p (frame of the last link).
+
+        additive=False (the book's `payload`): the last link's mass becomes m
+        and its COM p, its inertia tensor is kept ("this assumes the last link
+        itself has no mass").  additive=True: a point mass m at p is *added*
+        to the last link — combined mass, COM and inertia about the new COM.
+        """
+        m = _scalar(m, "payload mass")
+        p = _vector(p, 3, "payload position")
+        if not _is_symbolic(m) and m < 0:
+            raise ValueError(f"payload mass is negative: {m}")
+        last = self.links[-1]
+        if not additive:
+            new = dataclasses.replace(last, m=m, r=p)
+        else:
+            new = dataclasses.replace(last, **_combine_mass(last.m, last.r, last.I, m, p))
+        return dataclasses.replace(self, links=self.links[:-1] + (new,))
+
+    def to_modified(self) -> "Robot":
+        """The same arm in modified (Craig) DH; dynamics unchanged.
+
+        MDH frame {j} sits where standard frame {j-1} was, turned with joint j
+        and shifted by d_j: link j takes α_{j-1}, a_{j-1}; its COM and
+        inertia are re-expressed through Tx(a_j)·Rx(α_j); the last link's
+        Tx(a_n)·Rx(α_n) moves into the tool.
+        """
+        if self.convention == "modified":
+            return self
+        links = []
+        prev_a, prev_alpha = 0, 0
+        for link in self.links:
+            c, s = exact_cos_sin(link.alpha)
+            R = ((1, 0, 0), (0, c, -s), (0, s, c))
+            r = tuple(link.a * (i == 0) + sum(R[i][k] * link.r[k] for k in range(3)) for i in range(3))
+            I = tuple(tuple(sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
+                            for j in range(3)) for i in range(3))
+            links.append(dataclasses.replace(link, a=prev_a, alpha=prev_alpha, r=r, I=I))
+            prev_a, prev_alpha = link.a, link.alpha
+        tool = _matmul4(_matmul4(transl(prev_a, 0, 0), rotx(prev_alpha)), self.tool)
+        return dataclasses.replace(self, links=tuple(links), convention="modified", tool=tool,
+                                   name=f"{self.name}_mdh" if not self.name.endswith("_mdh") else self.name)
+
+
+def _walk(x):
+    if isinstance(x, tuple):
+        for e in x:
+            yield from _walk(e)
+    else:
+        yield x
+
+
+def _matmul4(A: tuple, B: tuple) -> tuple:
+    return tuple(tuple(sum(A[i][k] * B[k][j] for k in range(4)) for j in range(4)) for i in range(4))
+
+
+def _transform(T: Sequence, what: str) -> tuple:
+    T = _matrix(T, 4, 4, what)
+    if tuple(T[3]) != (0, 0, 0, 1) and not any(_is_symbolic(x) for x in T[3]):
+        if any(abs(float(x) - y) > 1e-12 for x, y in zip(T[3], (0, 0, 0, 1))):
+            raise ValueError(f"{what} is not a homogeneous transform: last row is {T[3]}, expected (0, 0, 0, 1)")
+    R = [row[:3] for row in T[:3]]
+    if not any(_is_symbolic(x) for row in R for x in row):
+        Rn = np.array(R, dtype=float)
+        if np.abs(Rn @ Rn.T - np.eye(3)).max() > 1e-9 or np.linalg.det(Rn) < 0:
+            raise ValueError(f"{what} rotation is not a proper rotation matrix (R·Rᵀ ≠ 1 or det < 0): {R}")
+    return T
+
+
+def _combine_mass(m1, r1, I1, m2, r2) -> dict:
+    """Mass, COM and COM inertia of two bodies: (m1, r1, I1) plus a point mass m2 at r2."""
+    mt = m1 + m2
+    if not _is_symbolic(mt) and mt == 0:
+        return {"m": 0, "r": r1, "I": I1}
+    c = tuple((m1 * a + m2 * b) / mt for a, b in zip(r1, r2))
+
+    def shift(mass, r):
+        d = [r[i] - c[i] for i in range(3)]
+        dd = sum(x * x for x in d)
+        return [[mass * ((dd if i == j else 0) - d[i] * d[j]) for j in range(3)] for i in range(3)]
+
+    s1, s2 = shift(m1, r1), shift(m2, r2)
+    I = tuple(tuple(I1[i][j] + s1[i][j] + s2[i][j] for j in range(3)) for i in range(3))
+    return {"m": mt, "r": c, "I": I}

@@ -1,0 +1,26 @@
+"""Shared fixtures: the shipped models and random states within joint limits."""
+
+import numpy as np
+import pytest
+
+from symdyn import models
+
+
+@pytest.fixture(scope="session")
+def puma():
+    return models.load("puma560")
+
+
+@pytest.fixture(scope="session")
+def twolink():
+    return models.load("twolink")
+
+
+def random_states(robot, count, seed=0):
+    """(q, qd, qdd), each (count, n): q uniform within the joint limits."""
+    rng = np.random.default_rng(seed)
+    lo, hi = robot.qlim.T
+    q = rng.uniform(lo, hi, (count, robot.n))
+    qd = rng.uniform(-2, 2, (count, robot.n))
+    qdd = rng.uniform(-5, 5, (count, robot.n))
+    return q, qd, qdd
