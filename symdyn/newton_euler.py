@@ -1,0 +1,283 @@
+"""Symbolic recursive Newton–Euler, customized (Khalil): the second route.
+
+Same recursion as `symdyn.reference` (Featherstone's RNEA in body
+coordinates) but on sympy expressions: inertia about the body origin and
+first moments of mass (no COM accelerations), exact constants, products
+with exact zeros and ones skipped, and every non-trivial intermediate given
+a name on a `Tape` as it is formed (w2_z, dv3_x, f4_y, …), so the result is
+a DAG, never one big tree.  M comes from unit accelerations, G from zero
+motion, C from unit velocities with the cross terms split symmetrically
+(which is exactly the Christoffel C).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import sympy as sp
+
+from .dynamics import Dynamics, friction_expr, rotor_inertia
+from .kinematics import LinkFrame, link_frames
+from .model import Robot
+from .symbols import exact, joint_symbols
+
+AXES = "xyz"
+
+
+# --------------------------------------------------------------------------- the tape
+
+class Tape:
+    """Named intermediates: an ordered DAG of definitions (Symbol → expression).
+
+    `name(expr, label)` returns expr itself when it is trivial (a number, a
+    symbol or its negative), an existing name when the same expression was
+    named before, and a new Symbol otherwise.
+    """
+
+    def __init__(self) -> None:
+        self.defs: dict[sp.Symbol, sp.Expr] = {}
+        self._index: dict[sp.Expr, sp.Symbol] = {}
+        self._full: dict[sp.Symbol, sp.Expr] = {}
+
+    def name(self, expr: sp.Expr, label: str) -> sp.Expr:
+        expr = sp.sympify(expr)
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
+            return expr
+        if isinstance(expr, (sp.cos, sp.sin)) and expr.args[0].is_Symbol:
+            return expr
+        if expr in self._index:
+            return self._index[expr]
+        if -expr in self._index:
+            return -self._index[-expr]
+        sym = sp.Symbol(self._unique(label), real=True)
+        self.defs[sym] = expr
+        self._index[expr] = sym
+        return sym
+
+    def _unique(self, label: str) -> str:
+        taken = {s.name for s in self.defs}
+        if label not in taken:
+            return label
+        k = 2
+        while f"{label}_{k}" in taken:
+            k += 1
+        return f"{label}_{k}"
+
+    def vector(self, exprs: Sequence, label: str) -> list:
+        return [self.name(e, f"{label}_{AXES[k]}") for k, e in enumerate(exprs)]
+
+    def full(self, expr: sp.Expr) -> sp.Expr:
+        """The expression with every name replaced by its definition (shared subtrees)."""
+        for sym, definition in self.defs.items():
+            if sym not in self._full:
+                self._full[sym] = definition.xreplace(self._full)
+        return sp.sympify(expr).xreplace(self._full)
+
+    def used_by(self, outputs: Sequence[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
+        """The definitions the outputs depend on, in order (dead ones dropped)."""
+        needed: set = set()
+        stack = [s for e in outputs for s in sp.sympify(e).free_symbols if s in self.defs]
+        while stack:
+            s = stack.pop()
+            if s in needed:
+                continue
+            needed.add(s)
+            stack.extend(t for t in self.defs[s].free_symbols if t in self.defs and t not in needed)
+        return [(s, e) for s, e in self.defs.items() if s in needed]
+
+
+# --------------------------------------------------------------------------- small vector algebra
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _add(*vs):
+    return [sp.Add(*(v[k] for v in vs)) for k in range(3)]
+
+
+def _matvec(M, v):
+    return [sp.Add(*(M[i, j] * v[j] for j in range(3))) for i in range(3)]
+
+
+def _tmatvec(M, v):
+    return [sp.Add(*(M[j, i] * v[j] for j in range(3))) for i in range(3)]
+
+
+def _scale(v, s):
+    return [x * s for x in v]
+
+
+def _dot(a, b):
+    return sp.Add(*(x * y for x, y in zip(a, b)))
+
+
+# --------------------------------------------------------------------------- inertial parameters
+
+@dataclass(frozen=True)
+class LinkInertia:
+    """Khalil's standard parameters of one link: inertia about the body origin
+    Io (3×3), first moment h = m·r, mass m, rotor inertia Ia = G²·Jm."""
+
+    Io: sp.Matrix
+    h: tuple
+    m: sp.Expr
+    Ia: sp.Expr
+
+
+def link_inertias(robot: Robot) -> list[LinkInertia]:
+    """Standard parameters of every link, exact (floats become rationals)."""
+    out = []
+    for link, Ia in zip(robot.links, rotor_inertia(robot)):
+        m = exact(link.m)
+        r = [exact(x) for x in link.r]
+        Ic = sp.Matrix([[exact(x) for x in row] for row in link.I])
+        rr = sum(x * x for x in r)
+        Io = sp.Matrix(3, 3, lambda i, j: sp.expand(Ic[i, j] + m * ((rr if i == j else 0) - r[i] * r[j])))
+        out.append(LinkInertia(Io=Io, h=tuple(sp.expand(m * x) for x in r), m=m, Ia=Ia))
+    return out
+
+
+# --------------------------------------------------------------------------- the recursion
+
+@dataclass
+class Motion:
+    """Spatial velocity (w, v) and acceleration (dw, dv) of one body, named."""
+
+    w: list
+    v: list
+    dw: list
+    dv: list
+
+
+def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "") -> list[Motion]:
+    """Outward pass: velocities and spatial accelerations of every body.
+
+    g0 is the base's upward acceleration in frame {0} (Corke's gravity,
+    rotated by the base); the base itself is at rest.
+    """
+    w = [0, 0, 0]; v = [0, 0, 0]; dw = [0, 0, 0]; dv = list(g0)
+    out = []
+    for i, f in enumerate(frames):
+        k = i + 1
+        sw, sv = f.S[:3], f.S[3:]
+        wp = _tmatvec(f.R, w)
+        vp = _tmatvec(f.R, _add(v, _cross(w, f.p)))
+        dwp = _tmatvec(f.R, dw)
+        dvp = _tmatvec(f.R, _add(dv, _cross(dw, f.p)))
+        w = tape.vector(_add(wp, _scale(sw, qd[i])), f"{tag}w{k}")
+        v = tape.vector(_add(vp, _scale(sv, qd[i])), f"{tag}v{k}")
+        swq, svq = _scale(sw, qd[i]), _scale(sv, qd[i])
+        dw = tape.vector(_add(dwp, _scale(sw, qdd[i]), _cross(w, swq)), f"{tag}dw{k}")
+        dv = tape.vector(_add(dvp, _scale(sv, qdd[i]), _cross(w, svq), _cross(v, swq)), f"{tag}dv{k}")
+        out.append(Motion(w, v, dw, dv))
+    return out
+
+
+def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, label: str) -> tuple[list, list]:
+    """Spatial force (n, f) of one body: I·a + v ×* I·v, about the body origin."""
+    Io, h, m = inertia.Io, list(inertia.h), inertia.m
+    L = tape.vector(_add(_matvec(Io, mo.w), _cross(h, mo.v)), f"{label}L")
+    P = tape.vector(_add(_scale(mo.v, m), _cross(mo.w, h)), f"{label}P")
+    n = _add(_matvec(Io, mo.dw), _cross(h, mo.dv), _cross(mo.w, L), _cross(mo.v, P))
+    f = _add(_scale(mo.dv, m), _cross(mo.dw, h), _cross(mo.w, P))
+    return n, f
+
+
+def backward(tape: Tape, frames: Sequence[LinkFrame], forces: list, qdd, inertias, tag: str = "",
+             last: int | None = None) -> list:
+    """Inward pass: joint forces τᵢ = Sᵢ·fᵢ (+ rotor inertia), forces
+    transmitted to the parent; `forces[i]` is body i's own (n, f) or None."""
+    n_links = len(frames)
+    last = n_links - 1 if last is None else last
+    tau = [sp.S.Zero] * n_links
+    n_acc, f_acc = [0, 0, 0], [0, 0, 0]
+    for i in range(last, -1, -1):
+        k = i + 1
+        if forces[i] is not None:
+            n_acc, f_acc = _add(n_acc, forces[i][0]), _add(f_acc, forces[i][1])
+        n_i = tape.vector(n_acc, f"{tag}n{k}")
+        f_i = tape.vector(f_acc, f"{tag}f{k}")
+        S = frames[i].S
+        tau[i] = _dot(S[:3], n_i) + _dot(S[3:], f_i) + inertias[i].Ia * qdd[i]
+        if i > 0:
+            R, p = frames[i].R, frames[i].p
+            f_acc = _matvec(R, f_i)
+            n_acc = _add(_matvec(R, n_i), _cross(list(p), f_acc))
+    return tau
+
+
+def rnea(tape: Tape, frames, inertias, qd, qdd, g0, tag: str = "") -> list:
+    """Joint forces of the whole recursion (no friction), as named expressions."""
+    motions = forward(tape, frames, qd, qdd, g0, tag)
+    forces = [body_force(tape, mo, I, f"{tag}{i + 1}") for i, (mo, I) in enumerate(zip(motions, inertias))]
+    return backward(tape, frames, forces, qdd, inertias, tag)
+
+
+def gravity_in_base(robot: Robot) -> list:
+    """Corke's gravity (base upward acceleration, world) expressed in frame {0}."""
+    R = sp.Matrix([[exact(x) for x in row[:3]] for row in robot.base[:3]])
+    return list(R.T * sp.Matrix([exact(x) for x in robot.gravity]))
+
+
+# --------------------------------------------------------------------------- M, C, G, τ
+
+@dataclass(frozen=True)
+class Recursion:
+    """The named programs of one Newton–Euler derivation: the tape and the
+    outputs of each term in terms of its names."""
+
+    tape: Tape
+    outputs: dict
+
+
+def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None) -> Recursion:
+    """Run the customized recursion for τ, M (unit accelerations), G (rest)
+    and the Christoffel symbols (unit velocities, symmetric split)."""
+    n = robot.n
+    q, qd, qdd = joint_symbols(n)
+    frames = link_frames(robot, q)
+    inertias = link_inertias(robot) if inertias is None else list(inertias)
+    tape = Tape()
+    zero, none = [0] * n, [0, 0, 0]
+    g0 = gravity_in_base(robot)
+    unit = lambda j: [1 if i == j else 0 for i in range(n)]  # noqa: E731
+
+    tau = rnea(tape, frames, inertias, qd, qdd, g0)
+    G = rnea(tape, frames, inertias, zero, zero, g0, tag="g")
+    M = [[None] * n for _ in range(n)]
+    for j in range(n):
+        col = rnea(tape, frames, inertias, zero, unit(j), none, tag=f"m{j + 1}")
+        for i in range(n):
+            M[i][j] = col[i]
+    M = [[M[min(i, j)][max(i, j)] for j in range(n)] for i in range(n)]  # upper triangle, mirrored
+    h = {}
+    for j in range(n):
+        h[j, j] = rnea(tape, frames, inertias, unit(j), zero, none, tag=f"h{j + 1}")
+    gamma = {}
+    for j in range(n):
+        gamma[j, j] = h[j, j]
+        for k in range(j + 1, n):
+            both = rnea(tape, frames, inertias, [a + b for a, b in zip(unit(j), unit(k))], zero, none,
+                        tag=f"h{j + 1}{k + 1}")
+            gamma[j, k] = gamma[k, j] = [(b - x - y) / 2 for b, x, y in zip(both, h[j, j], h[k, k])]
+    C = [[sp.Add(*(gamma[i, j][r] * qd[i] for i in range(n))) for j in range(n)] for r in range(n)]
+    return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C,
+                                         "Gamma": gamma})
+
+
+def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None) -> Dynamics:
+    """Closed-form dynamics by Newton–Euler: M, C, G, F and τ as sympy matrices."""
+    rec = recursion(robot, inertias)
+    q, qd, qdd = joint_symbols(robot.n)
+    full = rec.tape.full
+    F = friction_expr(robot, qd)
+    tau = sp.ImmutableMatrix([full(t) for t in rec.outputs["tau"]]) + F
+    return Dynamics(
+        robot=robot, method="newton-euler", q=q, qd=qd, qdd=qdd,
+        M=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["M"]]),
+        C=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["C"]]),
+        G=sp.ImmutableMatrix([full(x) for x in rec.outputs["G"]]),
+        F=F, tau=tau,
+    )

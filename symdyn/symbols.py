@@ -1,0 +1,32 @@
+"""The joint symbols every derivation and emitter shares: q1…qn, qd1…, qdd1….
+
+One place so that Lagrange, Newton–Euler, the program and the emitters all
+speak of the same sympy Symbols.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import sympy as sp
+
+
+@functools.lru_cache(maxsize=None)
+def joint_symbols(n: int) -> tuple[tuple[sp.Symbol, ...], tuple[sp.Symbol, ...], tuple[sp.Symbol, ...]]:
+    """(q, qd, qdd): three tuples of n real Symbols named q1, qd1, qdd1, …"""
+    if n < 1:
+        raise ValueError(f"a robot needs at least one joint, got n = {n}")
+    make = lambda stem: tuple(sp.Symbol(f"{stem}{i + 1}", real=True) for i in range(n))  # noqa: E731
+    return make("q"), make("qd"), make("qdd")
+
+
+def exact(x) -> sp.Expr:
+    """A model parameter as an exact sympy number: floats become the rational
+    of their shortest decimal (0.4318 → 2159/5000), so derivations are exact."""
+    if isinstance(x, sp.Basic):
+        return x
+    if isinstance(x, bool):
+        raise ValueError("a parameter cannot be a bool")
+    if isinstance(x, int):
+        return sp.Integer(x)
+    return sp.Rational(repr(float(x)))
