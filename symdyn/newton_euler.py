@@ -20,6 +20,7 @@ import sympy as sp
 from .dynamics import Dynamics, friction_expr, rotor_inertia
 from .kinematics import LinkFrame, link_frames
 from .model import Robot
+from .progress import Progress, silent
 from .symbols import exact, joint_symbols
 
 AXES = "xyz"
@@ -232,7 +233,8 @@ class Recursion:
     outputs: dict
 
 
-def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None) -> Recursion:
+def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
+              progress: Progress | None = None) -> Recursion:
     """Run the customized recursion for τ, M (unit accelerations), G (rest)
     and the Christoffel symbols (unit velocities, symmetric split)."""
     n = robot.n
@@ -243,33 +245,43 @@ def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None) -> Re
     zero, none = [0] * n, [0, 0, 0]
     g0 = gravity_in_base(robot)
     unit = lambda j: [1 if i == j else 0 for i in range(n)]  # noqa: E731
+    progress = progress or silent()
 
     tau = rnea(tape, frames, inertias, qd, qdd, g0)
+    progress.step("tau")
     G = rnea(tape, frames, inertias, zero, zero, g0, tag="g")
+    progress.step("G")
     M = [[None] * n for _ in range(n)]
     for j in range(n):
         col = rnea(tape, frames, inertias, zero, unit(j), none, tag=f"m{j + 1}")
+        progress.step(f"M column {j + 1}")
         for i in range(n):
             M[i][j] = col[i]
     M = [[M[min(i, j)][max(i, j)] for j in range(n)] for i in range(n)]  # upper triangle, mirrored
     h = {}
     for j in range(n):
         h[j, j] = rnea(tape, frames, inertias, unit(j), zero, none, tag=f"h{j + 1}")
+        progress.step(f"Christoffel {j + 1}{j + 1}")
     gamma = {}
     for j in range(n):
         gamma[j, j] = h[j, j]
         for k in range(j + 1, n):
             both = rnea(tape, frames, inertias, [a + b for a, b in zip(unit(j), unit(k))], zero, none,
                         tag=f"h{j + 1}{k + 1}")
+            progress.step(f"Christoffel {j + 1}{k + 1}")
             gamma[j, k] = gamma[k, j] = [(b - x - y) / 2 for b, x, y in zip(both, h[j, j], h[k, k])]
     C = [[sp.Add(*(gamma[i, j][r] * qd[i] for i in range(n))) for j in range(n)] for r in range(n)]
     return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C,
                                          "Gamma": gamma})
 
 
-def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None) -> Dynamics:
+def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
+           progress: bool = False) -> Dynamics:
     """Closed-form dynamics by Newton–Euler: M, C, G, F and τ as sympy matrices."""
-    rec = recursion(robot, inertias)
+    n = robot.n
+    bar = Progress(f"newton-euler {robot.name}", 2 + n + n * (n + 1) // 2, enabled=progress)
+    rec = recursion(robot, inertias, bar)
+    bar.done()
     q, qd, qdd = joint_symbols(robot.n)
     full = rec.tape.full
     F = friction_expr(robot, qd)
