@@ -32,6 +32,39 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_print(args: argparse.Namespace) -> int:
+    """Print the closed-form dynamics of a model, with op counts per stage."""
+    from . import models
+    from .derivation import derive
+    from .printing import closed_form
+    from .simplify import op_counts
+
+    robot = _load_model(args.model, args.numeric)
+    terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
+    dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
+    print(closed_form(dyn, terms, args.format, args.prune))
+    comment = "%" if args.format == "latex" else "#"
+    stages = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
+    print(f"{comment} {robot.name} by {dyn.method}; operations (mul+add) at each stage:")
+    for t in terms:
+        counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
+        row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
+        print(f"{comment}   {t:4s} {row}")
+    return 0
+
+
+def _load_model(name: str, numeric: bool):
+    """A shipped model: its symbolic variant where it has one, unless numeric."""
+    from . import models
+
+    if not numeric:
+        try:
+            return models.load(name, symbolic=True)
+        except ValueError:
+            pass
+    return models.load(name)
+
+
 def _cmd_study(args: argparse.Namespace) -> int:
     from . import studies
 
@@ -51,6 +84,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="the main job: derive the Puma 560, generate its code, summarise")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("print", help="print closed-form M, C, G, F, tau of a model")
+    p.add_argument("model")
+    p.add_argument("--term", default="all", choices=("M", "C", "Cqd", "G", "F", "tau", "all"))
+    p.add_argument("--method", default="newton-euler", choices=("newton-euler", "lagrange"))
+    p.add_argument("--format", default="text", choices=("text", "pretty", "latex"))
+    p.add_argument("--prune", type=float, default=None, metavar="TOL",
+                   help="drop terms below TOL relative to each element's scale")
+    p.add_argument("--numeric", action="store_true", help="numeric parameters even where a symbolic variant exists")
+    p.add_argument("--no-cache", action="store_true", help="derive afresh, bypassing the cache")
+    p.set_defaults(func=_cmd_print)
 
     p = sub.add_parser("study", help="run one of the chapter's studies (--list to see them)")
     p.add_argument("name", nargs="?")

@@ -15,6 +15,9 @@ from .cache import cached, key
 from .dynamics import METHODS, Dynamics
 from .model import Robot
 
+#: Bump when Dynamics or a derivation changes shape, so old cache entries are not reused.
+SCHEMA = 2
+
 
 def derive(robot: Robot, method: str = "newton-euler", *, cache: bool = True,
            progress: bool = False) -> Dynamics:
@@ -34,7 +37,7 @@ def derive(robot: Robot, method: str = "newton-euler", *, cache: bool = True,
         dyn.stats["derive_seconds"] = time.perf_counter() - start
         return dyn
 
-    entry = key(robot.fingerprint(), method, __version__)
+    entry = key(robot.fingerprint(), method, __version__, str(SCHEMA))
     dyn, hit = cached(f"derive-{method}", entry, build, use_cache=cache)
     dyn = dataclasses.replace(dyn, robot=robot)  # the caller's name and poses
     dyn.stats["from_cache"] = hit

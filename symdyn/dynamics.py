@@ -15,11 +15,17 @@ from .model import Robot
 from .symbols import exact, joint_symbols
 
 METHODS = ("lagrange", "newton-euler")
+TERMS = ("M", "C", "Cqd", "G", "F", "tau")
 
 
 @dataclass(frozen=True)
 class Dynamics:
-    """Closed-form dynamics of one robot, from one method."""
+    """Closed-form dynamics of one robot, from one method.
+
+    `definitions` are the derivation's named intermediates (Symbol, expr) in
+    order and `named[term]` the term written in them (a DAG); M, C, G, F,
+    tau are the same terms as plain expressions in q, qd, qdd.
+    """
 
     robot: Robot
     method: str
@@ -31,6 +37,8 @@ class Dynamics:
     G: sp.ImmutableMatrix
     F: sp.ImmutableMatrix
     tau: sp.ImmutableMatrix
+    definitions: tuple = ()
+    named: dict = field(default_factory=dict, compare=False)
     stats: dict = field(default_factory=dict, compare=False)
 
     @property
@@ -41,6 +49,25 @@ class Dynamics:
     def params(self) -> tuple:
         """The robot's symbolic parameters, sorted by name."""
         return tuple(sorted(self.robot.free_symbols, key=str))
+
+    def term(self, name: str) -> sp.ImmutableMatrix:
+        """One of M, C, Cqd, G, F, tau by name."""
+        if name not in TERMS:
+            raise ValueError(f"unknown term {name!r}: expected one of {', '.join(TERMS)}")
+        return getattr(self, name)
+
+    def inputs(self, name: str) -> list:
+        """The argument lists a term depends on: [("q", q), ("qd", qd), …]."""
+        args = {"M": ("q",), "C": ("q", "qd"), "Cqd": ("q", "qd"), "G": ("q",), "F": ("qd",),
+                "tau": ("q", "qd", "qdd")}[name]
+        out = [(a, getattr(self, a)) for a in args]
+        return out + [("p", self.params)] if self.params else out
+
+    def op_count(self, term: str, stage: str = "cse") -> dict:
+        """Operations of a term after CSE ({"mul", "add", …}); see `symdyn.simplify.op_counts`
+        for every stage (raw, cse, folded, pruned)."""
+        from .simplify import op_counts
+        return op_counts(self, term, stages=(stage,))[stage]
 
     @property
     def Cqd(self) -> sp.ImmutableMatrix:

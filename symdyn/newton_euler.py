@@ -251,6 +251,7 @@ def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
     progress.step("tau")
     G = rnea(tape, frames, inertias, zero, zero, g0, tag="g")
     progress.step("G")
+    Cqd = rnea(tape, frames, inertias, qd, zero, none, tag="c")
     M = [[None] * n for _ in range(n)]
     for j in range(n):
         col = rnea(tape, frames, inertias, zero, unit(j), none, tag=f"m{j + 1}")
@@ -271,7 +272,7 @@ def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
             progress.step(f"Christoffel {j + 1}{k + 1}")
             gamma[j, k] = gamma[k, j] = [(b - x - y) / 2 for b, x, y in zip(both, h[j, j], h[k, k])]
     C = [[sp.Add(*(gamma[i, j][r] * qd[i] for i in range(n))) for j in range(n)] for r in range(n)]
-    return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C,
+    return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C, "Cqd": Cqd,
                                          "Gamma": gamma})
 
 
@@ -286,10 +287,15 @@ def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
     full = rec.tape.full
     F = friction_expr(robot, qd)
     tau = sp.ImmutableMatrix([full(t) for t in rec.outputs["tau"]]) + F
+    outs = rec.outputs
+    Cm = sp.ImmutableMatrix(outs["C"])
+    named = {"M": sp.ImmutableMatrix(outs["M"]), "C": Cm, "G": sp.ImmutableMatrix(outs["G"]),
+             "Cqd": sp.ImmutableMatrix(outs["Cqd"]), "F": F,
+             "tau": sp.ImmutableMatrix(outs["tau"]) + F}
     return Dynamics(
         robot=robot, method="newton-euler", q=q, qd=qd, qdd=qdd,
         M=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["M"]]),
         C=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["C"]]),
         G=sp.ImmutableMatrix([full(x) for x in rec.outputs["G"]]),
-        F=F, tau=tau,
+        F=F, tau=tau, definitions=tuple(rec.tape.defs.items()), named=named,
     )
