@@ -316,7 +316,9 @@ class Robot:
     # ---- variants
     def subs(self, values: Mapping) -> "Robot":
         """Substitute values for symbolic parameters; returns a new robot."""
-        mapping = {sp.Symbol(k) if isinstance(k, str) else k: v for k, v in values.items()}
+        by_name = {str(s): s for s in self.free_symbols}  # "a1" names the real Symbol a1
+        mapping = {by_name.get(k, sp.Symbol(k)) if isinstance(k, str) else k: sp.sympify(v)
+                   for k, v in values.items()}
         unknown = [k for k in mapping if k not in self.free_symbols]
         if unknown:
             raise KeyError(f"robot {self.name!r} has no parameter(s) {unknown}; "
