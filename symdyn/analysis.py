@@ -162,7 +162,7 @@ class Sweep:
         return tuple(out)
 
 
-def gravity_load_map(robot: Robot, *, joints=(1, 2), loads=None, resolution: int = 64,
+def gravity_load_map(robot: Robot, *, joints=(1, 2), loads=None, resolution: int = 73,
                      pose=None, span=FULL_TURN) -> Sweep:
     """Gravity load G_j(q) (N·m) of joints `loads` (default: the swept ones) over a grid of `joints`.
 
@@ -175,7 +175,7 @@ def gravity_load_map(robot: Robot, *, joints=(1, 2), loads=None, resolution: int
     return Sweep(tuple(joints), axes, G[..., list(loads)], tuple(f"G{j + 1}" for j in loads))
 
 
-def inertia_map(robot: Robot, *, elements=((0, 0), (0, 1)), joints=(1, 2), resolution: int = 64,
+def inertia_map(robot: Robot, *, elements=((0, 0), (0, 1)), joints=(1, 2), resolution: int = 73,
                 pose=None, span=FULL_TURN) -> Sweep:
     """Inertia-matrix elements M_ij (kg·m², 0-based (i, j)) over a grid of `joints` (default M11, M12 over q2, q3)."""
     axes, q = joint_grid(robot, joints, resolution, pose=pose, span=span)

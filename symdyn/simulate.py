@@ -11,7 +11,6 @@ this up wherever it exists.
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -21,6 +20,7 @@ from scipy.integrate import solve_ivp
 from . import reference
 from .analysis import model_functions
 from .model import Robot
+from .progress import Progress
 
 __all__ = ["Adaptive", "RK4", "Trajectory", "COULOMB_WIDTH", "smooth_friction", "simulate",
            "total_energy", "StderrProgress"]
@@ -72,16 +72,18 @@ def smooth_friction(robot: Robot, qd, width: float = COULOMB_WIDTH) -> np.ndarra
 
 
 class StderrProgress:
-    """Progress lines on stderr ("label: 40 % (t = 2.00 of 5.00 s)") every `step` of the span."""
+    """Progress lines on stderr (`symdyn.progress`) every `step` of the simulated span, then the run time."""
 
     def __init__(self, label: str, step: float = 0.1):
-        self.label, self.step, self.next = label, step, step
+        self.lines = Progress(label, round(1 / step))
+        self.step, self.next = step, step
 
     def __call__(self, fraction: float, t: float, T: float) -> None:
-        while fraction >= self.next - 1e-12:
-            print(f"{self.label}: {round(100 * self.next):3d} % (t = {t:.2f} of {T:.2f} s)",
-                  file=sys.stderr, flush=True)
+        while fraction >= self.next - 1e-12 and self.lines.count < self.lines.total:
+            self.lines.step(f"(t = {t:.2f} of {T:.2f} s)")
             self.next += self.step
+            if self.lines.count == self.lines.total:
+                self.lines.done()
 
 
 def simulate(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *,

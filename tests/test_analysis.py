@@ -251,3 +251,29 @@ def test_exercise_arm_joint1_inertia_against_q2():
 def test_joint_grid_names_a_bad_joint(puma):
     with pytest.raises(ValueError, match="joint index 6"):
         A.joint_grid(puma, (1, 6), 5)
+
+
+# --------------------------------------------------------------------------- studies
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("name", ["gravity-load", "inertia-variation", "payload", "base-wrench",
+                                  "manipulability", "joint-dynamics", "twolink-exercise"])
+def test_analysis_study_writes_its_figure_and_summary(name, tmp_path):
+    from symdyn.studies import analyses, registry
+
+    assert registry()[name][1] is analyses.STUDIES[name][1]
+    text = analyses.STUDIES[name][1](tmp_path, quick=True)
+    figures = sorted(tmp_path.glob("analysis_*.png"))
+    assert figures and all(f.read_bytes()[:8] == PNG_SIGNATURE and f.stat().st_size > 5000 for f in figures)
+    assert (tmp_path / "summary.txt").read_text() == text + "\n"
+
+
+def test_gravity_study_reports_the_grid_extreme_and_the_load_at_qz(puma, tmp_path):
+    from symdyn.studies import analyses
+
+    text = analyses.gravity_load(tmp_path, quick=True)
+    g2 = A.gravity_load_map(puma, resolution=9).extremes()[0]
+    assert f"max {g2.max:+.3f} N·m" in text
+    assert f"G2 = {ref.gravload(puma, puma.qz)[1]:.3f} N·m" in text

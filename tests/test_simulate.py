@@ -100,7 +100,8 @@ def test_coulomb_friction_holds_a_pendulum_to_a_creep_of_width_times_atanh(twoli
 def test_progress_reports_every_tenth(puma, capsys):
     S.simulate(puma.nofriction(), 0.05, puma.qz, integrator=S.RK4(dt=0.01), progress=S.StderrProgress("fall"))
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 10 and lines[-1].startswith("fall: 100 %")
+    assert [line.split()[1] for line in lines[:10]] == [f"{k}/10" for k in range(1, 11)]
+    assert lines[-1].startswith("fall: done in")
 
 
 @pytest.mark.parametrize("kwargs, message", [
@@ -114,3 +115,17 @@ def test_simulate_names_bad_arguments(twolink, kwargs, message):
     args = {"T": 1.0, "q0": np.zeros(2)} | kwargs
     with pytest.raises(ValueError, match=message):
         S.simulate(twolink, args.pop("T"), args.pop("q0"), **args)
+
+
+@pytest.mark.parametrize("name", ["collapse", "integrators"])
+def test_simulation_study_writes_its_figures_and_summary(name, tmp_path):
+    from symdyn.studies import registry, simulation
+
+    assert registry()[name][1] is simulation.STUDIES[name][1]
+    text = simulation.STUDIES[name][1](tmp_path, quick=True)
+    figures = sorted(tmp_path.glob("sim_*.png"))
+    assert figures and all(f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for f in figures)
+    assert (tmp_path / "summary.txt").read_text() == text + "\n"
+    if name == "integrators":
+        order = float(text.split("observed order ")[1].split()[0])
+        assert 3.5 < order < 4.5
