@@ -15,18 +15,21 @@ actuator with LQR state feedback.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
+from . import models
 from . import reference as ref
 from .model import Robot
 
-__all__ = ["lspb", "quintic", "Trace", "simulate", "Model", "model", "scale_inertia", "scaled",
+__all__ = ["lspb", "quintic", "Trace", "simulate", "Model", "model", "refriction", "scale_inertia", "scaled",
            "JointDrive", "VelocityLoop", "PositionLoop", "TorqueFeedforward", "ComputedTorque",
            "Surface", "OperationalSpace", "SEA"]
 
@@ -245,15 +248,41 @@ def _wrap(functions, n: int, source: str) -> Model:
     return Model(n=n, source=source, **{k: get(k) for k in ("tau", "M", "Cqd", "G", "F", "fdyn")})
 
 
+def _shipped_generated(robot: Robot) -> Model | None:
+    """Generated C (else NumPy) code for `robot` if it is a shipped model, or
+    one with friction removed (`nofriction()`, then `refriction`), and the
+    checked-in code exists; None otherwise (nothing is derived here)."""
+    try:
+        from . import codegen
+    except ImportError:
+        return None
+    for name in codegen.SHIPPED:
+        shipped = models.load(name)
+        variants = (shipped, shipped.nofriction(), shipped.nofriction(all=True))
+        if robot.fingerprint() in {v.fingerprint() for v in variants} and (codegen.GENERATED / name).is_dir():
+            break
+    else:
+        return None
+    for target in ("c", "numpy"):
+        try:
+            base = _wrap(codegen.load(name, target), robot.n, f"generated {target} ({name})")
+        except (RuntimeError, ValueError, OSError, ImportError) as exc:
+            warnings.warn(f"symdyn.control: generated {target} code for {name} unavailable: {exc}")
+            continue
+        return base if robot.fingerprint() == shipped.fingerprint() else refriction(base, robot)
+    return None
+
+
 def model(robot: Robot, backend: str = "auto") -> Model:
     """The dynamics of `robot` as a `Model`.
 
     backend "reference": `symdyn.reference` (slow per call, nearly free to
     batch); "casadi": the plain CasADi recursive Newton–Euler
     (`symdyn.casadi_rnea`, ~25× faster per call); "c" or "numpy": generated
-    code via `symdyn.load(robot, target=backend)`; "auto": generated C if
-    `symdyn.load` can provide it, else "casadi".  All agree with the
-    reference to rounding (tested), so the choice changes speed only.
+    code via `symdyn.codegen.load(robot, target)` (derived and compiled on
+    first use for a robot that is not shipped); "auto": the checked-in
+    generated C (else NumPy) code of a shipped model, else "casadi".  All
+    agree with the reference to rounding (tested): the choice changes speed only.
     """
     if backend == "reference":
         return _reference_model(robot)
@@ -261,21 +290,27 @@ def model(robot: Robot, backend: str = "auto") -> Model:
         from . import casadi_rnea
 
         return _wrap(casadi_rnea.functions(robot), robot.n, f"plain CasADi RNEA ({robot.name})")
-    if backend not in ("auto", "c", "numpy"):
+    if backend == "auto":
+        return _shipped_generated(robot) or model(robot, "casadi")
+    if backend not in ("c", "numpy"):
         raise ValueError(f"unknown backend {backend!r}: expected 'auto', 'reference', 'casadi', 'c' or 'numpy'")
-    import symdyn
+    from . import codegen
 
-    target = "c" if backend == "auto" else backend
-    load = getattr(symdyn, "load", None)
-    try:
-        if load is None:
-            raise ValueError("symdyn.load (generated code) is not available")
-        generated = load(robot, target=target)
-    except Exception as exc:  # no generator yet, no compiler, or a robot it cannot take
-        if backend == "auto":
-            return model(robot, "casadi")
-        raise ValueError(f"cannot load generated {target} code for {robot.name!r}: {exc}") from exc
-    return _wrap(generated, robot.n, f"generated {target} ({robot.name})")
+    return _wrap(codegen.load(robot, backend), robot.n, f"generated {backend} ({robot.name})")
+
+
+def refriction(base: Model, robot: Robot) -> Model:
+    """`base`, the model of an arm that differs from `robot` in friction only,
+    with `robot`'s friction F(q̇) (`symdyn.reference.friction`): e.g. the
+    generated Puma with the Coulomb friction removed, `robot = puma.nofriction()`."""
+    F = functools.partial(ref.friction, robot)
+
+    def fdyn(q, qd, tau):
+        bias = base.Cqd(q, qd) + base.G(q) + F(qd)
+        return np.linalg.solve(base.M(q), (np.asarray(tau, float) - bias)[..., None])[..., 0]
+
+    return Model(n=base.n, tau=lambda q, qd, qdd: base.tau(q, qd, qdd) - base.F(qd) + F(qd), M=base.M,
+                 Cqd=base.Cqd, G=base.G, F=F, fdyn=fdyn, source=f"{base.source}, friction of {robot.name}")
 
 
 def scale_inertia(robot: Robot, factor: float) -> Robot:

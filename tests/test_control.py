@@ -78,9 +78,10 @@ def fast(puma_nf):
     return C.model(puma_nf)
 
 
-@pytest.mark.parametrize("backend", ["reference", "casadi"])
-def test_model_adapter_agrees_with_the_reference(backend):
-    puma = models.load("puma560")
+@pytest.mark.parametrize("backend", ["reference", "casadi", "auto"])
+@pytest.mark.parametrize("friction", ["full", "viscous only"])
+def test_model_adapter_agrees_with_the_reference(backend, friction):
+    puma = models.load("puma560") if friction == "full" else models.load("puma560").nofriction()
     m = C.model(puma, backend)
     q, qd, qdd = random_states(puma, 20, seed=3)
     tau = ref.rne(puma, q, qd, qdd)
@@ -89,6 +90,16 @@ def test_model_adapter_agrees_with_the_reference(backend):
     assert np.allclose(m.M(q), ref.inertia(puma, q), rtol=0, atol=1e-12)
     assert np.allclose(m.Cqd(q, qd) + m.G(q) + m.F(qd), ref.rne(puma, q, qd, 0 * qdd), rtol=0, atol=1e-10)
     assert m.M(q[0]).shape == (6, 6) and m.tau(q[0], qd[0], qdd[0]).shape == (6,)
+
+
+def test_refriction_swaps_the_friction_and_nothing_else(puma):
+    target = puma.nofriction()
+    m = C.refriction(C.model(puma, "reference"), target)
+    q, qd, qdd = random_states(puma, 5, seed=4)
+    tau = ref.rne(target, q, qd, qdd)
+    assert np.allclose(m.tau(q, qd, qdd), tau, atol=1e-10)
+    assert np.allclose(m.fdyn(q, qd, tau), qdd, atol=1e-8)
+    assert np.allclose(m.F(qd), ref.friction(target, qd)) and not np.allclose(m.F(qd), ref.friction(puma, qd))
 
 
 def test_scaled_model_equals_the_model_of_the_scaled_robot(puma):

@@ -174,16 +174,17 @@ def position_loop(out_dir: Path, quick: bool = False) -> str:
 
 # --------------------------------------------------------------------------- whole arm
 
-def puma_scene(quick: bool = False):
-    """The Puma of the arm studies: nofriction() as in RVC3 (viscous kept, Coulomb
-    removed: its jump at zero speed makes sampled model-based compensation chatter)."""
-    return models.load("puma560").nofriction()
+def puma_scene():
+    """The Puma of the arm studies, nofriction() as in RVC3 (viscous kept, Coulomb
+    removed: its jump at zero speed makes sampled model-based compensation
+    chatter), and its fastest available model (generated code, else CasADi)."""
+    puma = models.load("puma560").nofriction()
+    return puma, C.model(puma)
 
 
 def torque_control(out_dir: Path, quick: bool = False) -> str:
     """Torque feedforward (Eq. 9.11) and computed torque (Eq. 9.13) on the Puma, qz -> qr, exact and ±10 % models."""
-    puma = puma_scene()
-    plant = C.model(puma)
+    puma, plant = puma_scene()
     T = 1.0 if quick else 2.0
     horizon = T + 0.5
     traj = functools.partial(C.quintic, puma.qz, puma.qr, T)
@@ -244,8 +245,7 @@ def run_opspace(T: float, dt: float = 5e-3, progress: str | None = None):
     """The operational-space scene: Puma at `start_pose`, hold x, y, orientation,
     press with −5 N in z onto the surface at z = −0.2 m (100 N/m); RVC3's gains
     Kp = 100, Kv = 50, Kf = 20, Kvf = 20.  Returns (trace, poses, sensed wrenches)."""
-    puma = puma_scene()
-    m = C.model(puma)
+    puma, m = puma_scene()
     surface = C.Surface(z=-0.2, k=100.0)
     q0 = start_pose()
     goal = ref.fkine(puma, q0)
