@@ -16,7 +16,7 @@ from .dynamics import METHODS, Dynamics
 from .model import Robot
 
 #: Bump when Dynamics or a derivation changes shape, so old cache entries are not reused.
-SCHEMA = 2
+SCHEMA = 3
 
 
 def derive(robot: Robot, method: str = "newton-euler", *, cache: bool = True,
@@ -29,11 +29,14 @@ def derive(robot: Robot, method: str = "newton-euler", *, cache: bool = True,
 
     def build() -> Dynamics:
         start = time.perf_counter()
-        if method == "lagrange":
-            from .lagrange import derive as run
+        if method == "lagrange":  # well under a second for the Puma: no progress needed
+            from .lagrange import derive as lagrange
+
+            dyn = lagrange(robot)
         else:
-            from .newton_euler import derive as run
-        dyn = run(robot, progress=progress)
+            from .newton_euler import derive as newton_euler
+
+            dyn = newton_euler(robot, progress=progress)
         dyn.stats["derive_seconds"] = time.perf_counter() - start
         return dyn
 

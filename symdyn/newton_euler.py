@@ -176,11 +176,12 @@ def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "")
     return out
 
 
-def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, label: str) -> tuple[list, list]:
-    """Spatial force (n, f) of one body: I·a + v ×* I·v, about the body origin."""
+def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, tag: str, k: int) -> tuple[list, list]:
+    """Spatial force (n, f) of body k: I·a + v ×* I·v, about the body origin;
+    its momenta are named {tag}L{k}, {tag}P{k}."""
     Io, h, m = inertia.Io, list(inertia.h), inertia.m
-    L = tape.vector(_add(_matvec(Io, mo.w), _cross(h, mo.v)), f"{label}L")
-    P = tape.vector(_add(_scale(mo.v, m), _cross(mo.w, h)), f"{label}P")
+    L = tape.vector(_add(_matvec(Io, mo.w), _cross(h, mo.v)), f"{tag}L{k}")
+    P = tape.vector(_add(_scale(mo.v, m), _cross(mo.w, h)), f"{tag}P{k}")
     n = _add(_matvec(Io, mo.dw), _cross(h, mo.dv), _cross(mo.w, L), _cross(mo.v, P))
     f = _add(_scale(mo.dv, m), _cross(mo.dw, h), _cross(mo.w, P))
     return n, f
@@ -212,7 +213,7 @@ def backward(tape: Tape, frames: Sequence[LinkFrame], forces: list, qdd, inertia
 def rnea(tape: Tape, frames, inertias, qd, qdd, g0, tag: str = "") -> list:
     """Joint forces of the whole recursion (no friction), as named expressions."""
     motions = forward(tape, frames, qd, qdd, g0, tag)
-    forces = [body_force(tape, mo, I, f"{tag}{i + 1}") for i, (mo, I) in enumerate(zip(motions, inertias))]
+    forces = [body_force(tape, mo, I, tag, i + 1) for i, (mo, I) in enumerate(zip(motions, inertias))]
     return backward(tape, frames, forces, qdd, inertias, tag)
 
 

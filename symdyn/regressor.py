@@ -97,7 +97,7 @@ def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
                 col[j] = qdd[j]
             else:
                 forces = [None] * n
-                forces[j] = body_force(tape, motions[j], _unit_inertia(name), f"{name}{j + 1}_")
+                forces[j] = body_force(tape, motions[j], _unit_inertia(name), f"{name}_", j + 1)
                 col = backward(tape, frames, forces, [0] * n, zero_inertia, tag=f"{name}{j + 1}_", last=j)
             columns.append(tuple(col))
         s = sp.sign(qd[j])
@@ -143,9 +143,11 @@ class _FractionPrinter(PythonCodePrinter):
         return f"F({expr.p})"
 
 
-def compile_exact(tape: Tape, outputs, inputs) -> Callable:
+def compile_exact(definitions, outputs, inputs) -> Callable:
     """A function of Fractions (one per input symbol or trig atom, e.g. cos(q1))
-    that evaluates the tape's definitions exactly and returns the outputs."""
+    that evaluates named definitions [(Symbol, expr)] exactly and returns the outputs."""
+    tape = Tape()
+    tape.defs.update(definitions)
     dummies = [sp.Dummy(f"in{k}") for k in range(len(inputs))]
     rename = dict(zip(inputs, dummies))
     defs = [(s, e.xreplace(rename)) for s, e in tape.used_by(outputs)]
@@ -188,7 +190,7 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
     inputs = [f(x) for x in q for f in (sp.cos, sp.sin)] + list(q) + list(qd) + list(qdd)
     inputs += [sp.sign(x) for x in qd]
     flat = [col[i] for col in reg.columns for i in range(n)]
-    evaluate = compile_exact(reg.tape, flat, inputs)
+    evaluate = compile_exact(reg.tape.defs.items(), flat, inputs)
     rows = []
     for _ in range(samples):
         point = random_rational_point(n, rng)

@@ -6,6 +6,20 @@ import pytest
 from symdyn import models
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_cache(tmp_path_factory):
+    """Every test session derives into its own fresh cache directory."""
+    import os
+
+    old = os.environ.get("SYMDYN_CACHE_DIR")
+    os.environ["SYMDYN_CACHE_DIR"] = str(tmp_path_factory.mktemp("symdyn-cache"))
+    yield
+    if old is None:
+        os.environ.pop("SYMDYN_CACHE_DIR", None)
+    else:
+        os.environ["SYMDYN_CACHE_DIR"] = old
+
+
 @pytest.fixture(scope="session")
 def puma():
     return models.load("puma560")
