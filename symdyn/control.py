@@ -108,6 +108,18 @@ def _progress(label: str | None, k: int, K: int, t: float, last: list) -> None:
         print(f"  {label}: {pct:3d}%  (t = {t:.2f} s)", file=sys.stderr, flush=True)
 
 
+def _rk4_step(accel, tau_of, t, q, qd, dt, tau0):
+    """One classical Runge–Kutta step of (q, q̇)' = (q̇, accel(t, q, q̇, tau_of(t, q, q̇)))."""
+    k1v, k1a = qd, accel(t, q, qd, tau0)
+    q2, qd2 = q + 0.5 * dt * k1v, qd + 0.5 * dt * k1a
+    k2v, k2a = qd2, accel(t + dt / 2, q2, qd2, tau_of(t + dt / 2, q2, qd2))
+    q3, qd3 = q + 0.5 * dt * k2v, qd + 0.5 * dt * k2a
+    k3v, k3a = qd3, accel(t + dt / 2, q3, qd3, tau_of(t + dt / 2, q3, qd3))
+    q4, qd4 = q + dt * k3v, qd + dt * k3a
+    k4v, k4a = qd4, accel(t + dt, q4, qd4, tau_of(t + dt, q4, qd4))
+    return q + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v), qd + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
+
+
 def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, dt: float = 1e-3,
              period: float | None = None, delay: int = 0, progress: str | None = None) -> Trace:
     """Integrate a closed loop with fixed-step RK4 from (q0, qd0) over [0, T].
@@ -141,34 +153,23 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
     pending = [np.zeros_like(q)] * delay
     held = np.zeros_like(q)
     last = [0]
-    for k in range(K + 1):
+    for k in range(K):
         t = ts[k]
         Q[k], QD[k] = q, qd
-        if k == K:
-            TAU[k] = TAU[k - 1] if K else held
-            break
-        if every is not None:
+        if every is None:
+            tau_of = controller
+        else:
             if k % every == 0:
                 pending.append(np.asarray(controller(t, q, qd), dtype=float))
                 held = np.broadcast_to(pending.pop(0), q.shape)
             tau_of = lambda t_, q_, qd_: held  # noqa: E731
-        else:
-            tau_of = controller
-        tau0 = np.broadcast_to(tau_of(t, q, qd), q.shape)
-        TAU[k] = tau0
-        k1v, k1a = qd, accel(t, q, qd, tau0)
-        q2, qd2 = q + 0.5 * dt * k1v, qd + 0.5 * dt * k1a
-        k2v, k2a = qd2, accel(t + dt / 2, q2, qd2, tau_of(t + dt / 2, q2, qd2))
-        q3, qd3 = q + 0.5 * dt * k2v, qd + 0.5 * dt * k2a
-        k3v, k3a = qd3, accel(t + dt / 2, q3, qd3, tau_of(t + dt / 2, q3, qd3))
-        q4, qd4 = q + dt * k3v, qd + dt * k3a
-        k4v, k4a = qd4, accel(t + dt, q4, qd4, tau_of(t + dt, q4, qd4))
-        q = q + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)
-        qd = qd + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
+        TAU[k] = np.broadcast_to(tau_of(t, q, qd), q.shape)
+        q, qd = _rk4_step(accel, tau_of, t, q, qd, dt, TAU[k])
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
             raise RuntimeError(f"simulate: the state became NaN or infinite at t = {t + dt:.4f} s; "
                                f"try a smaller step dt (now {dt}) or gentler gains")
         _progress(progress, k + 1, K, t + dt, last)
+    Q[K], QD[K], TAU[K] = q, qd, TAU[K - 1]
     return Trace(ts, Q, QD, TAU)
 
 
@@ -236,6 +237,15 @@ def _batched_casadi(fn, n: int) -> Callable:
     return call
 
 
+def _broadcasting(fn) -> Callable:
+    """fn with its array arguments broadcast against each other and made
+    contiguous (the generated C target takes equal leading shapes only)."""
+    def call(*args):
+        arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
+        return fn(*(np.ascontiguousarray(a) for a in arrays))
+    return call
+
+
 def _wrap(functions, n: int, source: str) -> Model:
     """A `Model` from an object with attributes tau, M, Cqd, G, F, fdyn: batched
     NumPy callables (generated code) or casadi.Functions."""
@@ -243,7 +253,7 @@ def _wrap(functions, n: int, source: str) -> Model:
 
     def get(name):
         fn = getattr(functions, name)
-        return _batched_casadi(fn, n) if isinstance(fn, ca.Function) else fn
+        return _batched_casadi(fn, n) if isinstance(fn, ca.Function) else _broadcasting(fn)
 
     return Model(n=n, source=source, **{k: get(k) for k in ("tau", "M", "Cqd", "G", "F", "fdyn")})
 
@@ -390,6 +400,7 @@ class JointDrive:
         return (np.asarray(tau, float) - self.friction(omega) - self.tau_load / self.G) / self.J
 
     def saturate(self, tau):
+        """Motor torque clipped to ±tau_max (the amplifier's current limit)."""
         return np.clip(tau, -self.tau_max, self.tau_max)
 
 
