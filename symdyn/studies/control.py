@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -30,7 +31,7 @@ SPEED = ((0.0, 0.1, 0.3, 1.3, 1.5, 2.0), (0.0, 0.0, 50.0, 50.0, 0.0, 0.0))
 STEEP = ((0.0, 0.05, 0.07, 0.6), (0.0, 0.0, 100.0, 100.0))
 
 
-def speed_demand(profile) -> callable:
+def speed_demand(profile) -> Callable:
     """Piecewise-linear demand ω*(t) through (times, values)."""
     return functools.partial(np.interp, xp=profile[0], fp=profile[1])
 
