@@ -52,9 +52,9 @@ def _twist(x, what: str) -> tuple:
     return _cos_sin_qq(x)
 
 
-def space(robot: Robot, rates: bool = True) -> TrigSpace:
+def space(robot: Robot) -> TrigSpace:
     """The trig space of a robot: angles q_i (+ offset_i) of the revolute joints; generators
-    the robot's symbols (by name), the prismatic q_i, then (if `rates`) qd1…qdn, qdd1…qddn."""
+    the robot's symbols (by name), the prismatic q_i, then qd1…qdn, qdd1…qddn."""
     q, qd, qdd = joint_symbols(robot.n)
     angles, offsets, prismatic = [], [], []
     for i, link in enumerate(robot.links):
@@ -67,7 +67,7 @@ def space(robot: Robot, rates: bool = True) -> TrigSpace:
     clash = set(params) & set(q + qd + qdd)
     if clash:
         raise ValueError(f"robot parameters {sorted(map(str, clash))} clash with the joint symbols")
-    return TrigSpace(angles, params + prismatic + (list(qd) + list(qdd) if rates else []), offsets)
+    return TrigSpace(angles, params + prismatic + list(qd) + list(qdd), offsets)
 
 
 # --------------------------------------------------------------------------- vectors and frames
@@ -279,22 +279,18 @@ def _christoffel(M: list, q: tuple, S: TrigSpace) -> list:
 
 @functools.lru_cache(maxsize=16)
 def trig_dynamics(robot: Robot) -> TrigDynamics:
-    """M, Γ, C, G, τ of `robot` as exact trig polynomials (energy method, Eqs. 9.4–9.6 of RVC)."""
+    """M, Γ, C, G, τ of `robot` as exact trig polynomials by the energy method (cached per robot)."""
     t0 = time.perf_counter()
-    S0 = space(robot, rates=False)      # M, V, Γ need no joint rates: shorter monomials
+    S = space(robot)
     q, qd, qdd = joint_symbols(robot.n)
     n = robot.n
-    links = _links(robot, S0)
-    M = _inertia(robot, links, S0)
+    links = _links(robot, S)
+    M = _inertia(robot, links, S)
     t1 = time.perf_counter()
-    V = _potential(robot, links, S0)
+    V = _potential(robot, links, S)
     G = [V.diff(x) for x in q]
     t2 = time.perf_counter()
-    Gam = _christoffel(M, q, S0)
-    S = space(robot)
-    M = [[x.embed(S) for x in row] for row in M]
-    Gam = [[[x.embed(S) for x in b] for b in a] for a in Gam]
-    G, V = [x.embed(S) for x in G], V.embed(S)
+    Gam = _christoffel(M, q, S)
     qd_ = [S.gen(x) for x in qd]
     qdd_ = [S.gen(x) for x in qdd]
     C = [[summation([Gam[k][i][j] * qd_[i] for i in range(n)], S) for j in range(n)] for k in range(n)]
@@ -302,7 +298,7 @@ def trig_dynamics(robot: Robot) -> TrigDynamics:
     tau = [summation([M[k][j] * qdd_[j] for j in range(n)] + [C[k][j] * qd_[j] for j in range(n)] + [G[k]], S)
            for k in range(n)]
     t4 = time.perf_counter()
-    stats = {"time_M": t1 - t0, "time_G": t2 - t1, "time_C": t3 - t2, "time_tau": t4 - t3,
+    stats = {"time_M": t1 - t0, "time_G": t2 - t1, "time_Gamma_C": t3 - t2, "time_tau": t4 - t3,
              "terms_M": sum(x.nterms for row in M for x in row),
              "terms_G": sum(x.nterms for x in G),
              "terms_Gamma": sum(x.nterms for a in Gam for b in a for x in b)}

@@ -1,14 +1,15 @@
 """Exact trigonometric polynomials in joint angles: the algebra of the fast Lagrange route.
 
 A `TrigPoly` is Σ_k [c_k cos(k·θ) + s_k sin(k·θ)] over integer frequency
-vectors k, with coefficients in a sympy `PolyRing` over QQ whose generators
-are the other symbols (robot parameters, joint rates, prismatic joint
-variables).  Products become sums of angles (product-to-sum), derivatives
-are exact, equality is a dict compare, so M, C and G of a six-joint arm are
-built with pure dict arithmetic and no sympy expression in the inner loops.
-`from_expr` folds a sympy expression (e.g. a Newton–Euler result, a DAG of
-shared subtrees) into this canonical form and `to_expr` prints it back, so
-this module serves derive (lagrange.py) and simplify (folding, comparing).
+vectors k, with coefficients in the sympy `PolyRing` QQ[gens] whose
+generators are the other symbols (robot parameters, joint rates, prismatic
+joint variables).  Products become sums of angles (product-to-sum),
+derivatives are exact, equality is a dict compare, so M, C and G of a
+six-joint arm are built with integer dict arithmetic and no sympy
+expression in the inner loops.  `from_expr` folds a sympy expression (e.g.
+a Newton–Euler result, a DAG of shared subtrees) into this canonical form
+and `to_expr` prints it back, so this module serves derive (lagrange.py)
+and simplify (folding, comparing forms).
 
 Angles: θ_i = q_i + offset_i (a constant offset per angle, kept inside the
 cos/sin so that it stays exact).  Constants that are not rational (a Float,
@@ -16,18 +17,22 @@ cos/sin so that it stays exact).  Constants that are not rational (a Float,
 rational of their double value, as `symdyn.symbols.exact` does for float
 model parameters; multiples of π/2 are exact (`symdyn.model.exact_cos_sin`).
 
-Representation: a frequency vector k is packed into one Python int with
-balanced base-2²¹ digits, k_1 the most significant, so adding angles is an
-integer addition and the sign of the int is the sign of the first non-zero
-k_i (canonical form: that entry positive; k = 0 carries only a cosine).
-Every |k_i| must stay below 2²⁰.  A term's key is 2·code + (0 for cos,
-1 for sin).
+Representation (internal; `items()` gives QQ[gens] coefficients):
+a frequency vector k is one Python int with balanced base-2²¹ digits, k_1
+most significant, so adding angles is an integer addition and the sign of
+the int is the sign of the first non-zero k_i (canonical form: that entry
+positive; k = 0 carries only a cosine); |k_i| must stay below 2²⁰.  A
+term's key is 2·code + (0 for cos, 1 for sin).  A monomial is one int with
+16 bits per generator exponent (generator 0 lowest), so multiplying
+monomials is an addition.  Coefficients are integer numerators over one
+positive denominator per polynomial, kept in lowest terms, which makes the
+form unique.
 """
 
 from __future__ import annotations
 
 import functools
-from operator import add
+import math
 from typing import Iterable, Mapping, Sequence
 
 import sympy as sp
@@ -42,8 +47,8 @@ __all__ = ["TrigSpace", "TrigPoly", "from_expr", "to_expr", "fold", "equal", "sp
 _BITS = 21
 _BASE = 1 << _BITS
 _HALF = _BASE >> 1
-_Q0 = QQ(0)
-_QHALF = QQ(1, 2)
+_EBITS = 16                 # bits per generator exponent in a packed monomial
+_EMASK = (1 << _EBITS) - 1
 
 
 def _encode(k: Sequence[int]) -> int:
@@ -69,20 +74,50 @@ def _decode(code: int, n: int) -> tuple[int, ...]:
     return tuple(reversed(digits))
 
 
-def _to_qq(value) -> object:
-    """A constant (int, float, sympy number) as an element of QQ (floats: exact rational of the double)."""
+def _ratio(value) -> tuple[int, int]:
+    """A constant (int, float, QQ, sympy number) as (numerator, denominator > 0);
+    floats and irrational numbers become the exact rational of their double."""
     if isinstance(value, int):
-        return QQ(value)
-    if isinstance(value, sp.Basic) and value.is_Rational:
-        return QQ(int(value.p), int(value.q))
+        return value, 1
+    if isinstance(value, sp.Basic):
+        if value.is_Rational:
+            return int(value.p), int(value.q)
+    elif hasattr(value, "numerator") and hasattr(value, "denominator") and not isinstance(value, float):
+        return int(value.numerator), int(value.denominator)
     value = exact(float(value))
-    return QQ(int(value.p), int(value.q))
+    return int(value.p), int(value.q)
+
+
+def _to_qq(value):
+    """A constant as an element of QQ (see `_ratio`)."""
+    return QQ(*_ratio(value))
 
 
 def _cos_sin_qq(angle) -> tuple:
     """cos and sin of a constant angle in QQ: exact for multiples of π/2, else rationals of doubles."""
     c, s = exact_cos_sin(angle)
     return _to_qq(c), _to_qq(s)
+
+
+def _make(space: "TrigSpace", acc: dict, den: int) -> "TrigPoly":
+    """A TrigPoly from accumulated numerators over `den`: drop zeros, reduce to lowest terms."""
+    out = {}
+    for key, t in acc.items():
+        d = {m: x for m, x in t.items() if x}
+        if d:
+            out[key] = d
+    if not out:
+        return TrigPoly(space, {}, 1)
+    if den != 1:
+        g = den
+        for d in out.values():
+            g = math.gcd(g, *d.values())
+            if g == 1:
+                break
+        if g != 1:
+            den //= g
+            out = {key: {m: x // g for m, x in d.items()} for key, d in out.items()}
+    return TrigPoly(space, out, den)
 
 
 # --------------------------------------------------------------------------- the space
@@ -113,7 +148,6 @@ class TrigSpace:
         self.n = len(self.angles)
         self._angle_index = {a: i for i, a in enumerate(self.angles)}
         self._gen_index = {g: i for i, g in enumerate(self.gens)}
-        self._zero_monom = (0,) * len(self.gens)
         self._key = (self.angles, self.gens, self.offsets)
         self._args: dict = {}
 
@@ -126,13 +160,17 @@ class TrigSpace:
     def __repr__(self) -> str:
         return f"TrigSpace(angles={self.angles}, gens={self.gens}, offsets={self.offsets})"
 
-    # ---- constructors
-    def _poly(self, coeff) -> PolyElement:
-        return PolyElement(self.ring, {self._zero_monom: coeff} if coeff else {})
+    # ---- monomials
+    def _pack(self, exps: Sequence[int]) -> int:
+        return sum(e << (_EBITS * j) for j, e in enumerate(exps))
 
+    def _unpack(self, m: int) -> tuple[int, ...]:
+        return tuple((m >> (_EBITS * j)) & _EMASK for j in range(len(self.gens)))
+
+    # ---- constructors
     @property
     def zero(self) -> "TrigPoly":
-        return TrigPoly(self, {})
+        return TrigPoly(self, {}, 1)
 
     @property
     def one(self) -> "TrigPoly":
@@ -145,19 +183,20 @@ class TrigSpace:
         if isinstance(value, PolyElement):
             if value.ring != self.ring:
                 raise ValueError(f"coefficient {value} is from ring {value.ring}, expected {self.ring}")
-            return TrigPoly(self, {0: value} if value else {})
+            den = math.lcm(1, *(int(c.denominator) for c in value.values()))
+            return _make(self, {0: {self._pack(m): int(c.numerator) * (den // int(c.denominator))
+                                    for m, c in value.items()}}, den)
         if isinstance(value, sp.Basic) and not value.is_Number:
             return from_expr(value, self)
-        q = value if isinstance(value, type(_Q0)) else _to_qq(value)
-        return TrigPoly(self, {0: self._poly(q)} if q else {})
+        p, q = _ratio(value)
+        return _make(self, {0: {0: p}}, q)
 
     def gen(self, symbol: sp.Symbol) -> "TrigPoly":
         """A ring generator (a parameter, joint rate, prismatic variable) as a trig polynomial."""
         i = self._gen_index.get(symbol)
         if i is None:
             raise KeyError(f"{symbol} is not a generator of this space; generators are {self.gens}")
-        monom = tuple(int(j == i) for j in range(len(self.gens)))
-        return TrigPoly(self, {0: PolyElement(self.ring, {monom: QQ(1)})})
+        return TrigPoly(self, {0: {1 << (_EBITS * i): 1}}, 1)
 
     def term(self, k: Sequence[int], kind: str = "cos", coeff=1) -> "TrigPoly":
         """coeff·cos(k·θ) or coeff·sin(k·θ) for an integer frequency vector k."""
@@ -169,10 +208,13 @@ class TrigSpace:
         sign = 1
         if code < 0:
             code, sign = -code, (-1 if kind == "sin" else 1)
-        c = self.const(coeff)
         if kind == "sin" and code == 0:
             return self.zero
-        return c._shift(code << 1 | (kind == "sin"), sign)
+        c = self.const(coeff)
+        d = c.terms.get(0)
+        if d is None:
+            return self.zero
+        return TrigPoly(self, {code << 1 | (kind == "sin"): d if sign > 0 else {m: -x for m, x in d.items()}}, c.den)
 
     def cos(self, i: int) -> "TrigPoly":
         """cos θ_i (i counts from 0)."""
@@ -200,20 +242,24 @@ class TrigPoly:
     """Σ_k c_k cos(k·θ) + s_k sin(k·θ) with coefficients in space.ring; immutable.
 
     Supports +, −, * (with TrigPolys, ints, floats, QQ, ring elements),
-    ** (non-negative int), ==, `diff`, `to_expr`, `items`.
+    ** (non-negative int), ==, `diff`, `to_expr`, `items`.  Built by a
+    `TrigSpace` (const, gen, term, cos, sin, from_expr), not directly.
     """
 
-    __slots__ = ("space", "terms")
+    __slots__ = ("space", "terms", "den")
 
-    def __init__(self, space: TrigSpace, terms: dict):
+    def __init__(self, space: TrigSpace, terms: dict, den: int):
         self.space = space
-        self.terms = terms  # {key: non-zero PolyElement}; never mutated after construction
+        self.terms = terms  # {key: {packed monomial: numerator ≠ 0}}, never mutated after construction
+        self.den = den      # common positive denominator, lowest terms with the numerators
 
     # ---- inspection
     def items(self) -> Iterable[tuple[tuple[int, ...], str, PolyElement]]:
-        """(frequency vector k, 'cos' or 'sin', coefficient) for every term, in key order."""
+        """(frequency vector k, 'cos' or 'sin', coefficient in space.ring) for every term, in key order."""
+        S = self.space
         for key in sorted(self.terms):
-            yield _decode(key >> 1, self.space.n), ("sin" if key & 1 else "cos"), self.terms[key]
+            coeff = PolyElement(S.ring, {S._unpack(m): QQ(x, self.den) for m, x in self.terms[key].items()})
+            yield _decode(key >> 1, S.n), ("sin" if key & 1 else "cos"), coeff
 
     def __len__(self) -> int:
         """Number of (frequency, kind) terms."""
@@ -222,7 +268,7 @@ class TrigPoly:
     @property
     def nterms(self) -> int:
         """Number of monomial terms over all coefficients."""
-        return sum(len(p) for p in self.terms.values())
+        return sum(len(d) for d in self.terms.values())
 
     def is_zero(self) -> bool:
         return not self.terms
@@ -243,7 +289,7 @@ class TrigPoly:
                 other = self.space.const(other)
             except (ValueError, TypeError, KeyError):
                 return NotImplemented
-        return self.space == other.space and self.terms == other.terms
+        return self.space == other.space and self.den == other.den and self.terms == other.terms
 
     __hash__ = None
 
@@ -256,29 +302,15 @@ class TrigPoly:
         return self.space.const(other)
 
     def __add__(self, other) -> "TrigPoly":
-        other = self._coerce(other)
-        if len(other.terms) > len(self.terms):
-            self, other = other, self
-        terms = dict(self.terms)
-        for key, p in other.terms.items():
-            q = terms.get(key)
-            if q is None:
-                terms[key] = p
-            else:
-                s = q + p
-                if s:
-                    terms[key] = s
-                else:
-                    del terms[key]
-        return TrigPoly(self.space, terms)
+        return summation([self, self._coerce(other)], self.space)
 
     __radd__ = __add__
 
     def __neg__(self) -> "TrigPoly":
-        return TrigPoly(self.space, {k: -p for k, p in self.terms.items()})
+        return TrigPoly(self.space, {k: {m: -x for m, x in d.items()} for k, d in self.terms.items()}, self.den)
 
     def __sub__(self, other) -> "TrigPoly":
-        return self + (-self._coerce(other))
+        return summation([self, -self._coerce(other)], self.space)
 
     def __rsub__(self, other) -> "TrigPoly":
         return self._coerce(other) - self
@@ -287,11 +319,11 @@ class TrigPoly:
         other = self._coerce(other)
         if not self.terms or not other.terms:
             return self.space.zero
-        if len(other.terms) == 1 and 0 in other.terms:
-            return self._scale(other.terms[0])
-        if len(self.terms) == 1 and 0 in self.terms:
-            return other._scale(self.terms[0])
-        return TrigPoly(self.space, _mul(self.terms, other.terms, self.space))
+        if other.is_constant():
+            return self._scale(other)
+        if self.is_constant():
+            return other._scale(self)
+        return _mul(self, other)
 
     __rmul__ = __mul__
 
@@ -307,38 +339,24 @@ class TrigPoly:
                 base = base * base
         return result
 
-    def _scale(self, p: PolyElement) -> "TrigPoly":
-        """Multiply every coefficient by the ring element p."""
-        if len(p) == 1 and self.space._zero_monom in p:
-            c = p[self.space._zero_monom]
-            if c == 1:
+    def _scale(self, c: "TrigPoly") -> "TrigPoly":
+        """Multiply every coefficient by the constant (angle-free) polynomial c."""
+        cd = c.terms[0]
+        if len(cd) == 1 and 0 in cd:
+            x = cd[0]
+            if x == 1 and c.den == 1:
                 return self
-            return TrigPoly(self.space, {k: q.mul_ground(c) for k, q in self.terms.items()})
-        terms = {}
-        for k, q in self.terms.items():
-            r = q * p
-            if r:
-                terms[k] = r
-        return TrigPoly(self.space, terms)
-
-    def _shift(self, key: int, sign: int) -> "TrigPoly":
-        """A constant times cos/sin of the term `key` (internal, for `term`)."""
-        p = self.terms.get(0)
-        if p is None:
-            return self.space.zero
-        return TrigPoly(self.space, {key: p if sign > 0 else -p})
-
-    def embed(self, space: TrigSpace) -> "TrigPoly":
-        """The same polynomial in a larger space whose generators extend this one's."""
-        mine = self.space
-        if space == mine:
-            return self
-        if (space.angles, space.offsets) != (mine.angles, mine.offsets) or space.gens[:len(mine.gens)] != mine.gens:
-            raise ValueError(f"cannot embed a polynomial of {mine} into {space}: angles and offsets must "
-                             f"agree and the generators must extend {mine.gens}")
-        pad = (0,) * (len(space.gens) - len(mine.gens))
-        return TrigPoly(space, {k: PolyElement(space.ring, {m + pad: c for m, c in p.items()})
-                                for k, p in self.terms.items()})
+            return _make(self.space, {k: {m: v * x for m, v in d.items()} for k, d in self.terms.items()},
+                         self.den * c.den)
+        cl = list(cd.items())
+        acc = {}
+        for k, d in self.terms.items():
+            t = acc[k] = {}
+            for m, v in d.items():
+                for mc, xc in cl:
+                    mm = m + mc
+                    t[mm] = t.get(mm, 0) + v * xc
+        return _make(self.space, acc, self.den * c.den)
 
     # ---- calculus
     def diff(self, symbol: sp.Symbol) -> "TrigPoly":
@@ -354,84 +372,94 @@ class TrigPoly:
     def diff_angle(self, i: int) -> "TrigPoly":
         """∂/∂θ_i: c cos(kθ) → −k_i c sin(kθ), s sin(kθ) → k_i s cos(kθ)."""
         n = self.space.n
-        terms = {}
-        for key, p in self.terms.items():
+        acc = {}
+        for key, d in self.terms.items():
             code = key >> 1
             ki = _decode(code, n)[i]
             if ki:
                 if key & 1:
-                    terms[code << 1] = p.mul_ground(QQ(ki))
+                    acc[code << 1] = {m: ki * x for m, x in d.items()}
                 else:
-                    terms[code << 1 | 1] = p.mul_ground(QQ(-ki))
-        return TrigPoly(self.space, terms)
+                    acc[code << 1 | 1] = {m: -ki * x for m, x in d.items()}
+        return _make(self.space, acc, self.den)
 
     def diff_gen(self, j: int) -> "TrigPoly":
         """∂/∂(generator number j) of every coefficient."""
-        terms = {}
-        ring = self.space.ring
-        for key, p in self.terms.items():
-            d = {}
-            for m, c in p.items():
-                e = m[j]
+        shift = _EBITS * j
+        unit = 1 << shift
+        acc = {}
+        for key, d in self.terms.items():
+            t = {}
+            for m, x in d.items():
+                e = (m >> shift) & _EMASK
                 if e:
-                    d[m[:j] + (e - 1,) + m[j + 1:]] = c * e
-            if d:
-                terms[key] = PolyElement(ring, d)
-        return TrigPoly(self.space, terms)
+                    t[m - unit] = x * e
+            acc[key] = t
+        return _make(self.space, acc, self.den)
+
+    def subs_gen(self, values: Mapping[sp.Symbol, object]) -> "TrigPoly":
+        """Substitute constants (ints, floats → exact, QQ, sympy rationals) for some ring generators."""
+        S = self.space
+        subs = [(_EBITS * S._gen_index[s], *_ratio(v)) for s, v in values.items()]
+        top = {shift: max(((m >> shift) & _EMASK for d in self.terms.values() for m in d), default=0)
+               for shift, _, _ in subs}
+        den = self.den * math.prod(q ** top[shift] for shift, _, q in subs)
+        acc: dict = {}
+        for key, d in self.terms.items():
+            t = acc[key] = {}
+            for m, x in d.items():
+                for shift, p, q in subs:
+                    e = (m >> shift) & _EMASK
+                    x *= p ** e * q ** (top[shift] - e)
+                    m -= e << shift
+                t[m] = t.get(m, 0) + x
+        return _make(S, acc, den)
+
+    def embed(self, space: TrigSpace) -> "TrigPoly":
+        """The same polynomial in a larger space whose generators extend this one's."""
+        mine = self.space
+        if space == mine:
+            return self
+        if (space.angles, space.offsets) != (mine.angles, mine.offsets) or space.gens[:len(mine.gens)] != mine.gens:
+            raise ValueError(f"cannot embed a polynomial of {mine} into {space}: angles and offsets must "
+                             f"agree and the generators must extend {mine.gens}")
+        return TrigPoly(space, self.terms, self.den)   # packed monomials: new generators are higher bits
 
     # ---- output
     def to_expr(self) -> sp.Expr:
         """The sympy expression Σ coeff·cos(k·θ) + coeff·sin(k·θ), θ_i written q_i + offset_i."""
+        S = self.space
         out = []
-        space = self.space
         for key in sorted(self.terms):
-            coeff = self.terms[key].as_expr()
+            coeff = sp.Add(*[sp.Rational(x, self.den) * sp.Mul(*[g ** e for g, e in zip(S.gens, S._unpack(m)) if e])
+                             for m, x in self.terms[key].items()])
             code = key >> 1
             if code == 0:
                 out.append(coeff)
             else:
-                arg = space._arg(code)
+                arg = S._arg(code)
                 out.append(coeff * (sp.sin(arg) if key & 1 else sp.cos(arg)))
         return sp.Add(*out)
 
-    def subs_gen(self, values: Mapping[sp.Symbol, object]) -> "TrigPoly":
-        """Substitute constants (ints, floats → exact, QQ) for some ring generators."""
-        space = self.space
-        idx = {space._gen_index[s]: _to_qq(v) for s, v in values.items()}
-        terms: dict = {}
-        for key, p in self.terms.items():
-            d: dict = {}
-            for m, c in p.items():
-                for j, v in idx.items():
-                    if m[j]:
-                        c = c * v ** m[j]
-                        m = m[:j] + (0,) + m[j + 1:]
-                d[m] = d.get(m, _Q0) + c
-            d = {m: c for m, c in d.items() if c}
-            if d:
-                terms[key] = PolyElement(space.ring, d)
-        return TrigPoly(space, terms)
 
-
-def _mul(A: dict, B: dict, space: TrigSpace) -> dict:
-    """Product of two term dicts by product-to-sum; every product carries ½, applied once at the end.
+def _mul(A: TrigPoly, B: TrigPoly) -> TrigPoly:
+    """Product by product-to-sum; every product carries ½, put into the denominator once.
 
     cos a cos b = ½[cos(a−b) + cos(a+b)]   sin a sin b = ½[cos(a−b) − cos(a+b)]
     sin a cos b = ½[sin(a+b) + sin(a−b)]   cos a sin b = ½[sin(a+b) − sin(a−b)]
     """
     acc: dict = {}
-    no_gens = not space.gens
-    Bitems = [(kb >> 1, kb & 1, list(pb.items())) for kb, pb in B.items()]
-    for ka, pa in A.items():
+    Bitems = [(kb >> 1, kb & 1, list(db.items())) for kb, db in B.terms.items()]
+    for ka, da in A.terms.items():
         ca, sa = ka >> 1, ka & 1
-        ia = list(pa.items())
+        ia = list(da.items())
         for cb, sb, ib in Bitems:
             s, d = ca + cb, ca - cb
             if sa == sb:
-                k1, g1 = (d if d >= 0 else -d) << 1, True
+                k1 = (d if d >= 0 else -d) << 1
                 k2, g2 = s << 1, not sa
             else:
-                k1, g1 = s << 1 | 1, True            # s > 0: one factor is a sine, so its code is > 0
+                k1 = s << 1 | 1                      # s > 0: one factor is a sine, so its code is > 0
                 if d == 0:
                     k2 = None
                 else:
@@ -439,78 +467,81 @@ def _mul(A: dict, B: dict, space: TrigSpace) -> dict:
                     if d < 0:
                         d, g2 = -d, not g2
                     k2 = d << 1 | 1
-            if no_gens:
-                prods = [((), xa * xb) for _, xa in ia for _, xb in ib]
-            else:
-                prods = [(tuple(map(add, ma, mb)), xa * xb) for ma, xa in ia for mb, xb in ib]
+            if len(ia) == 1 and len(ib) == 1:
+                (ma, xa), (mb, xb) = ia[0], ib[0]
+                m, x = ma + mb, xa * xb
+                t = acc.get(k1)
+                if t is None:
+                    acc[k1] = {m: x}
+                else:
+                    t[m] = t.get(m, 0) + x
+                if k2 is not None:
+                    if not g2:
+                        x = -x
+                    t = acc.get(k2)
+                    if t is None:
+                        acc[k2] = {m: x}
+                    else:
+                        t[m] = t.get(m, 0) + x
+                continue
+            prods = [(ma + mb, xa * xb) for ma, xa in ia for mb, xb in ib]
             t = acc.get(k1)
             if t is None:
                 t = acc[k1] = {}
             for m, x in prods:
-                t[m] = t.get(m, _Q0) + x
+                t[m] = t.get(m, 0) + x
             if k2 is not None:
                 t = acc.get(k2)
                 if t is None:
                     t = acc[k2] = {}
                 if g2:
                     for m, x in prods:
-                        t[m] = t.get(m, _Q0) + x
+                        t[m] = t.get(m, 0) + x
                 else:
                     for m, x in prods:
-                        t[m] = t.get(m, _Q0) - x
-    ring = space.ring
-    out = {}
-    for key, t in acc.items():
-        d = {m: x * _QHALF for m, x in t.items() if x}
-        if d:
-            out[key] = PolyElement(ring, d)
-    return out
+                        t[m] = t.get(m, 0) - x
+    return _make(A.space, acc, 2 * A.den * B.den)
 
 
 def summation(polys: Iterable[TrigPoly], space: TrigSpace) -> TrigPoly:
-    """Σ polys, accumulated in place (linear in the total number of terms)."""
+    """Σ polys over a common denominator, accumulated in place (linear in the number of terms)."""
+    polys = [p for p in polys if p.terms]
+    if not polys:
+        return space.zero
+    if len(polys) == 1:
+        return polys[0]
+    den = math.lcm(*(p.den for p in polys))
     acc: dict = {}
     for p in polys:
-        for key, c in p.terms.items():
+        f = den // p.den
+        for key, d in p.terms.items():
             t = acc.get(key)
             if t is None:
-                acc[key] = dict(c)
+                acc[key] = dict(d) if f == 1 else {m: f * x for m, x in d.items()}
+            elif f == 1:
+                for m, x in d.items():
+                    t[m] = t.get(m, 0) + x
             else:
-                for m, x in c.items():
-                    t[m] = t.get(m, _Q0) + x
-    out = {}
-    for key, t in acc.items():
-        d = {m: x for m, x in t.items() if x}
-        if d:
-            out[key] = PolyElement(space.ring, d)
-    return TrigPoly(space, out)
+                for m, x in d.items():
+                    t[m] = t.get(m, 0) + f * x
+    return _make(space, acc, den)
 
 
 def lincomb(pairs: Iterable[tuple[object, TrigPoly]], space: TrigSpace) -> TrigPoly:
-    """Σ c·p over (c, p) pairs with constant scalars c (int or QQ), accumulated in place."""
-    acc: dict = {}
+    """Σ c·p over (c, p) pairs with constant scalars c (int, QQ, sympy rational)."""
+    scaled = []
     for c, p in pairs:
         if not c or not p.terms:
             continue
-        for key, poly in p.terms.items():
-            t = acc.get(key)
-            if t is None:
-                t = acc[key] = {}
-            if c == 1:
-                for m, x in poly.items():
-                    t[m] = t.get(m, _Q0) + x
-            elif c == -1:
-                for m, x in poly.items():
-                    t[m] = t.get(m, _Q0) - x
-            else:
-                for m, x in poly.items():
-                    t[m] = t.get(m, _Q0) + c * x
-    out = {}
-    for key, t in acc.items():
-        d = {m: x for m, x in t.items() if x}
-        if d:
-            out[key] = PolyElement(space.ring, d)
-    return TrigPoly(space, out)
+        num, den = _ratio(c)
+        if num == 1 and den == 1:
+            scaled.append(p)
+        elif num == -1 and den == 1:
+            scaled.append(-p)
+        else:
+            scaled.append(_make(space, {k: {m: num * x for m, x in d.items()} for k, d in p.terms.items()},
+                                den * p.den))
+    return summation(scaled, space)
 
 
 # --------------------------------------------------------------------------- sympy → TrigPoly
@@ -547,17 +578,13 @@ def _trig(func, arg: sp.Expr, space: TrigSpace, where: sp.Expr) -> TrigPoly:
     if code < 0:                       # cos(−x + c) = cos(x − c); sin(−x + c) = −sin(x − c)
         code, c = -code, -c
         sign = -1 if is_sin else 1
-    cc, sc = _cos_sin_qq(c) if c != 0 else (QQ(1), _Q0)
+    cc, sc = _cos_sin_qq(c) if c != 0 else (QQ(1), QQ(0))
     if code == 0:
         return space.const(sign * (sc if is_sin else cc))
-    terms = {}
     # cos(x + c) = cos c cos x − sin c sin x;  sin(x + c) = cos c sin x + sin c cos x
     cos_coeff, sin_coeff = (sc, cc) if is_sin else (cc, -sc)
-    if cos_coeff:
-        terms[code << 1] = space._poly(sign * cos_coeff)
-    if sin_coeff:
-        terms[code << 1 | 1] = space._poly(sign * sin_coeff)
-    return TrigPoly(space, terms)
+    return (space.term(_decode(code, space.n), "cos", sign * cos_coeff)
+            + space.term(_decode(code, space.n), "sin", sign * sin_coeff))
 
 
 def _not_poly(e: sp.Expr, space: TrigSpace, why: str) -> ValueError:
@@ -568,11 +595,11 @@ def _not_poly(e: sp.Expr, space: TrigSpace, why: str) -> ValueError:
 def _constant_value(p: TrigPoly):
     """The QQ value of a numeric constant polynomial, or None."""
     if not p.terms:
-        return _Q0
+        return QQ(0)
     if p.is_constant():
-        c = p.terms[0]
-        if len(c) == 1 and p.space._zero_monom in c:
-            return c[p.space._zero_monom]
+        d = p.terms[0]
+        if len(d) == 1 and 0 in d:
+            return QQ(d[0], p.den)
     return None
 
 
@@ -624,7 +651,9 @@ def from_expr(expr, space: TrigSpace, memo: dict | None = None) -> TrigPoly:
     (plus constants), the ring generators and constants.  Subexpressions are
     memoised (pass one `memo` dict to several calls that share subtrees), and
     the walk is iterative, so deep DAG-shaped trees from Newton–Euler cost
-    one visit per distinct node.
+    one visit per distinct node.  Named intermediates: seed the memo with
+    {symbol: TrigPoly} (convert the definitions in order with the same memo)
+    and expressions written in those names fold without expanding them.
     """
     if memo is None:
         memo = {}

@@ -216,3 +216,23 @@ def test_numeric_constants_fold_to_exact_values():
     assert from_expr(sp.sqrt(4) * sp.cos(q1) + 2 ** -2, S) == S.term([1, 0], "cos", 2) + sp.Rational(1, 4)
     assert from_expr(sp.sin(q1 + sp.pi) + sp.sin(q1), S).is_zero()
     assert np.isclose(value(from_expr(sp.sqrt(2) * a, S).to_expr(), POINT), math.sqrt(2) * 0.8, rtol=1e-15)
+
+
+def test_named_intermediates_fold_through_a_seeded_memo():
+    w1, w2 = sp.symbols("w1 w2")
+    definitions = [(w1, a * sp.cos(q1)), (w2, w1 * sp.sin(q2) + w1)]
+    memo: dict = {}
+    for name, expr in definitions:
+        memo[name] = from_expr(expr, S, memo)
+    direct = from_expr(a * sp.cos(q1) * sp.sin(q2) * (b + 1) + a * b * sp.cos(q1), S)
+    assert from_expr(w2 * b + w1 * sp.sin(q2), S, memo) == direct
+
+
+def test_items_give_ring_coefficients_and_rebuild_the_polynomial():
+    p = from_expr(sp.Rational(3, 4) * a**2 * sp.cos(q1 - q2) - b * sp.sin(2 * q2) + 5, S)
+    rebuilt = S.zero
+    for k, kind, coeff in p.items():
+        assert coeff.ring == S.ring
+        rebuilt = rebuilt + S.term(k, kind, 1) * S.const(coeff)
+    assert rebuilt == p
+    assert [(k, kind) for k, kind, _ in p.items()] == [((0, 0), "cos"), ((0, 2), "sin"), ((1, -1), "cos")]
