@@ -23,7 +23,7 @@ from sympy.polys.domains import QQ
 from .dynamics import Dynamics, friction_expr, rotor_inertia
 from .model import Robot
 from .symbols import exact, joint_symbols
-from .trigpoly import TrigPoly, TrigSpace, _cos_sin_qq, lincomb, summation
+from .trigpoly import TrigPoly, TrigSpace, constant_cos_sin, lincomb, summation
 
 __all__ = ["space", "TrigDynamics", "trig_dynamics", "christoffel", "equations", "derive"]
 
@@ -49,7 +49,7 @@ def _twist(x, what: str) -> tuple:
     if isinstance(x, sp.Basic) and x.free_symbols:
         raise ValueError(f"{what} = {x} is symbolic: the Lagrange route needs constant angles "
                          f"(substitute a value with robot.subs)")
-    return _cos_sin_qq(x)
+    return constant_cos_sin(x)
 
 
 def space(robot: Robot) -> TrigSpace:

@@ -42,7 +42,8 @@ from sympy.polys.rings import PolyElement, PolyRing
 from .model import exact_cos_sin
 from .symbols import exact
 
-__all__ = ["TrigSpace", "TrigPoly", "from_expr", "to_expr", "fold", "equal", "space_for", "summation", "lincomb"]
+__all__ = ["TrigSpace", "TrigPoly", "from_expr", "to_expr", "fold", "equal", "space_for", "summation", "lincomb",
+           "constant_cos_sin"]
 
 _BITS = 21
 _BASE = 1 << _BITS
@@ -93,7 +94,7 @@ def _to_qq(value):
     return QQ(*_ratio(value))
 
 
-def _cos_sin_qq(angle) -> tuple:
+def constant_cos_sin(angle) -> tuple:
     """cos and sin of a constant angle in QQ: exact for multiples of π/2, else rationals of doubles."""
     c, s = exact_cos_sin(angle)
     return _to_qq(c), _to_qq(s)
@@ -578,7 +579,7 @@ def _trig(func, arg: sp.Expr, space: TrigSpace, where: sp.Expr) -> TrigPoly:
     if code < 0:                       # cos(−x + c) = cos(x − c); sin(−x + c) = −sin(x − c)
         code, c = -code, -c
         sign = -1 if is_sin else 1
-    cc, sc = _cos_sin_qq(c) if c != 0 else (QQ(1), QQ(0))
+    cc, sc = constant_cos_sin(c) if c != 0 else (QQ(1), QQ(0))
     if code == 0:
         return space.const(sign * (sc if is_sin else cc))
     # cos(x + c) = cos c cos x − sin c sin x;  sin(x + c) = cos c sin x + sin c cos x
