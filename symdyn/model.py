@@ -378,7 +378,7 @@ class Robot:
         for link in self.links:
             c, s = exact_cos_sin(link.alpha)
             R = ((1, 0, 0), (0, c, -s), (0, s, c))
-            r = tuple(link.a * (i == 0) + sum(R[i][k] * link.r[k] for k in range(3)) for i in range(3))
+            r = tuple((link.a if i == 0 else 0) + sum(R[i][k] * link.r[k] for k in range(3)) for i in range(3))
             I = tuple(tuple(sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
                             for j in range(3)) for i in range(3))
             links.append(dataclasses.replace(link, a=prev_a, alpha=prev_alpha, r=r, I=I))

@@ -1,8 +1,9 @@
 """Symbolic recursive Newton–Euler, customized (Khalil): the second route.
 
-Same recursion as `symdyn.reference` (Featherstone's RNEA in body
-coordinates) but on sympy expressions: inertia about the body origin and
-first moments of mass (no COM accelerations), exact constants, products
+Khalil's form of the recursion, in modified-DH frames (a standard-DH robot
+is re-expressed by `Robot.to_modified()` first, which changes no joint
+quantity): inertia about the body origin and first moments of mass (no COM
+accelerations), no linear velocities, exact constants, products
 with exact zeros and ones skipped, and every non-trivial intermediate given
 a name on a `Tape` as it is formed (w2_z, dv3_x, f4_y, …), so the result is
 a DAG, never one big tree.  M comes from unit accelerations, G from zero
@@ -144,46 +145,64 @@ def link_inertias(robot: Robot) -> list[LinkInertia]:
 
 @dataclass
 class Motion:
-    """Spatial velocity (w, v) and acceleration (dw, dv) of one body, named."""
+    """Angular velocity w and acceleration dw, the classical acceleration dV
+    of the body origin (gravity included) and U = dw× + w×w× (9 entries,
+    row-major), all named; Khalil's customized recursion needs no linear
+    velocity."""
 
     w: list
-    v: list
     dw: list
-    dv: list
+    dV: list
+    U: list
+
+
+def _u_times(U, x):
+    return [sp.Add(*(U[3 * i + j] * x[j] for j in range(3))) for i in range(3)]
 
 
 def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "") -> list[Motion]:
-    """Outward pass: velocities and spatial accelerations of every body.
+    """Outward pass in modified-DH frames (joint axis = z of the body frame).
 
     g0 is the base's upward acceleration in frame {0} (Corke's gravity,
     rotated by the base); the base itself is at rest.
     """
-    w = [0, 0, 0]; v = [0, 0, 0]; dw = [0, 0, 0]; dv = list(g0)
+    w = [0, 0, 0]; dw = [0, 0, 0]; dV = list(g0); U = [0] * 9
     out = []
     for i, f in enumerate(frames):
         k = i + 1
-        sw, sv = f.S[:3], f.S[3:]
-        wp = _tmatvec(f.R, w)
-        vp = _tmatvec(f.R, _add(v, _cross(w, f.p)))
-        dwp = _tmatvec(f.R, dw)
-        dvp = _tmatvec(f.R, _add(dv, _cross(dw, f.p)))
-        w = tape.vector(_add(wp, _scale(sw, qd[i])), f"{tag}w{k}")
-        v = tape.vector(_add(vp, _scale(sv, qd[i])), f"{tag}v{k}")
-        swq, svq = _scale(sw, qd[i]), _scale(sv, qd[i])
-        dw = tape.vector(_add(dwp, _scale(sw, qdd[i]), _cross(w, swq)), f"{tag}dw{k}")
-        dv = tape.vector(_add(dvp, _scale(sv, qdd[i]), _cross(w, svq), _cross(v, swq)), f"{tag}dv{k}")
-        out.append(Motion(w, v, dw, dv))
+        if f.S != (0, 0, 1, 0, 0, 0) and f.S != (0, 0, 0, 0, 0, 1):
+            raise ValueError("the customized recursion needs modified-DH frames (joint axis = z); "
+                             "convert with robot.to_modified()")
+        revolute = f.S[2] == 1
+        wI = tape.vector(_tmatvec(f.R, w), f"{tag}wi{k}")
+        dwI = _tmatvec(f.R, dw)
+        dV = _tmatvec(f.R, _add(dV, _u_times(U, list(f.p))))
+        if revolute:
+            w = tape.vector([wI[0], wI[1], wI[2] + qd[i]], f"{tag}w{k}")
+            dw = tape.vector([dwI[0] + wI[1] * qd[i], dwI[1] - wI[0] * qd[i], dwI[2] + qdd[i]], f"{tag}dw{k}")
+        else:
+            w, dw = wI, tape.vector(dwI, f"{tag}dw{k}")
+            dV = [dV[0] + 2 * wI[1] * qd[i], dV[1] - 2 * wI[0] * qd[i], dV[2] + qdd[i]]
+        dV = tape.vector(dV, f"{tag}dV{k}")
+        sq = [tape.name(w[a] * w[a], f"{tag}w{k}{'xyz'[a]}2") for a in range(3)]
+        wxy = tape.name(w[0] * w[1], f"{tag}w{k}xy")
+        wxz = tape.name(w[0] * w[2], f"{tag}w{k}xz")
+        wyz = tape.name(w[1] * w[2], f"{tag}w{k}yz")
+        U = [-(sq[1] + sq[2]), wxy - dw[2], wxz + dw[1],
+             wxy + dw[2], -(sq[0] + sq[2]), wyz - dw[0],
+             wxz - dw[1], wyz + dw[0], -(sq[0] + sq[1])]
+        U = [tape.name(u, f"{tag}U{k}_{r}{c}") for u, (r, c) in zip(U, [(r, c) for r in range(1, 4) for c in range(1, 4)])]
+        out.append(Motion(w, dw, dV, U))
     return out
 
 
 def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, tag: str, k: int) -> tuple[list, list]:
-    """Spatial force (n, f) of body k: I·a + v ×* I·v, about the body origin;
-    its momenta are named {tag}L{k}, {tag}P{k}."""
+    """Force f = m·dV + U·h and moment n = Io·dw + w × (Io·w) + h × dV of body k
+    about its origin (Khalil); Io·w is named {tag}K{k}."""
     Io, h, m = inertia.Io, list(inertia.h), inertia.m
-    L = tape.vector(_add(_matvec(Io, mo.w), _cross(h, mo.v)), f"{tag}L{k}")
-    P = tape.vector(_add(_scale(mo.v, m), _cross(mo.w, h)), f"{tag}P{k}")
-    n = _add(_matvec(Io, mo.dw), _cross(h, mo.dv), _cross(mo.w, L), _cross(mo.v, P))
-    f = _add(_scale(mo.dv, m), _cross(mo.dw, h), _cross(mo.w, P))
+    K = tape.vector(_matvec(Io, mo.w), f"{tag}K{k}")
+    n = _add(_matvec(Io, mo.dw), _cross(mo.w, K), _cross(h, mo.dV))
+    f = _add(_scale(mo.dV, m), _u_times(mo.U, h))
     return n, f
 
 
@@ -217,6 +236,59 @@ def rnea(tape: Tape, frames, inertias, qd, qdd, g0, tag: str = "") -> list:
     return backward(tape, frames, forces, qdd, inertias, tag)
 
 
+def composite_inertia(tape: Tape, frames: Sequence[LinkFrame], inertias, tag: str = "c") -> list:
+    """Joint-space inertia M by the customized composite-link algorithm.
+
+    Composite parameters (J, MS, m) are accumulated from the tip in each
+    link's frame: J_j += R Jc Rᵀ + m(|P|²1 − PPᵀ) + 2(P·S′)1 − S′Pᵀ − PS′ᵀ with
+    S′ = R·MSc; then column j's force Ic·S_j is carried down to the base,
+    M_ij = S_i·(n, f).  Named entries keep it a DAG; returns M as n×n lists.
+    """
+    n = len(frames)
+    J = [None] * n
+    MS = [None] * n
+    mass = [None] * n
+    for j in range(n - 1, -1, -1):
+        k = j + 1
+        Jj = sp.Matrix(inertias[j].Io)
+        MSj = list(inertias[j].h)
+        mj = inertias[j].m
+        if j + 1 < n:
+            R, P = frames[j + 1].R, list(frames[j + 1].p)
+            Jc, S, m = J[j + 1], MS[j + 1], mass[j + 1]
+            RJ = R * Jc
+            RJR = sp.Matrix(3, 3, lambda a, b: sp.Add(*(RJ[a, c] * R[b, c] for c in range(3))) if a <= b else 0)
+            Sp = tape.vector(_matvec(R, S), f"{tag}S{k + 1}")
+            PS = _dot(P, Sp)
+            PP = _dot(P, P)
+            for a in range(3):
+                for b in range(a, 3):
+                    shift = m * ((PP if a == b else 0) - P[a] * P[b])
+                    shift += (2 * PS if a == b else 0) - Sp[a] * P[b] - P[a] * Sp[b]
+                    Jj[a, b] = Jj[a, b] + RJR[a, b] + shift
+            MSj = _add(MSj, Sp, _scale(P, m))
+            mj = mj + m
+        for a in range(3):
+            for b in range(a, 3):
+                Jj[a, b] = tape.name(Jj[a, b], f"{tag}J{k}_{'xyz'[a]}{'xyz'[b]}")
+                Jj[b, a] = Jj[a, b]
+        J[j], MS[j], mass[j] = Jj, tape.vector(MSj, f"{tag}MS{k}"), tape.name(mj, f"{tag}m{k}")
+    M = [[sp.S.Zero] * n for _ in range(n)]
+    for j in range(n):
+        revolute = frames[j].S[2] == 1
+        if revolute:
+            nn, ff = [J[j][0, 2], J[j][1, 2], J[j][2, 2]], [-MS[j][1], MS[j][0], 0]
+        else:
+            nn, ff = [MS[j][1], -MS[j][0], 0], [0, 0, mass[j]]
+        M[j][j] = (nn[2] if revolute else ff[2]) + inertias[j].Ia
+        for i in range(j - 1, -1, -1):
+            R, P = frames[i + 1].R, list(frames[i + 1].p)
+            ff = tape.vector(_matvec(R, ff), f"{tag}f{j + 1}_{i + 1}")
+            nn = tape.vector(_add(_matvec(R, nn), _cross(P, ff)), f"{tag}n{j + 1}_{i + 1}")
+            M[i][j] = M[j][i] = nn[2] if frames[i].S[2] == 1 else ff[2]
+    return M
+
+
 def gravity_in_base(robot: Robot) -> list:
     """Corke's gravity (base upward acceleration, world) expressed in frame {0}."""
     R = sp.Matrix([[exact(x) for x in row[:3]] for row in robot.base[:3]])
@@ -236,10 +308,11 @@ class Recursion:
 
 def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
               progress: Progress | None = None) -> Recursion:
-    """Run the customized recursion for τ, M (unit accelerations), G (rest)
-    and the Christoffel symbols (unit velocities, symmetric split)."""
+    """Run the customized recursion for τ, G (rest), C·q̇, the Christoffel
+    symbols (unit velocities, symmetric split), and M by composite links."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
+    robot = robot.to_modified()
     frames = link_frames(robot, q)
     inertias = link_inertias(robot) if inertias is None else list(inertias)
     tape = Tape()
@@ -253,13 +326,8 @@ def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
     G = rnea(tape, frames, inertias, zero, zero, g0, tag="g")
     progress.step("G")
     Cqd = rnea(tape, frames, inertias, qd, zero, none, tag="c")
-    M = [[None] * n for _ in range(n)]
-    for j in range(n):
-        col = rnea(tape, frames, inertias, zero, unit(j), none, tag=f"m{j + 1}")
-        progress.step(f"M column {j + 1}")
-        for i in range(n):
-            M[i][j] = col[i]
-    M = [[M[min(i, j)][max(i, j)] for j in range(n)] for i in range(n)]  # upper triangle, mirrored
+    M = composite_inertia(tape, frames, inertias)
+    progress.step("M")
     h = {}
     for j in range(n):
         h[j, j] = rnea(tape, frames, inertias, unit(j), zero, none, tag=f"h{j + 1}")
@@ -281,7 +349,7 @@ def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
            progress: bool = False) -> Dynamics:
     """Closed-form dynamics by Newton–Euler: M, C, G, F and τ as sympy matrices."""
     n = robot.n
-    bar = Progress(f"newton-euler {robot.name}", 2 + n + n * (n + 1) // 2, enabled=progress)
+    bar = Progress(f"newton-euler {robot.name}", 3 + n * (n + 1) // 2, enabled=progress)
     rec = recursion(robot, inertias, bar)
     bar.done()
     q, qd, qdd = joint_symbols(robot.n)

@@ -10,6 +10,8 @@ Base (identifiable) parameters come from an exact rank analysis: Y is
 evaluated at random exact rational states (sin and cos rational), reduced
 over QQ, and each dependent column is written exactly in the independent
 ones — Gautier's numeric method with Khalil's regrouping as its result.
+As in Khalil's work, the parameters refer to modified-DH link frames; for
+a standard-DH robot these are the frames of `robot.to_modified()`.
 The regrouped parameters give a numeric model with the same joint-space
 dynamics and many zero parameters, which the customized recursion skips.
 """
@@ -44,8 +46,10 @@ def parameter_symbols(n: int) -> tuple[sp.Symbol, ...]:
 
 
 def parameter_values(robot: Robot) -> tuple:
-    """The robot's standard parameters, exact, in the order of parameter_symbols."""
+    """The robot's standard parameters, exact, in the order of parameter_symbols
+    (in modified-DH link frames: see the module docstring)."""
     values = []
+    robot = robot.to_modified()
     for link, I, Ia in zip(robot.links, link_inertias(robot), rotor_inertia(robot)):
         G, B, (tp, tn) = exact(link.G), exact(link.B), (exact(x) for x in link.Tc)
         values += [I.Io[0, 0], I.Io[0, 1], I.Io[0, 2], I.Io[1, 1], I.Io[1, 2], I.Io[2, 2],
@@ -83,7 +87,7 @@ def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
     """The joint-torque regressor of `robot` (geometry numeric or symbolic)."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
-    frames = link_frames(robot, q)
+    frames = link_frames(robot.to_modified(), q)
     tape = Tape()
     motions = forward(tape, frames, qd, qdd, gravity_in_base(robot))
     zero_inertia = [_unit_inertia("none")] * n
