@@ -1,0 +1,126 @@
+"""The C target: plain C entry points, compiled on first use, equal to the reference."""
+
+import shutil
+
+import numpy as np
+import pytest
+
+import symdyn.codegen as codegen
+from symdyn.emit import c as c_emit
+from symdyn.emit.clib import CompileOptions, load_library
+from tests.codegen_cases import MODELS, assert_close, cases, parameters
+
+
+@pytest.fixture(scope="module", params=MODELS)
+def model(request):
+    return codegen.load(request.param, target="c")
+
+
+@pytest.fixture(scope="module")
+def twolink_ctypes():
+    return codegen.load("twolink", target="c", options=CompileOptions(binding="ctypes"))
+
+
+@pytest.mark.parametrize("function", ["tau", "M", "C", "Cqd", "G", "F", "fdyn"])
+def test_every_function_agrees_with_the_reference(model, function):
+    args, expected = cases(model.name)[function]
+    assert_close(getattr(model, function)(*args), expected, f"{model.name} {function}")
+
+
+def test_regressor_times_parameters_is_tau(model):
+    (q, qd, qdd), tau = cases(model.name)["tau"]
+    assert_close(model.Y(q, qd, qdd) @ parameters(model.name), tau, f"{model.name} Y·π")
+
+
+def test_fdyn_inverts_its_own_tau(model):
+    (q, qd, qdd), _ = cases(model.name)["tau"]
+    assert_close(model.fdyn(q, qd, model.tau(q, qd, qdd)), qdd, f"{model.name} fdyn∘tau")
+
+
+@pytest.mark.parametrize("function", ["tau", "M", "C", "fdyn", "Y"])
+def test_batched_equals_single_state_exactly(model, function):
+    args, _ = cases(model.name)["tau" if function == "Y" else function]
+    f = getattr(model, function)
+    batch = f(*args)
+    for k in range(4):
+        assert np.array_equal(f(*(a[k] for a in args)), batch[k])
+
+
+def test_leading_shapes_lists_and_integers(model):
+    (q, qd, qdd), tau = cases(model.name)["tau"]
+    n = model.n
+    got = model.tau(q[:6].reshape(2, 3, n), qd[:6].reshape(2, 3, n), qdd[:6].reshape(2, 3, n))
+    assert got.shape == (2, 3, n)
+    assert np.array_equal(got.reshape(6, n), model.tau(q[:6], qd[:6], qdd[:6]))
+    assert model.M([0] * n).shape == (n, n)
+    assert model.M(q[:0]).shape == (0, n, n)
+
+
+def test_ctypes_binding_agrees_with_the_reference(twolink_ctypes):
+    for function, (args, expected) in cases("twolink").items():
+        assert_close(getattr(twolink_ctypes, function)(*args), expected, f"ctypes {function}")
+        assert_close(getattr(twolink_ctypes, function)(*(a[7] for a in args)), expected[7], function)
+
+
+@pytest.mark.parametrize("binding", ["extension", "ctypes"])
+def test_wrong_shapes_are_clear_errors(binding, model, twolink_ctypes):
+    m = model if binding == "extension" else twolink_ctypes
+    n = m.n
+    with pytest.raises(ValueError, match=r"must have shape \(\.\.\., %d\)" % n):
+        m.M(np.zeros(n + 1))
+    with pytest.raises(ValueError, match=r"must have shape"):
+        m.M(1.0)
+    with pytest.raises(ValueError, match="does not broadcast"):
+        m.C(np.zeros((3, n)), np.zeros(n))
+    with pytest.raises(TypeError, match="takes 2 arguments"):
+        m.C(np.zeros(n))
+
+
+def _copy_model(tmp_path, name="twolink"):
+    src = codegen.GENERATED / name
+    for suffix in (".c", ".h"):
+        shutil.copy(src / f"{name}{suffix}", tmp_path / f"{name}{suffix}")
+    return tmp_path / f"{name}.c", tmp_path / f"{name}.h"
+
+
+def test_library_is_rebuilt_when_its_source_changes_and_reused_otherwise(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    c_path, h_path = _copy_model(tmp_path)
+    first = load_library(c_path, h_path)
+    assert first.functions["M"](np.zeros(2))[1, 1] == 0.25
+    stamp = first.path.stat().st_mtime_ns
+    again = load_library(c_path, h_path)
+    assert again.path == first.path and again.path.stat().st_mtime_ns == stamp
+    text = c_path.read_text()
+    assert "M[3] = 0.25;" in text
+    c_path.write_text(text.replace("M[3] = 0.25;", "M[3] = 0.5;"))
+    changed = load_library(c_path, h_path)
+    assert changed.path != first.path
+    assert changed.functions["M"](np.zeros(2))[1, 1] == 0.5
+
+
+def test_missing_compiler_says_what_to_install(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+    c_path, h_path = _copy_model(tmp_path)
+    with pytest.raises(RuntimeError, match="no C compiler found.*apt install gcc"):
+        load_library(c_path, h_path)
+
+
+def test_compile_error_shows_the_compiler_message(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    c_path, h_path = _copy_model(tmp_path)
+    c_path.write_text(c_path.read_text() + "\nthis is not C;\n")
+    with pytest.raises(RuntimeError, match="compiling twolink.c failed"):
+        load_library(c_path, h_path, CompileOptions(binding="ctypes"))
+
+
+def test_header_signatures_round_trip():
+    header = (codegen.GENERATED / "puma560" / "puma560.h").read_text()
+    sigs = {s.name: s for s in c_emit.read_signatures(header)}
+    assert sigs["M"].inputs == (("q", 6),) and sigs["M"].outputs == (("M", (6, 6)),)
+    assert sigs["fdyn"].inputs == (("q", 6), ("qd", 6), ("tau", 6))
+    assert "void puma560_tau(const double q[6], const double qd[6], const double qdd[6], double tau[6]);" in header
+    assert "void puma560_M(const double q[6], double M[36]);" in header
+    assert ("void puma560_tau_batch(int n, const double *q, const double *qd, const double *qdd, "
+            "double *tau);") in header

@@ -1,0 +1,95 @@
+"""generated/: reproducible byte for byte, headed with its provenance, stale files detected."""
+
+import argparse
+import dataclasses
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+import symdyn
+import symdyn.codegen as codegen
+from symdyn import models, reference as ref
+from symdyn.emit import read_header, write_atomic
+from tests.codegen_cases import assert_close
+
+TARGETS = ("numpy", "c", "casadi")
+
+
+def test_regenerating_reproduces_generated_byte_for_byte(tmp_path):
+    written = codegen.generate_all(tmp_path)
+    expected = sorted(p.relative_to(codegen.GENERATED) for p in codegen.GENERATED.rglob("*") if p.is_file())
+    assert sorted(p.relative_to(tmp_path) for p in written) == expected
+    for rel in expected:
+        assert (tmp_path / rel).read_bytes() == (codegen.GENERATED / rel).read_bytes(), f"{rel} differs"
+
+
+@pytest.mark.parametrize("name", codegen.SHIPPED)
+def test_files_are_headed_with_version_fingerprint_and_op_counts(name):
+    fingerprint = models.load(name).fingerprint()
+    for suffix in (".py", ".c", ".h"):
+        text = (codegen.GENERATED / name / f"{name}{suffix}").read_text()
+        assert read_header(text) == {"symdyn-version": symdyn.__version__, "model-fingerprint": fingerprint}
+        assert "operation counts" in text and f"regenerate: symdyn generate {name}" in text
+
+
+def _stale_copy(tmp_path, monkeypatch):
+    """generated/twolink regenerated for a heavier arm, posing as the shipped one."""
+    heavy = dataclasses.replace(models.load("twolink").payload(2.5, (0.1, 0, 0)), name="twolink")
+    codegen.generate(heavy, "all", tmp_path / "twolink")
+    monkeypatch.setattr(codegen, "GENERATED", tmp_path)
+    return heavy
+
+
+@pytest.mark.parametrize("target", TARGETS)
+def test_loading_a_stale_file_is_an_error_that_says_how_to_regenerate(tmp_path, monkeypatch, target):
+    _stale_copy(tmp_path, monkeypatch)
+    with pytest.raises(RuntimeError, match=r"is stale.*symdyn generate twolink"):
+        codegen.load("twolink", target)
+
+
+def test_a_robot_other_than_the_files_is_generated_into_the_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    heavy = _stale_copy(tmp_path, monkeypatch)
+    shutil.rmtree(tmp_path / "twolink")
+    robot = dataclasses.replace(heavy, base=models.load("twolink").base)   # same arm, as a Robot object
+    m = codegen.load(robot, "numpy")
+    assert m.folder.is_relative_to(tmp_path / "cache")
+    q = np.array([[0.3, -0.7], [1.1, 0.4]])
+    assert_close(m.tau(q, -q, 2 * q), ref.rne(robot, q, -q, 2 * q), "payload arm tau")
+
+
+def test_loaded_model_lists_its_functions():
+    m = codegen.load("puma560", "numpy")
+    assert list(m.functions) == ["tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y"]
+    with pytest.raises(AttributeError, match="has no function 'aba'"):
+        m.aba
+    with pytest.raises(ValueError, match="unknown target 'fortran'"):
+        codegen.load("puma560", "fortran")
+    with pytest.raises(KeyError, match="unknown model 'puma'"):
+        codegen.load("puma", "numpy")
+
+
+def test_write_atomic_leaves_the_old_file_when_interrupted(tmp_path, monkeypatch):
+    path = write_atomic(tmp_path / "f.py", "old\n")
+
+    def fail(*args):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OSError):
+        write_atomic(path, "new\n")
+    assert path.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["f.py"]
+
+
+def test_cli_generate_writes_one_target(tmp_path, capsys):
+    parser = argparse.ArgumentParser()
+    codegen.configure_parser(parser)
+    args = parser.parse_args(["twolink", "--target", "numpy", "--out", str(tmp_path)])
+    assert args.func(args) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["twolink.py"]
+    assert (tmp_path / "twolink.py").read_bytes() == (codegen.GENERATED / "twolink" / "twolink.py").read_bytes()
+    with pytest.raises(ValueError, match="model name or --all"):
+        args.func(parser.parse_args([]))
