@@ -41,6 +41,7 @@ class Tape:
         self.defs: dict[sp.Symbol, sp.Expr] = {}
         self._index: dict[sp.Expr, sp.Symbol] = {}
         self._full: dict[sp.Symbol, sp.Expr] = {}
+        self._taken: set[str] = set()
 
     def name(self, expr: sp.Expr, label: str) -> sp.Expr:
         expr = sp.sympify(expr)
@@ -58,13 +59,11 @@ class Tape:
         return sym
 
     def _unique(self, label: str) -> str:
-        taken = {s.name for s in self.defs}
-        if label not in taken:
-            return label
-        k = 2
-        while f"{label}_{k}" in taken:
-            k += 1
-        return f"{label}_{k}"
+        name, k = label, 2
+        while name in self._taken:
+            name, k = f"{label}_{k}", k + 1
+        self._taken.add(name)
+        return name
 
     def vector(self, exprs: Sequence, label: str) -> list:
         return [self.name(e, f"{label}_{AXES[k]}") for k, e in enumerate(exprs)]
