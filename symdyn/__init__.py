@@ -2,6 +2,7 @@
 
 Flow: model → derive (Lagrange, Newton–Euler) → simplify → program → emit
 (NumPy, C, CasADi), every stage checked against `symdyn.reference`.
+Entry points: `models.load`, `derive`, `generate`, `load`.
 """
 
 __version__ = "0.1.0"
@@ -9,4 +10,26 @@ __version__ = "0.1.0"
 from .model import Link, Robot  # noqa: E402
 from . import models  # noqa: E402
 
-__all__ = ["Link", "Robot", "models", "__version__"]
+
+def derive(robot, method="newton-euler", **options):
+    """Closed-form dynamics of `robot`: see `symdyn.derivation.derive`."""
+    from .derivation import derive as _derive
+
+    return _derive(robot, method, **options)
+
+
+def generate(robot, target="all", out_dir=None):
+    """Write model code for `robot`: see `symdyn.codegen.generate`."""
+    from .codegen import generate as _generate
+
+    return _generate(robot, target, out_dir)
+
+
+def load(name_or_robot, target="c"):
+    """Generated model functions (tau, M, C, Cqd, G, F, fdyn, Y): see `symdyn.codegen.load`."""
+    from .codegen import load as _load
+
+    return _load(name_or_robot, target)
+
+
+__all__ = ["Link", "Robot", "models", "derive", "generate", "load", "__version__"]
