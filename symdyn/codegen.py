@@ -104,21 +104,19 @@ def generate_all(root=None) -> list[Path]:
 
 class GeneratedModel:
     """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
-    fdyn, Y), with `name`, `n`, `target`, `fingerprint` and `folder`."""
+    fdyn, Y), with `name`, `n`, `target`, `fingerprint`, `folder` and
+    `functions` (name → callable)."""
 
     def __init__(self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict):
         self.name, self.n, self.target, self.fingerprint, self.folder = name, n, target, fingerprint, folder
         self.functions = dict(functions)
+        self.__dict__.update(self.functions)  # plain attributes: no lookup cost per call
 
     def __getattr__(self, attr: str):
+        """Only reached for a missing attribute: say which functions exist."""
         functions = self.__dict__.get("functions", {})
-        if attr in functions:
-            return functions[attr]
         raise AttributeError(f"{self.__dict__.get('name')} ({self.__dict__.get('target')}) has no function "
                              f"{attr!r}; it has {', '.join(functions)}")
-
-    def __dir__(self):
-        return sorted(set(super().__dir__()) | set(self.functions))
 
     def __repr__(self) -> str:
         return f"<{self.name} model code ({self.target}): {', '.join(self.functions)}>"

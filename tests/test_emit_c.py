@@ -124,3 +124,28 @@ def test_header_signatures_round_trip():
     assert "void puma560_M(const double q[6], double M[36]);" in header
     assert ("void puma560_tau_batch(int n, const double *q, const double *qd, const double *qdd, "
             "double *tau);") in header
+
+
+def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
+    import sympy as sp
+
+    from symdyn.emit import Bundle
+    from symdyn.program import make_program
+    from symdyn.symbols import joint_symbols
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    (x,), _, _ = joint_symbols(1)
+    program = make_program("sc", [("q", (x,))], [("y", sp.Matrix([sp.sin(x), sp.cos(x)]))])
+    bundle = Bundle("trig", 1, "test", "none", (program,))
+    (tmp_path / "trig.c").write_text(c_emit.c_source(bundle))
+    (tmp_path / "trig.h").write_text(c_emit.h_source(bundle))
+    sc = load_library(tmp_path / "trig.c", tmp_path / "trig.h").functions["sc"]
+    rng = np.random.default_rng(0)
+    xs = np.concatenate([rng.uniform(-10, 10, 100_000), rng.uniform(-1e5, 1e5, 10_000),
+                         np.arange(-8, 9) * np.pi / 4, [0.0, 1e-300, 3e5, -1e7]])
+    got = sc(xs[:, None])
+    for k, ref_fn in enumerate((np.sin, np.cos)):
+        ulps = np.abs(got[:, k] - ref_fn(xs)) / np.spacing(np.abs(ref_fn(xs)))
+        assert np.max(np.abs(got[:, k] - ref_fn(xs))) <= 2.3e-16
+        assert np.mean(ulps <= 1.0) > 0.9999, f"{ref_fn.__name__}: {np.sum(ulps > 1)} values beyond 1 ulp"
+    assert np.isnan(sc(np.array([[np.nan], [np.inf]]))).all()

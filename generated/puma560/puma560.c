@@ -22,6 +22,39 @@
 /* sign(x): -1, 0 or +1, as sympy's sign (Coulomb friction is 0 at rest). */
 static inline double sign_(double x) { return (double)((x > 0.0) - (x < 0.0)); }
 
+/* sin and cos of x together, inline (libm's calls would dominate the run time):
+   reduction by pi/2 in two parts (Cody-Waite), the fdlibm kernels on
+   [-pi/4, pi/4] and a branch-free choice of quadrant.  Error <= 1 ulp, except
+   within ~1e-6 of a multiple of pi/2 where it is below 1e-26 absolute; libm
+   beyond |x| >= 1e5. */
+static inline void sincos_(double x, double *s, double *c)
+{
+    if (!(fabs(x) < 1e5)) {
+        *s = sin(x);
+        *c = cos(x);
+        return;
+    }
+    const double shift = 6755399441055744.0;  /* 1.5 * 2^52: adding it rounds to an integer */
+    const double k = (x * 0.63661977236758134308 + shift) - shift;
+    const double r = (x - k * 1.57079632673412561417e+00) - k * 6.07710050650619224932e-11;
+    const long n = (long)k;
+    const double z = r * r;
+    const double sr = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03
+        + z * (-1.98412698298579493134e-04 + z * (2.75573137070700676789e-06
+        + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+    const double hz = 0.5 * z, w = 1.0 - hz;
+    const double cr = w + (((1.0 - w) - hz) + z * z * (4.16666666666666019037e-02
+        + z * (-1.38888888888741095749e-03 + z * (2.48015872894767294178e-05
+        + z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09
+        + z * -1.13596475577881948265e-11))))));
+    const double odd = (double)(n & 1), even = 1.0 - odd;
+    *s = (double)(1 - (n & 2)) * (sr * even + cr * odd);
+    *c = (double)(1 - ((n + 1) & 2)) * (cr * even + sr * odd);
+}
+
+static inline double sin_(double x) { double s, c; sincos_(x, &s, &c); return s; }
+static inline double cos_(double x) { double s, c; sincos_(x, &s, &c); return c; }
+
 /* Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), (6,). */
 void puma560_tau(const double q[6], const double qd[6], const double qdd[6], double tau[6])
 {
@@ -42,8 +75,8 @@ void puma560_tau(const double q[6], const double qd[6], const double qdd[6], dou
     const double qdd4 = qdd[3];
     const double qdd5 = qdd[4];
     const double qdd6 = qdd[5];
-    const double s2 = sin(q2);
-    const double c2 = cos(q2);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
     const double wi2_y = c2*qd1;
     const double w2yz = qd2*wi2_y;
     const double dw2_x = w2yz + qdd1*s2;
@@ -51,16 +84,16 @@ void puma560_tau(const double q[6], const double qd[6], const double qdd[6], dou
     const double w2xz = qd2*wi2_x;
     const double dw2_y = c2*qdd1 - w2xz;
     const double K2_z = 4.072928847*qd2 - 0.6903913435*wi2_x - 0.023751*wi2_y;
-    const double c3 = cos(q3);
-    const double s3 = sin(q3);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
     const double wi3_x = c3*wi2_x + s3*wi2_y;
     const double dw3_y = c3*dw2_y - dw2_x*s3 - qd3*wi3_x;
-    const double s4 = sin(q4);
-    const double c5 = cos(q5);
-    const double s5 = sin(q5);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
     const double wi3_y = c3*wi2_y - s3*wi2_x;
     const double w4_z = qd4 + wi3_y;
-    const double c4 = cos(q4);
     const double w3_z = qd2 + qd3;
     const double wi4_x = c4*wi3_x - s4*w3_z;
     const double wi5_x = c5*wi4_x + s5*w4_z;
@@ -118,10 +151,10 @@ void puma560_tau(const double q[6], const double qd[6], const double qdd[6], dou
     const double x6 = dV3_z + 0.0203*U3_31 + 0.4318*U3_32;
     const double dV4_y = -c4*x6 - s4*x5;
     const double K5_z = 0.00064216*w5_z;
-    const double c6 = cos(q6);
+    double s6, c6;
+    sincos_(q6, &s6, &c6);
     const double w6_z = qd6 + wi5_y;
     const double K6_z = 4e-05*w6_z;
-    const double s6 = sin(q6);
     const double wi6_y = -c6*w5_z - s6*wi5_x;
     const double n6_x = K6_z*wi6_y;
     const double wi6_x = c6*wi5_x - s6*w5_z;
@@ -189,18 +222,19 @@ void puma560_M(const double q[6], double M[36])
     const double q3 = q[2];
     const double q4 = q[3];
     const double q5 = q[4];
-    const double s2 = sin(q2);
-    const double s4 = sin(q4);
-    const double s5 = sin(q5);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
     const double cS5_x = -0.00288*s5;
     const double cS4_z = -cS5_x*s4;
     const double x1 = 0.3001*cS4_z;
-    const double c3 = cos(q3);
-    const double s3 = sin(q3);
-    const double c4 = cos(q4);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
     const double cS4_x = c4*cS5_x;
     const double x2 = 0.4318*cS4_x;
-    const double c5 = cos(q5);
     const double cS5_z = 0.00288*c5;
     const double cJ4_xz = 0.00020216*c5*s5;
     const double cJ3_xy = c4*cJ4_xz - 0.011273199 - x2 - 0.0203*cS5_z;
@@ -219,7 +253,6 @@ void puma560_M(const double q[6], double M[36])
     const double cJ3_yy = cJ4_zz + x7;
     const double x8 = x6 - cJ3_yy*s3;
     const double cJ2_xx = x1 - 1.601861202 + c3*x5 - s3*x8;
-    const double c2 = cos(q2);
     const double cMS3_y = 0.89133 + cS5_z;
     const double cMS3_x = 0.025375 + cS4_x;
     const double cS3_y = c3*cMS3_y + cMS3_x*s3;
@@ -332,11 +365,11 @@ void puma560_C(const double q[6], const double qd[6], double C[36])
     const double x2 = 1.4616e-05*qd5;
     const double x3 = x1 + x2;
     const double x4 = -x3;
-    const double s5 = sin(q5);
-    const double s4 = sin(q4);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
     const double x5 = s4*s5;
-    const double c5 = cos(q5);
-    const double c4 = cos(q4);
     const double c45 = c4*c5 - x5;
     const double x6 = 0.000155448*qd3;
     const double x7 = 0.000155448*qd4;
@@ -344,9 +377,9 @@ void puma560_C(const double q[6], const double qd[6], double C[36])
     const double x9 = -x8;
     const double x10 = x7 + x9;
     const double x11 = x10 + x6;
-    const double s3 = sin(q3);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
     const double x12 = s3*s5;
-    const double c3 = cos(q3);
     const double c35 = c3*c5 - x12;
     const double x13 = c5*s4;
     const double x14 = c4*s5;
@@ -376,8 +409,8 @@ void puma560_C(const double q[6], const double qd[6], double C[36])
     const double x26 = -x25;
     const double s_2q4_m2q5 = c4*s_q4_m2q5 + c_q4_m2q5*s4;
     const double x27 = 5.027e-05*qd4;
-    const double c2 = cos(q2);
-    const double s2 = sin(q2);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
     const double c_2q2 = c2*c2 - s2*s2;
     const double s_2q2 = 2.0*c2*s2;
     const double c_2q2_q3 = c3*c_2q2 - s3*s_2q2;
@@ -905,26 +938,26 @@ void puma560_Cqd(const double q[6], const double qd[6], double Cqd[6])
     const double qd4 = qd[3];
     const double qd5 = qd[4];
     const double qd6 = qd[5];
-    const double s2 = sin(q2);
-    const double c2 = cos(q2);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
     const double wi2_y = c2*qd1;
     const double w2yz = qd2*wi2_y;
     const double wi2_x = qd1*s2;
     const double w2xz = qd2*wi2_x;
     const double K2_z = 4.072928847*qd2 - 0.6903913435*wi2_x - 0.023751*wi2_y;
-    const double c3 = cos(q3);
-    const double s3 = sin(q3);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
     const double wi3_x = c3*wi2_x + s3*wi2_y;
     const double cdw3_y = -c3*w2xz - qd3*wi3_x - s3*w2yz;
-    const double s4 = sin(q4);
-    const double c5 = cos(q5);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
     const double wi3_y = c3*wi2_y - s3*wi2_x;
     const double cdw3_x = c3*w2yz + qd3*wi3_y - s3*w2xz;
-    const double c4 = cos(q4);
     const double w3_z = qd2 + qd3;
     const double wi4_x = c4*wi3_x - s4*w3_z;
     const double cdw4_y = -cdw3_x*s4 - qd4*wi4_x;
-    const double s5 = sin(q5);
     const double w4_z = qd4 + wi3_y;
     const double wi5_x = c5*wi4_x + s5*w4_z;
     const double wi5_y = c5*w4_z - s5*wi4_x;
@@ -969,10 +1002,10 @@ void puma560_Cqd(const double q[6], const double qd[6], double Cqd[6])
     const double x5 = cdV3_z + 0.0203*cU3_31 + 0.4318*cU3_32;
     const double cdV4_y = -c4*x5 - s4*x4;
     const double K5_z = 0.00064216*w5_z;
-    const double c6 = cos(q6);
+    double s6, c6;
+    sincos_(q6, &s6, &c6);
     const double w6_z = qd6 + wi5_y;
     const double K6_z = 4e-05*w6_z;
-    const double s6 = sin(q6);
     const double wi6_y = -c6*w5_z - s6*wi5_x;
     const double n6_x = K6_z*wi6_y;
     const double wi6_x = c6*wi5_x - s6*w5_z;
@@ -1033,20 +1066,20 @@ void puma560_G(const double q[6], double G[6])
     const double q3 = q[2];
     const double q4 = q[3];
     const double q5 = q[4];
-    const double s2 = sin(q2);
-    const double c3 = cos(q3);
-    const double c4 = cos(q4);
-    const double c5 = cos(q5);
-    const double s4 = sin(q4);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
     const double dV2_x = 9.81*s2;
-    const double s3 = sin(q3);
-    const double c2 = cos(q2);
     const double dV2_y = 9.81*c2;
     const double gdV3_x = c3*dV2_x + dV2_y*s3;
     const double gdV4_y = -gdV3_x*s4;
     const double gn5_x = -0.00288*gdV4_y;
     const double gn4_x = c5*gn5_x;
-    const double s5 = sin(q5);
     const double gdV3_y = c3*dV2_y - dV2_x*s3;
     const double gdV4_x = c4*gdV3_x;
     const double gdV5_x = c5*gdV4_x + gdV3_y*s5;
@@ -1121,22 +1154,23 @@ void puma560_fdyn(const double q[6], const double qd[6], const double tau[6], do
     const double tau4 = tau[3];
     const double tau5 = tau[4];
     const double tau6 = tau[5];
-    const double s2 = sin(q2);
-    const double s4 = sin(q4);
-    const double s5 = sin(q5);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
     const double cS5_x = -0.00288*s5;
     const double cS4_z = -cS5_x*s4;
     const double x1 = 0.3001*cS4_z;
-    const double s3 = sin(q3);
-    const double c4 = cos(q4);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
     const double cS4_x = c4*cS5_x;
     const double x2 = 0.4318*cS4_x;
-    const double c5 = cos(q5);
     const double cS5_z = 0.00288*c5;
     const double cJ4_xz = 0.00020216*c5*s5;
     const double cJ3_xy = c4*cJ4_xz - 0.011273199 - x2 - 0.0203*cS5_z;
     const double x3 = cJ3_xy*s3;
-    const double c3 = cos(q3);
     const double x4 = 0.8636*cS5_z;
     const double s4_sq = s4*s4;
     const double c4_sq = c4*c4;
@@ -1151,7 +1185,6 @@ void puma560_fdyn(const double q[6], const double qd[6], const double tau[6], do
     const double cJ3_yy = cJ4_zz + x7;
     const double x8 = x6 - cJ3_yy*s3;
     const double cJ2_xx = x1 - 1.601861202 + c3*x5 - s3*x8;
-    const double c2 = cos(q2);
     const double cMS3_y = 0.89133 + cS5_z;
     const double cMS3_x = 0.025375 + cS4_x;
     const double cS3_y = c3*cMS3_y + cMS3_x*s3;
@@ -1224,10 +1257,10 @@ void puma560_fdyn(const double q[6], const double qd[6], const double tau[6], do
     const double x15 = dV3_z + 0.0203*U3_31 + 0.4318*U3_32;
     const double dV4_y = -c4*x15 - s4*x14;
     const double K5_z = 0.00064216*w5_z;
-    const double c6 = cos(q6);
+    double s6, c6;
+    sincos_(q6, &s6, &c6);
     const double w6_z = qd6 + wi5_y;
     const double K6_z = 4e-05*w6_z;
-    const double s6 = sin(q6);
     const double wi6_y = -c6*w5_z - s6*wi5_x;
     const double n6_x = K6_z*wi6_y;
     const double wi6_x = c6*wi5_x - s6*w5_z;
@@ -1410,8 +1443,8 @@ void puma560_Y(const double q[6], const double qd[6], const double qdd[6], doubl
     const double qdd5 = qdd[4];
     const double qdd6 = qdd[5];
     const double sgn_qd1 = sign_(qd1);
-    const double c2 = cos(q2);
-    const double s2 = sin(q2);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
     const double wi2_x = qd1*s2;
     const double w2xz = qd2*wi2_x;
     const double x1 = c2*w2xz;
@@ -1440,9 +1473,9 @@ void puma560_Y(const double q[6], const double qd[6], const double qdd[6], doubl
     const double dV2_x = 9.81*s2;
     const double dV2_y = 9.81*c2;
     const double MZ2_n1_z = c2*dV2_x - dV2_y*s2;
-    const double s3 = sin(q3);
+    double s3, c3;
+    sincos_(q3, &s3, &c3);
     const double w3_z = qd2 + qd3;
-    const double c3 = cos(q3);
     const double wi3_x = c3*wi2_x + s3*wi2_y;
     const double w3xz = w3_z*wi3_x;
     const double x4 = s3*w3xz;
@@ -1523,8 +1556,8 @@ void puma560_Y(const double q[6], const double qd[6], const double qdd[6], doubl
     const double M3_n2_x = -0.15005*x16 - 0.15005*x17;
     const double M3_n2_y = 0.15005*c3*dV3_x - 0.15005*x18 - 0.4318*dV3_z;
     const double M3_n1_z = M3_n2_x*s2 + M3_n2_y*c2;
-    const double c4 = cos(q4);
-    const double s4 = sin(q4);
+    double s4, c4;
+    sincos_(q4, &s4, &c4);
     const double wi4_x = c4*wi3_x - s4*w3_z;
     const double wi4_y = -c4*w3_z - s4*wi3_x;
     const double w4xy = wi4_x*wi4_y;
@@ -1641,8 +1674,8 @@ void puma560_Y(const double q[6], const double qd[6], const double qdd[6], doubl
     const double M4_f3_z = -x40;
     const double M4_n2_y = M4_f3_x*x10 - 0.4318*M4_f3_z + M4_n3_x*s3 + M4_n3_y*c3 - dV4_z*x9;
     const double M4_n1_z = M4_n2_x*s2 + M4_n2_y*c2;
-    const double s5 = sin(q5);
-    const double c5 = cos(q5);
+    double s5, c5;
+    sincos_(q5, &s5, &c5);
     const double wi5_x = c5*wi4_x + s5*w4_z;
     const double wi5_y = c5*w4_z - s5*wi4_x;
     const double w5xy = wi5_x*wi5_y;
@@ -1771,8 +1804,8 @@ void puma560_Y(const double q[6], const double qd[6], const double qdd[6], doubl
     const double M5_f3_z = -x39 - x70;
     const double M5_n2_y = M5_f3_x*x10 - 0.4318*M5_f3_z + M5_n3_x*s3 + M5_n3_y*c3 + MZ5_n4_x*x9;
     const double M5_n1_z = M5_n2_x*s2 + M5_n2_y*c2;
-    const double c6 = cos(q6);
-    const double s6 = sin(q6);
+    double s6, c6;
+    sincos_(q6, &s6, &c6);
     const double wi6_x = c6*wi5_x - s6*w5_z;
     const double wi6_y = -c6*w5_z - s6*wi5_x;
     const double w6xy = wi6_x*wi6_y;

@@ -22,6 +22,39 @@
 /* sign(x): -1, 0 or +1, as sympy's sign (Coulomb friction is 0 at rest). */
 static inline double sign_(double x) { return (double)((x > 0.0) - (x < 0.0)); }
 
+/* sin and cos of x together, inline (libm's calls would dominate the run time):
+   reduction by pi/2 in two parts (Cody-Waite), the fdlibm kernels on
+   [-pi/4, pi/4] and a branch-free choice of quadrant.  Error <= 1 ulp, except
+   within ~1e-6 of a multiple of pi/2 where it is below 1e-26 absolute; libm
+   beyond |x| >= 1e5. */
+static inline void sincos_(double x, double *s, double *c)
+{
+    if (!(fabs(x) < 1e5)) {
+        *s = sin(x);
+        *c = cos(x);
+        return;
+    }
+    const double shift = 6755399441055744.0;  /* 1.5 * 2^52: adding it rounds to an integer */
+    const double k = (x * 0.63661977236758134308 + shift) - shift;
+    const double r = (x - k * 1.57079632673412561417e+00) - k * 6.07710050650619224932e-11;
+    const long n = (long)k;
+    const double z = r * r;
+    const double sr = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03
+        + z * (-1.98412698298579493134e-04 + z * (2.75573137070700676789e-06
+        + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+    const double hz = 0.5 * z, w = 1.0 - hz;
+    const double cr = w + (((1.0 - w) - hz) + z * z * (4.16666666666666019037e-02
+        + z * (-1.38888888888741095749e-03 + z * (2.48015872894767294178e-05
+        + z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09
+        + z * -1.13596475577881948265e-11))))));
+    const double odd = (double)(n & 1), even = 1.0 - odd;
+    *s = (double)(1 - (n & 2)) * (sr * even + cr * odd);
+    *c = (double)(1 - ((n + 1) & 2)) * (cr * even + sr * odd);
+}
+
+static inline double sin_(double x) { double s, c; sincos_(x, &s, &c); return s; }
+static inline double cos_(double x) { double s, c; sincos_(x, &s, &c); return c; }
+
 /* Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), (2,). */
 void twolink_tau(const double q[2], const double qd[2], const double qdd[2], double tau[2])
 {
@@ -31,10 +64,10 @@ void twolink_tau(const double q[2], const double qd[2], const double qdd[2], dou
     const double qd2 = qd[1];
     const double qdd1 = qdd[0];
     const double qdd2 = qdd[1];
-    const double c2 = cos(q2);
-    const double dV1_y = 9.81*cos(q1);
-    const double s2 = sin(q2);
-    const double dV1_x = 9.81*sin(q1);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
+    const double dV1_y = 9.81*cos_(q1);
+    const double dV1_x = 9.81*sin_(q1);
     const double w1z2 = qd1*qd1;
     const double dV2_y = c2*(dV1_y + qdd1) - s2*(dV1_x - w1z2);
     const double dw2_z = qdd1 + qdd2;
@@ -58,7 +91,7 @@ void twolink_tau_batch(int n, const double *q, const double *qd, const double *q
 void twolink_M(const double q[2], double M[4])
 {
     const double q2 = q[1];
-    const double c2 = cos(q2);
+    const double c2 = cos_(q2);
     const double x1 = 0.25 + 0.5*c2;
     M[0] = 1.5 + c2;
     M[1] = x1;
@@ -78,7 +111,7 @@ void twolink_C(const double q[2], const double qd[2], double C[4])
     const double q2 = q[1];
     const double qd1 = qd[0];
     const double qd2 = qd[1];
-    const double s2 = sin(q2);
+    const double s2 = sin_(q2);
     const double x1 = 0.5*qd2;
     const double x2 = 0.5*qd1;
     C[0] = -s2*x1;
@@ -99,7 +132,7 @@ void twolink_Cqd(const double q[2], const double qd[2], double Cqd[2])
     const double q2 = q[1];
     const double qd1 = qd[0];
     const double qd2 = qd[1];
-    const double s2 = sin(q2);
+    const double s2 = sin_(q2);
     const double w1z2 = qd1*qd1;
     const double cdV2_y = s2*w1z2;
     const double cn2_z = 0.5*cdV2_y;
@@ -122,8 +155,8 @@ void twolink_G(const double q[2], double G[2])
 {
     const double q1 = q[0];
     const double q2 = q[1];
-    const double c1 = cos(q1);
-    const double c12 = c1*cos(q2) - sin(q1)*sin(q2);
+    const double c1 = cos_(q1);
+    const double c12 = c1*cos_(q2) - sin_(q1)*sin_(q2);
     const double x1 = 4.905*c12;
     G[0] = x1 + 14.715*c1;
     G[1] = x1;
@@ -157,12 +190,12 @@ void twolink_fdyn(const double q[2], const double qd[2], const double tau[2], do
     const double qd2 = qd[1];
     const double tau1 = tau[0];
     const double tau2 = tau[1];
-    const double c2 = cos(q2);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
     const double M11 = 1.5 + c2;
     const double iD1 = 1.0/M11;
-    const double dV1_y = 9.81*cos(q1);
-    const double s2 = sin(q2);
-    const double dV1_x = 9.81*sin(q1);
+    const double dV1_y = 9.81*cos_(q1);
+    const double dV1_x = 9.81*sin_(q1);
     const double w1z2 = qd1*qd1;
     const double dV2_y = c2*dV1_y - s2*(dV1_x - w1z2);
     const double n2_z = 0.5*dV2_y;
@@ -199,15 +232,15 @@ void twolink_Y(const double q[2], const double qd[2], const double qdd[2], doubl
     const double qd2 = qd[1];
     const double qdd1 = qdd[0];
     const double qdd2 = qdd[1];
-    const double dV1_y = 9.81*cos(q1);
-    const double dV1_x = 9.81*sin(q1);
+    const double dV1_y = 9.81*cos_(q1);
+    const double dV1_x = 9.81*sin_(q1);
     const double sgn_qd1 = sign_(qd1);
     const double dw2_z = qdd1 + qdd2;
-    const double c2 = cos(q2);
+    double s2, c2;
+    sincos_(q2, &s2, &c2);
     const double x1 = dV1_y + qdd1;
     const double w1z2 = qd1*qd1;
     const double x2 = dV1_x - w1z2;
-    const double s2 = sin(q2);
     const double dV2_y = c2*x1 - s2*x2;
     const double w2_z = qd1 + qd2;
     const double w2z2 = w2_z*w2_z;

@@ -13,16 +13,52 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+import sympy as sp
+
 from ..program import Program, lower
 from . import Bundle, Infix, header_lines
 
 __all__ = ["c_source", "h_source", "Signature", "read_signatures"]
 
-ALGEBRA = Infix({"sin": "sin", "cos": "cos", "tan": "tan", "sqrt": "sqrt", "sign": "sign_",
+ALGEBRA = Infix({"sin": "sin_", "cos": "cos_", "tan": "tan", "sqrt": "sqrt", "sign": "sign_",
                  "abs": "fabs"}, power="pow")
 
-_SIGN = ("/* sign(x): -1, 0 or +1, as sympy's sign (Coulomb friction is 0 at rest). */\n"
-         "static inline double sign_(double x) { return (double)((x > 0.0) - (x < 0.0)); }\n")
+_HELPERS = r"""/* sign(x): -1, 0 or +1, as sympy's sign (Coulomb friction is 0 at rest). */
+static inline double sign_(double x) { return (double)((x > 0.0) - (x < 0.0)); }
+
+/* sin and cos of x together, inline (libm's calls would dominate the run time):
+   reduction by pi/2 in two parts (Cody-Waite), the fdlibm kernels on
+   [-pi/4, pi/4] and a branch-free choice of quadrant.  Error <= 1 ulp, except
+   within ~1e-6 of a multiple of pi/2 where it is below 1e-26 absolute; libm
+   beyond |x| >= 1e5. */
+static inline void sincos_(double x, double *s, double *c)
+{
+    if (!(fabs(x) < 1e5)) {
+        *s = sin(x);
+        *c = cos(x);
+        return;
+    }
+    const double shift = 6755399441055744.0;  /* 1.5 * 2^52: adding it rounds to an integer */
+    const double k = (x * 0.63661977236758134308 + shift) - shift;
+    const double r = (x - k * 1.57079632673412561417e+00) - k * 6.07710050650619224932e-11;
+    const long n = (long)k;
+    const double z = r * r;
+    const double sr = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03
+        + z * (-1.98412698298579493134e-04 + z * (2.75573137070700676789e-06
+        + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+    const double hz = 0.5 * z, w = 1.0 - hz;
+    const double cr = w + (((1.0 - w) - hz) + z * z * (4.16666666666666019037e-02
+        + z * (-1.38888888888741095749e-03 + z * (2.48015872894767294178e-05
+        + z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09
+        + z * -1.13596475577881948265e-11))))));
+    const double odd = (double)(n & 1), even = 1.0 - odd;
+    *s = (double)(1 - (n & 2)) * (sr * even + cr * odd);
+    *c = (double)(1 - ((n + 1) & 2)) * (cr * even + sr * odd);
+}
+
+static inline double sin_(double x) { double s, c; sincos_(x, &s, &c); return s; }
+static inline double cos_(double x) { double s, c; sincos_(x, &s, &c); return c; }
+"""
 
 
 @dataclass(frozen=True)
@@ -102,6 +138,27 @@ def _text(expr) -> str:
     return lower(expr, ALGEBRA)[0]
 
 
+def _assignments(assignments) -> list[str]:
+    """C statements of the assignments; s = sin(x) and c = cos(x) of the same x
+    become one sincos_ call where the first of them stood."""
+    trig = {}
+    for s, e in assignments:
+        if isinstance(e, (sp.sin, sp.cos)):
+            trig.setdefault(e.args[0], {})[e.func] = s
+    lines, done = [], set()
+    for s, e in assignments:
+        pair = trig.get(e.args[0], {}) if isinstance(e, (sp.sin, sp.cos)) else {}
+        if len(pair) == 2:
+            if s not in done:
+                sin_s, cos_s = pair[sp.sin], pair[sp.cos]
+                lines.append(f"    double {sin_s.name}, {cos_s.name};")
+                lines.append(f"    sincos_({_text(e.args[0])}, &{sin_s.name}, &{cos_s.name});")
+                done |= {sin_s, cos_s}
+            continue
+        lines.append(f"    const double {s.name} = {_text(e)};")
+    return lines
+
+
 def function_source(model: str, p: Program) -> str:
     """The single-state and batched C functions of one program."""
     sig = signature(p)
@@ -110,7 +167,7 @@ def function_source(model: str, p: Program) -> str:
     body = []
     for a, syms in p.inputs:
         body += [f"    const double {s.name} = {a}[{k}];" for k, s in enumerate(syms) if s in used]
-    body += [f"    const double {s.name} = {_text(e)};" for s, e in p.assignments]
+    body += _assignments(p.assignments)
     for o, mat in p.outputs:
         body += [f"    {o}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
     doc = f"/* {p.doc} */\n" if p.doc else ""
@@ -123,6 +180,6 @@ def function_source(model: str, p: Program) -> str:
 def c_source(bundle: Bundle) -> str:
     """The whole .c file of one model."""
     parts = [_comment(header_lines(bundle, "c")), "#include <math.h>",
-             f'#include "{bundle.name}.h"\n', _SIGN]
+             f'#include "{bundle.name}.h"\n', _HELPERS]
     parts += [function_source(bundle.name, p) for p in bundle.programs]
     return "\n".join(parts)

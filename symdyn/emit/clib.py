@@ -111,9 +111,15 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
     }
     for (i = 0; i < s->nin; ++i) {
         int nd;
-        in[i] = (PyArrayObject *)PyArray_FROMANY(args[i], NPY_DOUBLE, 0, 0, NPY_ARRAY_IN_ARRAY);
-        if (!in[i])
-            goto done;
+        if (PyArray_CheckExact(args[i]) && PyArray_TYPE((PyArrayObject *)args[i]) == NPY_DOUBLE
+            && PyArray_ISCARRAY_RO((PyArrayObject *)args[i])) {
+            Py_INCREF(args[i]);   /* fast path: already C-contiguous aligned doubles */
+            in[i] = (PyArrayObject *)args[i];
+        } else {
+            in[i] = (PyArrayObject *)PyArray_FROMANY(args[i], NPY_DOUBLE, 0, 0, NPY_ARRAY_IN_ARRAY);
+            if (!in[i])
+                goto done;
+        }
         nd = PyArray_NDIM(in[i]);
         if (nd == 0 || PyArray_DIMS(in[i])[nd - 1] != s->in_size[i]) {
             PyObject *shape = PyObject_GetAttrString((PyObject *)in[i], "shape");
