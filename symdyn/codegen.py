@@ -69,17 +69,26 @@ def bundle(robot: Robot) -> Bundle:
                   derivation="; ".join(used), source=robot.source)
 
 
+def _is_shipped(robot: Robot) -> bool:
+    """Whether robot is one of the models whose code lives in generated/."""
+    return robot.name in SHIPPED and robot.fingerprint() == models.load(robot.name).fingerprint()
+
+
 def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False) -> list[Path]:
-    """Write the model code of `robot` (a Robot or a shipped model's name) for
-    `target` ("numpy", "c", "casadi" or "all") into `out_dir` (default
-    generated/<name>); `casadi_c` also writes CasADi's own C code.  Returns
-    the paths written."""
+    """Write the model code of `robot` (a Robot or a model's name) for
+    `target` ("numpy", "c", "casadi" or "all") into `out_dir` (default, for
+    the shipped models only: generated/<name>); `casadi_c` also writes
+    CasADi's own C code.  Returns the paths written."""
     from .emit import c as c_emit, casadi as ca_emit, numpy as np_emit
 
     robot = _robot(robot)
     targets = _targets(target)
+    name = identifier(robot.name)
+    if out_dir is None and not _is_shipped(robot):
+        raise ValueError(f"generate({robot.name!r}) needs out_dir: generated/ holds only the shipped "
+                         f"models ({', '.join(SHIPPED)}) with their shipped parameters")
     b = bundle(robot)
-    out = Path(out_dir) if out_dir is not None else GENERATED / b.name
+    out = Path(out_dir) if out_dir is not None else GENERATED / name
     written = []
     for t in targets:
         if t == "numpy":
@@ -210,7 +219,8 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     """Arguments of `symdyn generate MODEL --target T [--out DIR]` / `symdyn generate --all`."""
     p.add_argument("model", nargs="?", help=f"model name ({', '.join(models.NAMES)})")
     p.add_argument("--target", default="all", choices=(*TARGETS, "all"), help="default: all")
-    p.add_argument("--out", help="output folder (default: generated/MODEL)")
+    p.add_argument("--out", help="output folder (default: generated/MODEL for the shipped models, "
+                                 "else out/MODEL)")
     p.add_argument("--all", action="store_true", help=f"regenerate generated/ ({', '.join(SHIPPED)})")
     p.add_argument("--casadi-c", action="store_true", help="also write CasADi's own C code")
     p.set_defaults(func=run_cli)
@@ -223,7 +233,8 @@ def run_cli(args: argparse.Namespace) -> int:
     if args.all:
         paths = generate_all(args.out)
     else:
-        paths = generate(args.model, args.target, args.out, casadi_c=args.casadi_c)
+        out = args.out or (None if args.model in SHIPPED else Path("out") / args.model)
+        paths = generate(args.model, args.target, out, casadi_c=args.casadi_c)
     for p in paths:
         print(p)
     print(f"{len(paths)} files written", file=sys.stderr)

@@ -103,23 +103,28 @@ def _params(dyn: Dynamics) -> list:
     return [("p", dyn.params)] if dyn.params else []
 
 
+def _doc(term: str, dyn: Dynamics, **extra) -> str:
+    """The function's docstring; a symbolic model's last argument p lists its parameters."""
+    doc = _DOCS[term].format(n=dyn.n, **extra)
+    return doc + (f" p = ({', '.join(map(str, dyn.params))})." if dyn.params else "")
+
+
 def candidates(dyn: Dynamics, origin: str | None = None) -> dict[str, FunctionSpec]:
     """Each term of one derivation as a spec (tau, M, C, Cqd, G, F, bias),
     written in the derivation's named intermediates when it has them;
     `origin` names the derivation in the generated files (default dyn.method)."""
-    n = dyn.n
     origin = origin or dyn.method
     out = {}
     for term in ("tau", "M", "C", "Cqd", "G", "F"):
         named = dyn.named.get(term)
         expr, defs = (dyn.term(term), ()) if named is None else (named, tuple(dyn.definitions))
         out[term] = FunctionSpec(term, tuple(dyn.inputs(term)), ((term, expr),), defs,
-                                 _DOCS[term].format(n=n), origin)
+                                 _doc(term, dyn), origin)
     zero = {a: sp.S.Zero for a in dyn.qdd}
     tau = out["tau"]
     out["bias"] = FunctionSpec(
         "bias", (("q", dyn.q), ("qd", dyn.qd), *_params(dyn)), (("bias", tau.outputs[0][1].xreplace(zero)),),
-        tuple((s, sp.sympify(e).xreplace(zero)) for s, e in tau.definitions), _DOCS["bias"].format(n=n),
+        tuple((s, sp.sympify(e).xreplace(zero)) for s, e in tau.definitions), _doc("bias", dyn),
         origin)
     return out
 
@@ -139,8 +144,9 @@ def fdyn_spec(M: FunctionSpec, bias: FunctionSpec) -> FunctionSpec:
     defs.update(ldl)
     params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
     origin = M.origin if M.origin == bias.origin else f"M: {M.origin}, bias: {bias.origin}"
+    doc = _DOCS["fdyn"].format(n=n) + (f" p = ({', '.join(map(str, params[0][1]))})." if params else "")
     return FunctionSpec("fdyn", (q, qd, tau, *params), (("qdd", sp.ImmutableMatrix(qdd)),),
-                        tuple(defs.items()), _DOCS["fdyn"].format(n=n), origin)
+                        tuple(defs.items()), doc, origin)
 
 
 def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
@@ -148,7 +154,7 @@ def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
     n, cols = dyn.n, reg.columns
     Y = sp.ImmutableMatrix(n, len(cols), lambda i, k: cols[k][i])
     return FunctionSpec("Y", (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)), (("Y", Y),),
-                        tuple(reg.tape.defs.items()), _DOCS["Y"].format(n=n, p=len(cols)), "regressor")
+                        tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor")
 
 
 def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> list[Program]:

@@ -94,3 +94,23 @@ def test_cli_generate_writes_one_target(tmp_path, capsys):
     assert (tmp_path / "twolink.py").read_bytes() == (codegen.GENERATED / "twolink" / "twolink.py").read_bytes()
     with pytest.raises(ValueError, match="model name or --all"):
         args.func(parser.parse_args([]))
+
+
+def test_generate_needs_out_dir_for_a_model_not_shipped_as_is():
+    heavy = models.load("twolink").payload(2.5, (0.1, 0, 0))
+    with pytest.raises(ValueError, match="needs out_dir"):
+        codegen.generate(heavy, "numpy")
+
+
+def test_symbolic_model_takes_its_parameters_as_last_argument(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    robot = models.load("twolink", symbolic=True)
+    m = codegen.load(robot, "numpy")
+    names = [str(s) for s in sorted(robot.free_symbols, key=str)]
+    assert m.tau.__doc__.endswith(f"p = ({', '.join(names)}).")
+    values = {"a1": 1.0, "a2": 0.8, "c1": -0.5, "c2": -0.3, "g": 9.81, "m1": 1.2, "m2": 0.7}
+    numeric = robot.subs(values)
+    p = np.array([values[k] for k in names])
+    q = np.array([[0.3, -0.7], [1.1, 0.4]])
+    assert_close(m.tau(q, -q, 2 * q, p), ref.rne(numeric, q, -q, 2 * q), "symbolic twolink tau")
+    assert_close(m.fdyn(q, -q, m.tau(q, -q, 2 * q, p), p), 2 * q, "symbolic twolink fdyn")
