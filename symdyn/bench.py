@@ -364,8 +364,18 @@ def _agree(label: str, got, want, rtol: float = 1e-9) -> None:
         raise RuntimeError(f"{label} differs from the reference by {err:.1e} (relative): not timed")
 
 
+def _shipped_model():
+    """`symdyn.load(MODEL, "c")` as a user gets it (with friction), or None outside a checkout."""
+    from .codegen import GENERATED, load
+
+    if not (GENERATED / MODEL / f"{MODEL}.c").exists():
+        return None
+    return load(MODEL, "c")
+
+
 def python_level(robot, states, args, log) -> list[Row]:
     """Rows of the comparison from Python: single calls and per state in batches."""
+    from .codegen import GENERATED
     from .emit.clib import load_library
 
     q, qd, qdd, _ = states
@@ -397,6 +407,12 @@ def python_level(robot, states, args, log) -> list[Row]:
     batch = f"Python, N={N}, per state"
     ours, peer = _paired_ns(lambda: fast_tau(q1, qd1, qdd1), one, 20000, 7)
     rows = [Row("Python, 1 call", "tau (C target)", ours, "pin.rnea", peer, ops, 3)]
+    shipped = _shipped_model()
+    if shipped is not None:
+        _agree("symdyn.load(...).tau", shipped.tau(q1, qd1, qdd1), ref.rne(robot, q1, qd1, qdd1))
+        ours, peer = _paired_ns(lambda: shipped.tau(q1, qd1, qdd1), one, 20000, 7)
+        rows.append(Row("Python, 1 call", "tau +friction (symdyn.load)", ours, "pin.rnea (no friction)", peer,
+                        op_counts(GENERATED / MODEL / f"{MODEL}.c").get("tau"), None))
     ours, peer = _paired_ns(lambda: fast_tau(q, qd, qdd), many, 3, 7, N)
     rows.append(Row(batch, "tau (C target)", ours, "pin.rneaInParallel, 1 thread", peer, ops, 4))
     bot = toolbox_robot(bare)
