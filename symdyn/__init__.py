@@ -18,18 +18,18 @@ def derive(robot, method="newton-euler", **options):
     return _derive(robot, method, **options)
 
 
-def generate(robot, target="all", out_dir=None):
+def generate(robot, target="all", out_dir=None, **options):
     """Write model code for `robot`: see `symdyn.codegen.generate`."""
     from .codegen import generate as _generate
 
-    return _generate(robot, target, out_dir)
+    return _generate(robot, target, out_dir, **options)
 
 
-def load(name_or_robot, target="c"):
+def load(name_or_robot, target="c", **options):
     """Generated model functions (tau, M, C, Cqd, G, F, fdyn, Y): see `symdyn.codegen.load`."""
     from .codegen import load as _load
 
-    return _load(name_or_robot, target)
+    return _load(name_or_robot, target, **options)
 
 
 __all__ = ["Link", "Robot", "models", "derive", "generate", "load", "__version__"]

@@ -2,21 +2,34 @@
 
 Dispatches to `symdyn.lagrange` or `symdyn.newton_euler`, records timing
 and keeps the result on disk (see `symdyn.cache`) so a second run of the
-same derivation is a load, not a derivation.
+same derivation is a load, not a derivation.  The key covers the model, the
+method, symdyn's version and the source of the derivation modules.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import hashlib
 import time
+from pathlib import Path
 
 from . import __version__
 from .cache import cached, key
 from .dynamics import METHODS, Dynamics
 from .model import Robot
 
-#: Bump when Dynamics or a derivation changes shape, so old cache entries are not reused.
-SCHEMA = 5
+#: The modules whose code decides a derivation's result: their source is part of the cache key.
+_SOURCES = ("model", "symbols", "kinematics", "dynamics", "newton_euler", "lagrange", "trigpoly", "regressor")
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """Hash of the derivation code, so an edited derivation never reuses old cache entries."""
+    digest = hashlib.sha256()
+    for name in _SOURCES:
+        digest.update(Path(__file__).with_name(f"{name}.py").read_bytes())
+    return digest.hexdigest()
 
 
 def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False, cache: bool = True,
@@ -55,7 +68,7 @@ def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False,
         dyn.stats["derive_seconds"] = time.perf_counter() - start
         return dyn
 
-    entry = key(robot.fingerprint(), method, __version__, str(SCHEMA), f"regroup={regroup}")
+    entry = key(robot.fingerprint(), method, __version__, code_fingerprint(), f"regroup={regroup}")
     kind = f"derive-{method}" + ("-regrouped" if regroup else "")
     dyn, hit = cached(kind, entry, build, use_cache=cache)
     dyn = dataclasses.replace(dyn, robot=robot)  # the caller's name and poses

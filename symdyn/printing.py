@@ -53,10 +53,10 @@ def render(items: list, fmt: str = "text") -> str:
     if fmt == "pretty":
         return "\n\n".join(f"{name} =\n{sp.pretty(e, use_unicode=True, wrap_line=False)}" for name, e in items)
     body = "\n".join(
-        f"\\begin{{dmath*}}\n{_latex_name(name)} = {sp.latex(e, symbol_names=_latex_symbols(e))}\n\\end{{dmath*}}"
+        f"\\begin{{multline*}}\n{_latex_name(name)} = {sp.latex(e, symbol_names=_latex_symbols(e))}\n\\end{{multline*}}"
         for name, e in items)
-    return ("\\documentclass{article}\n\\usepackage{amsmath}\n\\usepackage{breqn}\n"
-            "\\begin{document}\n" + body + "\n\\end{document}\n")
+    return ("\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n"
+            "\\begin{document}\n\\small\n" + body + "\n\\end{document}\n")
 
 
 def _latex_symbols(expr: sp.Expr) -> dict:
