@@ -335,6 +335,25 @@ def derive(robot: Robot) -> Dynamics:
     M, C, G = equations(robot)
     F = friction_expr(robot, T.qd)
     tau = sp.ImmutableMatrix([t.to_expr() + f for t, f in zip(T.tau, F)])
+    definitions, C_named = _christoffel_program(T, robot.n)
     stats = dict(T.stats, time_total=time.perf_counter() - t0)
     return Dynamics(robot=robot, method="lagrange", q=T.q, qd=T.qd, qdd=T.qdd, M=M, C=C, G=G, F=F, tau=tau,
-                    stats=stats)
+                    definitions=definitions, named={"C": C_named}, stats=stats)
+
+
+def _christoffel_program(T: "TrigDynamics", n: int) -> tuple[tuple, sp.ImmutableMatrix]:
+    """C written in named Christoffel symbols, C_kj = Σ_i Γ_kij q̇_i, each Γ_kij
+    (= Γ_kji) named once: a third fewer operations than C's entries expanded."""
+    definitions, names = [], {}
+    for k in range(n):
+        for i in range(n):
+            for j in range(i, n):
+                g = T.Gamma[k][i][j]
+                if g.is_zero():
+                    continue
+                sym = sp.Symbol(f"Gamma{k + 1}_{i + 1}{j + 1}", real=True)
+                definitions.append((sym, g.to_expr()))
+                names[k, i, j] = names[k, j, i] = sym
+    C = sp.ImmutableMatrix(n, n, lambda k, j: sp.Add(*(names[k, i, j] * T.qd[i] for i in range(n)
+                                                         if (k, i, j) in names)))
+    return tuple(definitions), C

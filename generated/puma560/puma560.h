@@ -8,7 +8,7 @@
  * operation counts (a - b counts as one add, negation is free):
  *   tau   230 mul, 171 add, 16 fun (417 total)  [newton-euler, base parameters]
  *   M     110 mul, 78 add, 8 fun (196 total)  [newton-euler, base parameters]
- *   C     703 mul, 844 add, 8 fun (1555 total)  [lagrange]
+ *   C     509 mul, 484 add, 8 fun (1001 total)  [lagrange]
  *   Cqd   187 mul, 123 add, 10 fun (320 total)  [newton-euler, base parameters]
  *   G     28 mul, 12 add, 8 fun (48 total)  [newton-euler, base parameters]
  *   F     24 mul, 12 add, 6 fun (42 total)  [newton-euler, base parameters]

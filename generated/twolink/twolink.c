@@ -111,12 +111,12 @@ void twolink_C(const double q[2], const double qd[2], double C[4])
     const double q2 = q[1];
     const double qd1 = qd[0];
     const double qd2 = qd[1];
-    const double s2 = sin_(q2);
-    const double x1 = 0.5*qd2;
-    const double x2 = 0.5*qd1;
-    C[0] = -s2*x1;
-    C[1] = s2*(-x1 - x2);
-    C[2] = s2*x2;
+    const double Gamma2_11 = 0.5*sin_(q2);
+    const double Gamma1_12 = -Gamma2_11;
+    const double Gamma1_22 = Gamma1_12;
+    C[0] = Gamma1_12*qd2;
+    C[1] = Gamma1_12*qd1 + Gamma1_22*qd2;
+    C[2] = Gamma2_11*qd1;
     C[3] = 0.0;
 }
 
