@@ -52,22 +52,38 @@ CFLAGS = ("-O3", "-march=native")
 
 @dataclass
 class Row:
-    """One comparison: times in ns per call (per state for batches), ops of the symdyn function,
-    target = the speed-up (peer/symdyn) issue 4 asks for, if any."""
+    """One comparison: paired samples (one per round or repetition) of ns per call
+    (per state for batches) of symdyn and the peer (none: peer not measured), the
+    op count of the symdyn function and the speed-up (peer/symdyn) issue 4 asks for."""
 
     level: str
     function: str
-    symdyn_ns: float | None
+    symdyn: tuple
     peer: str
-    peer_ns: float | None
+    peer_samples: tuple = ()
     ops: int | None = None
     target: float | None = None
 
     @property
+    def symdyn_ns(self) -> float:
+        return statistics.median(self.symdyn)
+
+    @property
+    def peer_ns(self) -> float | None:
+        return statistics.median(self.peer_samples) if self.peer_samples else None
+
+    @property
     def ratio(self) -> float | None:
-        if self.symdyn_ns is None or self.peer_ns is None:
+        """Speed-up: median peer time / median symdyn time."""
+        return None if self.peer_ns is None else self.peer_ns / self.symdyn_ns
+
+    @property
+    def spread(self) -> tuple[float, float] | None:
+        """(lowest, highest) speed-up of the paired samples: how much the machine's noise moves it."""
+        if len(self.peer_samples) < 2:
             return None
-        return self.peer_ns / self.symdyn_ns
+        ratios = [p / s for s, p in zip(self.symdyn, self.peer_samples)]
+        return min(ratios), max(ratios)
 
     @property
     def met(self) -> str:
@@ -314,29 +330,28 @@ def c_level(robot, states, args, log) -> list[Row]:
         states_file.unlink(missing_ok=True)
         if dh is not None:
             dh.unlink(missing_ok=True)
-    med = lambda runs, name: statistics.median(t[name] for t in runs) if runs and name in runs[0] else None  # noqa: E731
+    samples = lambda runs, name: tuple(t[name] for t in runs if name in t)  # noqa: E731
     ops = {"bare": op_counts(src["c"]), "shipped": op_counts(shipped / f"{MODEL}.c") if "shipped" in harnesses else {}}
     rows = []
     for label, key, fn, peer, algo, target in C_ROWS:
         if key not in harnesses or (algo == "casadi_rnea" and casadi_c is None):
             continue
-        peer_ns = med(times["bare"], algo) if algo == "casadi_rnea" else med(pin_times, algo)
-        rows.append(Row("C", label, med(times[key], fn), peer, peer_ns, ops[key].get(fn), target))
+        peer_ns = samples(times["bare"] if algo == "casadi_rnea" else pin_times, algo)
+        rows.append(Row("C", label, samples(times[key], fn), peer, peer_ns, ops[key].get(fn), target))
     return rows
 
 
 # --------------------------------------------------------------------------- from Python
 
-def _paired_ns(ours, peer, number: int, repeat: int, per: int = 1) -> tuple[float, float | None]:
-    """Median ns per call (divided by `per` states) of ours() and peer(), timed in
-    alternation `repeat` times, `number` calls each (peer None: not timed)."""
+def _paired_ns(ours, peer, number: int, repeat: int, per: int = 1) -> tuple[tuple, tuple]:
+    """ns per call (divided by `per` states) of ours() and peer(), timed in alternation
+    `repeat` times, `number` calls each (peer None: not timed)."""
     a, b = [], []
     for _ in range(repeat):
-        a.append(timeit.timeit(ours, number=number))
+        a.append(timeit.timeit(ours, number=number) * 1e9 / number / per)
         if peer is not None:
-            b.append(timeit.timeit(peer, number=number))
-    scale = 1e9 / number / per
-    return statistics.median(a) * scale, statistics.median(b) * scale if b else None
+            b.append(timeit.timeit(peer, number=number) * 1e9 / number / per)
+    return tuple(a), tuple(b)
 
 
 def _import_path(path: Path, name: str):
@@ -433,13 +448,16 @@ def python_level(robot, states, args, log) -> list[Row]:
 
 # --------------------------------------------------------------------------- report
 
-COLUMNS = ("level", "function", "symdyn ns", "peer", "peer ns", "speed-up", "ops", "target", "met")
+COLUMNS = ("level", "function", "symdyn ns", "peer", "peer ns", "speed-up", "range", "ops", "target", "met")
+RIGHT = {2, 4, 5, 6, 7}
 
 
 def _cells(row: Row) -> list[str]:
     num = lambda x, fmt: "n/a" if x is None else format(x, fmt)  # noqa: E731
+    spread = row.spread
     return [row.level, row.function, num(row.symdyn_ns, ".1f"), row.peer, num(row.peer_ns, ".1f"),
-            num(row.ratio, ".2f") + ("×" if row.ratio is not None else ""), num(row.ops, "d"),
+            num(row.ratio, ".2f") + ("×" if row.ratio is not None else ""),
+            f"{spread[0]:.1f}–{spread[1]:.1f}" if spread else "", num(row.ops, "d"),
             f"≥ {row.target}×" if row.target else "", row.met]
 
 
@@ -447,8 +465,7 @@ def format_table(rows: list[Row]) -> str:
     """A plain-text table, one line per comparison."""
     cells = [list(COLUMNS)] + [_cells(r) for r in rows]
     widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
-    right = {2, 4, 5, 6}
-    lines = ["  ".join(c.rjust(w) if i in right else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
+    lines = ["  ".join(c.rjust(w) if i in RIGHT else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
              for line in cells]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(line.rstrip() for line in lines)
@@ -456,7 +473,7 @@ def format_table(rows: list[Row]) -> str:
 
 def markdown_table(rows: list[Row]) -> str:
     """The same table in Markdown."""
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "|".join("---:" if i in (2, 4, 5, 6) else "---"
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "|".join("---:" if i in RIGHT else "---"
                                                            for i in range(len(COLUMNS))) + "|"]
     lines += ["| " + " | ".join(_cells(r)) + " |" for r in rows]
     return "\n".join(lines)
@@ -517,8 +534,8 @@ def main(args=None) -> int:
     rows = c_level(robot, states, args, log)
     if not args.no_python:
         rows += python_level(robot, states, args, log)
-    print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches); "
-          f"speed-up = peer / symdyn")
+    print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
+          f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions")
     print(format_table(rows))
     print(f"machine: {machine()}")
     if args.markdown:

@@ -2,8 +2,8 @@
 times code that agrees with the reference; the table reports speed-ups.  No
 timing assertions (the machine is shared and noisy)."""
 
-import importlib.util
 import math
+import re
 
 import numpy as np
 import pytest
@@ -55,26 +55,32 @@ def test_states_pool_must_be_power_of_two(tmp_path):
         bench.write_states(tmp_path / "s.bin", q, q, q, q)
 
 
-def test_op_counts_read_from_generated_header():
-    spec = importlib.util.spec_from_file_location("_bench_puma560_numpy", PUMA / "puma560.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    assert bench.op_counts(PUMA / "puma560.c") == {f: c["total"] for f, c in module.OP_COUNTS.items()}
+def test_op_counts_read_from_generated_header(tmp_path):
+    header = ("/*\n * operation counts (a - b counts as one add, negation is free):\n"
+              " *   tau   230 mul, 171 add, 16 fun (417 total)  [newton-euler]\n"
+              " *   fdyn  411 mul, 297 add, 6 div, 16 fun (730 total)  [newton-euler]\n */\n"
+              "void m_tau(void) { /* 12 mul (99 total) is not in the header */ }\n")
+    (tmp_path / "m.c").write_text(header)
+    assert bench.op_counts(tmp_path / "m.c") == {"tau": 417, "fdyn": 730}
+    shipped = bench.op_counts(PUMA / "puma560.c")
+    functions = re.findall(r"function: (\w+)\(", (PUMA / "puma560.h").read_text())
+    assert sorted(shipped) == sorted(functions) and all(n > 0 for n in shipped.values())
 
 
 def test_table_has_speed_up_and_target_columns():
-    rows = [bench.Row("C", "tau", 100.0, "Pinocchio rnea", 850.0, 369, 8),
-            bench.Row("C", "M", 200.0, "Pinocchio crba", 850.0, 196, 6),
-            bench.Row("C", "G", 50.0, "Pinocchio computeGeneralizedGravity", None, 48)]
+    rows = [bench.Row("C", "tau", (100.0, 125.0, 90.0), "Pinocchio rnea", (850.0, 900.0, 800.0), 369, 8),
+            bench.Row("C", "M", (200.0,), "Pinocchio crba", (850.0,), 196, 6),
+            bench.Row("C", "G", (50.0,), "Pinocchio computeGeneralizedGravity", (), 48)]
     assert [r.ratio for r in rows] == [8.5, 4.25, None]
+    assert rows[0].spread == (900.0 / 125.0, 800.0 / 90.0) and rows[1].spread is None
     assert [r.met for r in rows] == ["yes", "no", ""]
     text = bench.format_table(rows)
     header = text.splitlines()[0].split()
-    assert {"symdyn", "peer", "speed-up", "ops", "target", "met"} <= set(header)
-    assert "8.50×" in text and "4.25×" in text and "n/a" in text
+    assert {"symdyn", "peer", "speed-up", "range", "ops", "target", "met"} <= set(header)
+    assert "8.50×" in text and "7.2–8.9" in text and "4.25×" in text and "n/a" in text
     md = bench.markdown_table(rows).splitlines()
     assert md[0].startswith("| level | function | symdyn ns") and "speed-up" in md[0]
-    assert len(md) == 2 + len(rows) and "| 8.50× | 369 | ≥ 8× | yes |" in md[2]
+    assert len(md) == 2 + len(rows) and "| 8.50× | 7.2–8.9 | 369 | ≥ 8× | yes |" in md[2]
 
 
 def test_missing_pin_peer_says_how_to_fix(tmp_path, monkeypatch):
