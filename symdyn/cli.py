@@ -62,7 +62,7 @@ def _cmd_print(args: argparse.Namespace) -> int:
     robot = _load_model(args.model, args.numeric)
     terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
-    print(closed_form(dyn, terms, args.format, args.prune))
+    print(closed_form(dyn, terms, args.format, args.prune, args.form))
     comment = "%" if args.format == "latex" else "#"
     stages = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
     print(f"{comment} {robot.name} by {dyn.method}; operations (mul+add) at each stage:")
@@ -114,6 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--term", default="all", choices=("M", "C", "Cqd", "G", "F", "tau", "all"))
     p.add_argument("--method", default="newton-euler", choices=("newton-euler", "lagrange"))
     p.add_argument("--format", default="text", choices=("text", "pretty", "latex"))
+    p.add_argument("--form", default="book", choices=("book", "folded"),
+                   help="book: products of sines/cosines of natural angles (S23*C4*S5); "
+                        "folded: sines/cosines of angle sums")
     p.add_argument("--prune", type=float, default=None, metavar="TOL",
                    help="drop terms below TOL relative to each element's scale")
     p.add_argument("--numeric", action="store_true", help="numeric parameters even where a symbolic variant exists")

@@ -1,6 +1,7 @@
 """Closed forms for people: named elements (M11, C23, G1, …) as text, pretty or LaTeX.
 
-The last step for the reader: each element is folded and collected by
+The last step for the reader: each element is rewritten (book form: S23·C4·S5
+products of natural angles; or folded: sin(q2 + q3 + q5) sums) and collected by
 `symdyn.simplify.tidy`; numeric coefficients are shown to `digits`
 significant figures (the exact values stay in the derivation).
 """
@@ -21,9 +22,11 @@ def _display(expr: sp.Expr, digits: int) -> sp.Expr:
     return expr.xreplace(repl)
 
 
-def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, digits: int = 5) -> list:
+def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, digits: int = 5,
+             form: str = "book") -> list:
     """[(name, expr)] for one term: M and C by (row, column), vectors by row;
-    M lists its upper triangle only (it is symmetric)."""
+    M lists its upper triangle only (it is symmetric).  form: "book" (products
+    of sines and cosines of natural angles) or "folded" (sums of angles)."""
     mat = dyn.term(term)
     if prune_tol is not None:
         mat, _ = prune(dyn, term, prune_tol)
@@ -33,7 +36,7 @@ def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, digits
             if term == "M" and j < i:
                 continue
             name = f"{term}{i + 1}{j + 1}" if mat.cols > 1 else f"{term}{i + 1}"
-            out.append((name, _display(tidy(mat[i, j], dyn), digits)))
+            out.append((name, _display(tidy(mat[i, j], dyn, form), digits)))
     return out
 
 
@@ -71,10 +74,10 @@ def _latex_symbols(expr: sp.Expr) -> dict:
 
 
 def closed_form(dyn: Dynamics, terms=("M", "C", "G", "F", "tau"), fmt: str = "text",
-                prune_tol: float | None = None) -> str:
+                prune_tol: float | None = None, form: str = "book") -> str:
     """Every requested term of `dyn`, rendered."""
     for t in terms:
         if t not in TERMS:
             raise ValueError(f"unknown term {t!r}: expected one of {', '.join(TERMS)} or all")
-    items = [item for t in terms for item in elements(dyn, t, prune_tol=prune_tol)]
+    items = [item for t in terms for item in elements(dyn, t, prune_tol=prune_tol, form=form)]
     return render(items, fmt)

@@ -11,6 +11,8 @@ significance analysis: terms that never matter over the joint-limit box go.
 
 from __future__ import annotations
 
+import functools
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,15 +20,13 @@ import sympy as sp
 
 from . import trigpoly
 from .dynamics import Dynamics
+from .model import exact_cos_sin
 from .program import make_program
 
 
 def fold(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
     """expr as an exact trig polynomial in the joint angles (cos(q2 + q3), …)."""
-    if dyn.robot.links and any(not link.is_revolute for link in dyn.robot.links):
-        angles = [q for q, link in zip(dyn.q, dyn.robot.links) if link.is_revolute]
-    else:
-        angles = list(dyn.q)
+    angles = _angles(dyn)
     expr = sp.sympify(expr)
     if expr.has(sp.sign):  # friction: sign(qd) is a coefficient, not an angle
         signs = sorted(expr.atoms(sp.sign), key=str)
@@ -34,6 +34,96 @@ def fold(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
         back = {v: k for k, v in names.items()}
         return trigpoly.fold(expr.xreplace(names), angles).xreplace(back)
     return trigpoly.fold(expr, angles)
+
+
+def parallel_chains(robot) -> list[tuple[int, ...]]:
+    """Runs of consecutive revolute joints with parallel axes (Puma: joints 2, 3),
+    as 0-based indices: their angle sums are the natural angles of the arm."""
+    mdh = robot.to_modified()
+    chains, run = [], []
+    for j, link in enumerate(mdh.links):
+        parallel = j > 0 and link.is_revolute and mdh.links[j - 1].is_revolute \
+            and not isinstance(link.alpha, sp.Basic) and exact_cos_sin(link.alpha)[1] == 0
+        if parallel:
+            run = run or [j - 1]
+            run.append(j)
+        else:
+            if len(run) > 1:
+                chains.append(tuple(run))
+            run = []
+    if len(run) > 1:
+        chains.append(tuple(run))
+    return chains
+
+
+def _decompose(k: tuple, chains: list) -> list[tuple[tuple[int, ...], int]]:
+    """k·q as a short sum of atoms (single angles and parallel-chain sums):
+    [(joints, multiplicity)], fewest atoms first, then smallest multiplicities."""
+    atoms: list = []
+    rest = list(k)
+    for chain in chains:
+        runs = [chain[a:b] for a in range(len(chain)) for b in range(a + 2, len(chain) + 1)]
+        values = sorted({0} | {k[i] for i in chain}, key=lambda v: (abs(v), v))
+        best = None
+        for ms in itertools.product(values, repeat=len(runs)):
+            r = {i: k[i] for i in chain}
+            for run, m in zip(runs, ms):
+                for i in run:
+                    r[i] -= m
+            cost = (sum(1 for m in ms if m) + sum(1 for v in r.values() if v),
+                    sum(map(abs, ms)) + sum(map(abs, r.values())))
+            if best is None or cost < best[0]:
+                best = (cost, ms, r)
+        _, ms, r = best
+        atoms += [(run, m) for run, m in zip(runs, ms) if m]
+        for i in chain:
+            rest[i] = r[i]
+    return atoms + [((i,), m) for i, m in enumerate(rest) if m]
+
+
+def book_form(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
+    """expr as a polynomial in sines and cosines of natural angles (qᵢ and the
+    sums of parallel joints, e.g. q2 + q3), with sin² reduced to 1 − cos²:
+    the products a textbook prints (S23·C4·S5), exactly equal to expr."""
+    angles = _angles(dyn)
+    expr = sp.sympify(expr)
+    signs = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(sorted(expr.atoms(sp.sign), key=str))}
+    space = trigpoly.space_for([expr.xreplace(signs)], angles)
+    poly = trigpoly.from_expr(expr.xreplace(signs), space)
+    chains = [tuple(angles.index(dyn.q[i]) for i in c) for c in parallel_chains(dyn.robot)
+              if all(dyn.q[i] in angles for i in c)]
+    out = []
+    for k, kind, coeff in poly.items():
+        out.append(coeff.as_expr() * _expand_atoms(tuple(k), kind, tuple(chains), tuple(angles)))
+    back = {v: k for k, v in signs.items()}
+    return sp.expand(sp.Add(*out)).xreplace(back)
+
+
+@functools.lru_cache(maxsize=4096)
+def _expand_atoms(k: tuple, kind: str, chains: tuple, angles: tuple) -> sp.Expr:
+    atoms = _decompose(k, list(chains))
+    if not atoms:
+        return sp.S.One if kind == "cos" else sp.S.Zero
+    phis = [sp.Dummy(f"phi{a}") for a in range(len(atoms))]
+    arg = sp.Add(*(m * phi for (_, m), phi in zip(atoms, phis)))
+    e = sp.expand(sp.expand_trig(sp.cos(arg) if kind == "cos" else sp.sin(arg)))
+    S = [sp.sin(p) for p in phis]
+    C = [sp.cos(p) for p in phis]
+    poly = sp.Poly(e, *S, *C)
+    n = len(phis)
+    total = sp.S.Zero
+    for monom, c in poly.terms():
+        term = c
+        for a in range(n):
+            es, ec = monom[a], monom[n + a]
+            term *= S[a] ** (es % 2) * (1 - C[a] ** 2) ** (es // 2) * C[a] ** ec
+        total += term
+    real = {phi: sp.Add(*(angles[i] for i in run)) for (run, _), phi in zip(atoms, phis)}
+    return sp.expand(total).xreplace(real)
+
+
+def _angles(dyn: Dynamics) -> list:
+    return [q for q, link in zip(dyn.q, dyn.robot.links) if link.is_revolute]
 
 
 def inertial_symbols(dyn: Dynamics) -> list:
@@ -48,10 +138,17 @@ def inertial_symbols(dyn: Dynamics) -> list:
     return syms
 
 
-def tidy(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
-    """Folded and collected: by the joint rates (q̈, q̇ products), then by the
-    inertial parameters and gravity, then by trig functions."""
-    expr = fold(expr, dyn)
+FORMS = ("book", "folded")
+
+
+def tidy(expr: sp.Expr, dyn: Dynamics, form: str = "book") -> sp.Expr:
+    """Simplified and collected: by the joint rates (q̈, q̇ products), then by
+    the inertial parameters and gravity, then by trig functions.  form="book":
+    products of sines and cosines of natural angles (`book_form`);
+    "folded": sines and cosines of sums of angles (`fold`)."""
+    if form not in FORMS:
+        raise ValueError(f"unknown form {form!r}: expected one of {', '.join(FORMS)}")
+    expr = book_form(expr, dyn) if form == "book" else fold(expr, dyn)
     rates = list(dyn.qdd) + [a * b for i, a in enumerate(dyn.qd) for b in dyn.qd[i:]] + list(dyn.qd)
     gravity = [s for v in dyn.robot.gravity for s in getattr(v, "free_symbols", ())]
     params = gravity + inertial_symbols(dyn)
@@ -70,10 +167,14 @@ def tidy(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
 
 
 def _trig_collect(expr: sp.Expr) -> sp.Expr:
+    """Group by products of trig functions; factor each (symbolic) coefficient."""
     trig = sorted(expr.atoms(sp.sin, sp.cos), key=sp.default_sort_key)
     if not trig:
         return sp.factor(expr) if len(expr.free_symbols) <= 8 else expr
-    groups = sp.collect(sp.expand(expr), trig, evaluate=False)
+    groups: dict = {}
+    for term in sp.Add.make_args(sp.expand(expr)):
+        coeff, monomial = term.as_independent(*trig, as_Add=False)
+        groups[monomial] = groups.get(monomial, 0) + coeff
     return sp.Add(*((sp.factor(v) if v.free_symbols else v) * k for k, v in groups.items()))
 
 

@@ -55,12 +55,37 @@ def test_latex_compiles_when_a_tex_engine_is_present(tmp_path):
     assert run.returncode == 0, run.stdout[-2000:]
 
 
-def test_folded_gravity_of_the_puma_uses_the_natural_angle_q2_plus_q3():
+@pytest.mark.parametrize("form", ["book", "folded"])
+def test_printed_gravity_of_the_puma_uses_the_natural_angle_q2_plus_q3(form):
     dyn = derive(models.load("puma560"))
-    g2 = tidy(dyn.G[1], dyn)
-    q2, q3 = dyn.q[1], dyn.q[2]
+    g2 = tidy(dyn.G[1], dyn, form)
+    q2, q3, q4, q5 = dyn.q[1:5]
     assert g2.has(sp.cos(q2 + q3)) and g2.has(sp.sin(q2 + q3))
-    assert not g2.has(sp.cos(q2) * sp.cos(q3))
+    assert not g2.has(sp.cos(q3)) and not g2.has(sp.sin(q3))
+    if form == "book":   # products of natural angles, no angle sums beyond q2 + q3
+        assert g2.has(sp.sin(q5) * sp.cos(q4) * sp.cos(q2 + q3))
+        assert not any(len(a.args[0].args) > 2 for a in g2.atoms(sp.sin, sp.cos))
+    else:
+        assert g2.has(sp.sin(q2 + q3 + q4 + q5))
+
+
+@pytest.mark.parametrize("name", ["puma560", "rrp"])
+def test_book_form_is_exactly_the_derived_expression(name):
+    from symdyn import trigpoly
+    from symdyn.simplify import book_form
+
+    dyn = derive(models.load(name))
+    angles = [q for q, link in zip(dyn.q, dyn.robot.links) if link.is_revolute]
+    for e in list(dyn.M) + list(dyn.G):
+        assert trigpoly.equal(book_form(e, dyn), e, angles)
+
+
+def test_parallel_joints_give_the_natural_angles():
+    from symdyn.simplify import parallel_chains
+
+    assert parallel_chains(models.load("puma560")) == [(1, 2)]
+    assert parallel_chains(models.load("twolink")) == [(0, 1)]
+    assert parallel_chains(models.load("rrp")) == []
 
 
 def test_pruning_reports_its_worst_error_and_saves_operations():
