@@ -6,7 +6,8 @@ motor-side joint transfer functions, and the small two-link arm of the
 chapter's exercise 3.  Every function is pure (robot in, arrays out) and
 batched over leading axes of q.  Model terms come through
 `model_functions(robot)`, the one place that decides which implementation
-(reference recursion or generated code) evaluates M, G and the bias forces.
+(`symdyn.backend`: generated code, else the reference recursion) evaluates
+M and G.
 """
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import backend as backends
 from . import reference
+from .backend import Model
 from .model import Robot, rotx
 
 __all__ = [
-    "EARTH_GRAVITY", "LUNAR_GRAVITY", "FULL_TURN", "ModelFunctions", "model_functions",
+    "EARTH_GRAVITY", "LUNAR_GRAVITY", "FULL_TURN", "model_functions",
     "with_gravity", "inverted", "joint_grid", "Extreme", "Sweep", "gravity_load_map",
     "inertia_map", "inertia_curve", "PayloadEffect", "payload_effect", "base_wrench",
     "total_mass", "AXES", "cartesian_inertia", "dynamic_manipulability", "AccelerationEllipsoid",
@@ -36,43 +39,13 @@ FULL_TURN = (-math.pi, math.pi)
 
 # --------------------------------------------------------------------------- model evaluation
 
-@dataclass(frozen=True)
-class ModelFunctions:
-    """Numeric M(q), G(q), C(q,q̇)q̇ + G(q), τ and q̈ of one robot, batched over leading axes.
-
-    `backend` names the implementation; today the reference recursion
-    (`symdyn.reference`) for every robot.
-    """
-
-    robot: Robot
-    rigid: Robot          # the same robot without friction, for the bias forces
-    backend: str = "reference"
-
-    def inertia(self, q) -> np.ndarray:
-        """M(q) (..., n, n), rotor term included."""
-        return reference.inertia(self.robot, q)
-
-    def gravload(self, q) -> np.ndarray:
-        """G(q) (..., n): the torques that hold the arm still."""
-        return reference.gravload(self.robot, q)
-
-    def bias(self, q, qd) -> np.ndarray:
-        """C(q, q̇)q̇ + G(q) (..., n), without friction."""
-        return reference.rne(self.rigid, q, qd, np.zeros_like(np.asarray(qd, dtype=float)))
-
-    def rne(self, q, qd, qdd, **options):
-        """Inverse dynamics τ with friction; options as `reference.rne` (base_wrench, wrench, gravity)."""
-        return reference.rne(self.robot, q, qd, qdd, **options)
-
-    def accel(self, q, qd, tau) -> np.ndarray:
-        """Forward dynamics q̈ (..., n) with the robot's own (exact-sign) friction."""
-        return reference.accel(self.robot, q, qd, tau)
-
-
-def model_functions(robot: Robot) -> ModelFunctions:
-    """The model evaluator for a numeric robot (the reference recursion)."""
+def model_functions(robot: Robot, backend: str = "auto") -> Model:
+    """M, G, C·q̇, … of a numeric robot (`symdyn.backend.model`): by default the
+    generated code of a shipped model, else the reference recursion (an
+    analysis makes a few large batched calls; the reference vectorises them
+    and needs no CasADi build)."""
     robot.require_numeric("numeric analysis")
-    return ModelFunctions(robot, robot.nofriction(all=True))
+    return backends.model(robot, backend, fallback="reference")
 
 
 # --------------------------------------------------------------------------- robot variants
@@ -171,7 +144,7 @@ def gravity_load_map(robot: Robot, *, joints=(1, 2), loads=None, resolution: int
     """
     loads = tuple(joints if loads is None else loads)
     axes, q = joint_grid(robot, joints, resolution, pose=pose, span=span)
-    G = model_functions(robot).gravload(q)
+    G = model_functions(robot).G(q)
     return Sweep(tuple(joints), axes, G[..., list(loads)], tuple(f"G{j + 1}" for j in loads))
 
 
@@ -179,7 +152,7 @@ def inertia_map(robot: Robot, *, elements=((0, 0), (0, 1)), joints=(1, 2), resol
                 pose=None, span=FULL_TURN) -> Sweep:
     """Inertia-matrix elements M_ij (kg·m², 0-based (i, j)) over a grid of `joints` (default M11, M12 over q2, q3)."""
     axes, q = joint_grid(robot, joints, resolution, pose=pose, span=span)
-    M = model_functions(robot).inertia(q)
+    M = model_functions(robot).M(q)
     values = np.stack([M[..., i, j] for i, j in elements], -1)
     return Sweep(tuple(joints), axes, values, tuple(f"M{i + 1}{j + 1}" for i, j in elements))
 
@@ -230,7 +203,7 @@ def payload_effect(robot: Robot, m: float, p, q, *, additive: bool = False) -> P
     q = np.asarray(q, dtype=float)
     loaded = robot.payload(m, p, additive=additive)
     f0, f1 = model_functions(robot), model_functions(loaded)
-    return PayloadEffect(q, f0.inertia(q), f1.inertia(q), f0.gravload(q), f1.gravload(q))
+    return PayloadEffect(q, f0.M(q), f1.M(q), f0.G(q), f1.G(q))
 
 
 def base_wrench(robot: Robot, q, qd=None, qdd=None) -> np.ndarray:
@@ -241,7 +214,7 @@ def base_wrench(robot: Robot, q, qd=None, qdd=None) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     qd = np.zeros_like(q) if qd is None else qd
     qdd = np.zeros_like(q) if qdd is None else qdd
-    return model_functions(robot).rne(q, qd, qdd, base_wrench=True)[1]
+    return reference.rne(robot, q, qd, qdd, base_wrench=True)[1]
 
 
 def total_mass(robot: Robot) -> float:
@@ -271,7 +244,7 @@ def cartesian_inertia(robot: Robot, q, axes="translational") -> np.ndarray:
     """Asada's Cartesian inertia Mx = pinv(J)ᵀ M pinv(J) (..., k, k) over the chosen rows of J = jacob0."""
     J = reference.jacob0(robot, q)[..., _rows(axes), :]
     Ji = np.linalg.pinv(J)
-    return np.swapaxes(Ji, -1, -2) @ model_functions(robot).inertia(q) @ Ji
+    return np.swapaxes(Ji, -1, -2) @ model_functions(robot).M(q) @ Ji
 
 
 def dynamic_manipulability(robot: Robot, q, axes="translational") -> np.ndarray:
@@ -314,7 +287,7 @@ def acceleration_ellipsoid(robot: Robot, q, axes="translational") -> Acceleratio
     if q.shape != (robot.n,):
         raise ValueError(f"acceleration_ellipsoid takes one pose of shape ({robot.n},), got {q.shape}")
     J = reference.jacob0(robot, q)[_rows(axes)]
-    JMi = np.linalg.solve(model_functions(robot).inertia(q).T, J.T).T     # J M⁻¹
+    JMi = np.linalg.solve(model_functions(robot).M(q).T, J.T).T     # J M⁻¹
     A = JMi @ JMi.T
     eig, vec = np.linalg.eigh(A)
     return AccelerationEllipsoid(np.sqrt(np.clip(eig, 0, None)), vec, A)
@@ -370,7 +343,7 @@ def joint_transfer_functions(robot: Robot, q) -> JointTransferFunctions:
                          "a motor-side transfer function needs G != 0")
     Jm = np.array([float(link.Jm) for link in robot.links])
     B = np.array([float(link.B) for link in robot.links])
-    M_link = np.diag(model_functions(robot).inertia(q)) - G ** 2 * Jm
+    M_link = np.diag(model_functions(robot).M(q)) - G ** 2 * Jm
     return JointTransferFunctions(q, Jm, G, M_link, Jm + M_link / G ** 2, B)
 
 

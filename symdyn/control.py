@@ -1,9 +1,9 @@
 """Controllers of Corke's chapter 9 and a fixed-step closed-loop simulator.
 
 Where it sits: a consumer of the flow model → derive → … → emit.  The arm's
-dynamics come through a small adapter, `Model` (attributes tau, M, Cqd, G,
-F, fdyn, all batched), built on `symdyn.reference` or on generated code, so
-the controllers never care which.  Contents: joint-space trajectories
+dynamics come through `symdyn.backend.Model` (attributes tau, M, Cqd, G,
+F, fdyn, all batched), built on generated code or on `symdyn.reference`,
+so the controllers never care which.  Contents: joint-space trajectories
 (`lspb`, `quintic`); `simulate` (RK4 at a fixed step, sampled controllers
 with zero-order hold and computation delay); independent joint control of
 the Puma shoulder (`JointDrive`, `VelocityLoop`, `PositionLoop`, §9.1);
@@ -15,21 +15,19 @@ actuator with LQR state feedback.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import sys
-import warnings
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from . import models
 from . import reference as ref
+from .backend import Model
 from .model import Robot
 
-__all__ = ["lspb", "quintic", "Trace", "simulate", "Model", "model", "refriction", "scale_inertia", "scaled",
+__all__ = ["lspb", "quintic", "Trace", "simulate", "scale_inertia", "scaled",
            "JointDrive", "VelocityLoop", "PositionLoop", "TorqueFeedforward", "ComputedTorque",
            "Surface", "OperationalSpace", "SEA"]
 
@@ -173,155 +171,7 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
     return Trace(ts, Q, QD, TAU)
 
 
-# --------------------------------------------------------------------------- model adapter
-
-@dataclass(frozen=True)
-class Model:
-    """The dynamics functions of one arm, batched over leading axes, with the
-    attribute names of generated code (`symdyn.load(robot, target=...)`):
-    tau(q, q̇, q̈), M(q), Cqd(q, q̇) (the vector C·q̇), G(q), F(q̇), fdyn(q, q̇, τ) → q̈.
-    τ = M q̈ + C q̇ + G + F (Corke's convention, rotor inertia in M)."""
-
-    n: int
-    tau: Callable
-    M: Callable
-    Cqd: Callable
-    G: Callable
-    F: Callable
-    fdyn: Callable
-    source: str
-
-
-def _reference_model(robot: Robot) -> Model:
-    n = robot.n
-    eye = np.eye(n)
-
-    def M_and_bias(q, qd):
-        # one batched recursion: rows q̈ = e_i give M e_i + h, the last row q̈ = 0 gives h
-        q, qd = np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float))
-        rows = np.concatenate([np.broadcast_to(eye, q.shape[:-1] + (n, n)),
-                               np.zeros(q.shape[:-1] + (1, n))], -2)
-        out = ref.rne(robot, q[..., None, :], qd[..., None, :], rows)
-        h = out[..., -1, :]
-        return np.swapaxes(out[..., :-1, :] - h[..., None, :], -1, -2), h
-
-    def fdyn(q, qd, tau):
-        M, h = M_and_bias(q, qd)
-        return np.linalg.solve(M, (np.asarray(tau, float) - h)[..., None])[..., 0]
-
-    return Model(
-        n=n,
-        tau=lambda q, qd, qdd: ref.rne(robot, q, qd, qdd),
-        M=lambda q: ref.inertia(robot, q),
-        Cqd=lambda q, qd: ref.rne(robot, q, qd, np.zeros_like(np.asarray(q, float)), gravity=(0, 0, 0))
-        - ref.friction(robot, qd),
-        G=lambda q: ref.gravload(robot, q),
-        F=lambda qd: ref.friction(robot, qd),
-        fdyn=fdyn,
-        source=f"symdyn.reference ({robot.name})",
-    )
-
-
-def _batched_casadi(fn, n: int) -> Callable:
-    """A casadi.Function of n-vectors as a NumPy function batched over leading
-    axes (CasADi maps a call with N columns over the columns)."""
-    def call(*args):
-        arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
-        batch = arrays[0].shape[:-1]
-        N = int(np.prod(batch, dtype=int))
-        out = np.array(fn(*(a.reshape(N, n).T for a in arrays)))
-        if out.shape[1] == N:                                  # a vector per state
-            return out.T.reshape(batch + (out.shape[0],))
-        rows, cols = out.shape[0], out.shape[1] // N            # a matrix per state
-        return out.reshape(rows, N, cols).transpose(1, 0, 2).reshape(batch + (rows, cols))
-    return call
-
-
-def _broadcasting(fn) -> Callable:
-    """fn with its array arguments broadcast against each other and made
-    contiguous (the generated C target takes equal leading shapes only)."""
-    def call(*args):
-        arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
-        return fn(*(np.ascontiguousarray(a) for a in arrays))
-    return call
-
-
-def _wrap(functions, n: int, source: str) -> Model:
-    """A `Model` from an object with attributes tau, M, Cqd, G, F, fdyn: batched
-    NumPy callables (generated code) or casadi.Functions."""
-    import casadi as ca
-
-    def get(name):
-        fn = getattr(functions, name)
-        return _batched_casadi(fn, n) if isinstance(fn, ca.Function) else _broadcasting(fn)
-
-    return Model(n=n, source=source, **{k: get(k) for k in ("tau", "M", "Cqd", "G", "F", "fdyn")})
-
-
-def _shipped_generated(robot: Robot) -> Model | None:
-    """Generated C (else NumPy) code for `robot` if it is a shipped model, or
-    one with friction removed (`nofriction()`, then `refriction`), and the
-    checked-in code exists; None otherwise (nothing is derived here)."""
-    try:
-        from . import codegen
-    except ImportError:
-        return None
-    for name in codegen.SHIPPED:
-        shipped = models.load(name)
-        variants = (shipped, shipped.nofriction(), shipped.nofriction(all=True))
-        if robot.fingerprint() in {v.fingerprint() for v in variants} and (codegen.GENERATED / name).is_dir():
-            break
-    else:
-        return None
-    for target in ("c", "numpy"):
-        try:
-            base = _wrap(codegen.load(name, target), robot.n, f"generated {target} ({name})")
-        except (RuntimeError, ValueError, OSError, ImportError) as exc:
-            warnings.warn(f"symdyn.control: generated {target} code for {name} unavailable: {exc}")
-            continue
-        return base if robot.fingerprint() == shipped.fingerprint() else refriction(base, robot)
-    return None
-
-
-def model(robot: Robot, backend: str = "auto") -> Model:
-    """The dynamics of `robot` as a `Model`.
-
-    backend "reference": `symdyn.reference` (slow per call, nearly free to
-    batch); "casadi": the plain CasADi recursive Newton–Euler
-    (`symdyn.casadi_rnea`, ~25× faster per call); "c" or "numpy": generated
-    code via `symdyn.codegen.load(robot, target)` (derived and compiled on
-    first use for a robot that is not shipped); "auto": the checked-in
-    generated C (else NumPy) code of a shipped model, else "casadi".  All
-    agree with the reference to rounding (tested): the choice changes speed only.
-    """
-    if backend == "reference":
-        return _reference_model(robot)
-    if backend == "casadi":
-        from . import casadi_rnea
-
-        return _wrap(casadi_rnea.functions(robot), robot.n, f"plain CasADi RNEA ({robot.name})")
-    if backend == "auto":
-        return _shipped_generated(robot) or model(robot, "casadi")
-    if backend not in ("c", "numpy"):
-        raise ValueError(f"unknown backend {backend!r}: expected 'auto', 'reference', 'casadi', 'c' or 'numpy'")
-    from . import codegen
-
-    return _wrap(codegen.load(robot, backend), robot.n, f"generated {backend} ({robot.name})")
-
-
-def refriction(base: Model, robot: Robot) -> Model:
-    """`base`, the model of an arm that differs from `robot` in friction only,
-    with `robot`'s friction F(q̇) (`symdyn.reference.friction`): e.g. the
-    generated Puma with the Coulomb friction removed, `robot = puma.nofriction()`."""
-    F = functools.partial(ref.friction, robot)
-
-    def fdyn(q, qd, tau):
-        bias = base.Cqd(q, qd) + base.G(q) + F(qd)
-        return np.linalg.solve(base.M(q), (np.asarray(tau, float) - bias)[..., None])[..., 0]
-
-    return Model(n=base.n, tau=lambda q, qd, qdd: base.tau(q, qd, qdd) - base.F(qd) + F(qd), M=base.M,
-                 Cqd=base.Cqd, G=base.G, F=F, fdyn=fdyn, source=f"{base.source}, friction of {robot.name}")
-
+# --------------------------------------------------------------------------- model variants
 
 def scale_inertia(robot: Robot, factor: float) -> Robot:
     """A copy of `robot` with every link's mass and inertia tensor multiplied by
@@ -336,7 +186,7 @@ def scale_inertia(robot: Robot, factor: float) -> Robot:
 
 def scaled(base: Model, robot: Robot, factor) -> Model:
     """`base` with the link inertial parameters scaled by `factor`, exactly as
-    `model(scale_inertia(robot, factor))` but from the nominal functions.
+    `backend.model(scale_inertia(robot, factor))` but from the nominal functions.
 
     The dynamics are linear in the inertial parameters, so the link part of
     τ, M, C·q̇ and G scales by `factor`; the rotor inertia G²·Jm and the

@@ -21,13 +21,19 @@ def puma_json():
 
 # --------------------------------------------------------------------------- model functions
 
-def test_model_functions_bias_is_coriolis_plus_gravity_without_friction(puma):
+@pytest.mark.parametrize("backend", ["auto", "reference"])
+def test_model_functions_bias_is_coriolis_plus_gravity_without_friction(puma, backend):
     from conftest import random_states
 
     q, qd, _ = random_states(puma, 5, seed=1)
-    f = A.model_functions(puma)
+    f = A.model_functions(puma, backend)
     expected = np.einsum("nij,nj->ni", ref.coriolis(puma, q, qd), qd) + ref.gravload(puma, q)
-    np.testing.assert_allclose(f.bias(q, qd), expected, atol=1e-10)
+    np.testing.assert_allclose(f.Cqd(q, qd) + f.G(q), expected, atol=1e-10)
+
+
+def test_model_functions_use_generated_code_for_the_puma_and_the_reference_for_a_variant(puma):
+    assert A.model_functions(puma).source.startswith("generated c")
+    assert A.model_functions(A.inverted(puma)).source.startswith("symdyn.reference")
 
 
 def test_model_functions_refuses_a_symbolic_robot():

@@ -1,10 +1,12 @@
 """Controllers of chapter 9: trajectories, the simulator, the model adapter and each controller's promise."""
 
+import dataclasses
 import functools
 
 import numpy as np
 import pytest
 
+from symdyn import backend as B
 from symdyn import control as C
 from symdyn import models
 from symdyn import reference as ref
@@ -75,14 +77,14 @@ def puma_nf():
 
 @pytest.fixture(scope="module")
 def fast(puma_nf):
-    return C.model(puma_nf)
+    return B.model(puma_nf)
 
 
 @pytest.mark.parametrize("backend", ["reference", "casadi", "auto"])
 @pytest.mark.parametrize("friction", ["full", "viscous only"])
 def test_model_adapter_agrees_with_the_reference(backend, friction):
     puma = models.load("puma560") if friction == "full" else models.load("puma560").nofriction()
-    m = C.model(puma, backend)
+    m = B.model(puma, backend)
     q, qd, qdd = random_states(puma, 20, seed=3)
     tau = ref.rne(puma, q, qd, qdd)
     assert np.allclose(m.tau(q, qd, qdd), tau, rtol=0, atol=1e-10)
@@ -92,9 +94,26 @@ def test_model_adapter_agrees_with_the_reference(backend, friction):
     assert m.M(q[0]).shape == (6, 6) and m.tau(q[0], qd[0], qdd[0]).shape == (6,)
 
 
+def test_auto_model_uses_generated_code_if_shipped_else_the_fallback(twolink):
+    assert B.model(models.load("puma560").nofriction()).source.startswith("generated c (puma560)")
+    moon = dataclasses.replace(twolink, gravity=(0.0, 0.0, 1.62))
+    assert B.model(moon, fallback="reference").source.startswith("symdyn.reference")
+    assert B.model(moon).source.startswith("plain CasADi RNEA")
+    assert B.model(moon) is B.model(moon)                               # built once
+    q = np.array([0.3, -0.7])
+    assert np.allclose(B.model(moon).G(q), ref.gravload(moon, q), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, message", [({"backend": "fortran"}, "unknown backend 'fortran'"),
+                                             ({"fallback": "c"}, "unknown fallback 'c'")])
+def test_model_names_a_bad_backend(twolink, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        B.model(twolink, **kwargs)
+
+
 def test_refriction_swaps_the_friction_and_nothing_else(puma):
     target = puma.nofriction()
-    m = C.refriction(C.model(puma, "reference"), target)
+    m = B.refriction(B.model(puma, "reference"), target)
     q, qd, qdd = random_states(puma, 5, seed=4)
     tau = ref.rne(target, q, qd, qdd)
     assert np.allclose(m.tau(q, qd, qdd), tau, atol=1e-10)
@@ -103,7 +122,7 @@ def test_refriction_swaps_the_friction_and_nothing_else(puma):
 
 
 def test_scaled_model_equals_the_model_of_the_scaled_robot(puma):
-    base = C.model(puma, "reference")
+    base = B.model(puma, "reference")
     q, qd, qdd = random_states(puma, 2, seed=5)
     both = C.scaled(base, puma, np.array([1.1, 0.9]))               # one factor per row
     for row, f in enumerate((1.1, 0.9)):

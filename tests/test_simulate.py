@@ -44,6 +44,17 @@ def test_fixed_step_rk4_agrees_with_adaptive(puma):
     assert np.abs(fixed.q[-1] - robot.qz).max() > 0.1      # and the motion is not trivial
 
 
+@pytest.mark.parametrize("robot_name", ["puma560", "pendulum"])
+def test_generated_or_casadi_right_hand_side_agrees_with_the_reference(puma, twolink, robot_name):
+    robot = puma if robot_name == "puma560" else sticky_pendulum(twolink, level=1.0)
+    q0 = robot.qz if robot_name == "puma560" else np.array([0.3])
+    fast = S.simulate(robot, 0.05, q0, integrator=S.RK4(dt=5e-3))
+    slow = S.simulate(robot, 0.05, q0, integrator=S.RK4(dt=5e-3), backend="reference")
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.qd, slow.qd, rtol=0, atol=1e-10)
+    assert np.abs(fast.q[-1] - q0).max() > 1e-3                # and the arm moved
+
+
 def test_rk4_converges_at_fourth_order(twolink):
     robot = twolink
     q0 = np.array([0.2, 0.4])
@@ -110,6 +121,7 @@ def test_progress_reports_every_tenth(puma, capsys):
     ({"integrator": S.RK4(dt=2.0)}, "RK4 step"),
     ({"coulomb_width": -0.1}, "width"),
     ({"integrator": "euler"}, "integrator"),
+    ({"backend": "matlab"}, "unknown backend"),
 ])
 def test_simulate_names_bad_arguments(twolink, kwargs, message):
     args = {"T": 1.0, "q0": np.zeros(2)} | kwargs

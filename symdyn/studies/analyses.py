@@ -14,39 +14,12 @@ import numpy as np
 
 from .. import analysis as A
 from .. import models
+from ._plot import finish, pyplot, save
 
 PUMA_PAYLOAD = (2.5, (0.0, 0.0, 0.1))      # kg, m in frame {6}: the book's example
 
 
-# --------------------------------------------------------------------------- plotting helpers
-
-def pyplot():
-    """matplotlib.pyplot on the non-interactive Agg backend (a clear error if matplotlib is missing)."""
-    try:
-        import matplotlib
-    except ImportError:
-        raise RuntimeError("studies draw figures with matplotlib: pip install 'symdyn[plot]'") from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def save(fig, out_dir: Path, name: str) -> Path:
-    """Write fig as out_dir/name.png (small: dpi 80) and close it."""
-    path = Path(out_dir) / f"{name}.png"
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    pyplot().close(fig)
-    return path
-
-
-def finish(out_dir: Path, lines: list[str]) -> str:
-    """Write the summary lines to out_dir/summary.txt and return them as text."""
-    text = "\n".join(lines)
-    (Path(out_dir) / "summary.txt").write_text(text + "\n")
-    return text
-
+# --------------------------------------------------------------------------- plotting
 
 def _surface(fig, where, sweep, k, names, title):
     ax = fig.add_subplot(*where, projection="3d")
@@ -82,7 +55,7 @@ def gravity_load(out_dir: Path, quick: bool = False) -> str:
     for name, sweep in maps.items():
         lines.append(f" {name}:")
         lines += [_extreme_line(e, "N·m") for e in sweep.extremes()]
-    g_qz = A.model_functions(puma).gravload(puma.qz)
+    g_qz = A.model_functions(puma).G(puma.qz)
     lines.append(f" at qz: G2 = {g_qz[1]:.3f} N·m, G3 = {g_qz[2]:.3f} N·m")
     return finish(out_dir, lines)
 

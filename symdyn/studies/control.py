@@ -5,8 +5,8 @@ link inertia, position loop), torque feedforward against computed torque
 on the whole Puma, operational-space force control, and a series-elastic
 actuator.  Each study writes `control_*.png` and `summary.txt` into its
 folder and returns the summary; `quick=True` shortens the runs (tests).
-The controllers and the simulator are `symdyn.control`; this module only
-sets the scenes, plots and reports.
+The controllers and the simulator are `symdyn.control`, the arm's dynamics
+`symdyn.backend`; this module only sets the scenes, plots and reports.
 """
 
 from __future__ import annotations
@@ -17,10 +17,11 @@ from typing import Callable
 
 import numpy as np
 
+from .. import backend
 from .. import control as C
 from .. import models
 from .. import reference as ref
-from .analyses import finish, pyplot, save
+from ._plot import finish, pyplot, save
 
 PERIOD = 1e-3                     # joint controllers: 1 kHz, one sample of computation delay
 LOAD = 20.0                       # N·m, gravity load on the shoulder, link side
@@ -180,7 +181,7 @@ def puma_scene():
     removed: its jump at zero speed makes sampled model-based compensation
     chatter), and its fastest available model (generated code, else CasADi)."""
     puma = models.load("puma560").nofriction()
-    return puma, C.model(puma)
+    return puma, backend.model(puma)
 
 
 def torque_control(out_dir: Path, quick: bool = False) -> str:
@@ -233,7 +234,7 @@ def start_pose() -> np.ndarray:
     return np.array([0.0, np.pi / 4, np.pi, 0.0, -np.pi / 4, 0.0])
 
 
-def contact_plant(puma, model: C.Model, surface: C.Surface):
+def contact_plant(puma, model: backend.Model, surface: C.Surface):
     """Arm dynamics with the surface's reaction: q̈ = fdyn(q, q̇, τ − Jᵀ W), W the
     wrench the end-effector exerts on the surface (Corke's τ = … + JᵀW)."""
     def accel(t, q, qd, tau):

@@ -17,7 +17,7 @@ from scipy.integrate import simpson
 
 from .. import models, reference
 from .. import simulate as S
-from .analyses import finish, pyplot, save
+from ._plot import finish, pyplot, save
 
 
 def collapse(out_dir: Path, quick: bool = False) -> str:
