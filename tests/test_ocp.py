@@ -1,0 +1,142 @@
+"""Optimal control on CasADi dynamics: small instances of each study, re-simulated
+open-loop with the reference; transcriptions agree; infeasible requests fail clearly."""
+
+import numpy as np
+import pytest
+
+from symdyn import models, ocp
+from symdyn import reference as ref
+from symdyn.studies import ocp as S
+
+HANG, UP = np.array(S.TWOLINK_HANG), np.array(S.TWOLINK_UP)
+
+
+@pytest.fixture(scope="module")
+def arm2():
+    return models.load("twolink")
+
+
+@pytest.fixture(scope="module")
+def puma_nc():
+    return S.puma()
+
+
+# --------------------------------------------------------------------------- problem set-up
+
+def test_motor_torque_limits_are_motor_limits_times_gear_ratio(puma):
+    lim = ocp.motor_torque_limits(puma, [1, 2, 3, 4, 5, 6])
+    G = [-62.6111, 107.815, -53.7063, 76.0364, 71.923, 76.686]
+    assert np.allclose(lim, np.abs(G) * np.arange(1, 7), rtol=1e-12)
+    with pytest.raises(ValueError, match="6 positive numbers"):
+        ocp.motor_torque_limits(puma, [1, 2])
+
+
+def test_bad_problems_are_refused_by_name():
+    q = np.zeros(2)
+    with pytest.raises(ValueError, match="unknown transcription 'euler'"):
+        ocp.Problem(q, q, T=1.0, method="euler")
+    with pytest.raises(ValueError, match="N must be"):
+        ocp.Problem(q, q, T=1.0, N=1)
+    with pytest.raises(ValueError, match="qf must have shape"):
+        ocp.Problem(q, np.zeros(3), T=1.0)
+    with pytest.raises(ValueError, match="unknown dynamics source"):
+        ocp.dynamics(models.load("twolink"), "numpy")
+
+
+def test_twolink_hangs_at_minus_half_pi_and_is_upright_at_plus_half_pi(arm2):
+    G, stable = S.hanging_check(arm2)
+    assert np.abs(G).max() < 1e-12 and stable
+    _, pot = ref.energy(arm2, np.array([HANG, UP]), np.zeros((2, 2)))
+    assert pot[1] - pot[0] == pytest.approx(2 * 9.81 * (0.5 + 1.5))   # both masses lifted by 2·COM height
+
+
+# --------------------------------------------------------------------------- the studies, coarse
+
+def test_swing_up_reaches_upright_open_loop_within_limits(arm2):
+    sol, check = S.solve_checked(arm2, S.swing_up_problem(N=30), "symdyn")
+    assert check.ok, check.describe()
+    # the shoulder cannot hold the arm horizontal, so the elbow torque limit binds
+    assert np.abs(sol.tau[:, 1]).max() >= S.ACTIVE * S.TWOLINK_TAU[1]
+
+
+def test_puma_minimum_time_is_bang_bang_and_re_simulates(puma_nc):
+    problem = S.min_time_problem(puma_nc, puma_nc.qz, puma_nc.qr, N=10)
+    sol, check = S.solve_checked(puma_nc, problem, "plain")
+    assert check.ok, check.describe()
+    # joint 2 turns π/2 at ≤ 4 rad/s, so T > π/8; a torque limit must bind
+    assert np.pi / 8 < sol.T < 1.0
+    lim = problem.limits.tau
+    assert np.abs(sol.tau[:, 1]).max() >= S.ACTIVE * lim[1]
+    assert sol.tau[0, 1] >= S.ACTIVE * lim[1] and sol.tau[-1, 1] <= -S.ACTIVE * lim[1]
+
+
+def test_puma_minimum_effort_with_payload_costs_more_and_beats_minimum_jerk(puma_nc):
+    costs = []
+    for robot in (puma_nc, puma_nc.payload(*S.PUMA_PAYLOAD)):
+        problem = S.min_effort_problem(robot, N=10)
+        sol, check = S.solve_checked(robot, problem, "plain")
+        assert check.ok, check.describe()
+        assert sol.cost <= S._min_jerk_effort(robot, problem)
+        costs.append(sol.cost)
+    assert costs[1] > 1.2 * costs[0]
+
+
+def test_transcriptions_agree_on_the_two_link_minimum_time(arm2):
+    lim = ocp.Limits(tau=np.array([30.0, 10.0]), qd=np.array([3.0, 3.0]))
+    arm = ocp.dynamics(arm2, "plain")
+    T = {}
+    for method in ocp.METHODS:
+        problem = ocp.Problem(HANG, np.array([0.0, 0.5]), N=20, method=method, limits=lim,
+                              cost=ocp.Cost(time=1.0, smoothness=1e-6))
+        sol = ocp.solve(problem, arm)
+        # trapezoidal collocation is second order: a looser goal tolerance on this grid
+        tol = dict(tol_q=0.1, tol_qd=0.2) if method == "trapezoidal" else {}
+        check = ocp.verify(arm2, problem, sol, **tol)
+        assert check.ok, (method, check.describe())
+        T[method] = sol.T
+    assert max(T.values()) / min(T.values()) < 1.005, T
+
+
+def test_multiple_shooting_re_simulated_with_its_own_rk4_reproduces_the_nodes(arm2):
+    problem = ocp.Problem(HANG, np.array([-1.0, 0.3]), T=1.0, N=8, method="multiple-shooting")
+    sol = ocp.solve(problem, ocp.dynamics(arm2, "plain"))
+    _, q, qd = ocp.resimulate(arm2, sol, substeps=problem.substeps)
+    assert np.abs(q - sol.q).max() < 1e-8 and np.abs(qd - sol.qd).max() < 1e-8
+
+
+def test_hermite_simpson_torque_passes_through_nodes_and_midpoints(arm2):
+    problem = ocp.Problem(HANG, np.array([-1.0, 0.3]), T=1.0, N=6, method="hermite-simpson")
+    sol = ocp.solve(problem, ocp.dynamics(arm2, "symdyn"))
+    h = sol.T / sol.N
+    assert np.allclose(sol.torque(sol.t[:-1]), sol.tau[:-1], atol=1e-12)
+    assert np.allclose(sol.torque(sol.t[:-1] + h / 2), sol.tau_mid, atol=1e-12)
+    # collocation: τ = ID(q, q̇, q̈) at the nodes, against the reference
+    assert np.allclose(ref.rne(arm2, sol.q, sol.qd, sol.qdd), sol.tau, atol=1e-6)
+
+
+# --------------------------------------------------------------------------- failure
+
+def test_torque_too_small_to_hold_the_arm_fails_with_status_and_hint(arm2):
+    problem = ocp.Problem(HANG, np.array([0.0, 0.0]), T=1.0, N=10, method="trapezoidal",
+                          limits=ocp.Limits(tau=np.array([2.0, 2.0])))
+    with pytest.raises(ocp.OCPError) as err:
+        ocp.solve(problem, ocp.dynamics(arm2, "plain"), max_iter=200)
+    e = err.value
+    assert e.status and e.status in str(e)
+    assert "joint 1 needs 19.6 N·m to hold the arm at qf but its torque limit is 2 N·m" in str(e)
+    assert e.__cause__ is None and e.__suppress_context__
+
+
+# --------------------------------------------------------------------------- comparison harness
+
+def test_comparison_harness_plain_against_itself_and_against_symdyn(arm2):
+    problem = ocp.Problem(HANG, np.array([-1.0, 0.3]), T=1.0, N=6)
+    case = [("two-link", arm2, problem)]
+    same = S.compare(("plain", "plain"), case)
+    assert [r["tau_instructions"] for r in same] == [ocp.dynamics(arm2, "plain").tau.n_instructions()] * 2
+    assert same[0]["iterations"] == same[1]["iterations"]
+    table = S.format_table(same)
+    assert "| IPOPT iterations |" in table and "plain/plain" in table
+    rows = S.compare(("symdyn", "plain"), case)
+    assert rows[0]["tau_instructions"] < rows[1]["tau_instructions"]
+    assert rows[0]["fdyn_instructions"] < rows[1]["fdyn_instructions"]
