@@ -68,8 +68,9 @@ def _rx(alpha) -> np.ndarray:
 def _rz(theta: np.ndarray) -> np.ndarray:
     """Batched rotation about z; theta of shape (...)."""
     c, s = np.cos(theta), np.sin(theta)
-    z, o = np.zeros_like(c), np.ones_like(c)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    R = np.zeros(np.shape(theta) + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = c, -s, s, c, 1.0
+    return R
 
 
 @functools.lru_cache(maxsize=64)
@@ -174,12 +175,13 @@ def _cross(a, b) -> np.ndarray:
 
 def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
     """RNEA core: joint forces without friction (rotor inertia included) and
-    the spatial force (n, f) on link 1 in body-1 coordinates."""
+    the spatial force (n, f) on link 1 in body-1 coordinates.  g_up_world (3,)
+    or one per state (..., 3)."""
     R, p = _link_transforms(c, q)
     batch = q.shape[:-1]
     w = np.zeros(batch + (3,)); v = np.zeros(batch + (3,))
     dw = np.zeros(batch + (3,))
-    dv = np.broadcast_to(c.base_R.T @ g_up_world, batch + (3,)).copy()
+    dv = np.broadcast_to(np.einsum("ji,...j->...i", c.base_R, g_up_world), batch + (3,)).copy()
     forces = []
     for i in range(c.n):
         Rt = np.swapaxes(R[..., i, :, :], -1, -2)
@@ -314,8 +316,14 @@ def accel(robot: Robot, q, qd, tau) -> np.ndarray:
     """Forward dynamics q̈ = M⁻¹(τ − C q̇ − F − G) (..., n), friction included."""
     c = _chain(robot)
     q, qd, tau = _states(c, q=q, qd=qd, tau=tau)
-    bias = rne(robot, q, qd, np.zeros_like(q))
-    return np.linalg.solve(inertia(robot, q), (tau - bias)[..., None])[..., 0]
+    n, batch = c.n, q.shape[:-1]
+    # one recursion over n + 1 rows: q̈ = e_i (q̇ = 0, no gravity) give M's columns, the last the bias
+    rows = np.concatenate([np.zeros(batch + (n, n)), qd[..., None, :]], -2)
+    unit = np.concatenate([np.broadcast_to(np.eye(n), batch + (n, n)), np.zeros(batch + (1, n))], -2)
+    g = np.concatenate([np.zeros((n, 3)), c.gravity[None]])
+    out = _recursion(c, np.broadcast_to(q[..., None, :], batch + (n + 1, n)), rows, unit, g)[0]
+    bias = out[..., n, :] + friction(robot, qd)
+    return np.linalg.solve(np.swapaxes(out[..., :n, :], -1, -2), (tau - bias)[..., None])[..., 0]
 
 
 def fdyn(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *,
@@ -359,15 +367,20 @@ def _frames(c: _Chain, q):
     return np.stack(Rs, -3), np.stack(ps, -2)
 
 
+def _tool_point(c: _Chain, Rs, ps) -> np.ndarray:
+    """World position (..., 3) of the tool point from the body frames of `_frames`."""
+    return ps[..., -1, :] + np.einsum("...ij,j->...i", Rs[..., -1, :, :], c.tool_p)
+
+
 def fkine(robot: Robot, q) -> np.ndarray:
     """End-effector pose (..., 4, 4) in the world: base · A₁ ⋯ Aₙ · tool."""
     c = _chain(robot)
     q = _state(c, q, "q")
     Rs, ps = _frames(c, q)
-    Rn, pn = Rs[..., -1, :, :], ps[..., -1, :]
+    Rn = Rs[..., -1, :, :]
     T = np.zeros(q.shape[:-1] + (4, 4))
     T[..., :3, :3] = Rn @ c.tool_R
-    T[..., :3, 3] = pn + np.einsum("...ij,j->...i", Rn, c.tool_p)
+    T[..., :3, 3] = _tool_point(c, Rs, ps)
     T[..., 3, 3] = 1.0
     return T
 
@@ -377,7 +390,7 @@ def jacob0(robot: Robot, q) -> np.ndarray:
     c = _chain(robot)
     q = _state(c, q, "q")
     Rs, ps = _frames(c, q)
-    pe = fkine(robot, q)[..., :3, 3]
+    pe = _tool_point(c, Rs, ps)
     J = np.zeros(q.shape[:-1] + (6, c.n))
     for i in range(c.n):
         # the joint axis in the world: S_i (body coordinates) mapped by body i's pose
