@@ -15,6 +15,8 @@ operation counts (a - b counts as one add, negation is free):
   Y     16 mul, 11 add, 6 fun (33 total)  [regressor]
 """
 
+import math
+
 import numpy as np
 
 MODEL = 'twolink'
@@ -22,7 +24,7 @@ SYMDYN_VERSION = '0.1.0'
 FINGERPRINT = '8b8cc520cad5672b49d702ea1137dcd22f3a7e761a66a02f9646842d05be48aa'
 N = 2
 FUNCTIONS = ('tau', 'M', 'C', 'Cqd', 'G', 'F', 'fdyn', 'Y')
-OP_COUNTS = {'tau': {'add': 10, 'mul': 14, 'div': 0, 'neg': 1, 'fun': 4, 'total': 28}, 'M': {'add': 2, 'mul': 1, 'div': 0, 'neg': 0, 'fun': 1, 'total': 4}, 'C': {'add': 1, 'mul': 5, 'div': 0, 'neg': 2, 'fun': 1, 'total': 7}, 'Cqd': {'add': 2, 'mul': 6, 'div': 0, 'neg': 1, 'fun': 1, 'total': 9}, 'G': {'add': 2, 'mul': 4, 'div': 0, 'neg': 0, 'fun': 4, 'total': 10}, 'F': {'add': 0, 'mul': 0, 'div': 0, 'neg': 0, 'fun': 0, 'total': 0}, 'fdyn': {'add': 12, 'mul': 17, 'div': 2, 'neg': 1, 'fun': 4, 'total': 35}, 'Y': {'add': 11, 'mul': 16, 'div': 0, 'neg': 5, 'fun': 6, 'total': 33}}
+OP_COUNTS = {'tau': {'add': 10, 'mul': 14, 'div': 0, 'neg': 1, 'fun': 4, 'total': 28}, 'M': {'add': 2, 'mul': 1, 'div': 0, 'neg': 0, 'fun': 1, 'total': 4}, 'C': {'add': 1, 'mul': 5, 'div': 0, 'neg': 1, 'fun': 1, 'total': 7}, 'Cqd': {'add': 2, 'mul': 6, 'div': 0, 'neg': 1, 'fun': 1, 'total': 9}, 'G': {'add': 2, 'mul': 4, 'div': 0, 'neg': 0, 'fun': 4, 'total': 10}, 'F': {'add': 0, 'mul': 0, 'div': 0, 'neg': 0, 'fun': 0, 'total': 0}, 'fdyn': {'add': 12, 'mul': 17, 'div': 2, 'neg': 1, 'fun': 4, 'total': 35}, 'Y': {'add': 11, 'mul': 16, 'div': 0, 'neg': 5, 'fun': 6, 'total': 33}}
 
 
 def _arg(x, size, name):
@@ -33,23 +35,127 @@ def _arg(x, size, name):
     return x
 
 
-def _split(x):
-    """The columns of x (..., size): floats for one state, arrays for a batch."""
-    return np.moveaxis(x, -1, 0)
+def _rows(x, shape):
+    """x (..., size) broadcast to shape + (size,), as contiguous rows (size, states)."""
+    x = np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1])
+    return np.ascontiguousarray(x.T)
+
+
+def _chunk(states, size):
+    """Length of the equal chunks, each at most `size`, that cover `states`."""
+    count = max(1, -(-states // size))
+    return max(1, -(-states // count))
+
+
+# sin and cos at the angles k/256, |k| <= 2048: exact doubles, so the
+# remainder of an angle from its nearest table angle is exact (see _sincos).
+_TABLE = np.arange(-2048, 2049) / 256.0
+_SIN, _COS = np.sin(_TABLE), np.cos(_TABLE)
+_ROUND = 6755399441055744.0  # 1.5 * 2**52: x + _ROUND rounds x to an integer held in the low bits
+_ROUND_BITS = int(np.array(_ROUND).view(np.int64))
+
+
+def _sincos(x, work):
+    """sin x, cos x of angles x (k, m) into rows :k and k:2k of work (6k, m), rows
+    2k: scratch.  x = t + d with t = round(256 x)/256 a table angle, |d| <= 1/512
+    exact; sin x = sin t + (cos t sin d - sin t (1 - cos d)), cos x = cos t -
+    (sin t sin d + cos t (1 - cos d)), sin d and 1 - cos d by Taylor series to d^5
+    (error ~1e-16 absolute; 3-4x faster than np.sin and np.cos).  Angles beyond
+    +-8 rad, inf or nan: np.sin and np.cos."""
+    s, c, t, d, z, e = work[:6 * len(x)].reshape(6, len(x), -1)
+    if not (-8.0 <= x.min() and x.max() <= 8.0):
+        return np.sin(x, s), np.cos(x, c)
+    np.multiply(x, 256.0, t)
+    np.add(t, _ROUND, t)
+    index = np.subtract(t.view(np.int64), _ROUND_BITS - 2048, z.view(np.int64))
+    np.subtract(t, _ROUND, t)
+    np.multiply(t, 1.0 / 256.0, d)
+    np.subtract(x, d, d)
+    np.take(_SIN, index, out=s, mode="clip")
+    np.take(_COS, index, out=c, mode="clip")
+    np.multiply(d, d, z)
+    np.multiply(z, 1.0 / 120.0, e)
+    np.subtract(e, 1.0 / 6.0, e)
+    np.multiply(e, z, e)
+    np.multiply(e, d, e)
+    np.add(e, d, e)
+    np.multiply(z, 1.0 / 24.0, t)
+    np.subtract(0.5, t, t)
+    np.multiply(t, z, t)
+    np.multiply(c, e, z)
+    np.multiply(s, t, d)
+    np.subtract(z, d, z)
+    np.multiply(s, e, e)
+    np.multiply(c, t, t)
+    np.add(e, t, e)
+    np.add(s, z, s)
+    np.subtract(c, e, c)
+    return s, c
 
 
 
 def tau(q, qd, qdd):
     """Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), (2,)."""
     q, qd, qdd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(qdd, 2, 'qdd')
+    if q.ndim == qd.ndim == qdd.ndim == 1:
+        try:
+            return _tau_one(q.tolist(), qd.tolist(), qdd.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
-    q1, q2 = _split(q)
-    qd1, qd2 = _split(qd)
-    qdd1, qdd2 = _split(qdd)
-    c2 = np.cos(q2)
-    dV1_y = 9.81*np.cos(q1)
-    s2 = np.sin(q2)
-    dV1_x = 9.81*np.sin(q1)
+    q, qd, qdd = _rows(q, shape), _rows(qd, shape), _rows(qdd, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    tau = np.empty((2, _states))
+    _work = np.empty((12, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        q1, q2 = q[:, _lo:_hi]
+        qd1, qd2 = qd[:, _lo:_hi]
+        qdd1, qdd2 = qdd[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5, _w6, _w7, _w8, _w9, _w10, _w11 = _block
+        (_w0, s2), (_w2, c2) = _sincos(q[0:2, _lo:_hi], _block[0:12])
+        _o0 = tau[:, _lo:_hi]
+        dV1_y = np.multiply(9.81, _w2, _w2)
+        dV1_x = np.multiply(9.81, _w0, _w0)
+        w1z2 = np.multiply(qd1, qd1, _w4)
+        np.add(dV1_y, qdd1, _w5)
+        np.multiply(c2, _w5, _w5)
+        np.subtract(dV1_x, w1z2, _w0)
+        np.multiply(s2, _w0, _w0)
+        dV2_y = np.subtract(_w5, _w0, _w5)
+        dw2_z = np.add(qdd1, qdd2, _w0)
+        np.multiply(0.5, dV2_y, _w5)
+        np.multiply(0.25, dw2_z, _w4)
+        n2_z = np.add(_w5, _w4, _w5)
+        w2_z = np.add(qd1, qd2, _w4)
+        w2z2 = np.multiply(w2_z, w2_z, _w4)
+        np.multiply(0.5, w2z2, _w4)
+        f2_x = np.negative(_w4, _w4)
+        f2_y = np.multiply(0.5, dw2_z, _w0)
+        np.multiply(1.5, dV1_y, _w2)
+        np.add(n2_z, _w2, _w2)
+        np.multiply(1.25, qdd1, _w6)
+        np.add(_w2, _w6, _w2)
+        np.multiply(c2, f2_y, _w3)
+        np.add(_w2, _w3, _w2)
+        np.multiply(f2_x, s2, _w4)
+        n1_z = np.add(_w2, _w4, _w2)
+        _o0[0] = n1_z
+        _o0[1] = n2_z
+    return np.ascontiguousarray(tau.T).reshape(shape + (2,))
+
+
+def _tau_one(q, qd, qdd):
+    """tau of one state on Python floats (arguments: lists)."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    qdd1, qdd2 = qdd
+    c2 = math.cos(q2)
+    dV1_y = 9.81*math.cos(q1)
+    s2 = math.sin(q2)
+    dV1_x = 9.81*math.sin(q1)
     w1z2 = qd1*qd1
     dV2_y = c2*(dV1_y + qdd1) - s2*(dV1_x - w1z2)
     dw2_z = qdd1 + qdd2
@@ -59,51 +165,131 @@ def tau(q, qd, qdd):
     f2_x = -0.5*w2z2
     f2_y = 0.5*dw2_z
     n1_z = n2_z + 1.5*dV1_y + 1.25*qdd1 + c2*f2_y + f2_x*s2
-    tau = np.empty(shape + (2,))
-    tau[..., 0] = n1_z
-    tau[..., 1] = n2_z
-    return tau
+    return np.array([n1_z, n2_z])
 
 
 def M(q):
     """Joint-space inertia M(q), (2, 2) row-major, rotor inertia G^2 Jm on the diagonal."""
     q = _arg(q, 2, 'q')
+    if q.ndim == 1:
+        try:
+            return _M_one(q.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = q.shape[:-1]
-    _, q2 = _split(q)
-    c2 = np.cos(q2)
+    q = _rows(q, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    M = np.empty((4, _states))
+    _work = np.empty((6, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        _, q2 = q[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5 = _block
+        (_,), (c2,) = _sincos(q[1:2, _lo:_hi], _block[0:6])
+        _o0 = M[:, _lo:_hi]
+        np.multiply(0.5, c2, _w2)
+        x1 = np.add(0.25, _w2, _w2)
+        np.add(1.5, c2, _o0[0])
+        _o0[1] = x1
+        _o0[2] = x1
+        _o0[3] = 0.25
+    return np.ascontiguousarray(M.T).reshape(shape + (2, 2))
+
+
+def _M_one(q):
+    """M of one state on Python floats (arguments: lists)."""
+    _, q2 = q
+    c2 = math.cos(q2)
     x1 = 0.25 + 0.5*c2
-    M = np.empty(shape + (2, 2))
-    M[..., 0, 0] = 1.5 + c2
-    M[..., 0, 1] = x1
-    M[..., 1, 0] = x1
-    M[..., 1, 1] = 0.25
-    return M
+    return np.array([[1.5 + c2, x1], [x1, 0.25]])
 
 
 def C(q, qd):
     """Christoffel Coriolis/centripetal matrix C(q, qd), (2, 2) row-major."""
     q, qd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd')
+    if q.ndim == qd.ndim == 1:
+        try:
+            return _C_one(q.tolist(), qd.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
-    _, q2 = _split(q)
-    qd1, qd2 = _split(qd)
-    s2 = np.sin(q2)
-    x1 = 0.5*qd2
-    x2 = 0.5*qd1
-    C = np.empty(shape + (2, 2))
-    C[..., 0, 0] = -s2*x1
-    C[..., 0, 1] = s2*(-x1 - x2)
-    C[..., 1, 0] = s2*x2
-    C[..., 1, 1] = 0.0
-    return C
+    q, qd = _rows(q, shape), _rows(qd, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    C = np.empty((4, _states))
+    _work = np.empty((6, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        _, q2 = q[:, _lo:_hi]
+        qd1, qd2 = qd[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5 = _block
+        (_w0,), (_,) = _sincos(q[1:2, _lo:_hi], _block[0:6])
+        _o0 = C[:, _lo:_hi]
+        Gamma2_11 = np.multiply(0.5, _w0, _w0)
+        Gamma1_12 = np.negative(Gamma2_11, _w1)
+        np.multiply(Gamma1_12, qd2, _o0[0])
+        np.multiply(Gamma1_12, qd1, _w2)
+        np.multiply(Gamma1_12, qd2, _w1)
+        np.add(_w2, _w1, _o0[1])
+        np.multiply(Gamma2_11, qd1, _o0[2])
+        _o0[3] = 0.0
+    return np.ascontiguousarray(C.T).reshape(shape + (2, 2))
+
+
+def _C_one(q, qd):
+    """C of one state on Python floats (arguments: lists)."""
+    _, q2 = q
+    qd1, qd2 = qd
+    Gamma2_11 = 0.5*math.sin(q2)
+    Gamma1_12 = -Gamma2_11
+    Gamma1_22 = Gamma1_12
+    return np.array([[Gamma1_12*qd2, Gamma1_12*qd1 + Gamma1_22*qd2], [Gamma2_11*qd1, 0.0]])
 
 
 def Cqd(q, qd):
     """Coriolis/centripetal torques C(q, qd) qd, (2,)."""
     q, qd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd')
+    if q.ndim == qd.ndim == 1:
+        try:
+            return _Cqd_one(q.tolist(), qd.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
-    _, q2 = _split(q)
-    qd1, qd2 = _split(qd)
-    s2 = np.sin(q2)
+    q, qd = _rows(q, shape), _rows(qd, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    Cqd = np.empty((2, _states))
+    _work = np.empty((6, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        _, q2 = q[:, _lo:_hi]
+        qd1, qd2 = qd[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5 = _block
+        (s2,), (_,) = _sincos(q[1:2, _lo:_hi], _block[0:6])
+        _o0 = Cqd[:, _lo:_hi]
+        w1z2 = np.multiply(qd1, qd1, _w1)
+        cdV2_y = np.multiply(s2, w1z2, _w1)
+        cn2_z = np.multiply(0.5, cdV2_y, _w1)
+        w2_z = np.add(qd1, qd2, _w2)
+        w2z2 = np.multiply(w2_z, w2_z, _w2)
+        np.multiply(0.5, w2z2, _w2)
+        f2_x = np.negative(_w2, _w2)
+        np.multiply(f2_x, s2, _w2)
+        cn1_z = np.add(cn2_z, _w2, _w2)
+        _o0[0] = cn1_z
+        _o0[1] = cn2_z
+    return np.ascontiguousarray(Cqd.T).reshape(shape + (2,))
+
+
+def _Cqd_one(q, qd):
+    """Cqd of one state on Python floats (arguments: lists)."""
+    _, q2 = q
+    qd1, qd2 = qd
+    s2 = math.sin(q2)
     w1z2 = qd1*qd1
     cdV2_y = s2*w1z2
     cn2_z = 0.5*cdV2_y
@@ -111,49 +297,146 @@ def Cqd(q, qd):
     w2z2 = w2_z*w2_z
     f2_x = -0.5*w2z2
     cn1_z = cn2_z + f2_x*s2
-    Cqd = np.empty(shape + (2,))
-    Cqd[..., 0] = cn1_z
-    Cqd[..., 1] = cn2_z
-    return Cqd
+    return np.array([cn1_z, cn2_z])
 
 
 def G(q):
     """Gravity load G(q), (2,): the joint torques that hold the arm still."""
     q = _arg(q, 2, 'q')
+    if q.ndim == 1:
+        try:
+            return _G_one(q.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = q.shape[:-1]
-    q1, q2 = _split(q)
-    c1 = np.cos(q1)
-    c12 = c1*np.cos(q2) - np.sin(q1)*np.sin(q2)
+    q = _rows(q, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    G = np.empty((2, _states))
+    _work = np.empty((12, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        q1, q2 = q[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5, _w6, _w7, _w8, _w9, _w10, _w11 = _block
+        (_w0, _w1), (c1, _w3) = _sincos(q[0:2, _lo:_hi], _block[0:12])
+        _o0 = G[:, _lo:_hi]
+        np.multiply(c1, _w3, _w3)
+        np.multiply(_w0, _w1, _w0)
+        c12 = np.subtract(_w3, _w0, _w3)
+        x1 = np.multiply(4.905, c12, _w3)
+        np.multiply(14.715, c1, _w2)
+        np.add(x1, _w2, _o0[0])
+        _o0[1] = x1
+    return np.ascontiguousarray(G.T).reshape(shape + (2,))
+
+
+def _G_one(q):
+    """G of one state on Python floats (arguments: lists)."""
+    q1, q2 = q
+    c1 = math.cos(q1)
+    c12 = c1*math.cos(q2) - math.sin(q1)*math.sin(q2)
     x1 = 4.905*c12
-    G = np.empty(shape + (2,))
-    G[..., 0] = x1 + 14.715*c1
-    G[..., 1] = x1
-    return G
+    return np.array([x1 + 14.715*c1, x1])
 
 
 def F(qd):
     """Joint friction F(qd) = G^2 B qd + |G| Tc(sign qd), (2,)."""
     qd = _arg(qd, 2, 'qd')
+    if qd.ndim == 1:
+        try:
+            return _F_one(qd.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = qd.shape[:-1]
-    F = np.empty(shape + (2,))
-    F[..., 0] = 0.0
-    F[..., 1] = 0.0
-    return F
+    qd = _rows(qd, shape)
+    _states = qd.shape[1]
+    _step = _chunk(_states, 16384)
+    F = np.empty((2, _states))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        _o0 = F[:, _lo:_hi]
+        _o0[0] = 0.0
+        _o0[1] = 0.0
+    return np.ascontiguousarray(F.T).reshape(shape + (2,))
+
+
+def _F_one(qd):
+    """F of one state on Python floats (arguments: lists)."""
+    return np.array([0.0, 0.0])
 
 
 def fdyn(q, qd, tau):
     """Forward dynamics qdd = M(q)^-1 (tau - C(q, qd) qd - F(qd) - G(q)), (2,), by an unrolled LDL^T of M."""
     q, qd, tau = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(tau, 2, 'tau')
+    if q.ndim == qd.ndim == tau.ndim == 1:
+        try:
+            return _fdyn_one(q.tolist(), qd.tolist(), tau.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], tau.shape[:-1])
-    q1, q2 = _split(q)
-    qd1, qd2 = _split(qd)
-    tau1, tau2 = _split(tau)
-    c2 = np.cos(q2)
+    q, qd, tau = _rows(q, shape), _rows(qd, shape), _rows(tau, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    qdd = np.empty((2, _states))
+    _work = np.empty((12, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        q1, q2 = q[:, _lo:_hi]
+        qd1, qd2 = qd[:, _lo:_hi]
+        tau1, tau2 = tau[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5, _w6, _w7, _w8, _w9, _w10, _w11 = _block
+        (_w0, s2), (_w2, c2) = _sincos(q[0:2, _lo:_hi], _block[0:12])
+        _o0 = qdd[:, _lo:_hi]
+        M11 = np.add(1.5, c2, _w4)
+        iD1 = np.divide(1.0, M11, _w5)
+        dV1_y = np.multiply(9.81, _w2, _w2)
+        dV1_x = np.multiply(9.81, _w0, _w0)
+        w1z2 = np.multiply(qd1, qd1, _w6)
+        np.multiply(c2, dV1_y, _w7)
+        np.subtract(dV1_x, w1z2, _w0)
+        np.multiply(s2, _w0, _w0)
+        dV2_y = np.subtract(_w7, _w0, _w7)
+        n2_z = np.multiply(0.5, dV2_y, _w7)
+        w2_z = np.add(qd1, qd2, _w0)
+        w2z2 = np.multiply(w2_z, w2_z, _w0)
+        np.multiply(0.5, w2z2, _w0)
+        f2_x = np.negative(_w0, _w0)
+        np.multiply(1.5, dV1_y, _w2)
+        np.add(n2_z, _w2, _w2)
+        np.multiply(f2_x, s2, _w0)
+        n1_z = np.add(_w2, _w0, _w2)
+        r1 = np.subtract(tau1, n1_z, _w2)
+        y1 = np.multiply(iD1, r1, _w0)
+        np.multiply(0.5, c2, _w3)
+        M21 = np.add(0.25, _w3, _w3)
+        L21 = np.multiply(M21, iD1, _w5)
+        np.multiply(L21, M21, _w3)
+        D2 = np.subtract(0.25, _w3, _w3)
+        iD2 = np.divide(1.0, D2, _w3)
+        r2 = np.subtract(tau2, n2_z, _w7)
+        np.multiply(L21, r1, _w2)
+        z2 = np.subtract(r2, _w2, _w7)
+        y2 = np.multiply(iD2, z2, _w3)
+        np.multiply(L21, y2, _w5)
+        qdd1 = np.subtract(y1, _w5, _w0)
+        _o0[0] = qdd1
+        _o0[1] = y2
+    return np.ascontiguousarray(qdd.T).reshape(shape + (2,))
+
+
+def _fdyn_one(q, qd, tau):
+    """fdyn of one state on Python floats (arguments: lists)."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    tau1, tau2 = tau
+    c2 = math.cos(q2)
     M11 = 1.5 + c2
     iD1 = 1.0/M11
-    dV1_y = 9.81*np.cos(q1)
-    s2 = np.sin(q2)
-    dV1_x = 9.81*np.sin(q1)
+    dV1_y = 9.81*math.cos(q1)
+    s2 = math.sin(q2)
+    dV1_x = 9.81*math.sin(q1)
     w1z2 = qd1*qd1
     dV2_y = c2*dV1_y - s2*(dV1_x - w1z2)
     n2_z = 0.5*dV2_y
@@ -171,28 +454,134 @@ def fdyn(q, qd, tau):
     z2 = r2 - L21*r1
     y2 = iD2*z2
     qdd1 = y1 - L21*y2
-    qdd = np.empty(shape + (2,))
-    qdd[..., 0] = qdd1
-    qdd[..., 1] = y2
-    return qdd
+    return np.array([qdd1, y2])
 
 
 def Y(q, qd, qdd):
     """Joint-torque regressor Y(q, qd, qdd), (2, 28): tau = Y pi with the standard parameters pi of symdyn.regressor.parameter_symbols."""
     q, qd, qdd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(qdd, 2, 'qdd')
+    if q.ndim == qd.ndim == qdd.ndim == 1:
+        try:
+            return _Y_one(q.tolist(), qd.tolist(), qdd.tolist())
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
-    q1, q2 = _split(q)
-    qd1, qd2 = _split(qd)
-    qdd1, qdd2 = _split(qdd)
-    dV1_y = 9.81*np.cos(q1)
-    dV1_x = 9.81*np.sin(q1)
-    sgn_qd1 = np.sign(qd1)
+    q, qd, qdd = _rows(q, shape), _rows(qd, shape), _rows(qdd, shape)
+    _states = q.shape[1]
+    _step = _chunk(_states, 16384)
+    Y = np.empty((56, _states))
+    _work = np.empty((12, _step))
+    for _lo in range(0, _states, _step):
+        _hi = min(_lo + _step, _states)
+        q1, q2 = q[:, _lo:_hi]
+        qd1, qd2 = qd[:, _lo:_hi]
+        qdd1, qdd2 = qdd[:, _lo:_hi]
+        _block = _work[:, :_hi - _lo]
+        _w0, _w1, _w2, _w3, _w4, _w5, _w6, _w7, _w8, _w9, _w10, _w11 = _block
+        (_w0, s2), (_w2, c2) = _sincos(q[0:2, _lo:_hi], _block[0:12])
+        _o0 = Y[:, _lo:_hi]
+        dV1_y = np.multiply(9.81, _w2, _w2)
+        dV1_x = np.multiply(9.81, _w0, _w0)
+        sgn_qd1 = np.sign(qd1, _w4)
+        dw2_z = np.add(qdd1, qdd2, _w5)
+        x1 = np.add(dV1_y, qdd1, _w6)
+        w1z2 = np.multiply(qd1, qd1, _w7)
+        x2 = np.subtract(dV1_x, w1z2, _w7)
+        np.multiply(c2, x1, _w8)
+        np.multiply(s2, x2, _w9)
+        dV2_y = np.subtract(_w8, _w9, _w8)
+        w2_z = np.add(qd1, qd2, _w9)
+        w2z2 = np.multiply(w2_z, w2_z, _w9)
+        np.multiply(c2, dw2_z, _w10)
+        np.add(dV2_y, _w10, _w10)
+        np.multiply(s2, w2z2, _w11)
+        MX2_n1_z = np.subtract(_w10, _w11, _w10)
+        np.multiply(c2, x2, _w7)
+        np.multiply(s2, x1, _w6)
+        dV2_x = np.add(_w7, _w6, _w7)
+        np.negative(dV2_x, _w6)
+        np.multiply(c2, w2z2, _w9)
+        np.subtract(_w6, _w9, _w6)
+        np.multiply(dw2_z, s2, _w9)
+        MY2_n1_z = np.subtract(_w6, _w9, _w6)
+        np.multiply(c2, dV2_y, _w3)
+        np.negative(_w3, _w3)
+        np.multiply(dV2_x, s2, _w1)
+        MZ2_n1_x = np.subtract(_w3, _w1, _w3)
+        sgn_qd2 = np.sign(qd2, _w1)
+        np.negative(dV1_x, _o0[7])
+        np.multiply(sgn_qd1, sgn_qd1, _o0[13])
+        np.negative(MZ2_n1_x, _o0[23])
+        np.negative(dV2_x, _o0[49])
+        np.multiply(sgn_qd2, sgn_qd2, _o0[55])
+        _o0[0] = 0.0
+        _o0[1] = 0.0
+        _o0[2] = 0.0
+        _o0[3] = 0.0
+        _o0[4] = 0.0
+        _o0[5] = qdd1
+        _o0[6] = dV1_y
+        _o0[8] = 0.0
+        _o0[9] = 0.0
+        _o0[10] = qdd1
+        _o0[11] = qd1
+        _o0[12] = sgn_qd1
+        _o0[14] = 0.0
+        _o0[15] = 0.0
+        _o0[16] = 0.0
+        _o0[17] = 0.0
+        _o0[18] = 0.0
+        _o0[19] = dw2_z
+        _o0[20] = MX2_n1_z
+        _o0[21] = MY2_n1_z
+        _o0[22] = 0.0
+        _o0[24] = 0.0
+        _o0[25] = 0.0
+        _o0[26] = 0.0
+        _o0[27] = 0.0
+        _o0[28] = 0.0
+        _o0[29] = 0.0
+        _o0[30] = 0.0
+        _o0[31] = 0.0
+        _o0[32] = 0.0
+        _o0[33] = 0.0
+        _o0[34] = 0.0
+        _o0[35] = 0.0
+        _o0[36] = 0.0
+        _o0[37] = 0.0
+        _o0[38] = 0.0
+        _o0[39] = 0.0
+        _o0[40] = 0.0
+        _o0[41] = 0.0
+        _o0[42] = 0.0
+        _o0[43] = 0.0
+        _o0[44] = 0.0
+        _o0[45] = 0.0
+        _o0[46] = 0.0
+        _o0[47] = dw2_z
+        _o0[48] = dV2_y
+        _o0[50] = 0.0
+        _o0[51] = 0.0
+        _o0[52] = qdd2
+        _o0[53] = qd2
+        _o0[54] = sgn_qd2
+    return np.ascontiguousarray(Y.T).reshape(shape + (2, 28))
+
+
+def _Y_one(q, qd, qdd):
+    """Y of one state on Python floats (arguments: lists)."""
+    q1, q2 = q
+    qd1, qd2 = qd
+    qdd1, qdd2 = qdd
+    dV1_y = 9.81*math.cos(q1)
+    dV1_x = 9.81*math.sin(q1)
+    sgn_qd1 = (1.0 if qd1 > 0.0 else -1.0 if qd1 < 0.0 else qd1 - qd1)
     dw2_z = qdd1 + qdd2
-    c2 = np.cos(q2)
+    c2 = math.cos(q2)
     x1 = dV1_y + qdd1
     w1z2 = qd1*qd1
     x2 = dV1_x - w1z2
-    s2 = np.sin(q2)
+    s2 = math.sin(q2)
     dV2_y = c2*x1 - s2*x2
     w2_z = qd1 + qd2
     w2z2 = w2_z*w2_z
@@ -200,62 +589,5 @@ def Y(q, qd, qdd):
     dV2_x = c2*x2 + s2*x1
     MY2_n1_z = -dV2_x - c2*w2z2 - dw2_z*s2
     MZ2_n1_x = -c2*dV2_y - dV2_x*s2
-    sgn_qd2 = np.sign(qd2)
-    Y = np.empty(shape + (2, 28))
-    Y[..., 0, 0] = 0.0
-    Y[..., 0, 1] = 0.0
-    Y[..., 0, 2] = 0.0
-    Y[..., 0, 3] = 0.0
-    Y[..., 0, 4] = 0.0
-    Y[..., 0, 5] = qdd1
-    Y[..., 0, 6] = dV1_y
-    Y[..., 0, 7] = -dV1_x
-    Y[..., 0, 8] = 0.0
-    Y[..., 0, 9] = 0.0
-    Y[..., 0, 10] = qdd1
-    Y[..., 0, 11] = qd1
-    Y[..., 0, 12] = sgn_qd1
-    Y[..., 0, 13] = sgn_qd1*sgn_qd1
-    Y[..., 0, 14] = 0.0
-    Y[..., 0, 15] = 0.0
-    Y[..., 0, 16] = 0.0
-    Y[..., 0, 17] = 0.0
-    Y[..., 0, 18] = 0.0
-    Y[..., 0, 19] = dw2_z
-    Y[..., 0, 20] = MX2_n1_z
-    Y[..., 0, 21] = MY2_n1_z
-    Y[..., 0, 22] = 0.0
-    Y[..., 0, 23] = -MZ2_n1_x
-    Y[..., 0, 24] = 0.0
-    Y[..., 0, 25] = 0.0
-    Y[..., 0, 26] = 0.0
-    Y[..., 0, 27] = 0.0
-    Y[..., 1, 0] = 0.0
-    Y[..., 1, 1] = 0.0
-    Y[..., 1, 2] = 0.0
-    Y[..., 1, 3] = 0.0
-    Y[..., 1, 4] = 0.0
-    Y[..., 1, 5] = 0.0
-    Y[..., 1, 6] = 0.0
-    Y[..., 1, 7] = 0.0
-    Y[..., 1, 8] = 0.0
-    Y[..., 1, 9] = 0.0
-    Y[..., 1, 10] = 0.0
-    Y[..., 1, 11] = 0.0
-    Y[..., 1, 12] = 0.0
-    Y[..., 1, 13] = 0.0
-    Y[..., 1, 14] = 0.0
-    Y[..., 1, 15] = 0.0
-    Y[..., 1, 16] = 0.0
-    Y[..., 1, 17] = 0.0
-    Y[..., 1, 18] = 0.0
-    Y[..., 1, 19] = dw2_z
-    Y[..., 1, 20] = dV2_y
-    Y[..., 1, 21] = -dV2_x
-    Y[..., 1, 22] = 0.0
-    Y[..., 1, 23] = 0.0
-    Y[..., 1, 24] = qdd2
-    Y[..., 1, 25] = qd2
-    Y[..., 1, 26] = sgn_qd2
-    Y[..., 1, 27] = sgn_qd2*sgn_qd2
-    return Y
+    sgn_qd2 = (1.0 if qd2 > 0.0 else -1.0 if qd2 < 0.0 else qd2 - qd2)
+    return np.array([[0.0, 0.0, 0.0, 0.0, 0.0, qdd1, dV1_y, -dV1_x, 0.0, 0.0, qdd1, qd1, sgn_qd1, sgn_qd1*sgn_qd1, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, MX2_n1_z, MY2_n1_z, 0.0, -MZ2_n1_x, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, dV2_y, -dV2_x, 0.0, 0.0, qdd2, qd2, sgn_qd2, sgn_qd2*sgn_qd2]])
