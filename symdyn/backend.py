@@ -95,7 +95,9 @@ def _broadcasting(fn) -> Callable:
     """fn with its array arguments broadcast against each other and made
     contiguous (the generated C target takes equal leading shapes only)."""
     def call(*args):
-        arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
+        arrays = [np.asarray(a, dtype=float) for a in args]
+        if any(a.shape != arrays[0].shape for a in arrays):
+            arrays = np.broadcast_arrays(*arrays)
         return fn(*(np.ascontiguousarray(a) for a in arrays))
     return call
 
@@ -172,7 +174,7 @@ def refriction(base: Model, robot: Robot) -> Model:
     with `robot`'s friction F(q̇) (`symdyn.reference.friction`): e.g. the
     generated Puma with the Coulomb friction removed, `robot = puma.nofriction()`.
     Forward dynamics through base.fdyn with τ − F + F_base, so M⁻¹(τ − C q̇ − G − F)."""
-    F = functools.partial(ref.friction, robot)
+    F = ref.friction_law(robot)
 
     def swap(qd, tau):
         return np.asarray(tau, float) - F(qd) + base.F(qd)

@@ -26,7 +26,7 @@ from scipy.integrate import solve_ivp
 
 from .model import Robot, exact_cos_sin
 
-__all__ = ["rne", "inertia", "coriolis", "gravload", "friction", "accel", "fdyn",
+__all__ = ["rne", "inertia", "coriolis", "gravload", "friction", "friction_law", "accel", "fdyn",
            "fkine", "jacob0", "energy"]
 
 
@@ -122,7 +122,7 @@ def _link_transforms(c: _Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     d = np.where(c.revolute, c.d, q + c.offset)
     Rj = _rz(theta)                                             # (..., n, 3, 3)
     R = c.pre_R @ Rj @ c.post_R
-    pj = np.einsum("...ij,...j->...i", Rj, np.broadcast_to(c.post_p, Rj.shape[:-1]))
+    pj = np.einsum("...ij,...j->...i", Rj, c.post_p)
     pj = pj + d[..., None] * np.array([0.0, 0.0, 1.0])
     p = c.pre_p + np.einsum("nij,...nj->...ni", c.pre_R, pj)
     return R, p
@@ -225,10 +225,20 @@ def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
 
 def friction(robot: Robot, qd) -> np.ndarray:
     """Joint friction F(q̇) (..., n): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest."""
+    return friction_law(robot)(_state(_chain(robot), qd, "qd"))
+
+
+def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
+    """q̇ ↦ `friction(robot, q̇)` with the robot's constants read once and no
+    input checks: for inner loops (simulators, model adapters)."""
     c = _chain(robot)
-    qd = _state(c, qd, "qd")
-    coulomb = np.where(qd > 0, c.Tc[:, 0], np.where(qd < 0, c.Tc[:, 1], 0.0))
-    return c.G ** 2 * c.B * qd + np.abs(c.G) * coulomb
+    viscous, gain, up, down = c.G ** 2 * c.B, np.abs(c.G), c.Tc[:, 0], c.Tc[:, 1]
+
+    def F(qd) -> np.ndarray:
+        qd = np.asarray(qd, dtype=float)
+        return viscous * qd + gain * np.where(qd > 0, up, np.where(qd < 0, down, 0.0))
+
+    return F
 
 
 def rne(robot: Robot, q, qd, qdd, *, gravity=None, wrench=None, base_wrench: bool = False):
@@ -357,8 +367,7 @@ def fdyn(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *
 def _frames(c: _Chain, q):
     """World rotation and origin of each body frame: (..., n, 3, 3), (..., n, 3)."""
     R, p = _link_transforms(c, q)
-    Rw = np.broadcast_to(c.base_R, q.shape[:-1] + (3, 3))
-    pw = np.broadcast_to(c.base_p, q.shape[:-1] + (3,))
+    Rw, pw = c.base_R, c.base_p                 # broadcast against the batch by the first product
     Rs, ps = [], []
     for i in range(c.n):
         pw = pw + np.einsum("...ij,...j->...i", Rw, p[..., i, :])
@@ -391,18 +400,13 @@ def jacob0(robot: Robot, q) -> np.ndarray:
     q = _state(c, q, "q")
     Rs, ps = _frames(c, q)
     pe = _tool_point(c, Rs, ps)
-    J = np.zeros(q.shape[:-1] + (6, c.n))
-    for i in range(c.n):
-        # the joint axis in the world: S_i (body coordinates) mapped by body i's pose
-        Rb, pb = Rs[..., i, :, :], ps[..., i, :]
-        z = np.einsum("...ij,j->...i", Rb, c.S[i, :3] if c.revolute[i] else c.S[i, 3:])
-        if c.revolute[i]:
-            vb = np.einsum("...ij,j->...i", Rb, c.S[i, 3:])       # velocity of body origin per unit rate
-            J[..., :3, i] = vb + _cross(z, pe - pb)
-            J[..., 3:, i] = z
-        else:
-            J[..., :3, i] = z
-    return J
+    # each joint's axis in the world (S_i in body coordinates mapped by body i's pose); a
+    # revolute joint moves the tool point at v_body + z × (p_e − p_body)
+    revolute = c.revolute[:, None]
+    z = np.einsum("...nij,nj->...ni", Rs, np.where(revolute, c.S[:, :3], c.S[:, 3:]))
+    vb = np.einsum("...nij,nj->...ni", Rs, c.S[:, 3:])
+    v = np.where(revolute, vb + _cross(z, pe[..., None, :] - ps), z)
+    return np.swapaxes(np.concatenate([v, np.where(revolute, z, 0.0)], -1), -1, -2)
 
 
 def energy(robot: Robot, q, qd) -> tuple[np.ndarray, np.ndarray]:

@@ -59,16 +59,27 @@ def smooth_friction(robot: Robot, qd, width: float = COULOMB_WIDTH) -> np.ndarra
 
     width = 0 gives the exact law of `reference.friction` (a jump at rest).
     """
+    if width == 0:
+        return reference.friction(robot, qd)
+    return _smooth_friction_law(robot, width)(qd)
+
+
+def _smooth_friction_law(robot: Robot, width: float = COULOMB_WIDTH) -> Callable[[np.ndarray], np.ndarray]:
+    """q̇ ↦ `smooth_friction(robot, q̇, width)` with the robot's constants read once (for the integrator's loop)."""
     if not (np.isfinite(width) and width >= 0):
         raise ValueError(f"Coulomb smoothing width must be a finite number >= 0, got {width!r}")
     if width == 0:
-        return reference.friction(robot, qd)
-    qd = np.asarray(qd, dtype=float)
+        return reference.friction_law(robot)
     G = np.array([float(link.G) for link in robot.links])
     B = np.array([float(link.B) for link in robot.links])
     Tc = np.array([[float(x) for x in link.Tc] for link in robot.links])
-    coulomb = np.where(qd >= 0, Tc[:, 0], Tc[:, 1]) * np.tanh(np.abs(qd) / width)
-    return G ** 2 * B * qd + np.abs(G) * coulomb
+
+    def F(qd) -> np.ndarray:
+        qd = np.asarray(qd, dtype=float)
+        coulomb = np.where(qd >= 0, Tc[:, 0], Tc[:, 1]) * np.tanh(np.abs(qd) / width)
+        return G ** 2 * B * qd + np.abs(G) * coulomb
+
+    return F
 
 
 class StderrProgress:
@@ -106,7 +117,7 @@ def simulate(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = Non
     qd0 = np.zeros(n) if qd0 is None else np.asarray(qd0, dtype=float)
     if q0.shape != (n,) or qd0.shape != (n,):
         raise ValueError(f"q0 and qd0 must have shape ({n},); got {q0.shape} and {qd0.shape}")
-    smooth_friction(robot, qd0, coulomb_width)      # validates the width once
+    friction = _smooth_friction_law(robot, coulomb_width)
     rigid = backends.model(robot.nofriction(all=True), backend)
     zero = np.zeros(n)
 
@@ -117,7 +128,7 @@ def simulate(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = Non
             raise ValueError(f"torque(t, q, qd) must return shape ({n},), got {tau.shape}")
         if progress is not None:
             progress(t / T, t, T)
-        return np.concatenate([qd, rigid.fdyn(q, qd, tau - smooth_friction(robot, qd, coulomb_width))])
+        return np.concatenate([qd, rigid.fdyn(q, qd, tau - friction(qd))])
 
     x0 = np.concatenate([q0, qd0])
     if isinstance(integrator, RK4):
