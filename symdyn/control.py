@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -26,6 +25,7 @@ from scipy.linalg import solve_continuous_are
 from . import reference as ref
 from .backend import Model
 from .model import Robot
+from .simulate import StderrProgress
 
 __all__ = ["lspb", "quintic", "Trace", "simulate", "scale_inertia", "scaled",
            "JointDrive", "VelocityLoop", "PositionLoop", "TorqueFeedforward", "ComputedTorque",
@@ -97,15 +97,6 @@ class Trace:
     tau: np.ndarray
 
 
-def _progress(label: str | None, k: int, K: int, t: float, last: list) -> None:
-    if label is None:
-        return
-    pct = (100 * k) // K
-    if pct >= last[0] + 10 or k == K:
-        last[0] = pct
-        print(f"  {label}: {pct:3d}%  (t = {t:.2f} s)", file=sys.stderr, flush=True)
-
-
 def _rk4_step(accel, tau_of, t, q, qd, dt, tau0):
     """One classical Runge–Kutta step of (q, q̇)' = (q̇, accel(t, q, q̇, tau_of(t, q, q̇)))."""
     k1v, k1a = qd, accel(t, q, qd, tau0)
@@ -130,7 +121,7 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
     once per sample in time order (so it may keep state), its output held
     (zero-order hold) and applied `delay` samples later (computation delay;
     zero torque before the first output arrives).  `progress`: a label for
-    progress lines on stderr.
+    progress lines on stderr (`symdyn.simulate.StderrProgress`).
     """
     if not (T > 0 and dt > 0):
         raise ValueError(f"simulate: T and dt must be positive, got T={T!r}, dt={dt!r}")
@@ -150,7 +141,7 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
     Q, QD, TAU = (np.empty((K + 1,) + q.shape) for _ in range(3))
     pending = [np.zeros_like(q)] * delay
     held = np.zeros_like(q)
-    last = [0]
+    report = None if progress is None else StderrProgress(progress)
     for k in range(K):
         t = ts[k]
         Q[k], QD[k] = q, qd
@@ -166,7 +157,8 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
             raise RuntimeError(f"simulate: the state became NaN or infinite at t = {t + dt:.4f} s; "
                                f"try a smaller step dt (now {dt}) or gentler gains")
-        _progress(progress, k + 1, K, t + dt, last)
+        if report is not None:
+            report((k + 1) / K, t + dt, T)
     Q[K], QD[K], TAU[K] = q, qd, TAU[K - 1]
     return Trace(ts, Q, QD, TAU)
 

@@ -29,6 +29,19 @@ def _surface(fig, where, sweep, k, names, title):
     return ax
 
 
+def _maps_and_curve(out_dir, name, grid, unit, curve, title):
+    """Two surfaces of a 2-D sweep (in `unit`) beside one inertia element against
+    the second swept joint (a 1-D sweep), saved as out_dir/name.png."""
+    names = tuple(f"q{j + 1} (rad)" for j in grid.joints)
+    fig = pyplot().figure(figsize=(13, 4))
+    for k, label in enumerate(grid.labels):
+        _surface(fig, (1, 3, k + 1), grid, k, names, f"{label} ({unit})")
+    ax = fig.add_subplot(1, 3, 3)
+    ax.plot(curve.axes[0], curve.values[:, 0])
+    ax.set_xlabel(names[1]); ax.set_ylabel(f"{curve.labels[0]} (kg·m²)"); ax.set_title(title); ax.grid(True)
+    save(fig, out_dir, name)
+
+
 def _extreme_line(e: A.Extreme, unit: str, names=("q2", "q3")) -> str:
     at = lambda q: ", ".join(f"{n} = {v:+.2f}" for n, v in zip(names, q))  # noqa: E731
     ratio = "" if np.isnan(e.ratio) else f", max/min {e.ratio:.3f}"
@@ -66,14 +79,7 @@ def inertia_variation(out_dir: Path, quick: bool = False) -> str:
     res = 9 if quick else 73
     grid = A.inertia_map(puma, resolution=res)
     curve = A.inertia_curve(puma, resolution=19 if quick else 181)
-    plt = pyplot()
-    fig = plt.figure(figsize=(13, 4))
-    for k, label in enumerate(grid.labels):
-        _surface(fig, (1, 3, k + 1), grid, k, ("q2 (rad)", "q3 (rad)"), f"{label} (kg·m²)")
-    ax = fig.add_subplot(1, 3, 3)
-    ax.plot(curve.axes[0], curve.values[:, 0])
-    ax.set_xlabel("q3 (rad)"); ax.set_ylabel("M22 (kg·m²)"); ax.set_title("M22 against q3"); ax.grid(True)
-    save(fig, out_dir, "analysis_inertia")
+    _maps_and_curve(out_dir, "analysis_inertia", grid, "kg·m²", curve, "M22 against q3")
     lines = [f"Puma 560 inertia variation (rotor inertia G²Jm included), {res}x{res} grid over [-pi, pi]:"]
     lines += [_extreme_line(e, "kg·m²") for e in grid.extremes()]
     lines += [_extreme_line(e, "kg·m²", ("q3",)) for e in curve.extremes()]
@@ -202,14 +208,7 @@ def twolink_exercise(out_dir: Path, quick: bool = False) -> str:
     res = 9 if quick else 73
     grid = A.gravity_load_map(arm, joints=(0, 1), resolution=res)
     curve = A.inertia_curve(arm, element=(0, 0), joint=1, resolution=19 if quick else 181)
-    plt = pyplot()
-    fig = plt.figure(figsize=(13, 4))
-    for k, label in enumerate(grid.labels):
-        _surface(fig, (1, 3, k + 1), grid, k, ("q1 (rad)", "q2 (rad)"), f"{label} (N·m)")
-    ax = fig.add_subplot(1, 3, 3)
-    ax.plot(curve.axes[0], curve.values[:, 0])
-    ax.set_xlabel("q2 (rad)"); ax.set_ylabel("M11 (kg·m²)"); ax.set_title("joint-1 inertia against q2"); ax.grid(True)
-    save(fig, out_dir, "analysis_twolink")
+    _maps_and_curve(out_dir, "analysis_twolink", grid, "N·m", curve, "joint-1 inertia against q2")
     link1, link2 = arm.links
     lines = [f"Exercise 3 arm: m1 = {link1.m} kg, m2 = {link2.m} kg, COM 8 cm from each joint, "
              f"a1 = {link1.a} m, a2 = {link2.a} m (our choice: COM at mid-link), g = 9.81:"]
