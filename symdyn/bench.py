@@ -288,13 +288,12 @@ C_ROWS = (
 )
 
 
-def c_level(robot, states, args, log) -> list[Row]:
-    """Rows of the C-level comparison: harnesses in alternating rounds, medians over rounds."""
+def c_level(robot, src: dict, states, args, log) -> list[Row]:
+    """Rows of the C-level comparison (src: frictionless_sources): harnesses in alternating rounds."""
     from .codegen import GENERATED
 
     q, qd, qdd, tau = states
     bare = robot.nofriction(all=True)
-    src = frictionless_sources(robot)
     work = cache_dir() / "bench"
     states_file = write_states(work / f"states-{os.getpid()}.bin", q, qd, qdd, tau)
     casadi_c = None
@@ -388,14 +387,13 @@ def _shipped_model():
     return load(MODEL, "c")
 
 
-def python_level(robot, states, args, log) -> list[Row]:
-    """Rows of the comparison from Python: single calls and per state in batches."""
+def python_level(robot, src: dict, states, args, log) -> list[Row]:
+    """Rows of the comparison from Python (src: frictionless_sources): single calls, batches."""
     from .codegen import GENERATED
     from .emit.clib import load_library
 
     q, qd, qdd, _ = states
     bare = robot.nofriction(all=True)
-    src = frictionless_sources(robot)
     fast_tau = load_library(src["c"], src["h"]).functions["tau"]
     npmod = _import_path(src["py"], f"_symdyn_bench_{src['py'].parent.name.replace('-', '_')}")
     ops = op_counts(src["c"]).get("tau")
@@ -531,9 +529,10 @@ def main(args=None) -> int:
     log = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
     robot = models.load(MODEL)
     states = random_states(robot.nofriction(all=True), args.batch, args.seed)
-    rows = c_level(robot, states, args, log)
+    src = frictionless_sources(robot)
+    rows = c_level(robot, src, states, args, log)
     if not args.no_python:
-        rows += python_level(robot, states, args, log)
+        rows += python_level(robot, src, states, args, log)
     print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
           f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions")
     print(format_table(rows))
