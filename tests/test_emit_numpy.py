@@ -95,6 +95,15 @@ def test_sincos_beyond_the_table_or_not_finite_is_numpys():
         np.testing.assert_array_equal(c, np.cos(xs))
 
 
+@pytest.mark.parametrize("function", ["tau", "C", "fdyn", "Y"])
+def test_few_states_by_the_scalar_body_equal_the_batched_body(model, function):
+    args, _ = cases(model.name)["tau" if function == "Y" else function]
+    f = getattr(model, function)
+    batch = f(*args)
+    for count in (2, numpy_emit.FEW, numpy_emit.FEW + 1):
+        np.testing.assert_allclose(f(*(a[:count] for a in args)), batch[:count], rtol=1e-14, atol=1e-14)
+
+
 def test_batches_longer_than_a_chunk_and_empty_batches(model):
     (q, qd, qdd), tau = cases(model.name)["tau"]
     count = numpy_emit.CHUNK + 7
@@ -115,13 +124,16 @@ def test_angles_beyond_the_sine_table_agree_with_the_reference(model):
 
 def test_a_non_finite_state_stays_in_its_row(model):
     (q, qd, qdd), tau = cases(model.name)["tau"]
-    bad = q[:8].copy()
-    bad[3] = np.nan
+    for count in (8, numpy_emit.FEW + 8):  # scalar and batched body
+        bad = q[:count].copy()
+        bad[3] = np.nan
+        with np.errstate(invalid="ignore"):
+            got = model.tau(bad, qd[:count], qdd[:count])
+        assert np.isnan(got[3]).any()
+        assert_close(np.delete(got, 3, axis=0), np.delete(tau[:count], 3, axis=0), f"{model.name} tau beside a nan")
     with np.errstate(invalid="ignore"):
-        got = model.tau(bad, qd[:8], qdd[:8])
         one = model.M(np.where(np.arange(model.n) == 1, np.inf, q[0]))  # math.cos(inf) raises: NumPy path
-    assert np.isnan(got[3]).any() and np.isnan(one).any()
-    assert_close(np.delete(got, 3, axis=0), np.delete(tau[:8], 3, axis=0), f"{model.name} tau beside a nan")
+    assert np.isnan(one).any()
 
 
 def test_every_primitive_in_the_scalar_and_the_batched_body(tmp_path):
@@ -129,20 +141,24 @@ def test_every_primitive_in_the_scalar_and_the_batched_body(tmp_path):
     exprs = [3 * sp.sign(x1) * x2 + sp.sign(x2 - x3), sp.Abs(x1 - x2) * x3, sp.sqrt(x3 ** 2 + 1),
              (x3 ** 2 + 2) ** sp.Rational(5, 2), x1 / x3 - 1 / (x2 ** 2 + 1), sp.tan(x1 * x2),
              sp.sin(x1 - 2 * x3) * sp.cos(x2) + sp.sin(x1 * x3), -x1 ** 3 + x2 ** 4, sp.Integer(0)]
-    program = make_program("f", [("x", (x1, x2, x3))], [("y", sp.Matrix(exprs))])
+    second = sp.Matrix([[x1 * x2, 1], [sp.cos(x2) ** 2, x3]])
+    program = make_program("f", [("x", (x1, x2, x3))], [("y", sp.Matrix(exprs)), ("z", second)])
     path = tmp_path / "prims.py"
     path.write_text(numpy_emit.module_source(Bundle("prims", 3, "test", "none", (program,))))
     f = _module(path).f
     x = np.random.default_rng(1).uniform(-2, 2, (50, 3))
     x[:3, 0] = [0.0, -0.0, 1.5]
     x[2, 1] = 0.0
-    want = np.stack(np.broadcast_arrays(*sp.lambdify([x1, x2, x3], exprs, "numpy")(*x.T)), axis=-1)
-    np.testing.assert_allclose(f(x), want, rtol=1e-13, atol=1e-13)
-    for k in range(5):
-        np.testing.assert_allclose(f(x[k]), want[k], rtol=1e-13, atol=1e-13)
+    want_y = np.stack(np.broadcast_arrays(*sp.lambdify([x1, x2, x3], exprs, "numpy")(*x.T)), axis=-1)
+    want_z = np.moveaxis(np.array(np.broadcast_arrays(*sp.lambdify([x1, x2, x3], list(second), "numpy")(*x.T))), 0, -1)
+    for states in (slice(None), slice(3), 0, 1, 2, 3):  # batched body, scalar body for few and for one
+        y, z = f(x[states])
+        np.testing.assert_allclose(y, want_y[states], rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(z, want_z[states].reshape(z.shape), rtol=1e-13, atol=1e-13)
+        assert z.shape == np.shape(x[states])[:-1] + (2, 2)
     with np.errstate(divide="ignore", invalid="ignore"):
-        at_zero = f(np.array([1.0, 2.0, 0.0]))  # 1/0 raises in Python: NumPy's inf instead
-    assert at_zero[4] == np.inf and np.isnan(f(np.array([np.nan, 1.0, 1.0]))[0])
+        at_zero = f(np.array([1.0, 2.0, 0.0]))[0]  # 1/0 raises in Python: NumPy's inf instead
+        assert at_zero[4] == np.inf and np.isnan(f(np.array([np.nan, 1.0, 1.0]))[0][0])
 
 
 def test_emitter_names_cannot_clash():

@@ -23,6 +23,7 @@ MODEL = 'puma560'
 SYMDYN_VERSION = '0.1.0'
 FINGERPRINT = '6ea3cf186eacb6674f5d281ac582606eeafe18e749be397676350f65e55dae69'
 N = 6
+FEW = 24  # batches of at most FEW states: the scalar body, state by state
 FUNCTIONS = ('tau', 'M', 'C', 'Cqd', 'G', 'F', 'fdyn', 'Y')
 OP_COUNTS = {'tau': {'add': 171, 'mul': 230, 'div': 0, 'neg': 13, 'fun': 16, 'total': 417}, 'M': {'add': 78, 'mul': 110, 'div': 0, 'neg': 12, 'fun': 8, 'total': 196}, 'C': {'add': 484, 'mul': 509, 'div': 0, 'neg': 39, 'fun': 8, 'total': 1001}, 'Cqd': {'add': 123, 'mul': 187, 'div': 0, 'neg': 15, 'fun': 10, 'total': 320}, 'G': {'add': 12, 'mul': 28, 'div': 0, 'neg': 3, 'fun': 8, 'total': 48}, 'F': {'add': 12, 'mul': 24, 'div': 0, 'neg': 0, 'fun': 6, 'total': 42}, 'fdyn': {'add': 297, 'mul': 411, 'div': 6, 'neg': 32, 'fun': 16, 'total': 730}, 'Y': {'add': 578, 'mul': 819, 'div': 0, 'neg': 85, 'fun': 16, 'total': 1413}}
 
@@ -35,10 +36,29 @@ def _arg(x, size, name):
     return x
 
 
+def _shape(*args):
+    """The leading shape of the arguments (..., size_i) broadcast together."""
+    shape = args[0].shape[:-1]
+    if any(x.shape[:-1] != shape for x in args):
+        shape = np.broadcast_shapes(*(x.shape[:-1] for x in args))
+    return shape
+
+
 def _rows(x, shape):
     """x (..., size) broadcast to shape + (size,), as contiguous rows (size, states)."""
-    x = np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1])
-    return np.ascontiguousarray(x.T)
+    if x.shape[:-1] != shape:
+        x = np.broadcast_to(x, shape + x.shape[-1:])
+    return np.ascontiguousarray(x.reshape(-1, x.shape[-1]).T)
+
+
+def _outputs(values, shape, shapes):
+    """Outputs from the flat values (..., total size) of each state: one array
+    of shape `shape + shapes[0]`, or a tuple of them for several outputs."""
+    values = np.array(values)
+    if len(shapes) == 1:
+        return values.reshape(shape + shapes[0])
+    ends = np.cumsum([math.prod(s) for s in shapes])[:-1]
+    return tuple(v.reshape(shape + s) for v, s in zip(np.split(values, ends, axis=-1), shapes))
 
 
 def _chunk(states, size):
@@ -99,12 +119,17 @@ def tau(q, qd, qdd):
     q, qd, qdd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(qdd, 6, 'qdd')
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
-            return _tau_one(q.tolist(), qd.tolist(), qdd.tolist())
+            return _outputs(_tau_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((6,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
+    shape = _shape(q, qd, qdd)
     q, qd, qdd = _rows(q, shape), _rows(qd, shape), _rows(qdd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_tau_one(*state) for state in zip(q.T.tolist(), qd.T.tolist(), qdd.T.tolist())], shape, ((6,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     tau = np.empty((6, _states))
     _work = np.empty((59, _step))
@@ -541,7 +566,7 @@ def tau(q, qd, qdd):
 
 
 def _tau_one(q, qd, qdd):
-    """tau of one state on Python floats (arguments: lists)."""
+    """tau of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, q6 = q
     qd1, qd2, qd3, qd4, qd5, qd6 = qd
     qdd1, qdd2, qdd3, qdd4, qdd5, qdd6 = qdd
@@ -671,7 +696,7 @@ def _tau_one(q, qd, qdd):
     sgn_qd4 = (1.0 if qd4 > 0.0 else -1.0 if qd4 < 0.0 else qd4 - qd4)
     sgn_qd5 = (1.0 if qd5 > 0.0 else -1.0 if qd5 < 0.0 else qd5 - qd5)
     sgn_qd6 = (1.0 if qd6 > 0.0 else -1.0 if qd6 < 0.0 else qd6 - qd6)
-    return np.array([n1_z - 1.252222*(sgn_qd1*sgn_qd1) + 25.9836065*sgn_qd1 + 5.8018217679508*qd1, n2_z + 2.9649125*(sgn_qd2*sgn_qd2) + 10.6197775*sgn_qd2 + 9.496868641825*qd2, n3_z + 0.72503505*(sgn_qd3*sgn_qd3) + 6.36419655*sgn_qd3 + 0.576873331938*qdd3 + 3.9804259903722*qd3, n4_z - 0.21670374*(sgn_qd4*sgn_qd4) + 1.06831142*sgn_qd4 + 0.19079062612368*qdd4 + 0.411645229697152*qd4, n5_z - 0.18843826*(sgn_qd5*sgn_qd5) + 0.85444524*sgn_qd5 + 0.170706291657*qdd5 + 0.4272830209354*qd5, n6_z - 0.25076322*(sgn_qd6*sgn_qd6) + 0.55443978*sgn_qd6 + 0.194064505668*qdd6 + 0.2158232532732*qd6])
+    return [n1_z - 1.252222*(sgn_qd1*sgn_qd1) + 25.9836065*sgn_qd1 + 5.8018217679508*qd1, n2_z + 2.9649125*(sgn_qd2*sgn_qd2) + 10.6197775*sgn_qd2 + 9.496868641825*qd2, n3_z + 0.72503505*(sgn_qd3*sgn_qd3) + 6.36419655*sgn_qd3 + 0.576873331938*qdd3 + 3.9804259903722*qd3, n4_z - 0.21670374*(sgn_qd4*sgn_qd4) + 1.06831142*sgn_qd4 + 0.19079062612368*qdd4 + 0.411645229697152*qd4, n5_z - 0.18843826*(sgn_qd5*sgn_qd5) + 0.85444524*sgn_qd5 + 0.170706291657*qdd5 + 0.4272830209354*qd5, n6_z - 0.25076322*(sgn_qd6*sgn_qd6) + 0.55443978*sgn_qd6 + 0.194064505668*qdd6 + 0.2158232532732*qd6]
 
 
 def M(q):
@@ -679,12 +704,17 @@ def M(q):
     q = _arg(q, 6, 'q')
     if q.ndim == 1:
         try:
-            return _M_one(q.tolist())
+            return _outputs(_M_one(q.tolist()), (), ((6, 6),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = q.shape[:-1]
+    shape = _shape(q)
     q = _rows(q, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_M_one(*state) for state in zip(q.T.tolist())], shape, ((6, 6),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     M = np.empty((36, _states))
     _work = np.empty((32, _step))
@@ -933,7 +963,7 @@ def M(q):
 
 
 def _M_one(q):
-    """M of one state on Python floats (arguments: lists)."""
+    """M of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, _ = q
     s2 = math.sin(q2)
     s4 = math.sin(q4)
@@ -1017,7 +1047,7 @@ def _M_one(q):
     cn5_3_z = 0.0203*cS5_x - 0.4318*cf5_3_x + 0.00064216*c4
     cn5_2_z = cn5_3_z + 0.4318*cf5_2_y
     cn6_3_z = -cn6_4_x*s4
-    return np.array([[cJ1_zz, x13, cn3_1_z, cn4_1_z, cn5_1_z, cn6_1_z], [x13, cJ2_zz, cn3_2_z, cn4_2_z, cn5_2_z, cn6_3_z], [cn3_1_z, cn3_2_z, 0.576873331938 + cJ3_zz, cn4_3_z, cn5_3_z, cn6_3_z], [cn4_1_z, cn4_2_z, cn4_3_z, 0.19079062612368 + cJ4_zz, 0.0, cn6_4_z], [cn5_1_z, cn5_2_z, cn5_3_z, 0.0, 0.171348451657, 0.0], [cn6_1_z, cn6_3_z, cn6_3_z, cn6_4_z, 0.0, 0.194104505668]])
+    return [cJ1_zz, x13, cn3_1_z, cn4_1_z, cn5_1_z, cn6_1_z, x13, cJ2_zz, cn3_2_z, cn4_2_z, cn5_2_z, cn6_3_z, cn3_1_z, cn3_2_z, 0.576873331938 + cJ3_zz, cn4_3_z, cn5_3_z, cn6_3_z, cn4_1_z, cn4_2_z, cn4_3_z, 0.19079062612368 + cJ4_zz, 0.0, cn6_4_z, cn5_1_z, cn5_2_z, cn5_3_z, 0.0, 0.171348451657, 0.0, cn6_1_z, cn6_3_z, cn6_3_z, cn6_4_z, 0.0, 0.194104505668]
 
 
 def C(q, qd):
@@ -1025,12 +1055,17 @@ def C(q, qd):
     q, qd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd')
     if q.ndim == qd.ndim == 1:
         try:
-            return _C_one(q.tolist(), qd.tolist())
+            return _outputs(_C_one(q.tolist(), qd.tolist()), (), ((6, 6),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
+    shape = _shape(q, qd)
     q, qd = _rows(q, shape), _rows(qd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_C_one(*state) for state in zip(q.T.tolist(), qd.T.tolist())], shape, ((6, 6),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     C = np.empty((36, _states))
     _work = np.empty((81, _step))
@@ -2080,7 +2115,7 @@ def C(q, qd):
 
 
 def _C_one(q, qd):
-    """C of one state on Python floats (arguments: lists)."""
+    """C of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, _ = q
     qd1, qd2, qd3, qd4, qd5, qd6 = qd
     c5 = math.cos(q5)
@@ -2410,7 +2445,7 @@ def _C_one(q, qd):
     Gamma6_34 = Gamma2_46
     Gamma6_35 = Gamma2_56
     Gamma6_45 = Gamma4_56
-    return np.array([[Gamma1_12*qd2 + Gamma1_13*qd3 + Gamma1_14*qd4 + Gamma1_15*qd5, Gamma1_12*qd1 + Gamma1_22*qd2 + Gamma1_23*qd3 + Gamma1_24*qd4 + Gamma1_25*qd5 + Gamma1_26*qd6, Gamma1_13*qd1 + Gamma1_23*qd2 + Gamma1_33*qd3 + Gamma1_34*qd4 + Gamma1_35*qd5 + Gamma1_36*qd6, Gamma1_14*qd1 + Gamma1_24*qd2 + Gamma1_34*qd3 + Gamma1_44*qd4 + Gamma1_45*qd5 + Gamma1_46*qd6, Gamma1_15*qd1 + Gamma1_25*qd2 + Gamma1_35*qd3 + Gamma1_45*qd4 + Gamma1_55*qd5 + Gamma1_56*qd6, Gamma1_26*qd2 + Gamma1_36*qd3 + Gamma1_46*qd4 + Gamma1_56*qd5], [Gamma2_11*qd1 + Gamma2_14*qd4 + Gamma2_15*qd5 + Gamma2_16*qd6, Gamma2_23*qd3 + Gamma2_24*qd4 + Gamma2_25*qd5, Gamma2_23*qd2 + Gamma2_33*qd3 + Gamma2_34*qd4 + Gamma2_35*qd5, Gamma2_14*qd1 + Gamma2_24*qd2 + Gamma2_34*qd3 + Gamma2_44*qd4 + Gamma2_45*qd5 + Gamma2_46*qd6, Gamma2_15*qd1 + Gamma2_25*qd2 + Gamma2_35*qd3 + Gamma2_45*qd4 + Gamma2_55*qd5 + Gamma2_56*qd6, Gamma2_16*qd1 + Gamma2_46*qd4 + Gamma2_56*qd5], [Gamma3_11*qd1 + Gamma3_14*qd4 + Gamma3_15*qd5 + Gamma3_16*qd6, Gamma3_22*qd2 + Gamma3_24*qd4 + Gamma3_25*qd5, Gamma3_34*qd4 + Gamma3_35*qd5, Gamma3_14*qd1 + Gamma3_24*qd2 + Gamma3_34*qd3 + Gamma3_44*qd4 + Gamma3_45*qd5 + Gamma3_46*qd6, Gamma3_15*qd1 + Gamma3_25*qd2 + Gamma3_35*qd3 + Gamma3_45*qd4 + Gamma3_55*qd5 + Gamma3_56*qd6, Gamma3_16*qd1 + Gamma3_46*qd4 + Gamma3_56*qd5], [Gamma4_11*qd1 + Gamma4_12*qd2 + Gamma4_13*qd3 + Gamma4_15*qd5 + Gamma4_16*qd6, Gamma4_12*qd1 + Gamma4_22*qd2 + Gamma4_23*qd3 + Gamma4_25*qd5 + Gamma4_26*qd6, Gamma4_13*qd1 + Gamma4_23*qd2 + Gamma4_33*qd3 + Gamma4_35*qd5 + Gamma4_36*qd6, Gamma4_45*qd5, Gamma4_15*qd1 + Gamma4_25*qd2 + Gamma4_35*qd3 + Gamma4_45*qd4 + Gamma4_56*qd6, Gamma4_16*qd1 + Gamma4_26*qd2 + Gamma4_36*qd3 + Gamma4_56*qd5], [Gamma5_11*qd1 + Gamma5_12*qd2 + Gamma5_13*qd3 + Gamma5_14*qd4 + Gamma5_16*qd6, Gamma5_12*qd1 + Gamma5_22*qd2 + Gamma5_23*qd3 + Gamma5_24*qd4 + Gamma5_26*qd6, Gamma5_13*qd1 + Gamma5_23*qd2 + Gamma5_33*qd3 + Gamma5_34*qd4 + Gamma5_36*qd6, Gamma5_14*qd1 + Gamma5_24*qd2 + Gamma5_34*qd3 + Gamma5_44*qd4 + Gamma5_46*qd6, 0.0, Gamma5_16*qd1 + Gamma5_26*qd2 + Gamma5_36*qd3 + Gamma5_46*qd4], [Gamma6_12*qd2 + Gamma6_13*qd3 + Gamma6_14*qd4 + Gamma6_15*qd5, Gamma6_12*qd1 + Gamma6_24*qd4 + Gamma6_25*qd5, Gamma6_13*qd1 + Gamma6_34*qd4 + Gamma6_35*qd5, Gamma6_14*qd1 + Gamma6_24*qd2 + Gamma6_34*qd3 + Gamma6_45*qd5, Gamma6_15*qd1 + Gamma6_25*qd2 + Gamma6_35*qd3 + Gamma6_45*qd4, 0.0]])
+    return [Gamma1_12*qd2 + Gamma1_13*qd3 + Gamma1_14*qd4 + Gamma1_15*qd5, Gamma1_12*qd1 + Gamma1_22*qd2 + Gamma1_23*qd3 + Gamma1_24*qd4 + Gamma1_25*qd5 + Gamma1_26*qd6, Gamma1_13*qd1 + Gamma1_23*qd2 + Gamma1_33*qd3 + Gamma1_34*qd4 + Gamma1_35*qd5 + Gamma1_36*qd6, Gamma1_14*qd1 + Gamma1_24*qd2 + Gamma1_34*qd3 + Gamma1_44*qd4 + Gamma1_45*qd5 + Gamma1_46*qd6, Gamma1_15*qd1 + Gamma1_25*qd2 + Gamma1_35*qd3 + Gamma1_45*qd4 + Gamma1_55*qd5 + Gamma1_56*qd6, Gamma1_26*qd2 + Gamma1_36*qd3 + Gamma1_46*qd4 + Gamma1_56*qd5, Gamma2_11*qd1 + Gamma2_14*qd4 + Gamma2_15*qd5 + Gamma2_16*qd6, Gamma2_23*qd3 + Gamma2_24*qd4 + Gamma2_25*qd5, Gamma2_23*qd2 + Gamma2_33*qd3 + Gamma2_34*qd4 + Gamma2_35*qd5, Gamma2_14*qd1 + Gamma2_24*qd2 + Gamma2_34*qd3 + Gamma2_44*qd4 + Gamma2_45*qd5 + Gamma2_46*qd6, Gamma2_15*qd1 + Gamma2_25*qd2 + Gamma2_35*qd3 + Gamma2_45*qd4 + Gamma2_55*qd5 + Gamma2_56*qd6, Gamma2_16*qd1 + Gamma2_46*qd4 + Gamma2_56*qd5, Gamma3_11*qd1 + Gamma3_14*qd4 + Gamma3_15*qd5 + Gamma3_16*qd6, Gamma3_22*qd2 + Gamma3_24*qd4 + Gamma3_25*qd5, Gamma3_34*qd4 + Gamma3_35*qd5, Gamma3_14*qd1 + Gamma3_24*qd2 + Gamma3_34*qd3 + Gamma3_44*qd4 + Gamma3_45*qd5 + Gamma3_46*qd6, Gamma3_15*qd1 + Gamma3_25*qd2 + Gamma3_35*qd3 + Gamma3_45*qd4 + Gamma3_55*qd5 + Gamma3_56*qd6, Gamma3_16*qd1 + Gamma3_46*qd4 + Gamma3_56*qd5, Gamma4_11*qd1 + Gamma4_12*qd2 + Gamma4_13*qd3 + Gamma4_15*qd5 + Gamma4_16*qd6, Gamma4_12*qd1 + Gamma4_22*qd2 + Gamma4_23*qd3 + Gamma4_25*qd5 + Gamma4_26*qd6, Gamma4_13*qd1 + Gamma4_23*qd2 + Gamma4_33*qd3 + Gamma4_35*qd5 + Gamma4_36*qd6, Gamma4_45*qd5, Gamma4_15*qd1 + Gamma4_25*qd2 + Gamma4_35*qd3 + Gamma4_45*qd4 + Gamma4_56*qd6, Gamma4_16*qd1 + Gamma4_26*qd2 + Gamma4_36*qd3 + Gamma4_56*qd5, Gamma5_11*qd1 + Gamma5_12*qd2 + Gamma5_13*qd3 + Gamma5_14*qd4 + Gamma5_16*qd6, Gamma5_12*qd1 + Gamma5_22*qd2 + Gamma5_23*qd3 + Gamma5_24*qd4 + Gamma5_26*qd6, Gamma5_13*qd1 + Gamma5_23*qd2 + Gamma5_33*qd3 + Gamma5_34*qd4 + Gamma5_36*qd6, Gamma5_14*qd1 + Gamma5_24*qd2 + Gamma5_34*qd3 + Gamma5_44*qd4 + Gamma5_46*qd6, 0.0, Gamma5_16*qd1 + Gamma5_26*qd2 + Gamma5_36*qd3 + Gamma5_46*qd4, Gamma6_12*qd2 + Gamma6_13*qd3 + Gamma6_14*qd4 + Gamma6_15*qd5, Gamma6_12*qd1 + Gamma6_24*qd4 + Gamma6_25*qd5, Gamma6_13*qd1 + Gamma6_34*qd4 + Gamma6_35*qd5, Gamma6_14*qd1 + Gamma6_24*qd2 + Gamma6_34*qd3 + Gamma6_45*qd5, Gamma6_15*qd1 + Gamma6_25*qd2 + Gamma6_35*qd3 + Gamma6_45*qd4, 0.0]
 
 
 def Cqd(q, qd):
@@ -2418,12 +2453,17 @@ def Cqd(q, qd):
     q, qd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd')
     if q.ndim == qd.ndim == 1:
         try:
-            return _Cqd_one(q.tolist(), qd.tolist())
+            return _outputs(_Cqd_one(q.tolist(), qd.tolist()), (), ((6,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
+    shape = _shape(q, qd)
     q, qd = _rows(q, shape), _rows(qd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_Cqd_one(*state) for state in zip(q.T.tolist(), qd.T.tolist())], shape, ((6,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     Cqd = np.empty((6, _states))
     _work = np.empty((54, _step))
@@ -2770,7 +2810,7 @@ def Cqd(q, qd):
 
 
 def _Cqd_one(q, qd):
-    """Cqd of one state on Python floats (arguments: lists)."""
+    """Cqd of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, q6 = q
     qd1, qd2, qd3, qd4, qd5, qd6 = qd
     s2 = math.sin(q2)
@@ -2880,7 +2920,7 @@ def _Cqd_one(q, qd):
     cn1_z = c2*cn2_y + cn2_x*s2
     cn3_z = 0.025375*cdV3_y - 0.89133*cdV3_x - 0.0047376*cdw3_y - 0.4318*x7 - 0.4318*x8 + 0.0203*cf4_z + K3_y*wi3_x - K3_x*wi3_y - c4*cn4_y - cn4_x*s4
     cn2_z = cn3_z - 0.6903913435*w2yz + 0.023751*w2xz + K2_y*wi2_x - K2_x*wi2_y + 0.4318*c3*cf3_y + 0.4318*cf3_x*s3
-    return np.array([cn1_z, cn2_z, cn3_z, cn4_z, cn5_z, cn6_z])
+    return [cn1_z, cn2_z, cn3_z, cn4_z, cn5_z, cn6_z]
 
 
 def G(q):
@@ -2888,12 +2928,17 @@ def G(q):
     q = _arg(q, 6, 'q')
     if q.ndim == 1:
         try:
-            return _G_one(q.tolist())
+            return _outputs(_G_one(q.tolist()), (), ((6,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = q.shape[:-1]
+    shape = _shape(q)
     q = _rows(q, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_G_one(*state) for state in zip(q.T.tolist())], shape, ((6,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     G = np.empty((6, _states))
     _work = np.empty((24, _step))
@@ -2957,7 +3002,7 @@ def G(q):
 
 
 def _G_one(q):
-    """G of one state on Python floats (arguments: lists)."""
+    """G of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, _ = q
     s2 = math.sin(q2)
     c3 = math.cos(q3)
@@ -2984,7 +3029,7 @@ def _G_one(q):
     gn1_z = c2*gn2_y + gn2_x*s2
     gn3_z = 0.025375*gdV3_y - 0.89133*gdV3_x + c4*gn5_z - gn4_x*s4
     gn2_z = gn3_z - 0.1044*dV2_x + 3.79559*dV2_y
-    return np.array([gn1_z, gn2_z, gn3_z, gn4_z, gn5_z, 0.0])
+    return [gn1_z, gn2_z, gn3_z, gn4_z, gn5_z, 0.0]
 
 
 def F(qd):
@@ -2992,12 +3037,17 @@ def F(qd):
     qd = _arg(qd, 6, 'qd')
     if qd.ndim == 1:
         try:
-            return _F_one(qd.tolist())
+            return _outputs(_F_one(qd.tolist()), (), ((6,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = qd.shape[:-1]
+    shape = _shape(qd)
     qd = _rows(qd, shape)
     _states = qd.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_F_one(*state) for state in zip(qd.T.tolist())], shape, ((6,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     F = np.empty((6, _states))
     _work = np.empty((7, _step))
@@ -3053,7 +3103,7 @@ def F(qd):
 
 
 def _F_one(qd):
-    """F of one state on Python floats (arguments: lists)."""
+    """F of one state on Python floats: lists in, the flat list of outputs out."""
     qd1, qd2, qd3, qd4, qd5, qd6 = qd
     sgn_qd1 = (1.0 if qd1 > 0.0 else -1.0 if qd1 < 0.0 else qd1 - qd1)
     sgn_qd2 = (1.0 if qd2 > 0.0 else -1.0 if qd2 < 0.0 else qd2 - qd2)
@@ -3061,7 +3111,7 @@ def _F_one(qd):
     sgn_qd4 = (1.0 if qd4 > 0.0 else -1.0 if qd4 < 0.0 else qd4 - qd4)
     sgn_qd5 = (1.0 if qd5 > 0.0 else -1.0 if qd5 < 0.0 else qd5 - qd5)
     sgn_qd6 = (1.0 if qd6 > 0.0 else -1.0 if qd6 < 0.0 else qd6 - qd6)
-    return np.array([25.9836065*sgn_qd1 - 1.252222*(sgn_qd1*sgn_qd1) + 5.8018217679508*qd1, 2.9649125*(sgn_qd2*sgn_qd2) + 10.6197775*sgn_qd2 + 9.496868641825*qd2, 0.72503505*(sgn_qd3*sgn_qd3) + 6.36419655*sgn_qd3 + 3.9804259903722*qd3, 1.06831142*sgn_qd4 - 0.21670374*(sgn_qd4*sgn_qd4) + 0.411645229697152*qd4, 0.85444524*sgn_qd5 - 0.18843826*(sgn_qd5*sgn_qd5) + 0.4272830209354*qd5, 0.55443978*sgn_qd6 - 0.25076322*(sgn_qd6*sgn_qd6) + 0.2158232532732*qd6])
+    return [25.9836065*sgn_qd1 - 1.252222*(sgn_qd1*sgn_qd1) + 5.8018217679508*qd1, 2.9649125*(sgn_qd2*sgn_qd2) + 10.6197775*sgn_qd2 + 9.496868641825*qd2, 0.72503505*(sgn_qd3*sgn_qd3) + 6.36419655*sgn_qd3 + 3.9804259903722*qd3, 1.06831142*sgn_qd4 - 0.21670374*(sgn_qd4*sgn_qd4) + 0.411645229697152*qd4, 0.85444524*sgn_qd5 - 0.18843826*(sgn_qd5*sgn_qd5) + 0.4272830209354*qd5, 0.55443978*sgn_qd6 - 0.25076322*(sgn_qd6*sgn_qd6) + 0.2158232532732*qd6]
 
 
 def fdyn(q, qd, tau):
@@ -3069,12 +3119,17 @@ def fdyn(q, qd, tau):
     q, qd, tau = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(tau, 6, 'tau')
     if q.ndim == qd.ndim == tau.ndim == 1:
         try:
-            return _fdyn_one(q.tolist(), qd.tolist(), tau.tolist())
+            return _outputs(_fdyn_one(q.tolist(), qd.tolist(), tau.tolist()), (), ((6,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], tau.shape[:-1])
+    shape = _shape(q, qd, tau)
     q, qd, tau = _rows(q, shape), _rows(qd, shape), _rows(tau, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_fdyn_one(*state) for state in zip(q.T.tolist(), qd.T.tolist(), tau.T.tolist())], shape, ((6,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     qdd = np.empty((6, _states))
     _work = np.empty((72, _step))
@@ -3849,7 +3904,7 @@ def fdyn(q, qd, tau):
 
 
 def _fdyn_one(q, qd, tau):
-    """fdyn of one state on Python floats (arguments: lists)."""
+    """fdyn of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, q6 = q
     qd1, qd2, qd3, qd4, qd5, qd6 = qd
     tau1, tau2, tau3, tau4, tau5, tau6 = tau
@@ -4107,7 +4162,7 @@ def _fdyn_one(q, qd, tau):
     qdd3 = y3 - L43*qdd4 - L53*qdd5 - L63*y6
     qdd2 = y2 - L32*qdd3 - L42*qdd4 - L52*qdd5 - L62*y6
     qdd1 = y1 - L21*qdd2 - L31*qdd3 - L41*qdd4 - L51*qdd5 - L61*y6
-    return np.array([qdd1, qdd2, qdd3, qdd4, qdd5, y6])
+    return [qdd1, qdd2, qdd3, qdd4, qdd5, y6]
 
 
 def Y(q, qd, qdd):
@@ -4115,12 +4170,17 @@ def Y(q, qd, qdd):
     q, qd, qdd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(qdd, 6, 'qdd')
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
-            return _Y_one(q.tolist(), qd.tolist(), qdd.tolist())
+            return _outputs(_Y_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((6, 84),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
+    shape = _shape(q, qd, qdd)
     q, qd, qdd = _rows(q, shape), _rows(qd, shape), _rows(qdd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_Y_one(*state) for state in zip(q.T.tolist(), qd.T.tolist(), qdd.T.tolist())], shape, ((6, 84),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     Y = np.empty((504, _states))
     _work = np.empty((213, _step))
@@ -6118,7 +6178,7 @@ def Y(q, qd, qdd):
 
 
 def _Y_one(q, qd, qdd):
-    """Y of one state on Python floats (arguments: lists)."""
+    """Y of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2, q3, q4, q5, q6 = q
     qd1, qd2, qd3, qd4, qd5, qd6 = qd
     qdd1, qdd2, qdd3, qdd4, qdd5, qdd6 = qdd
@@ -6703,4 +6763,4 @@ def _Y_one(q, qd, qdd):
     sgn_qd4 = (1.0 if qd4 > 0.0 else -1.0 if qd4 < 0.0 else qd4 - qd4)
     sgn_qd5 = (1.0 if qd5 > 0.0 else -1.0 if qd5 < 0.0 else qd5 - qd5)
     sgn_qd6 = (1.0 if qd6 > 0.0 else -1.0 if qd6 < 0.0 else qd6 - qd6)
-    return np.array([[0.0, 0.0, 0.0, 0.0, 0.0, qdd1, 0.0, 0.0, 0.0, 0.0, qdd1, qd1, sgn_qd1, sgn_qd1*sgn_qd1, XX2_n1_z, XY2_n1_z, XZ2_n1_z, YY2_n1_z, YZ2_n1_z, ZZ2_n1_z, 0.0, 0.0, MZ2_n1_z, 0.0, 0.0, 0.0, 0.0, 0.0, XX3_n1_z, XY3_n1_z, XZ3_n1_z, YY3_n1_z, YZ3_n1_z, ZZ3_n1_z, MX3_n1_z, MY3_n1_z, MZ3_n1_z, M3_n1_z, 0.0, 0.0, 0.0, 0.0, XX4_n1_z, XY4_n1_z, XZ4_n1_z, YY4_n1_z, YZ4_n1_z, ZZ4_n1_z, MX4_n1_z, MY4_n1_z, MZ4_n1_z, M4_n1_z, 0.0, 0.0, 0.0, 0.0, XX5_n1_z, XY5_n1_z, XZ5_n1_z, YY5_n1_z, YZ5_n1_z, ZZ5_n1_z, MX5_n1_z, MY5_n1_z, MZ5_n1_z, M5_n1_z, 0.0, 0.0, 0.0, 0.0, XX6_n1_z, XY6_n1_z, XZ6_n1_z, YY6_n1_z, YZ6_n1_z, ZZ6_n1_z, MX6_n1_z, MY6_n1_z, MZ6_n1_z, M6_n1_z, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -w2xy, XY2_n2_z, XZ2_n2_z, w2xy, YZ2_n2_z, qdd2, dV2_y, -dV2_x, 0.0, 0.0, qdd2, qd2, sgn_qd2, sgn_qd2*sgn_qd2, x12, XY3_n3_z, XZ3_n3_z, w3xy, YZ3_n3_z, dw3_z, MX3_n2_z, MY3_n2_z, MZ3_n2_z, M3_n2_z, 0.0, 0.0, 0.0, 0.0, XX4_n3_z, XY4_n3_z, XZ4_n3_z, YY4_n3_z, YZ4_n3_z, ZZ4_n3_z, MX4_n2_z, MY4_n2_z, MZ4_n2_z, M4_n2_z, 0.0, 0.0, 0.0, 0.0, XX5_n3_z, XY5_n3_z, XZ5_n3_z, YY5_n3_z, YZ5_n3_z, ZZ5_n3_z, MX5_n2_z, MY5_n2_z, MZ5_n2_z, M5_n2_z, 0.0, 0.0, 0.0, 0.0, XX6_n3_z, XY6_n3_z, XZ6_n3_z, YY6_n3_z, YZ6_n3_z, ZZ6_n3_z, MX6_n2_z, MY6_n2_z, MZ6_n2_z, M6_n2_z, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x12, XY3_n3_z, XZ3_n3_z, w3xy, YZ3_n3_z, dw3_z, dV3_y, x96, 0.0, 0.0, qdd3, qd3, sgn_qd3, sgn_qd3*sgn_qd3, XX4_n3_z, XY4_n3_z, XZ4_n3_z, YY4_n3_z, YZ4_n3_z, ZZ4_n3_z, MX4_n3_z, MY4_n3_z, MZ4_n3_z, M4_n3_z, 0.0, 0.0, 0.0, 0.0, XX5_n3_z, XY5_n3_z, XZ5_n3_z, YY5_n3_z, YZ5_n3_z, ZZ5_n3_z, MX5_n3_z, MY5_n3_z, MZ5_n3_z, M5_n3_z, 0.0, 0.0, 0.0, 0.0, XX6_n3_z, XY6_n3_z, XZ6_n3_z, YY6_n3_z, YZ6_n3_z, ZZ6_n3_z, MX6_n3_z, MY6_n3_z, MZ6_n3_z, M6_n3_z, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x33, XY4_n4_z, XZ4_n4_z, w4xy, YZ4_n4_z, dw4_z, dV4_y, x37, 0.0, 0.0, qdd4, qd4, sgn_qd4, sgn_qd4*sgn_qd4, XX5_n4_z, XY5_n4_z, XZ5_n4_z, YY5_n4_z, YZ5_n4_z, ZZ5_n4_z, MX5_n4_z, MX5_n4_x, MZ5_n4_z, 0.0, 0.0, 0.0, 0.0, 0.0, XX6_n4_z, XY6_n4_z, XZ6_n4_z, YY6_n4_z, YZ6_n4_z, ZZ6_n4_z, MX6_n4_z, MY6_n4_z, MZ6_n4_z, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x60, XY5_n5_z, XZ5_n5_z, w5xy, YZ5_n5_z, dw5_z, dV5_y, -dV5_x, 0.0, 0.0, qdd5, qd5, sgn_qd5, sgn_qd5*sgn_qd5, XX6_n5_z, XY6_n5_z, XZ6_n5_z, YY6_n5_z, YZ6_n5_z, ZZ6_n5_z, MX6_n5_z, -MX6_n5_x, MZ6_n5_z, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x83, XY6_n6_z, XZ6_n6_z, w6xy, YZ6_n6_z, dw6_z, dV6_y, -dV6_x, 0.0, 0.0, qdd6, qd6, sgn_qd6, sgn_qd6*sgn_qd6]])
+    return [0.0, 0.0, 0.0, 0.0, 0.0, qdd1, 0.0, 0.0, 0.0, 0.0, qdd1, qd1, sgn_qd1, sgn_qd1*sgn_qd1, XX2_n1_z, XY2_n1_z, XZ2_n1_z, YY2_n1_z, YZ2_n1_z, ZZ2_n1_z, 0.0, 0.0, MZ2_n1_z, 0.0, 0.0, 0.0, 0.0, 0.0, XX3_n1_z, XY3_n1_z, XZ3_n1_z, YY3_n1_z, YZ3_n1_z, ZZ3_n1_z, MX3_n1_z, MY3_n1_z, MZ3_n1_z, M3_n1_z, 0.0, 0.0, 0.0, 0.0, XX4_n1_z, XY4_n1_z, XZ4_n1_z, YY4_n1_z, YZ4_n1_z, ZZ4_n1_z, MX4_n1_z, MY4_n1_z, MZ4_n1_z, M4_n1_z, 0.0, 0.0, 0.0, 0.0, XX5_n1_z, XY5_n1_z, XZ5_n1_z, YY5_n1_z, YZ5_n1_z, ZZ5_n1_z, MX5_n1_z, MY5_n1_z, MZ5_n1_z, M5_n1_z, 0.0, 0.0, 0.0, 0.0, XX6_n1_z, XY6_n1_z, XZ6_n1_z, YY6_n1_z, YZ6_n1_z, ZZ6_n1_z, MX6_n1_z, MY6_n1_z, MZ6_n1_z, M6_n1_z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -w2xy, XY2_n2_z, XZ2_n2_z, w2xy, YZ2_n2_z, qdd2, dV2_y, -dV2_x, 0.0, 0.0, qdd2, qd2, sgn_qd2, sgn_qd2*sgn_qd2, x12, XY3_n3_z, XZ3_n3_z, w3xy, YZ3_n3_z, dw3_z, MX3_n2_z, MY3_n2_z, MZ3_n2_z, M3_n2_z, 0.0, 0.0, 0.0, 0.0, XX4_n3_z, XY4_n3_z, XZ4_n3_z, YY4_n3_z, YZ4_n3_z, ZZ4_n3_z, MX4_n2_z, MY4_n2_z, MZ4_n2_z, M4_n2_z, 0.0, 0.0, 0.0, 0.0, XX5_n3_z, XY5_n3_z, XZ5_n3_z, YY5_n3_z, YZ5_n3_z, ZZ5_n3_z, MX5_n2_z, MY5_n2_z, MZ5_n2_z, M5_n2_z, 0.0, 0.0, 0.0, 0.0, XX6_n3_z, XY6_n3_z, XZ6_n3_z, YY6_n3_z, YZ6_n3_z, ZZ6_n3_z, MX6_n2_z, MY6_n2_z, MZ6_n2_z, M6_n2_z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x12, XY3_n3_z, XZ3_n3_z, w3xy, YZ3_n3_z, dw3_z, dV3_y, x96, 0.0, 0.0, qdd3, qd3, sgn_qd3, sgn_qd3*sgn_qd3, XX4_n3_z, XY4_n3_z, XZ4_n3_z, YY4_n3_z, YZ4_n3_z, ZZ4_n3_z, MX4_n3_z, MY4_n3_z, MZ4_n3_z, M4_n3_z, 0.0, 0.0, 0.0, 0.0, XX5_n3_z, XY5_n3_z, XZ5_n3_z, YY5_n3_z, YZ5_n3_z, ZZ5_n3_z, MX5_n3_z, MY5_n3_z, MZ5_n3_z, M5_n3_z, 0.0, 0.0, 0.0, 0.0, XX6_n3_z, XY6_n3_z, XZ6_n3_z, YY6_n3_z, YZ6_n3_z, ZZ6_n3_z, MX6_n3_z, MY6_n3_z, MZ6_n3_z, M6_n3_z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x33, XY4_n4_z, XZ4_n4_z, w4xy, YZ4_n4_z, dw4_z, dV4_y, x37, 0.0, 0.0, qdd4, qd4, sgn_qd4, sgn_qd4*sgn_qd4, XX5_n4_z, XY5_n4_z, XZ5_n4_z, YY5_n4_z, YZ5_n4_z, ZZ5_n4_z, MX5_n4_z, MX5_n4_x, MZ5_n4_z, 0.0, 0.0, 0.0, 0.0, 0.0, XX6_n4_z, XY6_n4_z, XZ6_n4_z, YY6_n4_z, YZ6_n4_z, ZZ6_n4_z, MX6_n4_z, MY6_n4_z, MZ6_n4_z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x60, XY5_n5_z, XZ5_n5_z, w5xy, YZ5_n5_z, dw5_z, dV5_y, -dV5_x, 0.0, 0.0, qdd5, qd5, sgn_qd5, sgn_qd5*sgn_qd5, XX6_n5_z, XY6_n5_z, XZ6_n5_z, YY6_n5_z, YZ6_n5_z, ZZ6_n5_z, MX6_n5_z, -MX6_n5_x, MZ6_n5_z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, x83, XY6_n6_z, XZ6_n6_z, w6xy, YZ6_n6_z, dw6_z, dV6_y, -dV6_x, 0.0, 0.0, qdd6, qd6, sgn_qd6, sgn_qd6*sgn_qd6]

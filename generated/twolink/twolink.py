@@ -23,6 +23,7 @@ MODEL = 'twolink'
 SYMDYN_VERSION = '0.1.0'
 FINGERPRINT = '8b8cc520cad5672b49d702ea1137dcd22f3a7e761a66a02f9646842d05be48aa'
 N = 2
+FEW = 24  # batches of at most FEW states: the scalar body, state by state
 FUNCTIONS = ('tau', 'M', 'C', 'Cqd', 'G', 'F', 'fdyn', 'Y')
 OP_COUNTS = {'tau': {'add': 10, 'mul': 14, 'div': 0, 'neg': 1, 'fun': 4, 'total': 28}, 'M': {'add': 2, 'mul': 1, 'div': 0, 'neg': 0, 'fun': 1, 'total': 4}, 'C': {'add': 1, 'mul': 5, 'div': 0, 'neg': 1, 'fun': 1, 'total': 7}, 'Cqd': {'add': 2, 'mul': 6, 'div': 0, 'neg': 1, 'fun': 1, 'total': 9}, 'G': {'add': 2, 'mul': 4, 'div': 0, 'neg': 0, 'fun': 4, 'total': 10}, 'F': {'add': 0, 'mul': 0, 'div': 0, 'neg': 0, 'fun': 0, 'total': 0}, 'fdyn': {'add': 12, 'mul': 17, 'div': 2, 'neg': 1, 'fun': 4, 'total': 35}, 'Y': {'add': 11, 'mul': 16, 'div': 0, 'neg': 5, 'fun': 6, 'total': 33}}
 
@@ -35,10 +36,29 @@ def _arg(x, size, name):
     return x
 
 
+def _shape(*args):
+    """The leading shape of the arguments (..., size_i) broadcast together."""
+    shape = args[0].shape[:-1]
+    if any(x.shape[:-1] != shape for x in args):
+        shape = np.broadcast_shapes(*(x.shape[:-1] for x in args))
+    return shape
+
+
 def _rows(x, shape):
     """x (..., size) broadcast to shape + (size,), as contiguous rows (size, states)."""
-    x = np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1])
-    return np.ascontiguousarray(x.T)
+    if x.shape[:-1] != shape:
+        x = np.broadcast_to(x, shape + x.shape[-1:])
+    return np.ascontiguousarray(x.reshape(-1, x.shape[-1]).T)
+
+
+def _outputs(values, shape, shapes):
+    """Outputs from the flat values (..., total size) of each state: one array
+    of shape `shape + shapes[0]`, or a tuple of them for several outputs."""
+    values = np.array(values)
+    if len(shapes) == 1:
+        return values.reshape(shape + shapes[0])
+    ends = np.cumsum([math.prod(s) for s in shapes])[:-1]
+    return tuple(v.reshape(shape + s) for v, s in zip(np.split(values, ends, axis=-1), shapes))
 
 
 def _chunk(states, size):
@@ -99,12 +119,17 @@ def tau(q, qd, qdd):
     q, qd, qdd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(qdd, 2, 'qdd')
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
-            return _tau_one(q.tolist(), qd.tolist(), qdd.tolist())
+            return _outputs(_tau_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((2,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
+    shape = _shape(q, qd, qdd)
     q, qd, qdd = _rows(q, shape), _rows(qd, shape), _rows(qdd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_tau_one(*state) for state in zip(q.T.tolist(), qd.T.tolist(), qdd.T.tolist())], shape, ((2,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     tau = np.empty((2, _states))
     _work = np.empty((12, _step))
@@ -148,7 +173,7 @@ def tau(q, qd, qdd):
 
 
 def _tau_one(q, qd, qdd):
-    """tau of one state on Python floats (arguments: lists)."""
+    """tau of one state on Python floats: lists in, the flat list of outputs out."""
     q1, q2 = q
     qd1, qd2 = qd
     qdd1, qdd2 = qdd
@@ -165,7 +190,7 @@ def _tau_one(q, qd, qdd):
     f2_x = -0.5*w2z2
     f2_y = 0.5*dw2_z
     n1_z = n2_z + 1.5*dV1_y + 1.25*qdd1 + c2*f2_y + f2_x*s2
-    return np.array([n1_z, n2_z])
+    return [n1_z, n2_z]
 
 
 def M(q):
@@ -173,12 +198,17 @@ def M(q):
     q = _arg(q, 2, 'q')
     if q.ndim == 1:
         try:
-            return _M_one(q.tolist())
+            return _outputs(_M_one(q.tolist()), (), ((2, 2),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = q.shape[:-1]
+    shape = _shape(q)
     q = _rows(q, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_M_one(*state) for state in zip(q.T.tolist())], shape, ((2, 2),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     M = np.empty((4, _states))
     _work = np.empty((6, _step))
@@ -199,11 +229,11 @@ def M(q):
 
 
 def _M_one(q):
-    """M of one state on Python floats (arguments: lists)."""
+    """M of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2 = q
     c2 = math.cos(q2)
     x1 = 0.25 + 0.5*c2
-    return np.array([[1.5 + c2, x1], [x1, 0.25]])
+    return [1.5 + c2, x1, x1, 0.25]
 
 
 def C(q, qd):
@@ -211,12 +241,17 @@ def C(q, qd):
     q, qd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd')
     if q.ndim == qd.ndim == 1:
         try:
-            return _C_one(q.tolist(), qd.tolist())
+            return _outputs(_C_one(q.tolist(), qd.tolist()), (), ((2, 2),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
+    shape = _shape(q, qd)
     q, qd = _rows(q, shape), _rows(qd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_C_one(*state) for state in zip(q.T.tolist(), qd.T.tolist())], shape, ((2, 2),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     C = np.empty((4, _states))
     _work = np.empty((6, _step))
@@ -240,13 +275,13 @@ def C(q, qd):
 
 
 def _C_one(q, qd):
-    """C of one state on Python floats (arguments: lists)."""
+    """C of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2 = q
     qd1, qd2 = qd
     Gamma2_11 = 0.5*math.sin(q2)
     Gamma1_12 = -Gamma2_11
     Gamma1_22 = Gamma1_12
-    return np.array([[Gamma1_12*qd2, Gamma1_12*qd1 + Gamma1_22*qd2], [Gamma2_11*qd1, 0.0]])
+    return [Gamma1_12*qd2, Gamma1_12*qd1 + Gamma1_22*qd2, Gamma2_11*qd1, 0.0]
 
 
 def Cqd(q, qd):
@@ -254,12 +289,17 @@ def Cqd(q, qd):
     q, qd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd')
     if q.ndim == qd.ndim == 1:
         try:
-            return _Cqd_one(q.tolist(), qd.tolist())
+            return _outputs(_Cqd_one(q.tolist(), qd.tolist()), (), ((2,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1])
+    shape = _shape(q, qd)
     q, qd = _rows(q, shape), _rows(qd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_Cqd_one(*state) for state in zip(q.T.tolist(), qd.T.tolist())], shape, ((2,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     Cqd = np.empty((2, _states))
     _work = np.empty((6, _step))
@@ -286,7 +326,7 @@ def Cqd(q, qd):
 
 
 def _Cqd_one(q, qd):
-    """Cqd of one state on Python floats (arguments: lists)."""
+    """Cqd of one state on Python floats: lists in, the flat list of outputs out."""
     _, q2 = q
     qd1, qd2 = qd
     s2 = math.sin(q2)
@@ -297,7 +337,7 @@ def _Cqd_one(q, qd):
     w2z2 = w2_z*w2_z
     f2_x = -0.5*w2z2
     cn1_z = cn2_z + f2_x*s2
-    return np.array([cn1_z, cn2_z])
+    return [cn1_z, cn2_z]
 
 
 def G(q):
@@ -305,12 +345,17 @@ def G(q):
     q = _arg(q, 2, 'q')
     if q.ndim == 1:
         try:
-            return _G_one(q.tolist())
+            return _outputs(_G_one(q.tolist()), (), ((2,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = q.shape[:-1]
+    shape = _shape(q)
     q = _rows(q, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_G_one(*state) for state in zip(q.T.tolist())], shape, ((2,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     G = np.empty((2, _states))
     _work = np.empty((12, _step))
@@ -332,12 +377,12 @@ def G(q):
 
 
 def _G_one(q):
-    """G of one state on Python floats (arguments: lists)."""
+    """G of one state on Python floats: lists in, the flat list of outputs out."""
     q1, q2 = q
     c1 = math.cos(q1)
     c12 = c1*math.cos(q2) - math.sin(q1)*math.sin(q2)
     x1 = 4.905*c12
-    return np.array([x1 + 14.715*c1, x1])
+    return [x1 + 14.715*c1, x1]
 
 
 def F(qd):
@@ -345,12 +390,17 @@ def F(qd):
     qd = _arg(qd, 2, 'qd')
     if qd.ndim == 1:
         try:
-            return _F_one(qd.tolist())
+            return _outputs(_F_one(qd.tolist()), (), ((2,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = qd.shape[:-1]
+    shape = _shape(qd)
     qd = _rows(qd, shape)
     _states = qd.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_F_one(*state) for state in zip(qd.T.tolist())], shape, ((2,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     F = np.empty((2, _states))
     for _lo in range(0, _states, _step):
@@ -362,8 +412,8 @@ def F(qd):
 
 
 def _F_one(qd):
-    """F of one state on Python floats (arguments: lists)."""
-    return np.array([0.0, 0.0])
+    """F of one state on Python floats: lists in, the flat list of outputs out."""
+    return [0.0, 0.0]
 
 
 def fdyn(q, qd, tau):
@@ -371,12 +421,17 @@ def fdyn(q, qd, tau):
     q, qd, tau = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(tau, 2, 'tau')
     if q.ndim == qd.ndim == tau.ndim == 1:
         try:
-            return _fdyn_one(q.tolist(), qd.tolist(), tau.tolist())
+            return _outputs(_fdyn_one(q.tolist(), qd.tolist(), tau.tolist()), (), ((2,),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], tau.shape[:-1])
+    shape = _shape(q, qd, tau)
     q, qd, tau = _rows(q, shape), _rows(qd, shape), _rows(tau, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_fdyn_one(*state) for state in zip(q.T.tolist(), qd.T.tolist(), tau.T.tolist())], shape, ((2,),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     qdd = np.empty((2, _states))
     _work = np.empty((12, _step))
@@ -427,7 +482,7 @@ def fdyn(q, qd, tau):
 
 
 def _fdyn_one(q, qd, tau):
-    """fdyn of one state on Python floats (arguments: lists)."""
+    """fdyn of one state on Python floats: lists in, the flat list of outputs out."""
     q1, q2 = q
     qd1, qd2 = qd
     tau1, tau2 = tau
@@ -454,7 +509,7 @@ def _fdyn_one(q, qd, tau):
     z2 = r2 - L21*r1
     y2 = iD2*z2
     qdd1 = y1 - L21*y2
-    return np.array([qdd1, y2])
+    return [qdd1, y2]
 
 
 def Y(q, qd, qdd):
@@ -462,12 +517,17 @@ def Y(q, qd, qdd):
     q, qd, qdd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(qdd, 2, 'qdd')
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
-            return _Y_one(q.tolist(), qd.tolist(), qdd.tolist())
+            return _outputs(_Y_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((2, 28),))
         except (ArithmeticError, ValueError):
             pass  # a zero division or math domain error: inf/nan as NumPy gives below
-    shape = np.broadcast_shapes(q.shape[:-1], qd.shape[:-1], qdd.shape[:-1])
+    shape = _shape(q, qd, qdd)
     q, qd, qdd = _rows(q, shape), _rows(qd, shape), _rows(qdd, shape)
     _states = q.shape[1]
+    if _states <= FEW:
+        try:
+            return _outputs([_Y_one(*state) for state in zip(q.T.tolist(), qd.T.tolist(), qdd.T.tolist())], shape, ((2, 28),))
+        except (ArithmeticError, ValueError):
+            pass  # a zero division or math domain error: inf/nan as NumPy gives below
     _step = _chunk(_states, 16384)
     Y = np.empty((56, _states))
     _work = np.empty((12, _step))
@@ -569,7 +629,7 @@ def Y(q, qd, qdd):
 
 
 def _Y_one(q, qd, qdd):
-    """Y of one state on Python floats (arguments: lists)."""
+    """Y of one state on Python floats: lists in, the flat list of outputs out."""
     q1, q2 = q
     qd1, qd2 = qd
     qdd1, qdd2 = qdd
@@ -590,4 +650,4 @@ def _Y_one(q, qd, qdd):
     MY2_n1_z = -dV2_x - c2*w2z2 - dw2_z*s2
     MZ2_n1_x = -c2*dV2_y - dV2_x*s2
     sgn_qd2 = (1.0 if qd2 > 0.0 else -1.0 if qd2 < 0.0 else qd2 - qd2)
-    return np.array([[0.0, 0.0, 0.0, 0.0, 0.0, qdd1, dV1_y, -dV1_x, 0.0, 0.0, qdd1, qd1, sgn_qd1, sgn_qd1*sgn_qd1, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, MX2_n1_z, MY2_n1_z, 0.0, -MZ2_n1_x, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, dV2_y, -dV2_x, 0.0, 0.0, qdd2, qd2, sgn_qd2, sgn_qd2*sgn_qd2]])
+    return [0.0, 0.0, 0.0, 0.0, 0.0, qdd1, dV1_y, -dV1_x, 0.0, 0.0, qdd1, qd1, sgn_qd1, sgn_qd1*sgn_qd1, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, MX2_n1_z, MY2_n1_z, 0.0, -MZ2_n1_x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, dV2_y, -dV2_x, 0.0, 0.0, qdd2, qd2, sgn_qd2, sgn_qd2*sgn_qd2]

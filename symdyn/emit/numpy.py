@@ -4,24 +4,32 @@ Stage "emit" of model → derive → simplify → program → emit.  Every funct
 is batched over leading axes: q of shape (n,) or (..., n) gives outputs of
 shape (..., n) or (..., n, n); inputs broadcast against each other.  Each
 program is printed twice, doing the same operations in the same order: a
-scalar body on Python floats (math.sin, float arithmetic) for one state,
-some 10x faster than NumPy scalars, and a batched body on contiguous rows of
-states in which every operation writes into a preallocated work row that is
-reused once its value is dead (a fresh temporary per operation costs page
-faults, not arithmetic).  The module carries its provenance (SYMDYN_VERSION,
-FINGERPRINT) and op counts so a stale file is detected when loaded.
+scalar body on Python floats (math.sin, float arithmetic), ~5x faster than
+NumPy scalars, for one state or a few; and a batched body on contiguous
+rows of states, one ufunc call per operation writing into a preallocated
+work row that is reused once its value is dead (a fresh temporary per
+operation costs page faults), with sin and cos of the joint angles by a
+table kernel 3-4x faster than np.sin/np.cos.  The module carries its
+provenance (SYMDYN_VERSION, FINGERPRINT) and op counts so a stale file is
+detected when loaded.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from ..program import Program, lower
 from . import ATOM, Bundle, Infix, header_lines
 
-__all__ = ["module_source", "output_shape", "CHUNK"]
+__all__ = ["module_source", "batched_source", "scalar_source", "output_shape", "CHUNK", "FEW"]
 
 #: States per pass of the batched body (measured: per-call overhead of ~1 us per
 #: operation favours long rows; longer ones fall out of the caches).
 CHUNK = 16384
+
+#: Batches of at most FEW states run the scalar body state by state: the
+#: batched body's ~1 us per operation and call exceeds ~25-40 states' float arithmetic.
+FEW = 24
 
 #: NumPy ufunc of each primitive of `symdyn.program.lower`.
 UFUNCS = {"neg": "negative", "add": "add", "sub": "subtract", "mul": "multiply", "div": "divide",
@@ -38,10 +46,29 @@ def _arg(x, size, name):
     return x
 
 
+def _shape(*args):
+    """The leading shape of the arguments (..., size_i) broadcast together."""
+    shape = args[0].shape[:-1]
+    if any(x.shape[:-1] != shape for x in args):
+        shape = np.broadcast_shapes(*(x.shape[:-1] for x in args))
+    return shape
+
+
 def _rows(x, shape):
     """x (..., size) broadcast to shape + (size,), as contiguous rows (size, states)."""
-    x = np.broadcast_to(x, shape + x.shape[-1:]).reshape(-1, x.shape[-1])
-    return np.ascontiguousarray(x.T)
+    if x.shape[:-1] != shape:
+        x = np.broadcast_to(x, shape + x.shape[-1:])
+    return np.ascontiguousarray(x.reshape(-1, x.shape[-1]).T)
+
+
+def _outputs(values, shape, shapes):
+    """Outputs from the flat values (..., total size) of each state: one array
+    of shape `shape + shapes[0]`, or a tuple of them for several outputs."""
+    values = np.array(values)
+    if len(shapes) == 1:
+        return values.reshape(shape + shapes[0])
+    ends = np.cumsum([math.prod(s) for s in shapes])[:-1]
+    return tuple(v.reshape(shape + s) for v, s in zip(np.split(values, ends, axis=-1), shapes))
 
 
 def _chunk(states, size):
@@ -168,7 +195,7 @@ def output_shape(mat) -> tuple[int, ...]:
     return (mat.rows,) if mat.cols == 1 else (mat.rows, mat.cols)
 
 
-def _used_names(p: Program, args: list[str]) -> list[tuple[str, str]]:
+def _used_names(p: Program) -> list[tuple[str, str]]:
     """(argument, unpacking target) of each input the program reads: 'q1, _, q3'."""
     used = p.used_inputs()
     out = []
@@ -180,28 +207,47 @@ def _used_names(p: Program, args: list[str]) -> list[tuple[str, str]]:
 
 
 def scalar_source(p: Program) -> str:
-    """The one-state body `_<name>_one` on Python floats (arguments as lists)."""
+    """The one-state body `_<name>_one` on Python floats: arguments and result
+    are lists (the outputs' entries one after the other, matrices row-major)."""
     args = [a for a, _ in p.inputs]
     lines = [f"def _{p.name}_one({', '.join(args)}):",
-             f'    """{p.name} of one state on Python floats (arguments: lists)."""']
-    lines += [f"    {names} = {a}" for a, names in _used_names(p, args)]
+             f'    """{p.name} of one state on Python floats: lists in, the flat list of outputs out."""']
+    lines += [f"    {names} = {a}" for a, names in _used_names(p)]
     lines += [f"    {s.name} = {lower(e, SCALAR)[0]}" for s, e in p.assignments]
-    values = []
-    for _, mat in p.outputs:
-        items = [lower(e, SCALAR)[0] for e in mat]
-        if mat.cols == 1:
-            values.append("np.array([" + ", ".join(items) + "])")
-        else:
-            rows = (items[r * mat.cols:(r + 1) * mat.cols] for r in range(mat.rows))
-            values.append("np.array([" + ", ".join("[" + ", ".join(r) + "]" for r in rows) + "])")
-    lines.append("    return " + ", ".join(values))
+    items = [lower(e, SCALAR)[0] for _, mat in p.outputs for e in mat]
+    lines.append(f"    return [{', '.join(items)}]")
     return "\n".join(lines)
 
 
-def _tape(p: Program) -> tuple[_Tape, dict, dict, list]:
-    """Record the program: (tape, name of each named op, output row of each op
-    that writes one directly, output writes).  Writes are (output, row, value),
-    value None when the expression's last op writes the row itself."""
+@dataclass(frozen=True)
+class _Plan:
+    """The batched body of one program: ops in order (ufunc, operands); the
+    name of each named op; the output (index, entry) each op writing one
+    directly writes; other output entries (index, entry, value); the sin/cos
+    blocks (argument, columns, first row: k sines then k cosines); the work
+    row of every op not writing an output and the number of rows; the op of
+    each (sin or cos, input column), computed in a block."""
+
+    ops: list
+    names: dict
+    direct: dict
+    copies: list
+    blocks: list
+    row: dict
+    rows: int
+    trig: dict
+
+    def text(self, v) -> str:
+        """An operand as printed: constant, input column, op name or its work row."""
+        if isinstance(v, float):
+            return repr(v)
+        if isinstance(v, str):
+            return v
+        return self.names.get(v, f"_w{self.row.get(v)}")
+
+
+def _plan(p: Program) -> _Plan:
+    """Record the program on a tape, lay out the sin/cos blocks and allocate work rows."""
     tape = _Tape()
     names = {}
     for s, e in p.assignments:
@@ -209,42 +255,40 @@ def _tape(p: Program) -> tuple[_Tape, dict, dict, list]:
         tape.env[s.name] = v
         if isinstance(v, int) and v not in names:
             names[v] = s.name
-    writes, direct = [], {}
+    copies, direct = [], {}
     for j, (_, mat) in enumerate(p.outputs):
         for k, e in enumerate(mat):
             start = len(tape.ops)
             v = lower(e, tape)
             if isinstance(v, int) and v >= start and v not in tape.trig.values():
                 direct[v] = (j, k)
-                writes.append((j, k, None))
             else:
-                writes.append((j, k, v))
-    return tape, names, direct, writes
-
-
-def _trig_blocks(p: Program, trig: dict) -> list[tuple[str, list[int], int]]:
-    """(argument, its columns, first work row) of each argument whose columns
-    have sin or cos: rows first..first+k hold their sines, then k cosines."""
-    blocks, first = [], 0
+                copies.append((j, k, v))
+    blocks, fixed = [], {}
     for a, syms in p.inputs:
-        cols = [i for i, s in enumerate(syms) if ("sin", s.name) in trig or ("cos", s.name) in trig]
+        cols = [i for i, s in enumerate(syms) if ("sin", s.name) in tape.trig or ("cos", s.name) in tape.trig]
+        first = sum(2 * len(c) for _, c, _ in blocks)
+        for k, col in enumerate(cols):
+            for fn, offset in (("sin", 0), ("cos", len(cols))):
+                if (fn, syms[col].name) in tape.trig:
+                    fixed[tape.trig[fn, syms[col].name]] = first + offset + k
         if cols:
             blocks.append((a, cols, first))
-            first += 2 * len(cols)
-    return blocks
+    row, count = _allocate(tape.ops, direct, copies, fixed)
+    rows = max([count] + [first + 6 * len(cols) for _, cols, first in blocks])
+    return _Plan(tape.ops, names, direct, copies, blocks, row, rows, tape.trig)
 
 
-def _allocate(tape: _Tape, direct: dict, writes: list, fixed: dict) -> tuple[dict, int]:
+def _allocate(ops: list, direct: dict, copies: list, fixed: dict) -> tuple[dict, int]:
     """Work row of every op not writing an output (`fixed`: rows given up
     front): linear scan, a row is reused as soon as its value is dead, and an
     op may write over its dying operand.  Returns (rows, rows used)."""
-    ops = tape.ops
     last = {}
     for i, (_, args) in enumerate(ops):
         for a in args:
             if isinstance(a, int):
                 last[a] = i
-    for _, _, v in writes:
+    for _, _, v in copies:
         if isinstance(v, int):
             last[v] = len(ops)
     row = dict(fixed)
@@ -253,8 +297,7 @@ def _allocate(tape: _Tape, direct: dict, writes: list, fixed: dict) -> tuple[dic
     for i, (_, args) in enumerate(ops):
         if i in fixed:
             continue
-        dying = [row[a] for a in dict.fromkeys(args) if isinstance(a, int) and last[a] == i]
-        free.extend(reversed(dying))
+        free.extend(reversed([row[a] for a in dict.fromkeys(args) if isinstance(a, int) and last[a] == i]))
         if i in direct:
             continue
         if free:
@@ -266,6 +309,74 @@ def _allocate(tape: _Tape, direct: dict, writes: list, fixed: dict) -> tuple[dic
     return row, count
 
 
+def _check_names(p: Program) -> None:
+    taken = {s.name for _, syms in p.inputs for s in syms} | {a for a, _ in p.inputs} \
+        | {s.name for s, _ in p.assignments}
+    clash = sorted(n for n in taken if n.startswith("_"))
+    if clash:
+        raise ValueError(f"function {p.name!r}: names starting with '_' are the emitter's, got {', '.join(clash)}")
+
+
+def _dispatch_lines(p: Program) -> list[str]:
+    """Argument checks; one state or a few: the scalar body (a zero division
+    or math domain error there falls through to NumPy's inf/nan)."""
+    args = [a for a, _ in p.inputs]
+    shapes = repr(tuple(output_shape(mat) for _, mat in p.outputs))
+    fallback = ["        except (ArithmeticError, ValueError):",
+                "            pass  # a zero division or math domain error: inf/nan as NumPy gives below"]
+    return [f"    {', '.join(args)} = " + ", ".join(f"_arg({a}, {len(s)}, {a!r})" for a, s in p.inputs),
+            f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
+            "        try:",
+            f"            return _outputs(_{p.name}_one({', '.join(f'{a}.tolist()' for a in args)}), (), {shapes})",
+            *fallback,
+            f"    shape = _shape({', '.join(args)})",
+            f"    {', '.join(args)} = " + ", ".join(f"_rows({a}, shape)" for a in args),
+            f"    _states = {args[0]}.shape[1]",
+            "    if _states <= FEW:",
+            "        try:",
+            f"            return _outputs([_{p.name}_one(*state) for state in zip("
+            f"{', '.join(f'{a}.T.tolist()' for a in args)})], shape, {shapes})",
+            *fallback]
+
+
+def _loop_lines(p: Program, plan: _Plan, chunk: int) -> list[str]:
+    """The batched body: chunks of states; per chunk sin/cos blocks, then one
+    ufunc call per operation into its work row or output row."""
+    outs = [(name, output_shape(mat), len(mat)) for name, mat in p.outputs]
+    used = {v for _, args in plan.ops for v in args if isinstance(v, int)}
+    used |= {v for _, _, v in plan.copies if isinstance(v, int)}
+    syms = dict(p.inputs)
+    lines = [f"    _step = _chunk(_states, {chunk})"]
+    lines += [f"    {name} = np.empty(({size}, _states))" for name, _, size in outs]
+    if plan.rows:
+        lines.append(f"    _work = np.empty(({plan.rows}, _step))")
+    lines += ["    for _lo in range(0, _states, _step):",
+              "        _hi = min(_lo + _step, _states)"]
+    lines += [f"        {targets} = {a}[:, _lo:_hi]" for a, targets in _used_names(p)]
+    if plan.rows:
+        lines += ["        _block = _work[:, :_hi - _lo]",
+                  f"        {', '.join(f'_w{k}' for k in range(plan.rows))}{',' if plan.rows == 1 else ''} = _block"]
+    for a, cols, first in plan.blocks:
+        def target(fn, col):
+            i = plan.trig.get((fn, syms[a][col].name))
+            return plan.text(i) if i in used else "_"
+        sines, cosines = (", ".join(target(fn, col) for col in cols) + ("," if len(cols) == 1 else "")
+                          for fn in ("sin", "cos"))
+        lines.append(f"        ({sines}), ({cosines}) = "
+                     f"_sincos({a}[{_columns(cols)}, _lo:_hi], _block[{first}:{first + 6 * len(cols)}])")
+    lines += [f"        _o{j} = {name}[:, _lo:_hi]" for j, (name, _, _) in enumerate(outs)]
+    trig = set(plan.trig.values())
+    for i, (fn, args) in enumerate(plan.ops):
+        if i in trig:
+            continue
+        dest = f"_o{plan.direct[i][0]}[{plan.direct[i][1]}]" if i in plan.direct else f"_w{plan.row[i]}"
+        call = f"np.{fn}({', '.join(plan.text(a) for a in args)}, {dest})"
+        lines.append(f"        {plan.names[i]} = {call}" if i in plan.names else f"        {call}")
+    lines += [f"        _o{j}[{k}] = {plan.text(v)}" for j, k, v in plan.copies]
+    returns = ", ".join(f"np.ascontiguousarray({name}.T).reshape(shape + {shape!r})" for name, shape, _ in outs)
+    return lines + [f"    return {returns}"]
+
+
 def _columns(cols: list[int]) -> str:
     """Index of rows `cols`: a slice when consecutive."""
     if cols == list(range(cols[0], cols[-1] + 1)):
@@ -274,79 +385,11 @@ def _columns(cols: list[int]) -> str:
 
 
 def batched_source(p: Program, chunk: int = CHUNK) -> str:
-    """The public function: argument checks, the scalar body for one state,
-    else the batched body, `chunk` states at a time."""
-    args = [a for a, _ in p.inputs]
-    taken = {s.name for _, syms in p.inputs for s in syms} | set(args) | {s.name for s, _ in p.assignments}
-    clash = sorted(n for n in taken if n.startswith("_"))
-    if clash:
-        raise ValueError(f"function {p.name!r}: names starting with '_' are the emitter's, got {', '.join(clash)}")
-    tape, names, direct, writes = _tape(p)
-    blocks = _trig_blocks(p, tape.trig)
-    syms = dict(p.inputs)
-    fixed = {}
-    for a, cols, first in blocks:
-        for k, col in enumerate(cols):
-            for fn, offset in (("sin", 0), ("cos", len(cols))):
-                i = tape.trig.get((fn, syms[a][col].name))
-                if i is not None:
-                    fixed[i] = first + offset + k
-    row, count = _allocate(tape, direct, writes, fixed)
-    nrows = max([count] + [first + 6 * len(cols) for _, cols, first in blocks])
-    outs = [(name, output_shape(mat), len(mat)) for name, mat in p.outputs]
-    used = {v for _, op_args in tape.ops for v in op_args if isinstance(v, int)}
-    used |= {v for _, _, v in writes if isinstance(v, int)}
-
-    def text(v) -> str:
-        if isinstance(v, float):
-            return repr(v)
-        if isinstance(v, str):
-            return v
-        return names.get(v, f"_w{row.get(v)}")
-
-    lines = [f"def {p.name}({', '.join(args)}):"]
-    if p.doc:
-        lines.append(f'    """{p.doc}"""')
-    lines.append(f"    {', '.join(args)} = " + ", ".join(f"_arg({a}, {len(s)}, {a!r})" for a, s in p.inputs))
-    lines += [f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
-              "        try:",
-              f"            return _{p.name}_one({', '.join(f'{a}.tolist()' for a in args)})",
-              "        except (ArithmeticError, ValueError):",
-              "            pass  # a zero division or math domain error: inf/nan as NumPy gives below"]
-    leading = ", ".join(f"{a}.shape[:-1]" for a in args)
-    lines.append(f"    shape = np.broadcast_shapes({leading})" if len(args) > 1
-                 else f"    shape = {args[0]}.shape[:-1]")
-    lines.append(f"    {', '.join(args)} = " + ", ".join(f"_rows({a}, shape)" for a in args))
-    lines.append(f"    _states = {args[0]}.shape[1]")
-    lines.append(f"    _step = _chunk(_states, {chunk})")
-    lines += [f"    {name} = np.empty(({size}, _states))" for name, _, size in outs]
-    if nrows:
-        lines.append(f"    _work = np.empty(({nrows}, _step))")
-    lines.append("    for _lo in range(0, _states, _step):")
-    lines.append("        _hi = min(_lo + _step, _states)")
-    lines += [f"        {targets} = {a}[:, _lo:_hi]" for a, targets in _used_names(p, args)]
-    if nrows:
-        lines.append("        _block = _work[:, :_hi - _lo]")
-        lines.append(f"        {', '.join(f'_w{k}' for k in range(nrows))}{',' if nrows == 1 else ''} = _block")
-    for a, cols, first in blocks:
-        def target(fn, col):
-            i = tape.trig.get((fn, syms[a][col].name))
-            return text(i) if i in used else "_"
-        sines, cosines = (", ".join(target(fn, col) for col in cols) + ("," if len(cols) == 1 else "")
-                          for fn in ("sin", "cos"))
-        lines.append(f"        ({sines}), ({cosines}) = "
-                     f"_sincos({a}[{_columns(cols)}, _lo:_hi], _block[{first}:{first + 6 * len(cols)}])")
-    lines += [f"        _o{j} = {name}[:, _lo:_hi]" for j, (name, _, _) in enumerate(outs)]
-    for i, (fn, op_args) in enumerate(tape.ops):
-        if i in fixed:
-            continue
-        dest = f"_o{direct[i][0]}[{direct[i][1]}]" if i in direct else f"_w{row[i]}"
-        call = f"np.{fn}({', '.join(text(a) for a in op_args)}, {dest})"
-        lines.append(f"        {names[i]} = {call}" if i in names else f"        {call}")
-    lines += [f"        _o{j}[{k}] = {text(v)}" for j, k, v in writes if v is not None]
-    returns = ", ".join(f"np.ascontiguousarray({name}.T).reshape(shape + {shape!r})" for name, shape, _ in outs)
-    lines.append(f"    return {returns}")
-    return "\n".join(lines)
+    """The public function: argument checks, the scalar body for one state or
+    a few, else the batched body, `chunk` states at a time."""
+    _check_names(p)
+    head = [f"def {p.name}({', '.join(a for a, _ in p.inputs)}):"] + ([f'    """{p.doc}"""'] if p.doc else [])
+    return "\n".join(head + _dispatch_lines(p) + _loop_lines(p, _plan(p), chunk))
 
 
 def module_source(bundle: Bundle) -> str:
@@ -360,6 +403,7 @@ def module_source(bundle: Bundle) -> str:
         f"SYMDYN_VERSION = {bundle.version!r}",
         f"FINGERPRINT = {bundle.fingerprint!r}",
         f"N = {bundle.n}",
+        f"FEW = {FEW}  # batches of at most FEW states: the scalar body, state by state",
         f"FUNCTIONS = {tuple(p.name for p in bundle.programs)!r}",
         f"OP_COUNTS = {counts!r}",
         _HELPERS,
