@@ -47,31 +47,15 @@ class Model:
 
 
 def _reference_model(robot: Robot) -> Model:
-    n = robot.n
-    eye = np.eye(n)
-
-    def M_and_bias(q, qd):
-        # one batched recursion: rows q̈ = e_i give M e_i + h, the last row q̈ = 0 gives h
-        q, qd = np.broadcast_arrays(np.asarray(q, float), np.asarray(qd, float))
-        rows = np.concatenate([np.broadcast_to(eye, q.shape[:-1] + (n, n)),
-                               np.zeros(q.shape[:-1] + (1, n))], -2)
-        out = ref.rne(robot, q[..., None, :], qd[..., None, :], rows)
-        h = out[..., -1, :]
-        return np.swapaxes(out[..., :-1, :] - h[..., None, :], -1, -2), h
-
-    def fdyn(q, qd, tau):
-        M, h = M_and_bias(q, qd)
-        return np.linalg.solve(M, (np.asarray(tau, float) - h)[..., None])[..., 0]
-
     return Model(
-        n=n,
+        n=robot.n,
         tau=lambda q, qd, qdd: ref.rne(robot, q, qd, qdd),
         M=lambda q: ref.inertia(robot, q),
         Cqd=lambda q, qd: ref.rne(robot, q, qd, np.zeros_like(np.asarray(q, float)), gravity=(0, 0, 0))
         - ref.friction(robot, qd),
         G=lambda q: ref.gravload(robot, q),
         F=lambda qd: ref.friction(robot, qd),
-        fdyn=fdyn,
+        fdyn=lambda q, qd, tau: ref.accel(robot, q, qd, tau),
         source=f"symdyn.reference ({robot.name})",
     )
 
