@@ -43,15 +43,32 @@ class OCPError(RuntimeError):
 
 @dataclass(frozen=True)
 class ArmFunctions:
-    """CasADi dynamics of one arm: tau(q, qd, qdd) -> τ and fdyn(q, qd, tau) -> q̈."""
+    """CasADi dynamics of one arm: tau(q, qd, qdd) -> τ (needed by collocation) and
+    fdyn(q, qd, tau) -> q̈ (needed by multiple shooting); either may be None."""
 
-    tau: ca.Function
-    fdyn: ca.Function
-    source: str
+    tau: ca.Function | None
+    fdyn: ca.Function | None
+    source: str = "custom"
+
+    def __post_init__(self) -> None:
+        if self.tau is None and self.fdyn is None:
+            raise ValueError("ArmFunctions needs tau(q, qd, qdd), fdyn(q, qd, tau) or both")
+        for name in ("tau", "fdyn"):
+            f = getattr(self, name)
+            if f is not None and (f.n_in() != 3 or f.n_out() != 1):
+                raise ValueError(f"{name} must be a casadi.Function of 3 inputs and 1 output, got {f}")
 
     @property
     def n(self) -> int:
-        return self.tau.size1_in(0)
+        return (self.tau or self.fdyn).size1_in(0)
+
+    def need(self, method: str) -> ca.Function:
+        """The function `method` transcribes: fdyn for multiple shooting, else tau."""
+        name = "fdyn" if method == "multiple-shooting" else "tau"
+        if getattr(self, name) is None:
+            raise ValueError(f"{method} needs the {name} function, but this {self.source!r} "
+                             f"dynamics has none")
+        return getattr(self, name)
 
 
 @functools.lru_cache(maxsize=16)
@@ -148,11 +165,21 @@ class Problem:
         lo, hi = self.T_bounds
         if not 0 < lo < hi:
             raise ValueError(f"T_bounds must be 0 < T_min < T_max, got {self.T_bounds!r}")
+        if self.T is None and not self.cost.time > 0:
+            raise ValueError("a free final time (T=None) needs a positive time weight in the cost; "
+                             "otherwise give T")
         n = np.size(self.q0)
         for name in ("q0", "qf", "qd0", "qdf"):
             v = getattr(self, name)
             if v is not None and np.shape(v) != (n,):
                 raise ValueError(f"{name} must have shape ({n},) like q0, got {np.shape(v)}")
+        lim = self.limits
+        if lim.q is not None and np.shape(lim.q) != (n, 2):
+            raise ValueError(f"joint limits must have shape ({n}, 2), got {np.shape(lim.q)}")
+        for name in ("qd", "tau"):
+            v = getattr(lim, name)
+            if v is not None and (np.shape(v) != (n,) or np.any(np.asarray(v) <= 0)):
+                raise ValueError(f"{name} limits must be {n} positive numbers, got {v!r}")
 
     @property
     def n(self) -> int:
@@ -248,6 +275,8 @@ def _guess(problem: Problem, arm: ArmFunctions, T: float):
     q = q0 + (qf - q0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
     qd = (qf - q0) * (30 * s**2 - 60 * s**3 + 30 * s**4) / T
     qdd = (qf - q0) * (60 * s - 180 * s**2 + 120 * s**3) / T**2
+    if arm.tau is None:
+        return q, qd, qdd, np.zeros_like(q)
     tau = np.array(arm.tau.map(len(s))(q.T, qd.T, qdd.T)).T
     if problem.limits.tau is not None:
         tau = np.clip(tau, -problem.limits.tau, problem.limits.tau)
@@ -273,9 +302,8 @@ def _bound_torque(opti: ca.Opti, limits: Limits, U) -> None:
 def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
     """Decision variables, constraints and cost of the transcription; returns the
     handles to read back and the cost expression."""
-    n, N, lim, cost = problem.n, problem.N, problem.limits, problem.cost
+    n, N, lim = problem.n, problem.N, problem.limits
     q0, qd0, qf, qdf = problem.boundary()
-    W = ca.DM(np.ones(n) if cost.weights is None else np.asarray(cost.weights, dtype=float))
     if problem.T is None:
         T = opti.variable()
         opti.subject_to(opti.bounded(problem.T_bounds[0], T, problem.T_bounds[1]))
@@ -283,41 +311,60 @@ def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
         T0 = problem.T_guess
     else:
         T = T0 = problem.T
-    h = T / N
-    gq, gqd, gqdd, gtau = _guess(problem, arm, T0)
+    guess = _guess(problem, arm, T0)
     Q, QD = opti.variable(n, N + 1), opti.variable(n, N + 1)
-    opti.set_initial(Q, gq[::2].T)
-    opti.set_initial(QD, gqd[::2].T)
+    opti.set_initial(Q, guess[0][::2].T)
+    opti.set_initial(QD, guess[1][::2].T)
     opti.subject_to([Q[:, 0] == q0, QD[:, 0] == qd0, Q[:, N] == qf, QD[:, N] == qdf])
     _bound_states(opti, lim, Q, QD)
-    wsq = lambda X: ca.sum1(ca.mtimes(ca.diag(W), X ** 2))  # noqa: E731  per column τᵀWτ
-    h_ = {"Q": Q, "QD": QD, "T": T}
-    J = cost.time * T
-    if problem.method == "multiple-shooting":
-        U = opti.variable(n, N)
-        opti.set_initial(U, gtau[1::2].T)
-        _bound_torque(opti, lim, U)
-        qn, qdn = _rk4_step(arm.fdyn, n, problem.substeps).map(N)(Q[:, :N], QD[:, :N], U, h)
-        opti.subject_to([Q[:, 1:] == qn, QD[:, 1:] == qdn])
-        J += cost.effort * h * ca.sum2(wsq(U))
-        J += cost.smoothness * ca.sum2(wsq(ca.diff(U, 1, 1))) / h
-        h_["U"] = U
-        return h_, J
+    handles = {"Q": Q, "QD": QD, "T": T}
+    pose = _multiple_shooting if problem.method == "multiple-shooting" else _collocation
+    return handles, problem.cost.time * T + pose(problem, arm, opti, handles, T / N, guess)
+
+
+def _weighted(problem: Problem):
+    """X (n, K) -> (1, K): Σⱼ wⱼ·Xⱼₖ per column, w = cost.weights (default ones)."""
+    w = problem.cost.weights
+    W = ca.diag(ca.DM(np.ones(problem.n) if w is None else np.asarray(w, dtype=float)))
+    return lambda X: ca.sum1(ca.mtimes(W, X))
+
+
+def _multiple_shooting(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: dict, h, guess):
+    """Piecewise-constant τ per interval, RK4 on fdyn; returns the effort and smoothness cost."""
+    n, N, cost = problem.n, problem.N, problem.cost
+    Q, QD = handles["Q"], handles["QD"]
+    U = handles["U"] = opti.variable(n, N)
+    opti.set_initial(U, guess[3][1::2].T)
+    _bound_torque(opti, problem.limits, U)
+    step = _rk4_step(arm.need(problem.method), n, problem.substeps).map(N)
+    qn, qdn = step(Q[:, :N], QD[:, :N], U, h)
+    opti.subject_to([Q[:, 1:] == qn, QD[:, 1:] == qdn])
+    w = _weighted(problem)
+    return cost.effort * h * ca.sum2(w(U ** 2)) + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h
+
+
+def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: dict, h, guess):
+    """Trapezoidal or Hermite–Simpson (separated form) collocation with q̈ as decision
+    variable and τ = ID(q, q̇, q̈) imposed at every collocation point (scaled by the
+    torque limits); returns the effort and smoothness cost."""
+    n, N, lim, cost = problem.n, problem.N, problem.limits, problem.cost
+    gq, gqd, gqdd, gtau = guess
+    Q, QD = handles["Q"], handles["QD"]
     QDD, U = opti.variable(n, N + 1), opti.variable(n, N + 1)
     opti.set_initial(QDD, gqdd[::2].T)
     opti.set_initial(U, gtau[::2].T)
     _bound_torque(opti, lim, U)
+    ID = arm.need(problem.method)
     scale = ca.DM(np.ones(n) if lim.tau is None else lim.tau)
-    ID = arm.tau.map(N + 1)
-    opti.subject_to((ID(Q, QD, QDD) - U) / ca.repmat(scale, 1, N + 1) == 0)
+    opti.subject_to((ID.map(N + 1)(Q, QD, QDD) - U) / ca.repmat(scale, 1, N + 1) == 0)
     a, b = slice(0, N), slice(1, N + 1)
-    h_.update(QDD=QDD, U=U)
+    handles.update(QDD=QDD, U=U)
+    w = _weighted(problem)
     if problem.method == "trapezoidal":
         opti.subject_to(Q[:, b] - Q[:, a] == h / 2 * (QD[:, a] + QD[:, b]))
         opti.subject_to(QD[:, b] - QD[:, a] == h / 2 * (QDD[:, a] + QDD[:, b]))
-        J += cost.effort * h / 2 * ca.sum2(wsq(U[:, a]) + wsq(U[:, b]))
-        J += cost.smoothness * ca.sum2(wsq(ca.diff(U, 1, 1))) / h
-        return h_, J
+        return (cost.effort * h / 2 * ca.sum2(w(U[:, a] ** 2) + w(U[:, b] ** 2))
+                + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h)
     Qm, QDm, QDDm, Um = (opti.variable(n, N) for _ in range(4))
     for X, g in ((Qm, gq), (QDm, gqd), (QDDm, gqdd), (Um, gtau)):
         opti.set_initial(X, g[1::2].T)
@@ -327,18 +374,16 @@ def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
     opti.subject_to(QDm == (QD[:, a] + QD[:, b]) / 2 + h / 8 * (QDD[:, a] - QDD[:, b]))
     opti.subject_to(Q[:, b] - Q[:, a] == h / 6 * (QD[:, a] + 4 * QDm + QD[:, b]))
     opti.subject_to(QD[:, b] - QD[:, a] == h / 6 * (QDD[:, a] + 4 * QDDm + QDD[:, b]))
-    opti.subject_to((arm.tau.map(N)(Qm, QDm, QDDm) - Um) / ca.repmat(scale, 1, N) == 0)
-    J += cost.effort * h / 6 * ca.sum2(wsq(U[:, a]) + 4 * wsq(Um) + wsq(U[:, b]))
-    J += cost.smoothness * ca.sum2(ca.sum1(ca.mtimes(ca.diag(W),
-                                                      _quadratic_smoothness(U[:, a], Um, U[:, b], h))))
-    h_.update(Qm=Qm, QDm=QDm, QDDm=QDDm, Um=Um)
-    return h_, J
+    opti.subject_to((ID.map(N)(Qm, QDm, QDDm) - Um) / ca.repmat(scale, 1, N) == 0)
+    handles.update(Qm=Qm, QDm=QDm, QDDm=QDDm, Um=Um)
+    return (cost.effort * h / 6 * ca.sum2(w(U[:, a] ** 2) + 4 * w(Um ** 2) + w(U[:, b] ** 2))
+            + cost.smoothness * ca.sum2(w(_quadratic_smoothness(U[:, a], Um, U[:, b], h))))
 
 
 def _hint(problem: Problem, arm: ArmFunctions) -> str:
     """Where the torque limits are below the torque that holds the arm at the end points."""
     lim = problem.limits.tau
-    if lim is None:
+    if lim is None or arm.tau is None:
         return ""
     q0, _, qf, _ = problem.boundary()
     z = np.zeros(problem.n)

@@ -43,6 +43,35 @@ def test_bad_problems_are_refused_by_name():
         ocp.dynamics(models.load("twolink"), "numpy")
 
 
+def test_free_final_time_needs_a_time_cost_and_limits_must_fit_the_arm():
+    q = np.zeros(2)
+    with pytest.raises(ValueError, match="free final time"):
+        ocp.Problem(q, q, T=None, cost=ocp.Cost(effort=1.0))
+    with pytest.raises(ValueError, match="tau limits must be 2 positive numbers"):
+        ocp.Problem(q, q, T=1.0, limits=ocp.Limits(tau=np.array([1.0, 0.0])))
+    with pytest.raises(ValueError, match=r"joint limits must have shape \(2, 2\)"):
+        ocp.Problem(q, q, T=1.0, limits=ocp.Limits(q=np.zeros((3, 2))))
+
+
+def test_a_transcription_without_its_function_is_refused(arm2):
+    only_fdyn = ocp.ArmFunctions(tau=None, fdyn=ocp.dynamics(arm2, "plain").fdyn)
+    problem = ocp.Problem(HANG, HANG + 0.2, T=1.0, N=4, method="trapezoidal")
+    with pytest.raises(ValueError, match="trapezoidal needs the tau function"):
+        ocp.solve(problem, only_fdyn)
+    sol = ocp.solve(ocp.Problem(HANG, HANG + 0.2, T=1.0, N=4, method="multiple-shooting"), only_fdyn)
+    assert np.allclose(sol.q[-1], HANG + 0.2)
+    with pytest.raises(ValueError, match="needs tau"):
+        ocp.ArmFunctions(tau=None, fdyn=None)
+
+
+def test_hermite_simpson_smoothness_is_the_exact_integral_of_the_quadratic():
+    a, b, c, h = 1.0, -2.0, 0.5, 0.3
+    x = np.linspace(0, h, 200001)
+    p = np.polyfit([0, h / 2, h], [a, b, c], 2)
+    exact = np.trapezoid(np.polyval(np.polyder(p), x) ** 2, x)
+    assert ocp._quadratic_smoothness(a, b, c, h) == pytest.approx(exact, rel=1e-9)
+
+
 def test_twolink_hangs_at_minus_half_pi_and_is_upright_at_plus_half_pi(arm2):
     G, stable = S.hanging_check(arm2)
     assert np.abs(G).max() < 1e-12 and stable

@@ -19,7 +19,8 @@ import numpy as np
 from .. import models, ocp
 from .. import reference as ref
 from ..model import IDENTITY, Robot
-from .analyses import PUMA_PAYLOAD, finish, pyplot, save
+from ._plot import finish, pyplot, save
+from .analyses import PUMA_PAYLOAD
 
 # Illustrative limits (the consensus parameters give none): motor torque limits,
 # N·m at the motor, times |G| at the joint = (75, 129, 64, 19, 18, 19) N·m; joint
@@ -99,7 +100,7 @@ def _dense(sol: ocp.Solution, per: int = 20):
 def _plot_min_time(out_dir: Path, name: str, title: str, robot, problem, sol, resim_q):
     plt = pyplot()
     lim = problem.limits
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig, axes = plt.subplots(3, 1, figsize=(10.5, 8), sharex=True)
     td, taud = _dense(sol)
     for j in range(robot.n):
         c = f"C{j}"
@@ -120,7 +121,7 @@ def _plot_min_time(out_dir: Path, name: str, title: str, robot, problem, sol, re
     axes[2].set_xlabel("time (s)")
     for ax in axes:
         ax.grid(True)
-        ax.legend(fontsize=7, loc="upper right", ncol=2)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[0].set_title(title)
     save(fig, out_dir, name)
 
@@ -289,8 +290,10 @@ def _sizes(f) -> tuple[int, int]:
     return f.n_instructions(), f.n_nodes()
 
 
-def compare(sources=("symdyn", "plain"), cases=None, *, quick: bool = False) -> list[dict]:
-    """Solve each case with each source's dynamics, in one run; rows of sizes and timings.
+def compare(sources=("symdyn", "plain"), cases=None, *, quick: bool = False,
+            repeats: int = 1) -> list[dict]:
+    """Solve each case with each source's dynamics, in one run; rows of sizes and timings
+    (the fastest of `repeats` solves).
 
     Before timing, the sources' τ must agree at random states (else a ValueError)
     and the optima must agree (same cost to 1e-6), so the ratios compare like with like.
@@ -308,14 +311,16 @@ def compare(sources=("symdyn", "plain"), cases=None, *, quick: bool = False) -> 
         _agree(robot, arms)
         costs = []
         for arm, build in zip(arms, builds):
-            sol = ocp.solve(problem, arm)
+            runs = [ocp.solve(problem, arm) for _ in range(repeats)]
+            sol = min(runs, key=lambda s: s.stats["solve_wall"])
             costs.append(sol.cost)
             st = sol.stats
             rows.append(dict(case=label, source=arm.source, build=build,
                              tau_instructions=_sizes(arm.tau)[0], tau_nodes=_sizes(arm.tau)[1],
                              fdyn_instructions=_sizes(arm.fdyn)[0], fdyn_nodes=_sizes(arm.fdyn)[1],
                              iterations=st["iterations"], setup=st["setup_wall"], ipopt=st["ipopt_wall"],
-                             per_iteration=st["per_iteration"], total=st["solve_wall"], cost=sol.cost))
+                             per_iteration=st["per_iteration"], total=st["solve_wall"], cost=sol.cost,
+                             eval_per_iteration=st["eval_wall"] / max(st["iterations"], 1)))
         if max(costs) - min(costs) > 1e-6 * max(1.0, abs(max(costs))):
             raise RuntimeError(f"{label}: the sources reach different optima {costs}; no fair comparison")
     return rows
@@ -335,6 +340,7 @@ def _agree(robot: Robot, arms: list, count: int = 20) -> None:
 COLUMNS = (("tau_instructions", "τ instructions", "{:d}"), ("fdyn_instructions", "fdyn instructions", "{:d}"),
            ("build", "load/build functions (s)", "{:.2f}"), ("iterations", "IPOPT iterations", "{:d}"),
            ("setup", "NLP set-up (s)", "{:.2f}"), ("per_iteration", "time per iteration (ms)", "{:.1f}"),
+           ("eval_per_iteration", "of which function evaluations (ms)", "{:.1f}"),
            ("total", "total solve (s)", "{:.2f}"))
 
 
@@ -348,7 +354,7 @@ def format_table(rows: list[dict]) -> str:
         out += [f"**{case}**", "", f"| | {' | '.join(srcs)} | {srcs[-1]}/{srcs[0]} |",
                 "|---|" + "---:|" * (len(srcs) + 1)]
         for key, name, fmt in COLUMNS:
-            vals = [r[key] * (1e3 if key == "per_iteration" else 1) for r in sub]
+            vals = [r[key] * (1e3 if key.endswith("per_iteration") else 1) for r in sub]
             ratio = vals[-1] / vals[0] if vals[0] else float("nan")
             out.append(f"| {name} | {' | '.join(fmt.format(v) for v in vals)} | {ratio:.2f} |")
         out.append("")
