@@ -190,7 +190,10 @@ def _tau_one(q, qd, qdd):
     f2_x = -0.5*w2z2
     f2_y = 0.5*dw2_z
     n1_z = n2_z + 1.5*dV1_y + 1.25*qdd1 + c2*f2_y + f2_x*s2
-    return [n1_z, n2_z]
+    return [
+        n1_z,
+        n2_z,
+    ]
 
 
 def M(q):
@@ -233,7 +236,12 @@ def _M_one(q):
     _, q2 = q
     c2 = math.cos(q2)
     x1 = 0.25 + 0.5*c2
-    return [1.5 + c2, x1, x1, 0.25]
+    return [
+        1.5 + c2,
+        x1,
+        x1,
+        0.25,
+    ]
 
 
 def C(q, qd):
@@ -281,7 +289,12 @@ def _C_one(q, qd):
     Gamma2_11 = 0.5*math.sin(q2)
     Gamma1_12 = -Gamma2_11
     Gamma1_22 = Gamma1_12
-    return [Gamma1_12*qd2, Gamma1_12*qd1 + Gamma1_22*qd2, Gamma2_11*qd1, 0.0]
+    return [
+        Gamma1_12*qd2,
+        Gamma1_12*qd1 + Gamma1_22*qd2,
+        Gamma2_11*qd1,
+        0.0,
+    ]
 
 
 def Cqd(q, qd):
@@ -337,7 +350,10 @@ def _Cqd_one(q, qd):
     w2z2 = w2_z*w2_z
     f2_x = -0.5*w2z2
     cn1_z = cn2_z + f2_x*s2
-    return [cn1_z, cn2_z]
+    return [
+        cn1_z,
+        cn2_z,
+    ]
 
 
 def G(q):
@@ -382,7 +398,10 @@ def _G_one(q):
     c1 = math.cos(q1)
     c12 = c1*math.cos(q2) - math.sin(q1)*math.sin(q2)
     x1 = 4.905*c12
-    return [x1 + 14.715*c1, x1]
+    return [
+        x1 + 14.715*c1,
+        x1,
+    ]
 
 
 def F(qd):
@@ -413,7 +432,10 @@ def F(qd):
 
 def _F_one(qd):
     """F of one state on Python floats: lists in, the flat list of outputs out."""
-    return [0.0, 0.0]
+    return [
+        0.0,
+        0.0,
+    ]
 
 
 def fdyn(q, qd, tau):
@@ -509,7 +531,10 @@ def _fdyn_one(q, qd, tau):
     z2 = r2 - L21*r1
     y2 = iD2*z2
     qdd1 = y1 - L21*y2
-    return [qdd1, y2]
+    return [
+        qdd1,
+        y2,
+    ]
 
 
 def Y(q, qd, qdd):
@@ -650,4 +675,61 @@ def _Y_one(q, qd, qdd):
     MY2_n1_z = -dV2_x - c2*w2z2 - dw2_z*s2
     MZ2_n1_x = -c2*dV2_y - dV2_x*s2
     sgn_qd2 = (1.0 if qd2 > 0.0 else -1.0 if qd2 < 0.0 else qd2 - qd2)
-    return [0.0, 0.0, 0.0, 0.0, 0.0, qdd1, dV1_y, -dV1_x, 0.0, 0.0, qdd1, qd1, sgn_qd1, sgn_qd1*sgn_qd1, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, MX2_n1_z, MY2_n1_z, 0.0, -MZ2_n1_x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, dw2_z, dV2_y, -dV2_x, 0.0, 0.0, qdd2, qd2, sgn_qd2, sgn_qd2*sgn_qd2]
+    return [
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        qdd1,
+        dV1_y,
+        -dV1_x,
+        0.0,
+        0.0,
+        qdd1,
+        qd1,
+        sgn_qd1,
+        sgn_qd1*sgn_qd1,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        dw2_z,
+        MX2_n1_z,
+        MY2_n1_z,
+        0.0,
+        -MZ2_n1_x,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        dw2_z,
+        dV2_y,
+        -dV2_x,
+        0.0,
+        0.0,
+        qdd2,
+        qd2,
+        sgn_qd2,
+        sgn_qd2*sgn_qd2,
+    ]

@@ -215,7 +215,7 @@ def scalar_source(p: Program) -> str:
     lines += [f"    {names} = {a}" for a, names in _used_names(p)]
     lines += [f"    {s.name} = {lower(e, SCALAR)[0]}" for s, e in p.assignments]
     items = [lower(e, SCALAR)[0] for _, mat in p.outputs for e in mat]
-    lines.append(f"    return [{', '.join(items)}]")
+    lines += ["    return ["] + [f"        {item}," for item in items] + ["    ]"]
     return "\n".join(lines)
 
 
