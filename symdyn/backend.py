@@ -129,12 +129,13 @@ def model(robot: Robot, backend: str = "auto", *, fallback: str = "casadi") -> M
 
     backend "reference": `symdyn.reference` (slow per call, nearly free to
     batch); "casadi": the plain CasADi recursive Newton–Euler
-    (`symdyn.casadi_rnea`, ~25× faster per call, built in 0.4 s for two
-    links, 2 s for the Puma); "c" or "numpy": generated code via
-    `symdyn.codegen.load(robot, target)` (derived and compiled on first use
-    for a robot that is not shipped); "auto": the checked-in generated C
-    (else NumPy) code of a shipped model, else `fallback` ("casadi" for many
-    small calls, "reference" for a few large batches).
+    (`symdyn.casadi_rnea`, built in 0.4 s for two links, 2 s for the Puma);
+    "c" or "numpy": generated code via `symdyn.codegen.load(robot, target)`
+    (derived and compiled on first use for a robot that is not shipped);
+    "auto": the checked-in generated C (else NumPy) code of a shipped model,
+    else `fallback` ("casadi" for many small calls, "reference" for a few
+    large batches).  Puma fdyn per call: reference 2.7 ms, CasADi 0.2 ms,
+    generated C 5 µs.
     """
     if fallback not in FALLBACKS:
         raise ValueError(f"unknown fallback {fallback!r}: expected one of {', '.join(map(repr, FALLBACKS))}")
