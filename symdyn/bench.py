@@ -455,7 +455,7 @@ def _cells(row: Row) -> list[str]:
     spread = row.spread
     return [row.level, row.function, num(row.symdyn_ns, ".1f"), row.peer, num(row.peer_ns, ".1f"),
             num(row.ratio, ".2f") + ("×" if row.ratio is not None else ""),
-            f"{spread[0]:.1f}–{spread[1]:.1f}" if spread else "", num(row.ops, "d"),
+            f"{spread[0]:.2f}–{spread[1]:.2f}" if spread else "", num(row.ops, "d"),
             f"≥ {row.target}×" if row.target else "", row.met]
 
 

@@ -77,10 +77,10 @@ def test_table_has_speed_up_and_target_columns():
     text = bench.format_table(rows)
     header = text.splitlines()[0].split()
     assert {"symdyn", "peer", "speed-up", "range", "ops", "target", "met"} <= set(header)
-    assert "8.50×" in text and "7.2–8.9" in text and "4.25×" in text and "n/a" in text
+    assert "8.50×" in text and "7.20–8.89" in text and "4.25×" in text and "n/a" in text
     md = bench.markdown_table(rows).splitlines()
     assert md[0].startswith("| level | function | symdyn ns") and "speed-up" in md[0]
-    assert len(md) == 2 + len(rows) and "| 8.50× | 7.2–8.9 | 369 | ≥ 8× | yes |" in md[2]
+    assert len(md) == 2 + len(rows) and "| 8.50× | 7.20–8.89 | 369 | ≥ 8× | yes |" in md[2]
 
 
 def test_missing_pin_peer_says_how_to_fix(tmp_path, monkeypatch):
