@@ -106,8 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/puma560", help="where the generated code goes (default: out/puma560)")
     p.set_defaults(func=_cmd_run)
 
-    from .codegen import configure_parser
-    configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
+    from . import bench, codegen
+    codegen.configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
+    bench.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
 
     p = sub.add_parser("print", help="print closed-form M, C, G, F, tau of a model")
     p.add_argument("model")
