@@ -54,7 +54,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_print(args: argparse.Namespace) -> int:
     """Print the closed-form dynamics of a model, with op counts per stage."""
-    from . import models
     from .derivation import derive
     from .printing import closed_form
     from .simplify import op_counts

@@ -6,8 +6,7 @@ import sympy as sp
 
 from symdyn import models, reference as ref
 from symdyn.derivation import derive
-from symdyn.regressor import (base_parameters, parameter_symbols, parameter_values, regressor,
-                              regrouped_inertias)
+from symdyn.regressor import base_parameters, parameter_symbols, parameter_values, regressor
 from symdyn.symbols import joint_symbols
 
 from conftest import random_states
