@@ -43,3 +43,14 @@ def test_batched_equals_single_state(model, function):
             assert np.array_equal(single, batch[k])
         else:
             np.testing.assert_allclose(single, batch[k], rtol=1e-14, atol=1e-14)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_input_is_an_error(model, bad):
+    (q, qd, qdd), _ = cases(model.name)["tau"]
+    broken = q[:3].copy()
+    broken[1, 0] = bad
+    with pytest.raises(ValueError, match="NaN or infinity"):
+        model.tau(broken, qd[:3], qdd[:3])
+    with pytest.raises(ValueError, match="NaN or infinity"):
+        model.M(broken[1])

@@ -78,6 +78,7 @@ _GLUE_HEAD = r'''#define PY_SSIZE_T_CLEAN
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>
 #include <limits.h>
+#include <math.h>
 #include <string.h>
 #include "%(model)s.h"
 
@@ -140,6 +141,16 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
     }
     for (i = 0; i < lead_nd; ++i)
         count *= lead[i];
+    for (i = 0; i < s->nin; ++i) {   /* a NaN or infinite state is bad input, not a result */
+        const npy_intp size = PyArray_SIZE(in[i]);
+        npy_intp k;
+        for (k = 0; k < size; ++k)
+            if (!isfinite(pin[i][k])) {
+                PyErr_Format(PyExc_ValueError, "%%s(): argument %%d contains NaN or infinity (element %%zd)",
+                             s->name, i + 1, (Py_ssize_t)k);
+                goto done;
+            }
+    }
     if (count > INT_MAX) {
         PyErr_Format(PyExc_ValueError, "%%s(): %%zd states, at most %%d per call", s->name, (Py_ssize_t)count, INT_MAX);
         goto done;
@@ -320,6 +331,8 @@ class _CtypesFunction:
             x = np.ascontiguousarray(x, dtype=float)
             if x.ndim == 0 or x.shape[-1] != size:
                 raise ValueError(f"{sig.name}(): {name} must have shape (..., {size}), got {x.shape}")
+            if not np.isfinite(x).all():
+                raise ValueError(f"{sig.name}(): {name} contains NaN or infinity")
             if arrays and x.shape[:-1] != arrays[0].shape[:-1]:
                 raise ValueError(f"{sig.name}(): {name} has leading shape {x.shape[:-1]}, "
                                  f"{sig.inputs[0][0]} has {arrays[0].shape[:-1]}; the C target does not broadcast")

@@ -39,10 +39,12 @@ UFUNCS = {"neg": "negative", "add": "add", "sub": "subtract", "mul": "multiply",
 _HELPERS = '''
 
 def _arg(x, size, name):
-    """x as a float array of shape (..., size), or a ValueError naming it."""
+    """x as a finite float array of shape (..., size), or a ValueError naming it."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {x.shape}")
+    if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
+        raise ValueError(f"{name} contains NaN or infinity")
     return x
 
 
