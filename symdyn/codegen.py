@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from . import __version__, models
-from .cache import cache_dir
+from .cache import cache_dir, package_fingerprint
 from .emit import Bundle, identifier, read_header, write_atomic
 from .model import Robot
 
@@ -201,7 +201,7 @@ def load(name_or_robot, target: str = "c", *, options=None) -> GeneratedModel:
         found = _provenance(shipped / files(name, target)[0], target)
         if _stale(shipped, found, robot, name) is None:
             return _load_folder(shipped, name, target, robot, options)
-    folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{__version__}"
+    folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
     if not all((folder / f).exists() for f in files(name, target)):
         generate(robot, target, folder)
     return _load_folder(folder, name, target, robot, options)

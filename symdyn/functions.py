@@ -18,7 +18,7 @@ from typing import Sequence
 import sympy as sp
 
 from .dynamics import Dynamics
-from .program import Program, make_program
+from .program import Program, dag_size, make_program
 
 __all__ = ["FunctionSpec", "candidates", "fdyn_spec", "regressor_spec", "programs", "ldlt_solve", "NAMES"]
 
@@ -157,6 +157,26 @@ def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
                         tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor")
 
 
+def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
+    """The spec whose program has the fewest operations (the first on ties).
+
+    Specs are built smallest first, by the nodes of their expression DAG; one
+    with more than twice as many nodes as the best program so far has
+    operations is not built (CSE leaves 0.9–1.7 operations per node here):
+    a generic 7-joint arm's expanded Lagrange C would take minutes to CSE
+    only to lose to the Newton–Euler recursion.
+    """
+    sizes = [dag_size(s.outputs, s.definitions) for s in specs]
+    best = None
+    for k in sorted(range(len(specs)), key=lambda k: (sizes[k], k)):
+        if best is not None and sizes[k] > 2 * best[0]:
+            continue
+        program = specs[k].program()
+        candidate = (program.op_count()["total"], k, specs[k], program)
+        best = candidate if best is None else min(best, candidate, key=lambda c: c[:2])
+    return best[2], best[3]
+
+
 def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> list[Program]:
     """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is
     given): each from the derivation giving the fewest operations (the first
@@ -168,8 +188,7 @@ def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | 
     cands = [candidates(d, o) for d, o in zip(dyns, origins)]
     chosen: dict[str, tuple[FunctionSpec, Program]] = {}
     for term in ("tau", "M", "C", "Cqd", "G", "F", "bias"):
-        built = [(c[term], c[term].program()) for c in cands]
-        chosen[term] = min(built, key=lambda pair: pair[1].op_count()["total"])
+        chosen[term] = _cheapest([c[term] for c in cands])
     out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
     out.append(fdyn_spec(chosen["M"][0], chosen["bias"][0]).program())
     if regressor is not None:

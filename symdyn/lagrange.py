@@ -337,8 +337,12 @@ def derive(robot: Robot) -> Dynamics:
     tau = sp.ImmutableMatrix([t.to_expr() + f for t, f in zip(T.tau, F)])
     definitions, C_named = _christoffel_program(T, robot.n)
     stats = dict(T.stats, time_total=time.perf_counter() - t0)
+    # τ and C·q̇ through the named Christoffel symbols: the expanded τ of a generic
+    # 7-joint arm is a ~10⁵-operation tree that code generation cannot afford to CSE
+    Cqd = sp.ImmutableMatrix(C_named * sp.Matrix(T.qd))
+    named = {"C": C_named, "Cqd": Cqd, "tau": sp.ImmutableMatrix(M * sp.Matrix(T.qdd) + Cqd + G + F)}
     return Dynamics(robot=robot, method="lagrange", q=T.q, qd=T.qd, qdd=T.qdd, M=M, C=C, G=G, F=F, tau=tau,
-                    definitions=definitions, named={"C": C_named}, stats=stats)
+                    definitions=definitions, named=named, stats=stats)
 
 
 def _christoffel_program(T: "TrigDynamics", n: int) -> tuple[tuple, sp.ImmutableMatrix]:

@@ -266,6 +266,14 @@ def _nodes(exprs):
             stack.extend(e.args)
 
 
+def dag_size(outputs, definitions=()) -> int:
+    """Non-atomic nodes of the outputs [(name, Matrix)] and of the definitions
+    they use, each distinct node once: a cheap estimate of a program's size."""
+    exprs = [e for _, m in outputs for e in m]
+    used = _needed(dict(definitions), exprs)
+    return sum(1 for e in _nodes(list(used.values()) + exprs) if not e.is_Atom)
+
+
 def _symbols(exprs) -> set:
     """Free symbols of expressions (shared subtrees visited once)."""
     return {e for e in _nodes(exprs) if e.is_Symbol}

@@ -180,7 +180,17 @@ class BaseParameters:
 
 def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int | None = None,
                     seed: int = 1) -> BaseParameters:
-    """Exact base parameters of a robot with numeric geometry."""
+    """Exact base parameters of a robot with numeric geometry.
+
+    Only the inertial parameters (XX…M and the rotor inertia IA) are
+    regrouped: the rank analysis runs on their columns alone.  The friction
+    parameters FV, FS, FO are base parameters as they stand — their columns
+    q̇ⱼ, sgn q̇ⱼ and sgn² q̇ⱼ are no combination of inertial ones, even where
+    they coincide at the sample points (sgn² q̇ⱼ = 1 there, like a prismatic
+    joint's constant gravity column).  The result is verified exactly at
+    fresh points; a sample that found a dependency the dynamics do not have
+    is retried with more points.
+    """
     geometric = [x for link in robot.links for x in (link.a, link.d, link.alpha, link.theta, link.offset)]
     geometric += [x for row in robot.base for x in row] + list(robot.gravity)
     if any(isinstance(x, sp.Basic) and x.free_symbols for x in geometric):
@@ -188,33 +198,54 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
                          f"gravity); robot {robot.name!r} has symbols there")
     reg = reg or regressor(robot)
     n, p = robot.n, len(reg.params)
-    rng = random.Random(seed)
-    samples = samples or max(4, 2 * p // n + 2)
+    per = len(INERTIAL) + len(FRICTION)
+    inertial = [k for k in range(p) if k % per < len(INERTIAL)]
     q, qd, qdd = joint_symbols(n)
     inputs = [f(x) for x in q for f in (sp.cos, sp.sin)] + list(q) + list(qd) + list(qdd)
-    inputs += [sp.sign(x) for x in qd]
-    flat = [col[i] for col in reg.columns for i in range(n)]
+    flat = [reg.columns[k][i] for k in inertial for i in range(n)]
     evaluate = compile_exact(reg.tape.defs.items(), flat, inputs)
-    rows = []
-    for _ in range(samples):
-        point = random_rational_point(n, rng)
-        args = [Fraction(int(point[x].p), int(point[x].q)) for x in inputs[:-n]]
-        args += [Fraction((v > 0) - (v < 0)) for v in args[-n:]]
-        values = evaluate(*args)
-        for i in range(n):
-            rows.append([QQ(values[k * n + i].numerator, values[k * n + i].denominator) for k in range(p)])
-    rref, pivots = DomainMatrix(rows, (len(rows), p), QQ).rref()
-    R = rref.to_Matrix()
+    rng = random.Random(seed)
+
+    def rows(count: int) -> list:
+        out = []
+        for _ in range(count):
+            point = random_rational_point(n, rng)
+            values = evaluate(*(Fraction(int(point[x].p), int(point[x].q)) for x in inputs))
+            out += [[QQ(values[c * n + i].numerator, values[c * n + i].denominator) for c in range(len(inertial))]
+                    for i in range(n)]
+        return out
+
+    samples = samples or max(4, 2 * len(INERTIAL) + 2)
+    for _attempt in range(3):
+        sample = rows(samples)
+        rref, pivots = DomainMatrix(sample, (len(sample), len(inertial)), QQ).rref()
+        R = rref.to_Matrix()
+        # every column is R's combination of the pivot columns: check at fresh points
+        check = DomainMatrix(rows(3), (3 * n, len(inertial)), QQ).to_Matrix()
+        if check == check[:, list(pivots)] * R[:len(pivots), :]:
+            break
+        samples *= 2
+    else:
+        raise RuntimeError(f"base parameters of {robot.name!r}: the rank analysis did not settle "
+                           f"after {samples} samples")
     pi = reg.params
-    exprs = []
+    exprs, independent = [], []
     for r, b in enumerate(pivots):
-        exprs.append(pi[b] + sp.Add(*(R[r, d] * pi[d] for d in range(p) if d not in pivots and R[r, d] != 0)))
+        deps = (R[r, d] * pi[inertial[d]] for d in range(len(inertial)) if d not in pivots and R[r, d] != 0)
+        exprs.append(pi[inertial[b]] + sp.Add(*deps))
+        independent.append(inertial[b])
+    friction = [k for k in range(p) if k % per >= len(INERTIAL)]
+    exprs += [pi[k] for k in friction]
+    independent += friction
+    order = sorted(range(len(independent)), key=independent.__getitem__)
+    independent = [independent[i] for i in order]
+    exprs = [exprs[i] for i in order]
     subs = dict(zip(pi, parameter_values(robot)))
     values = tuple(sp.expand(e.xreplace(subs)) for e in exprs)
     regrouped = [sp.S.Zero] * p
-    for b, v in zip(pivots, values):
+    for b, v in zip(independent, values):
         regrouped[b] = v
-    return BaseParameters(params=pi, independent=tuple(pivots), expressions=tuple(exprs),
+    return BaseParameters(params=pi, independent=tuple(independent), expressions=tuple(exprs),
                           values=values, regrouped=tuple(regrouped))
 
 
