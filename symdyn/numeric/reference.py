@@ -26,8 +26,8 @@ from scipy.integrate import solve_ivp
 
 from ..model import Robot, exact_cos_sin
 
-__all__ = ["rne", "inertia", "coriolis", "gravload", "friction", "friction_law", "accel", "fdyn",
-           "fkine", "jacob0", "energy"]
+__all__ = ["rne", "inertia", "coriolis", "christoffel", "gravload", "friction", "friction_law", "accel",
+           "fdyn", "fkine", "jacob0", "energy"]
 
 
 # --------------------------------------------------------------------------- the chain
