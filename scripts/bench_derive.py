@@ -16,10 +16,10 @@ import sympy as sp
 def main() -> int:
     os.environ["SYMDYN_CACHE_DIR"] = tempfile.mkdtemp(prefix="symdyn-bench-")
     from symdyn import models
-    from symdyn.derivation import derive
-    from symdyn.lagrange import trig_dynamics
-    from symdyn.program import make_program
-    from symdyn.regressor import base_parameters, regressor
+    from symdyn.derivation.entry import derive
+    from symdyn.derivation.lagrange import trig_dynamics
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.regressor import base_parameters, regressor
 
     robot = models.load("puma560")
     rows = []

@@ -5,7 +5,7 @@ Solves the same Puma 560 minimum-time problems (Hermite–Simpson collocation on
 τ = ID(q, q̇, q̈), multiple shooting on fdyn) with each source's functions in one
 run and prints sizes, IPOPT iterations, set-up, time per iteration and total solve
 time side by side with ratios (Markdown).  `--sources plain plain` validates the
-harness (ratios ≈ 1).  As a function: `symdyn.studies.ocp.compare(...)`.
+harness (ratios ≈ 1).  As a function: `symdyn.apps.studies.ocp.compare(...)`.
 """
 
 import argparse
@@ -14,8 +14,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from symdyn.ocp import SOURCES  # noqa: E402
-from symdyn.studies.ocp import compare, format_table  # noqa: E402
+from symdyn.apps.ocp import SOURCES  # noqa: E402
+from symdyn.apps.studies.ocp import compare, format_table  # noqa: E402
 
 
 def main(argv=None) -> int:

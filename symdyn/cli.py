@@ -19,12 +19,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     args.out, check it against the reference, and summarise."""
     import time
 
-    from . import models, reference as ref
-    from .codegen import generate, load
-    from .derivation import derive
-    from .simplify import op_counts
+    from .codegen.entry import generate, load
+    from .derivation.entry import derive
+    from .derivation.simplify import op_counts
+    from .model import arms
+    from .numeric import reference as ref
 
-    robot = models.load("puma560")
+    robot = arms.load("puma560")
     print(f"{robot.name}: {robot.n} joints, {robot.convention} DH, "
           f"total mass {sum(float(l.m) for l in robot.links):.2f} kg  [{robot.source}]")
     for method in ("newton-euler", "lagrange"):
@@ -54,9 +55,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_print(args: argparse.Namespace) -> int:
     """Print the closed-form dynamics of a model, with op counts per stage."""
-    from .derivation import derive
-    from .printing import closed_form
-    from .simplify import op_counts
+    from .derivation.entry import derive
+    from .derivation.printing import closed_form
+    from .derivation.simplify import op_counts
 
     robot = _load_model(args.model, args.numeric)
     terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
@@ -74,18 +75,18 @@ def _cmd_print(args: argparse.Namespace) -> int:
 
 def _load_model(name: str, numeric: bool):
     """A shipped model: its symbolic variant where it has one, unless numeric."""
-    from . import models
+    from .model import arms
 
     if not numeric:
         try:
-            return models.load(name, symbolic=True)
+            return arms.load(name, symbolic=True)
         except ValueError:
             pass
-    return models.load(name)
+    return arms.load(name)
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from . import studies
+    from .apps import studies
 
     if args.list or not args.name:
         for name, (summary, _) in sorted(studies.registry().items()):
@@ -105,9 +106,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/puma560", help="where the generated code goes (default: out/puma560)")
     p.set_defaults(func=_cmd_run)
 
-    from . import bench, codegen
-    codegen.configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
-    bench.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
+    from .bench import compare
+    from .codegen import entry
+    entry.configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
+    compare.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
 
     p = sub.add_parser("print", help="print closed-form M, C, G, F, tau of a model")
     p.add_argument("model")

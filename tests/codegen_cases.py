@@ -10,8 +10,9 @@ import functools
 import numpy as np
 
 from tests.conftest import random_states
-from symdyn import models, reference as ref
-from symdyn.regressor import parameter_values
+from symdyn import models
+from symdyn.derivation.regressor import parameter_values
+from symdyn.numeric import reference as ref
 
 MODELS = ("twolink", "puma560")
 STATES = 200

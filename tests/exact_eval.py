@@ -48,7 +48,7 @@ def exact_value(expr, q, angles, values):
 
 def random_point(robot, rng):
     """Rational angles and rational rates for an exact comparison."""
-    from symdyn.symbols import joint_symbols
+    from symdyn.derivation.symbols import joint_symbols
 
     q, qd, qdd = joint_symbols(robot.n)
     values = {}

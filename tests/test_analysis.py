@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from symdyn import analysis as A
-from symdyn import reference as ref
+from symdyn.apps import analysis as A
 from symdyn.model import transl
+from symdyn.numeric import reference as ref
 
-DATA = Path(__file__).resolve().parents[1] / "symdyn" / "models" / "data"
+DATA = Path(__file__).resolve().parents[1] / "symdyn" / "model" / "arms" / "data"
 
 
 def puma_json():
@@ -267,7 +267,7 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 @pytest.mark.parametrize("name", ["gravity-load", "inertia-variation", "payload", "base-wrench",
                                   "manipulability", "joint-dynamics", "twolink-exercise"])
 def test_analysis_study_writes_its_figure_and_summary(name, tmp_path):
-    from symdyn.studies import analyses, registry
+    from symdyn.apps.studies import analyses, registry
 
     assert registry()[name][1] is analyses.STUDIES[name][1]
     text = analyses.STUDIES[name][1](tmp_path, quick=True)
@@ -277,7 +277,7 @@ def test_analysis_study_writes_its_figure_and_summary(name, tmp_path):
 
 
 def test_gravity_study_reports_the_grid_extreme_and_the_load_at_qz(puma, tmp_path):
-    from symdyn.studies import analyses
+    from symdyn.apps.studies import analyses
 
     text = analyses.gravity_load(tmp_path, quick=True)
     g2 = A.gravity_load_map(puma, resolution=9).extremes()[0]

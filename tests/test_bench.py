@@ -8,8 +8,9 @@ import re
 import numpy as np
 import pytest
 
-from symdyn import bench, models
-from symdyn.codegen import GENERATED
+from symdyn import models
+from symdyn.bench import compare as bench
+from symdyn.codegen.entry import GENERATED
 
 PUMA = GENERATED / "puma560"
 FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "fdyn", "casadi_rnea")

@@ -4,7 +4,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from symdyn import casadi_rnea, models, reference as ref
+from symdyn import models
+from symdyn.numeric import casadi_rnea, reference as ref
 from tests.conftest import random_states
 
 COUNT = 200

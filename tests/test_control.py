@@ -6,12 +6,12 @@ import functools
 import numpy as np
 import pytest
 
-from symdyn import backend as B
-from symdyn import control as C
 from symdyn import models
-from symdyn import reference as ref
-from symdyn.studies import control as S
-from symdyn.studies import registry
+from symdyn.apps import control as C
+from symdyn.apps.studies import control as S
+from symdyn.apps.studies import registry
+from symdyn.numeric import backend as B
+from symdyn.numeric import reference as ref
 
 from conftest import random_states
 

@@ -5,9 +5,9 @@ import shutil
 import numpy as np
 import pytest
 
-import symdyn.codegen as codegen
-from symdyn.emit import c as c_emit
-from symdyn.emit.clib import CompileOptions, load_library
+from symdyn.codegen import entry as codegen
+from symdyn.codegen.emit import c as c_emit
+from symdyn.codegen.emit.clib import CompileOptions, load_library
 from tests.codegen_cases import MODELS, assert_close, cases
 
 
@@ -104,9 +104,9 @@ def test_header_signatures_round_trip():
 def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
     import sympy as sp
 
-    from symdyn.emit import Bundle
-    from symdyn.program import make_program
-    from symdyn.symbols import joint_symbols
+    from symdyn.codegen.emit import Bundle
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
 
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
     (x,), _, _ = joint_symbols(1)

@@ -4,8 +4,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import symdyn.codegen as codegen
-from symdyn.emit import casadi as ca_emit
+from symdyn.codegen import entry as codegen
+from symdyn.codegen.emit import casadi as ca_emit
 from tests.codegen_cases import MODELS, assert_close, cases, parameters
 
 

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-import symdyn.codegen as codegen
-from symdyn import models, reference as ref
-from symdyn.emit import Bundle, numpy as numpy_emit
-from symdyn.program import make_program
+from symdyn import models
+from symdyn.codegen import entry as codegen
+from symdyn.codegen.emit import Bundle, numpy as numpy_emit
+from symdyn.derivation.program import make_program
+from symdyn.numeric import reference as ref
 from tests.codegen_cases import MODELS, assert_close, cases
 
 

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import symdyn
-import symdyn.codegen as codegen
-from symdyn import models, reference as ref
-from symdyn.emit import read_header, write_atomic
+from symdyn import models
+from symdyn.codegen import entry as codegen
+from symdyn.codegen.emit import read_header, write_atomic
+from symdyn.numeric import reference as ref
 from tests.codegen_cases import assert_close
 
 TARGETS = ("numpy", "c", "casadi")

@@ -4,9 +4,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from symdyn import kinematics, models, reference as ref
-from symdyn.derivation import derive
-from symdyn.symbols import joint_symbols
+from symdyn import models
+from symdyn.derivation import kinematics
+from symdyn.derivation.entry import derive
+from symdyn.derivation.symbols import joint_symbols
+from symdyn.numeric import reference as ref
 
 from conftest import random_states
 

@@ -8,10 +8,11 @@ import pytest
 import sympy as sp
 
 from conftest import random_states
-from symdyn import lagrange, models
-from symdyn import reference as ref
+from symdyn import models
+from symdyn.derivation import lagrange
+from symdyn.derivation.symbols import joint_symbols
 from symdyn.model import Link, Robot, rotx, roty
-from symdyn.symbols import joint_symbols
+from symdyn.numeric import reference as ref
 
 NUMERIC = ["puma560", "puma560_mdh", "twolink", "rrp"]
 

@@ -14,8 +14,8 @@ import sympy as sp
 
 from conftest import random_states
 from symdyn import models
-from symdyn import reference as ref
 from symdyn.model import Link, Robot, rotx, transl
+from symdyn.numeric import reference as ref
 
 GOOD_I = ((0.1, 0, 0), (0, 0.2, 0), (0, 0, 0.3))
 

@@ -4,9 +4,10 @@ open-loop with the reference; transcriptions agree; infeasible requests fail cle
 import numpy as np
 import pytest
 
-from symdyn import models, ocp
-from symdyn import reference as ref
-from symdyn.studies import ocp as S
+from symdyn import models
+from symdyn.apps import ocp
+from symdyn.apps.studies import ocp as S
+from symdyn.numeric import reference as ref
 
 HANG, UP = np.array(S.TWOLINK_HANG), np.array(S.TWOLINK_UP)
 

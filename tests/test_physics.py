@@ -17,11 +17,11 @@ import pytest
 
 from conftest import random_states
 from symdyn import models
-from symdyn import reference as ref
 from symdyn.model import rotx
+from symdyn.numeric import reference as ref
 
 ROBOTS = ["puma560", "puma560_mdh", "twolink", "rrp"]
-PUMA_TABLE = json.loads((Path(__file__).parents[1] / "symdyn/models/data/puma560_params.json").read_text())
+PUMA_TABLE = json.loads((Path(__file__).parents[1] / "symdyn/model/arms/data/puma560_params.json").read_text())
 
 
 @pytest.fixture(scope="module", params=ROBOTS)

@@ -5,9 +5,9 @@ import pytest
 import sympy as sp
 
 from symdyn import cli, models
-from symdyn.derivation import derive
-from symdyn.printing import closed_form, elements, render
-from symdyn.simplify import prune, tidy
+from symdyn.derivation.entry import derive
+from symdyn.derivation.printing import closed_form, elements, render
+from symdyn.derivation.simplify import prune, tidy
 
 
 def test_twolink_tau1_prints_in_the_grouping_of_eq_9_3():
@@ -71,8 +71,8 @@ def test_printed_gravity_of_the_puma_uses_the_natural_angle_q2_plus_q3(form):
 
 @pytest.mark.parametrize("name", ["puma560", "rrp"])
 def test_book_form_is_exactly_the_derived_expression(name):
-    from symdyn import trigpoly
-    from symdyn.simplify import book_form
+    from symdyn.derivation import trigpoly
+    from symdyn.derivation.simplify import book_form
 
     dyn = derive(models.load(name))
     angles = [q for q, link in zip(dyn.q, dyn.robot.links) if link.is_revolute]
@@ -81,7 +81,7 @@ def test_book_form_is_exactly_the_derived_expression(name):
 
 
 def test_parallel_joints_give_the_natural_angles():
-    from symdyn.simplify import parallel_chains
+    from symdyn.derivation.simplify import parallel_chains
 
     assert parallel_chains(models.load("puma560")) == [(1, 2)]
     assert parallel_chains(models.load("twolink")) == [(0, 1)]

@@ -8,9 +8,9 @@ import sys
 import pytest
 import sympy as sp
 
-from symdyn.emit import Infix
-from symdyn.program import lower, make_program
-from symdyn.symbols import joint_symbols
+from symdyn.codegen.emit import Infix
+from symdyn.derivation.program import lower, make_program
+from symdyn.derivation.symbols import joint_symbols
 
 q, qd, qdd = joint_symbols(3)
 a, b, c = sp.symbols("a b c", real=True)
@@ -139,7 +139,7 @@ def test_infix_text_never_merges_minus_signs():
 
 
 def test_program_is_the_same_under_any_hash_seed():
-    code = ("import sympy as sp; from symdyn.program import make_program; from symdyn.symbols import joint_symbols;"
+    code = ("import sympy as sp; from symdyn.derivation.program import make_program; from symdyn.derivation.symbols import joint_symbols;"
             "q, qd, _ = joint_symbols(3);"
             "e = [sp.cos(q[0] + q[1]) * qd[k] ** 2 + sp.sin(q[2] - q[0]) * qd[(k + 1) % 3] * sp.cos(q[1])"
             "     + sp.Rational(3, 7) * qd[k] * sp.sin(q[0]) for k in range(3)];"

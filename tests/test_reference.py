@@ -16,9 +16,10 @@ import pinocchio as pin
 import pytest
 
 from conftest import random_states
-from symdyn import models, peers
-from symdyn import reference as ref
+from symdyn import models
+from symdyn.bench import peers
 from symdyn.model import rotx, roty, transl
+from symdyn.numeric import reference as ref
 
 N = 200
 RTOL = 1e-10

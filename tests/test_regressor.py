@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from symdyn import models, reference as ref
-from symdyn.derivation import derive
-from symdyn.regressor import base_parameters, parameter_symbols, parameter_values, regressor
-from symdyn.symbols import joint_symbols
+from symdyn import models
+from symdyn.derivation.entry import derive
+from symdyn.derivation.regressor import base_parameters, parameter_symbols, parameter_values, regressor
+from symdyn.derivation.symbols import joint_symbols
+from symdyn.numeric import reference as ref
 
 from conftest import random_states
 

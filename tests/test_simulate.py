@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.integrate import simpson
 
-from symdyn import reference as ref
-from symdyn import simulate as S
+from symdyn.apps import simulate as S
+from symdyn.numeric import reference as ref
 
 
 def kinetic(robot, traj):
@@ -131,7 +131,7 @@ def test_simulate_names_bad_arguments(twolink, kwargs, message):
 
 @pytest.mark.parametrize("name", ["collapse", "integrators"])
 def test_simulation_study_writes_its_figures_and_summary(name, tmp_path):
-    from symdyn.studies import registry, simulation
+    from symdyn.apps.studies import registry, simulation
 
     assert registry()[name][1] is simulation.STUDIES[name][1]
     text = simulation.STUDIES[name][1](tmp_path, quick=True)

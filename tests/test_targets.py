@@ -4,7 +4,7 @@ at 200 states, satisfy τ = Y·π and fdyn∘tau = id, and batch like single sta
 import numpy as np
 import pytest
 
-import symdyn.codegen as codegen
+from symdyn.codegen import entry as codegen
 from tests.codegen_cases import MODELS, assert_close, cases, parameters
 
 

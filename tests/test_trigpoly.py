@@ -8,7 +8,7 @@ import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symdyn.trigpoly import TrigSpace, equal, fold, from_expr, space_for
+from symdyn.derivation.trigpoly import TrigSpace, equal, fold, from_expr, space_for
 
 q1, q2, q3 = sp.symbols("q1 q2 q3", real=True)
 a, b = sp.symbols("a b", real=True)

@@ -1230,7 +1230,7 @@ void puma560_fdyn_batch(int n, const double *q, const double *qd, const double *
         puma560_fdyn(q + 6*k, qd + 6*k, tau + 6*k, qdd + 6*k);
 }
 
-/* Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.regressor.parameter_symbols. */
+/* Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols. */
 void puma560_Y(const double q[6], const double qd[6], const double qdd[6], double Y[504])
 {
     const double q2 = q[1];

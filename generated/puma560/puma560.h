@@ -66,7 +66,7 @@ void puma560_F_batch(int n, const double *qd, double *F);
 void puma560_fdyn(const double q[6], const double qd[6], const double tau[6], double qdd[6]);
 void puma560_fdyn_batch(int n, const double *q, const double *qd, const double *tau, double *qdd);
 
-/* Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.regressor.parameter_symbols. */
+/* Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols. */
 void puma560_Y(const double q[6], const double qd[6], const double qdd[6], double Y[504]);
 void puma560_Y_batch(int n, const double *q, const double *qd, const double *qdd, double *Y);
 

@@ -4277,7 +4277,7 @@ def _fdyn_one(q, qd, tau):
 
 
 def Y(q, qd, qdd):
-    """Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.regressor.parameter_symbols."""
+    """Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols."""
     q, qd, qdd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(qdd, 6, 'qdd')
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:

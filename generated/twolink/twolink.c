@@ -223,7 +223,7 @@ void twolink_fdyn_batch(int n, const double *q, const double *qd, const double *
         twolink_fdyn(q + 2*k, qd + 2*k, tau + 2*k, qdd + 2*k);
 }
 
-/* Joint-torque regressor Y(q, qd, qdd), (2, 28): tau = Y pi with the standard parameters pi of symdyn.regressor.parameter_symbols. */
+/* Joint-torque regressor Y(q, qd, qdd), (2, 28): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols. */
 void twolink_Y(const double q[2], const double qd[2], const double qdd[2], double Y[56])
 {
     const double q1 = q[0];

@@ -66,7 +66,7 @@ void twolink_F_batch(int n, const double *qd, double *F);
 void twolink_fdyn(const double q[2], const double qd[2], const double tau[2], double qdd[2]);
 void twolink_fdyn_batch(int n, const double *q, const double *qd, const double *tau, double *qdd);
 
-/* Joint-torque regressor Y(q, qd, qdd), (2, 28): tau = Y pi with the standard parameters pi of symdyn.regressor.parameter_symbols. */
+/* Joint-torque regressor Y(q, qd, qdd), (2, 28): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols. */
 void twolink_Y(const double q[2], const double qd[2], const double qdd[2], double Y[56]);
 void twolink_Y_batch(int n, const double *q, const double *qd, const double *qdd, double *Y);
 

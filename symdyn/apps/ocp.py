@@ -1,0 +1,530 @@
+"""Trajectory optimisation for any arm on CasADi dynamics functions (Opti + IPOPT).
+
+The third use of symdyn: the emitted CasADi functions feed optimal control.
+A `Problem` (boundary states, fixed or free final time, grid, transcription,
+`Limits`, `Cost`) is posed with `casadi.Opti` as direct multiple shooting
+(piecewise-constant torque, RK4 on fdyn(q, q̇, τ)) or direct collocation
+(trapezoidal or Hermite–Simpson, q̈ a decision variable and τ = ID(q, q̇, q̈)
+imposed: no mass-matrix inverse).  `solve` returns a `Solution`; `verify`
+re-simulates its torque open-loop with the numeric reference and checks the
+goal and the limits, so every optimum is checked against `symdyn.reference`.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..model import Robot
+from ..numeric import casadi_rnea, reference
+
+__all__ = ["METHODS", "SOURCES", "OCPError", "ArmFunctions", "Limits", "Cost", "Problem",
+           "Solution", "Check", "dynamics", "motor_torque_limits", "solve", "resimulate", "verify",
+           "limit_violation"]
+
+METHODS = ("multiple-shooting", "trapezoidal", "hermite-simpson")
+SOURCES = ("symdyn", "plain")
+
+
+class OCPError(RuntimeError):
+    """IPOPT found no solution; `status` is IPOPT's return status."""
+
+    def __init__(self, message: str, status: str, iterations: int):
+        super().__init__(message)
+        self.status = status
+        self.iterations = iterations
+
+
+# --------------------------------------------------------------------------- dynamics sources
+
+@dataclass(frozen=True)
+class ArmFunctions:
+    """CasADi dynamics of one arm: tau(q, qd, qdd) -> τ (needed by collocation) and
+    fdyn(q, qd, tau) -> q̈ (needed by multiple shooting); either may be None."""
+
+    tau: ca.Function | None
+    fdyn: ca.Function | None
+    source: str = "custom"
+
+    def __post_init__(self) -> None:
+        if self.tau is None and self.fdyn is None:
+            raise ValueError("ArmFunctions needs tau(q, qd, qdd), fdyn(q, qd, tau) or both")
+        for name in ("tau", "fdyn"):
+            f = getattr(self, name)
+            if f is not None and (f.n_in() != 3 or f.n_out() != 1):
+                raise ValueError(f"{name} must be a casadi.Function of 3 inputs and 1 output, got {f}")
+
+    @property
+    def n(self) -> int:
+        return (self.tau or self.fdyn).size1_in(0)
+
+    def need(self, method: str) -> ca.Function:
+        """The function `method` transcribes: fdyn for multiple shooting, else tau."""
+        name = "fdyn" if method == "multiple-shooting" else "tau"
+        if getattr(self, name) is None:
+            raise ValueError(f"{method} needs the {name} function, but this {self.source!r} "
+                             f"dynamics has none")
+        return getattr(self, name)
+
+
+@functools.lru_cache(maxsize=16)
+def dynamics(robot: Robot, source: str = "symdyn") -> ArmFunctions:
+    """The arm's inverse and forward dynamics as CasADi Functions, friction included
+    (pass `robot.nofriction()` to drop the non-smooth Coulomb term).
+
+    source="symdyn": symdyn's simplified generated functions
+    (`symdyn.load(robot, target="casadi")`, derived and cached on first use for
+    a robot that is not shipped); "plain": the unsimplified SX Newton–Euler of
+    `symdyn.numeric.casadi_rnea`.
+    """
+    if source == "plain":
+        return ArmFunctions(casadi_rnea.rnea_function(robot), casadi_rnea.fdyn_function(robot), "plain")
+    if source == "symdyn":
+        from ..codegen import entry as codegen
+
+        f = codegen.load(robot, "casadi")
+        return ArmFunctions(f.tau, f.fdyn, "symdyn")
+    raise ValueError(f"unknown dynamics source {source!r}: expected one of {SOURCES}")
+
+
+# --------------------------------------------------------------------------- the problem
+
+def motor_torque_limits(robot: Robot, motor_tau_max) -> np.ndarray:
+    """Joint torque limits (n,) N·m from motor torque limits: τ_max,joint = τ_max,motor·|G|."""
+    tm = np.asarray(motor_tau_max, dtype=float)
+    if tm.shape != (robot.n,) or np.any(tm <= 0):
+        raise ValueError(f"motor torque limits must be {robot.n} positive numbers, got {motor_tau_max!r}")
+    return tm * np.abs([float(link.G) for link in robot.links])
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Box limits at every grid point: q (n, 2) [lower, upper] rad or m; |q̇| ≤ qd (n,);
+    |τ| ≤ tau (n,) N·m.  None leaves a quantity unbounded."""
+
+    q: np.ndarray | None = None
+    qd: np.ndarray | None = None
+    tau: np.ndarray | None = None
+
+    @classmethod
+    def for_robot(cls, robot: Robot, *, qd=None, tau=None, motor_tau=None) -> "Limits":
+        """The robot's joint limits, with velocity limits qd and torque limits either
+        explicit (tau) or from the motors (motor_tau·|G|)."""
+        if tau is not None and motor_tau is not None:
+            raise ValueError("give torque limits either as tau (joint side) or motor_tau, not both")
+        if motor_tau is not None:
+            tau = motor_torque_limits(robot, motor_tau)
+        return cls(q=robot.qlim, qd=None if qd is None else np.asarray(qd, dtype=float),
+                   tau=None if tau is None else np.asarray(tau, dtype=float))
+
+
+@dataclass(frozen=True)
+class Cost:
+    """Weights of the cost terms: time T, effort ∫τᵀWτ dt, smoothness ∫(dτ/dt)ᵀW(dτ/dt) dt;
+    `weights` is the diagonal of W (n,), default ones."""
+
+    time: float = 0.0
+    effort: float = 0.0
+    smoothness: float = 0.0
+    weights: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Point to point from (q0, qd0) to (qf, qdf), at rest unless given.
+
+    T: the fixed final time (s), or None for a free final time within
+    T_bounds, starting from T_guess.  N intervals; method in METHODS;
+    `substeps` RK4 steps per interval for multiple shooting.
+    """
+
+    q0: np.ndarray
+    qf: np.ndarray
+    T: float | None = None
+    N: int = 40
+    method: str = "hermite-simpson"
+    limits: Limits = field(default_factory=Limits)
+    cost: Cost = field(default_factory=lambda: Cost(effort=1.0))
+    qd0: np.ndarray | None = None
+    qdf: np.ndarray | None = None
+    T_guess: float = 1.0
+    T_bounds: tuple = (0.01, 20.0)
+    substeps: int = 4
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"unknown transcription {self.method!r}: expected one of {METHODS}")
+        if not (isinstance(self.N, int) and self.N >= 2):
+            raise ValueError(f"N must be an integer of at least 2 intervals, got {self.N!r}")
+        if self.T is not None and not self.T > 0:
+            raise ValueError(f"the final time T must be positive (or None for free), got {self.T!r}")
+        lo, hi = self.T_bounds
+        if not 0 < lo < hi:
+            raise ValueError(f"T_bounds must be 0 < T_min < T_max, got {self.T_bounds!r}")
+        if self.T is None and not self.cost.time > 0:
+            raise ValueError("a free final time (T=None) needs a positive time weight in the cost; "
+                             "otherwise give T")
+        n = np.size(self.q0)
+        for name in ("q0", "qf", "qd0", "qdf"):
+            v = getattr(self, name)
+            if v is not None and np.shape(v) != (n,):
+                raise ValueError(f"{name} must have shape ({n},) like q0, got {np.shape(v)}")
+        lim = self.limits
+        if lim.q is not None and np.shape(lim.q) != (n, 2):
+            raise ValueError(f"joint limits must have shape ({n}, 2), got {np.shape(lim.q)}")
+        for name in ("qd", "tau"):
+            v = getattr(lim, name)
+            if v is not None and (np.shape(v) != (n,) or np.any(np.asarray(v) <= 0)):
+                raise ValueError(f"{name} limits must be {n} positive numbers, got {v!r}")
+
+    @property
+    def n(self) -> int:
+        return np.size(self.q0)
+
+    def boundary(self) -> tuple[np.ndarray, ...]:
+        """q0, qd0, qf, qdf as float arrays (velocities default to rest)."""
+        z = np.zeros(self.n)
+        return tuple(np.asarray(v if v is not None else z, dtype=float)
+                     for v in (self.q0, self.qd0, self.qf, self.qdf))
+
+
+# --------------------------------------------------------------------------- the solution
+
+@dataclass(frozen=True)
+class Solution:
+    """An optimal trajectory on its grid.
+
+    t, q, qd: node times (N+1,) and states (N+1, n).  tau: (N, n) per interval
+    (multiple shooting, held constant) or (N+1, n) at the nodes (collocation,
+    interpolated linearly by trapezoidal, quadratically through tau_mid by
+    Hermite–Simpson).  q_mid, qd_mid, tau_mid: interval midpoints (Hermite–
+    Simpson) or None.  stats: IPOPT status, iterations and timings.
+    """
+
+    method: str
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    tau: np.ndarray
+    cost: float
+    stats: dict
+    qdd: np.ndarray | None = None
+    q_mid: np.ndarray | None = None
+    qd_mid: np.ndarray | None = None
+    tau_mid: np.ndarray | None = None
+
+    @property
+    def T(self) -> float:
+        return float(self.t[-1])
+
+    @property
+    def N(self) -> int:
+        return len(self.t) - 1
+
+    def interval_torque(self, k: int, s: float) -> np.ndarray:
+        """τ (n,) at time s ∈ [0, h] into interval k, as the transcription assumes."""
+        h = self.t[k + 1] - self.t[k]
+        if self.method == "multiple-shooting":
+            return self.tau[k]
+        a, c = self.tau[k], self.tau[k + 1]
+        if self.method == "trapezoidal":
+            return a + (c - a) * (s / h)
+        b, x = self.tau_mid[k], s / h
+        return a * (2 * x - 1) * (x - 1) + 4 * b * x * (1 - x) + c * x * (2 * x - 1)
+
+    def torque(self, t) -> np.ndarray:
+        """τ(t) (len(t), n) on [0, T], right-continuous at the nodes."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.N - 1)
+        return np.array([self.interval_torque(ki, ti - self.t[ki]) for ki, ti in zip(k, t)])
+
+
+# --------------------------------------------------------------------------- transcription
+
+def _rk4_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
+    """(q, qd, tau, h) -> (q⁺, qd⁺): `substeps` RK4 steps of q̈ = fdyn(q, q̇, τ), τ held."""
+    q, qd, tau, h = ca.MX.sym("q", n), ca.MX.sym("qd", n), ca.MX.sym("tau", n), ca.MX.sym("h")
+    dt = h / substeps
+    x = ca.vertcat(q, qd)
+    f = lambda x: ca.vertcat(x[n:], fdyn(x[:n], x[n:], tau))  # noqa: E731
+    for _ in range(substeps):
+        k1 = f(x)
+        k2 = f(x + dt / 2 * k1)
+        k3 = f(x + dt / 2 * k2)
+        k4 = f(x + dt * k3)
+        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("rk4", [q, qd, tau, h], [x[:n], x[n:]])
+
+
+def _quadratic_smoothness(a, b, c, h):
+    """∫₀ʰ (dτ/dt)² dt, per joint, of the quadratic through a, b, c at 0, h/2, h."""
+    A = (-3 * a + 4 * b - c) / h
+    B = (4 * a - 8 * b + 4 * c) / h ** 2
+    return A ** 2 * h + A * B * h ** 2 + B ** 2 * h ** 3 / 3
+
+
+def _guess(problem: Problem, arm: ArmFunctions, T: float):
+    """A minimum-jerk path q0 → qf with its velocities, accelerations and ID torques
+    at fractions s (N+1 nodes and N midpoints)."""
+    q0, _, qf, _ = problem.boundary()
+    s = np.linspace(0, 1, 2 * problem.N + 1)[:, None]
+    q = q0 + (qf - q0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
+    qd = (qf - q0) * (30 * s**2 - 60 * s**3 + 30 * s**4) / T
+    qdd = (qf - q0) * (60 * s - 180 * s**2 + 120 * s**3) / T**2
+    if arm.tau is None:
+        return q, qd, qdd, np.zeros_like(q)
+    tau = np.array(arm.tau.map(len(s))(q.T, qd.T, qdd.T)).T
+    if problem.limits.tau is not None:
+        tau = np.clip(tau, -problem.limits.tau, problem.limits.tau)
+    return q, qd, qdd, tau
+
+
+def _bound_states(opti: ca.Opti, limits: Limits, Q, QD) -> None:
+    cols = Q.shape[1]
+    if limits.q is not None:
+        lo, hi = (np.repeat(np.asarray(limits.q, dtype=float)[:, i:i + 1], cols, 1) for i in (0, 1))
+        opti.subject_to(opti.bounded(lo, Q, hi))
+    if limits.qd is not None:
+        v = np.repeat(limits.qd[:, None], cols, 1)
+        opti.subject_to(opti.bounded(-v, QD, v))
+
+
+def _bound_torque(opti: ca.Opti, limits: Limits, U) -> None:
+    if limits.tau is not None:
+        v = np.repeat(limits.tau[:, None], U.shape[1], 1)
+        opti.subject_to(opti.bounded(-v, U, v))
+
+
+def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
+    """Decision variables, constraints and cost of the transcription; returns the
+    handles to read back and the cost expression."""
+    n, N, lim = problem.n, problem.N, problem.limits
+    q0, qd0, qf, qdf = problem.boundary()
+    if problem.T is None:
+        T = opti.variable()
+        opti.subject_to(opti.bounded(problem.T_bounds[0], T, problem.T_bounds[1]))
+        opti.set_initial(T, problem.T_guess)
+        T0 = problem.T_guess
+    else:
+        T = T0 = problem.T
+    guess = _guess(problem, arm, T0)
+    Q, QD = opti.variable(n, N + 1), opti.variable(n, N + 1)
+    opti.set_initial(Q, guess[0][::2].T)
+    opti.set_initial(QD, guess[1][::2].T)
+    opti.subject_to([Q[:, 0] == q0, QD[:, 0] == qd0, Q[:, N] == qf, QD[:, N] == qdf])
+    _bound_states(opti, lim, Q, QD)
+    handles = {"Q": Q, "QD": QD, "T": T}
+    pose = _multiple_shooting if problem.method == "multiple-shooting" else _collocation
+    return handles, problem.cost.time * T + pose(problem, arm, opti, handles, T / N, guess)
+
+
+def _weighted(problem: Problem):
+    """X (n, K) -> (1, K): Σⱼ wⱼ·Xⱼₖ per column, w = cost.weights (default ones)."""
+    w = problem.cost.weights
+    W = ca.diag(ca.DM(np.ones(problem.n) if w is None else np.asarray(w, dtype=float)))
+    return lambda X: ca.sum1(ca.mtimes(W, X))
+
+
+def _multiple_shooting(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: dict, h, guess):
+    """Piecewise-constant τ per interval, RK4 on fdyn; returns the effort and smoothness cost."""
+    n, N, cost = problem.n, problem.N, problem.cost
+    Q, QD = handles["Q"], handles["QD"]
+    U = handles["U"] = opti.variable(n, N)
+    opti.set_initial(U, guess[3][1::2].T)
+    _bound_torque(opti, problem.limits, U)
+    step = _rk4_step(arm.need(problem.method), n, problem.substeps).map(N)
+    qn, qdn = step(Q[:, :N], QD[:, :N], U, h)
+    opti.subject_to([Q[:, 1:] == qn, QD[:, 1:] == qdn])
+    w = _weighted(problem)
+    return cost.effort * h * ca.sum2(w(U ** 2)) + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h
+
+
+def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: dict, h, guess):
+    """Trapezoidal or Hermite–Simpson (separated form) collocation with q̈ as decision
+    variable and τ = ID(q, q̇, q̈) imposed at every collocation point (scaled by the
+    torque limits); returns the effort and smoothness cost."""
+    n, N, lim, cost = problem.n, problem.N, problem.limits, problem.cost
+    gq, gqd, gqdd, gtau = guess
+    Q, QD = handles["Q"], handles["QD"]
+    QDD, U = opti.variable(n, N + 1), opti.variable(n, N + 1)
+    opti.set_initial(QDD, gqdd[::2].T)
+    opti.set_initial(U, gtau[::2].T)
+    _bound_torque(opti, lim, U)
+    ID = arm.need(problem.method)
+    scale = ca.DM(np.ones(n) if lim.tau is None else lim.tau)
+    opti.subject_to((ID.map(N + 1)(Q, QD, QDD) - U) / ca.repmat(scale, 1, N + 1) == 0)
+    a, b = slice(0, N), slice(1, N + 1)
+    handles.update(QDD=QDD, U=U)
+    w = _weighted(problem)
+    if problem.method == "trapezoidal":
+        opti.subject_to(Q[:, b] - Q[:, a] == h / 2 * (QD[:, a] + QD[:, b]))
+        opti.subject_to(QD[:, b] - QD[:, a] == h / 2 * (QDD[:, a] + QDD[:, b]))
+        return (cost.effort * h / 2 * ca.sum2(w(U[:, a] ** 2) + w(U[:, b] ** 2))
+                + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h)
+    Qm, QDm, QDDm, Um = (opti.variable(n, N) for _ in range(4))
+    for X, g in ((Qm, gq), (QDm, gqd), (QDDm, gqdd), (Um, gtau)):
+        opti.set_initial(X, g[1::2].T)
+    _bound_states(opti, lim, Qm, QDm)
+    _bound_torque(opti, lim, Um)
+    opti.subject_to(Qm == (Q[:, a] + Q[:, b]) / 2 + h / 8 * (QD[:, a] - QD[:, b]))
+    opti.subject_to(QDm == (QD[:, a] + QD[:, b]) / 2 + h / 8 * (QDD[:, a] - QDD[:, b]))
+    opti.subject_to(Q[:, b] - Q[:, a] == h / 6 * (QD[:, a] + 4 * QDm + QD[:, b]))
+    opti.subject_to(QD[:, b] - QD[:, a] == h / 6 * (QDD[:, a] + 4 * QDDm + QDD[:, b]))
+    opti.subject_to((ID.map(N)(Qm, QDm, QDDm) - Um) / ca.repmat(scale, 1, N) == 0)
+    handles.update(Qm=Qm, QDm=QDm, QDDm=QDDm, Um=Um)
+    return (cost.effort * h / 6 * ca.sum2(w(U[:, a] ** 2) + 4 * w(Um ** 2) + w(U[:, b] ** 2))
+            + cost.smoothness * ca.sum2(w(_quadratic_smoothness(U[:, a], Um, U[:, b], h))))
+
+
+def _hint(problem: Problem, arm: ArmFunctions) -> str:
+    """Where the torque limits are below the torque that holds the arm at the end points."""
+    lim = problem.limits.tau
+    if lim is None or arm.tau is None:
+        return ""
+    q0, _, qf, _ = problem.boundary()
+    z = np.zeros(problem.n)
+    notes = []
+    for name, q in (("q0", q0), ("qf", qf)):
+        g = np.array(arm.tau(q, z, z)).ravel()
+        over = np.flatnonzero(np.abs(g) > lim)
+        notes += [f"joint {j + 1} needs {abs(g[j]):.3g} N·m to hold the arm at {name} "
+                  f"but its torque limit is {lim[j]:.3g} N·m" for j in over]
+    return ("; hint: " + "; ".join(notes)) if notes else ""
+
+
+def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
+          max_iter: int = 3000, expand: bool = False) -> Solution:
+    """Pose `problem` on the CasADi dynamics `arm` and solve it with IPOPT.
+
+    expand=True expands the whole NLP into SX: faster iterations, much longer
+    set-up.  Raises OCPError (with IPOPT's return status) when no solution is
+    found.
+    """
+    if arm.n != problem.n:
+        raise ValueError(f"the dynamics are for {arm.n} joints but the problem has {problem.n}")
+    opti = ca.Opti()
+    handles, J = _pose(problem, arm, opti)
+    opti.minimize(J)
+    opti.solver("ipopt", {"print_time": verbose, "record_time": True, "expand": expand},
+                {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter})
+    start = time.perf_counter()
+    try:
+        sol = opti.solve()
+    except RuntimeError:
+        st = opti.stats()
+        status, iters = st.get("return_status", "unknown"), st.get("iter_count", 0)
+        raise OCPError(f"IPOPT found no {problem.method} solution: return status {status} after "
+                       f"{iters} iterations{_hint(problem, arm)}", status, iters) from None
+    wall = time.perf_counter() - start
+    st = sol.stats()
+    iters = int(st["iter_count"])
+    evals = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
+    stats = {"status": st["return_status"], "success": bool(st["success"]), "iterations": iters,
+             "solve_wall": wall, "ipopt_wall": float(st["t_wall_total"]), "eval_wall": float(evals),
+             "setup_wall": wall - float(st["t_wall_total"]),
+             "per_iteration": float(st["t_wall_total"]) / max(iters, 1), "source": arm.source}
+    v = lambda x: np.atleast_2d(np.array(sol.value(x), dtype=float))  # noqa: E731
+    T = float(sol.value(handles["T"]))
+    out = dict(method=problem.method, t=np.linspace(0, T, problem.N + 1), q=v(handles["Q"]).T,
+               qd=v(handles["QD"]).T, tau=v(handles["U"]).T, cost=float(sol.value(opti.f)), stats=stats)
+    if problem.method != "multiple-shooting":
+        out["qdd"] = v(handles["QDD"]).T
+    if problem.method == "hermite-simpson":
+        out.update(q_mid=v(handles["Qm"]).T, qd_mid=v(handles["QDm"]).T, tau_mid=v(handles["Um"]).T)
+    return Solution(**out)
+
+
+# --------------------------------------------------------------------------- verification
+
+def resimulate(robot: Robot, solution: Solution, *, substeps: int = 10):
+    """Open-loop simulation of the solution's torque with the reference forward dynamics
+    (`reference.accel`): fixed-step RK4, `substeps` steps per interval, τ interpolated as
+    the transcription assumes.  Returns (t, q, qd), states at the nodes."""
+    n = robot.n
+    x = np.concatenate([solution.q[0], solution.qd[0]])
+    qs, qds = [x[:n]], [x[n:]]
+    for k in range(solution.N):
+        h = (solution.t[k + 1] - solution.t[k]) / substeps
+        for j in range(substeps):
+            s = j * h
+            f = lambda x, s: np.concatenate(  # noqa: E731
+                [x[n:], reference.accel(robot, x[:n], x[n:], solution.interval_torque(k, s))])
+            k1 = f(x, s)
+            k2 = f(x + h / 2 * k1, s + h / 2)
+            k3 = f(x + h / 2 * k2, s + h / 2)
+            k4 = f(x + h * k3, s + h)
+            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        qs.append(x[:n])
+        qds.append(x[n:])
+    return solution.t, np.array(qs), np.array(qds)
+
+
+@dataclass(frozen=True)
+class Check:
+    """The verification of one solution: IPOPT success, goal errors of the open-loop
+    re-simulation (rad or m, and per s), and the worst limit violation on the grid;
+    q, qd: the re-simulated states at the nodes (N+1, n)."""
+
+    success: bool
+    status: str
+    goal_q_error: float
+    goal_qd_error: float
+    path_q_error: float
+    limit_violation: float
+    tol_q: float
+    tol_qd: float
+    tol_limits: float
+    q: np.ndarray = field(repr=False, default=None)
+    qd: np.ndarray = field(repr=False, default=None)
+
+    @property
+    def ok(self) -> bool:
+        return (self.success and self.goal_q_error <= self.tol_q and self.goal_qd_error <= self.tol_qd
+                and self.limit_violation <= self.tol_limits)
+
+    def describe(self) -> str:
+        return (f"IPOPT {self.status}; open-loop re-simulation reaches the goal within "
+                f"{self.goal_q_error:.2e} rad (tol {self.tol_q:g}) and {self.goal_qd_error:.2e} rad/s "
+                f"(tol {self.tol_qd:g}), max deviation from the optimised path {self.path_q_error:.2e} rad; "
+                f"worst limit violation {self.limit_violation:.1e} (tol {self.tol_limits:g}): "
+                f"{'PASS' if self.ok else 'FAIL'}")
+
+
+def _violation(x: np.ndarray | None, lo, hi) -> float:
+    if x is None:
+        return 0.0
+    return float(max(0.0, np.max(lo - x), np.max(x - hi)))
+
+
+def limit_violation(problem: Problem, solution: Solution) -> float:
+    """Worst excess over any limit at the grid points (nodes, and midpoints for
+    Hermite–Simpson), in the quantity's units."""
+    lim, worst = problem.limits, 0.0
+    for q, qd in ((solution.q, solution.qd), (solution.q_mid, solution.qd_mid)):
+        if q is None:
+            continue
+        if lim.q is not None:
+            worst = max(worst, _violation(q, lim.q[:, 0], lim.q[:, 1]))
+        if lim.qd is not None:
+            worst = max(worst, _violation(qd, -lim.qd, lim.qd))
+    if lim.tau is not None:
+        for tau in (solution.tau, solution.tau_mid):
+            worst = max(worst, _violation(tau, -lim.tau, lim.tau))
+    return worst
+
+
+def verify(robot: Robot, problem: Problem, solution: Solution, *, tol_q: float = 1e-2,
+           tol_qd: float = 5e-2, tol_limits: float = 1e-6, substeps: int = 10) -> Check:
+    """Re-simulate open-loop with the reference dynamics and check the goal and limits."""
+    _, q, qd = resimulate(robot, solution, substeps=substeps)
+    _, _, qf, qdf = problem.boundary()
+    return Check(success=solution.stats["success"], status=solution.stats["status"],
+                 goal_q_error=float(np.abs(q[-1] - qf).max()),
+                 goal_qd_error=float(np.abs(qd[-1] - qdf).max()),
+                 path_q_error=float(np.abs(q - solution.q).max()),
+                 limit_violation=limit_violation(problem, solution),
+                 tol_q=tol_q, tol_qd=tol_qd, tol_limits=tol_limits, q=q, qd=qd)

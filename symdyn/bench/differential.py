@@ -1,0 +1,235 @@
+"""Differential checks of one arm, stage by stage, for the random-arm tests.
+
+`check_arm(robot)` runs the correctness ladder on any numeric arm and
+returns one `Finding` per comparison (its worst relative error and time):
+the reference against Pinocchio (τ, M, G, C·q̇, the Christoffel C, forward
+dynamics; friction against its own law), the three derivations (plain and
+regrouped Newton–Euler, Lagrange) against the reference, plain against
+regrouped Newton–Euler exactly at rational points, every generated target
+and function against the reference, and the identities (M symmetric
+positive definite, Ṁ − 2C skew, τ(q, 0, 0) = G + F(0), fdyn∘τ = id,
+Y·π = τ).  A stage that raises is a finding with an infinite error and the
+exception, never an abort.  Needs Pinocchio (the `test` extra).
+"""
+
+from __future__ import annotations
+
+import random
+import time
+import traceback
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Callable, Iterable
+
+import numpy as np
+import sympy as sp
+
+from ..numeric import reference as ref
+from ..model import Robot
+
+__all__ = ["Finding", "STAGES", "check_arm", "friction_law", "pinocchio_at", "relative_error", "states"]
+
+STAGES = ("pinocchio", "derive", "exact", "targets", "identities")
+TARGETS = ("numpy", "c", "casadi")
+FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y")
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One comparison: `stage`, what was compared, its worst relative error
+    (inf when the stage raised; `detail` then holds the exception) and seconds."""
+
+    stage: str
+    what: str
+    error: float
+    seconds: float
+    detail: str = ""
+
+
+def relative_error(got, expected, floor: float = 1e-6) -> float:
+    """max|got − expected| / max(max|expected|, floor); inf on a shape mismatch or NaN."""
+    got, expected = np.asarray(got, dtype=float), np.asarray(expected, dtype=float)
+    if got.shape != expected.shape:
+        return float("inf")
+    err = float(np.max(np.abs(got - expected), initial=0.0)) / max(float(np.max(np.abs(expected), initial=0.0)), floor)
+    return err if np.isfinite(err) else float("inf")
+
+
+def states(robot: Robot, count: int, seed: int = 0):
+    """(q, qd, qdd, tau) each (count, n): q within the joint limits, a few q̇ = 0
+    and a few single joints at rest (Coulomb friction at rest is 0)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = robot.qlim.T
+    q = rng.uniform(lo, hi, (count, robot.n))
+    qd = rng.uniform(-2, 2, (count, robot.n))
+    qd[:2] = 0.0
+    qd[2:4, rng.integers(robot.n)] = 0.0
+    qdd = rng.uniform(-5, 5, (count, robot.n))
+    tau = rng.uniform(-20, 20, (count, robot.n))
+    return q, qd, qdd, tau
+
+
+def friction_law(robot: Robot, qd) -> np.ndarray:
+    """F = G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest, from the link parameters."""
+    G = np.array([float(link.G) for link in robot.links])
+    B = np.array([float(link.B) for link in robot.links])
+    tp, tn = np.array([[float(x) for x in link.Tc] for link in robot.links]).T
+    return G**2 * B * qd + np.abs(G) * np.where(qd > 0, tp, np.where(qd < 0, tn, 0.0))
+
+
+def pinocchio_at(model, q, qd, qdd, tau) -> dict:
+    """Pinocchio's τ, M, G, C·q̇, Christoffel symbols and forward dynamics at each state."""
+    import pinocchio as pin
+
+    data = model.createData()
+    n = q.shape[1]
+    out = {k: [] for k in ("tau", "M", "G", "Cqd", "Gamma", "ddq")}
+    for x, v, a, t in zip(q, qd, qdd, tau):
+        out["tau"].append(pin.rnea(model, data, x, v, a).copy())
+        M = pin.crba(model, data, x)
+        out["M"].append(np.triu(M) + np.triu(M, 1).T)
+        g = pin.computeGeneralizedGravity(model, data, x).copy()
+        out["G"].append(g)
+        out["Cqd"].append(pin.nonLinearEffects(model, data, x, v) - g)
+        # Pinocchio's C satisfies Ṁ = C + Cᵀ and is linear in q̇: q̇ = e_i gives ∂M/∂q_i
+        dM = np.stack([(lambda C: C + C.T)(pin.computeCoriolisMatrix(model, data, x, e).copy()) for e in np.eye(n)])
+        out["Gamma"].append(0.5 * (np.einsum("ikj->kij", dM) + np.einsum("jki->kij", dM) - dM))
+        out["ddq"].append(pin.aba(model, data, x, v, t).copy())
+    return {k: np.array(v) for k, v in out.items()}
+
+
+# --------------------------------------------------------------------------- stages
+
+def _pinocchio(robot: Robot, q, qd, qdd, tau) -> Iterable[tuple[str, float]]:
+    from .peers import pinocchio_model
+
+    bare = robot.nofriction(all=True)
+    peer = pinocchio_at(pinocchio_model(robot), q, qd, qdd, tau)
+    yield "tau (frictionless)", relative_error(ref.rne(bare, q, qd, qdd), peer["tau"])
+    yield "tau (friction by its law)", relative_error(ref.rne(robot, q, qd, qdd),
+                                                      peer["tau"] + friction_law(robot, qd))
+    yield "M", relative_error(ref.inertia(robot, q), peer["M"])
+    yield "G", relative_error(ref.gravload(robot, q), peer["G"])
+    yield "C qd", relative_error(np.einsum("skj,sj->sk", ref.coriolis(robot, q, qd), qd), peer["Cqd"])
+    yield "Christoffel", relative_error(ref.christoffel(robot, q), peer["Gamma"])
+    yield "fdyn (aba)", relative_error(ref.accel(bare, q, qd, tau), peer["ddq"])
+
+
+def _expected(robot: Robot, q, qd, qdd) -> dict:
+    """The reference value of every term at the states."""
+    C = ref.coriolis(robot, q, qd)
+    tau = ref.rne(robot, q, qd, qdd)
+    return {"tau": tau, "M": ref.inertia(robot, q), "C": C, "Cqd": np.einsum("skj,sj->sk", C, qd),
+            "G": ref.gravload(robot, q), "F": ref.friction(robot, qd)}
+
+
+def _derivations(robot: Robot) -> dict:
+    from ..derivation.entry import derive
+
+    return {"newton-euler": derive(robot, "newton-euler"),
+            "newton-euler regrouped": derive(robot, "newton-euler", regroup=True),
+            "lagrange": derive(robot, "lagrange")}
+
+
+def _derive(robot: Robot, q, qd, qdd) -> Iterable[tuple[str, float]]:
+    expected = _expected(robot, q, qd, qdd)
+    for label, dyn in _derivations(robot).items():
+        args = list(dyn.q) + list(dyn.qd) + list(dyn.qdd)
+        for term in ("tau", "M", "C", "G", "F"):
+            expr = dyn.named.get(term, dyn.term(term))
+            f = sp.lambdify(args, expr, "numpy", cse=lambda e: (list(dyn.definitions), e), docstring_limit=0)
+            got = np.array([np.array(f(*x), dtype=float).reshape(expected[term].shape[1:])
+                            for x in np.concatenate([q, qd, qdd], 1)])
+            yield f"{label} {term}", relative_error(got, expected[term])
+
+
+def _exact(robot: Robot, points: int = 2, seed: int = 3) -> Iterable[tuple[str, float]]:
+    """Plain and regrouped Newton–Euler at exact rational points: the difference must be 0."""
+    from ..derivation.regressor import compile_exact, random_rational_point
+
+    dyns = _derivations(robot)
+    plain, grouped = dyns["newton-euler"], dyns["newton-euler regrouped"]
+    q, qd, qdd = plain.q, plain.qd, plain.qdd
+    inputs = [f(x) for x in q for f in (sp.cos, sp.sin)] + list(q) + list(qd) + list(qdd)
+    terms = ("tau", "M", "G", "Cqd", "F")
+    flat = lambda dyn: [x for t in terms for x in dyn.named[t]]  # noqa: E731
+    signs = {sp.sign(v): sp.Dummy() for v in qd}
+    evaluators = [compile_exact([(s, e.xreplace(signs)) for s, e in dyn.definitions],
+                                [x.xreplace(signs) for x in flat(dyn)], inputs + list(signs.values()))
+                  for dyn in (plain, grouped)]
+    rng = random.Random(seed)
+    worst = 0.0
+    for _ in range(points):
+        point = random_rational_point(robot.n, rng)
+        args = [Fraction(int(point[x].p), int(point[x].q)) for x in inputs]
+        args += [Fraction((v > 0) - (v < 0)) for v in args[3 * robot.n:4 * robot.n]]   # sgn q̇
+        a, b = (f(*args) for f in evaluators)
+        worst = max(worst, *(float(abs(x - y)) for x, y in zip(a, b)))
+    yield "newton-euler plain == regrouped (tau, M, G, C qd, F)", worst
+
+
+def _call(f: Callable, target: str, *args) -> np.ndarray:
+    """A generated function over a batch of states (CasADi: one state at a time)."""
+    if target != "casadi":
+        return np.asarray(f(*args))
+    outs = [np.array(f(*row)) for row in zip(*args)]
+    return np.array([o.reshape(o.shape[0]) if o.shape[1:] == (1,) else o for o in outs])
+
+
+def _targets(robot: Robot, q, qd, qdd, tau) -> Iterable[tuple[str, float]]:
+    from ..codegen.entry import load
+    from ..derivation.regressor import parameter_values
+
+    expected = _expected(robot, q, qd, qdd)
+    expected["fdyn"] = ref.accel(robot, q, qd, tau)
+    pi = np.array([float(v) for v in parameter_values(robot)])
+    args = {"tau": (q, qd, qdd), "M": (q,), "C": (q, qd), "Cqd": (q, qd), "G": (q,), "F": (qd,),
+            "fdyn": (q, qd, tau)}
+    for target in TARGETS:
+        model = load(robot, target)
+        for name in FUNCTIONS[:-1]:
+            yield f"{target} {name}", relative_error(_call(getattr(model, name), target, *args[name]), expected[name])
+        Y = _call(model.Y, target, q, qd, qdd)
+        yield f"{target} Y·π", relative_error(Y @ pi, expected["tau"])
+
+
+def _identities(robot: Robot, q, qd, qdd) -> Iterable[tuple[str, float]]:
+    from ..codegen.entry import load
+    from ..derivation.regressor import parameter_values
+
+    f = load(robot, "c")
+    M, C = f.M(q), f.C(q, qd)
+    eig = np.linalg.eigvalsh(M)
+    yield "M symmetric", relative_error(M, np.swapaxes(M, -1, -2))
+    yield "M positive definite (1 if not)", float(eig.min() <= 0)
+    h = 1e-3   # Ṁ by a fourth-order central difference along q̇: error ~h⁴ + ε/h
+    dM = (8 * (f.M(q + h * qd) - f.M(q - h * qd)) - f.M(q + 2 * h * qd) + f.M(q - 2 * h * qd)) / (12 * h)
+    N = dM - 2 * C
+    yield "Mdot - 2C skew", relative_error(N + np.swapaxes(N, -1, -2), np.zeros_like(N), floor=np.abs(dM).max())
+    zero = np.zeros_like(q)
+    yield "tau(q, 0, 0) = G + F(0)", relative_error(f.tau(q, zero, zero), f.G(q) + f.F(zero))
+    yield "fdyn(q, qd, tau(q, qd, qdd)) = qdd", relative_error(f.fdyn(q, qd, f.tau(q, qd, qdd)), qdd)
+    pi = np.array([float(v) for v in parameter_values(robot)])
+    yield "Y·π = tau", relative_error(f.Y(q, qd, qdd) @ pi, f.tau(q, qd, qdd))
+
+
+def check_arm(robot: Robot, *, count: int = 12, seed: int = 0, stages: Iterable[str] = STAGES) -> list[Finding]:
+    """Every comparison of `stages` for `robot` at `count` random states."""
+    q, qd, qdd, tau = states(robot, count, seed)
+    runs = {"pinocchio": lambda: _pinocchio(robot, q, qd, qdd, tau),
+            "derive": lambda: _derive(robot, q[:4], qd[:4], qdd[:4]),
+            "exact": lambda: _exact(robot),
+            "targets": lambda: _targets(robot, q, qd, qdd, tau),
+            "identities": lambda: _identities(robot, q, qd, qdd)}
+    findings = []
+    for stage in stages:
+        start = time.perf_counter()
+        try:
+            for what, error in runs[stage]():
+                findings.append(Finding(stage, what, error, time.perf_counter() - start))
+                start = time.perf_counter()
+        except Exception as exc:  # noqa: BLE001 (a crash is a finding, reported with the arm)
+            detail = "".join(traceback.format_exception_only(exc)).strip()
+            findings.append(Finding(stage, "crashed", float("inf"), time.perf_counter() - start,
+                                    f"{detail}\n{traceback.format_exc(limit=-3)}"))
+    return findings

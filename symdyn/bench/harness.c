@@ -1,0 +1,160 @@
+/*
+ * symdyn C timing harness: ns per call of a generated model's functions, no
+ * Python involved.  The C counterpart of shared/bench/pin_bench.cpp (same
+ * loop: a pool of K states cycled, one volatile sink per call, median of
+ * `reps` repetitions of `ncalls` calls).  symdyn.bench compiles it with the
+ * generated model source as a separate translation unit (the functions are
+ * called as a library user calls them, never inlined):
+ *
+ *   cc -O3 -march=native -DMODEL=puma560 -DNDOF=6 -DMODEL_HEADER='"puma560.h"'
+ *      [-DWITH_CASADI] harness.c puma560.c [casadi_rnea.c] -lm
+ *
+ * Run: harness STATES NCALLS REPS [FUNCTION ...]
+ * STATES: K (a power of two) states, each q, qd, qdd, tau as 4*NDOF doubles.
+ * Prints "time NAME NS" per function, then "check NAME v..." with its
+ * outputs at state 3 (compared with symdyn.reference by the caller).
+ * With -DWITH_CASADI the function "casadi_rnea" (a CasADi-generated plain
+ * RNEA, arg/res pointer-array calling convention) is timed as well.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include MODEL_HEADER
+#ifdef WITH_CASADI
+#include "casadi_rnea.h"
+#endif
+
+#define CAT_(a, b) a##_##b
+#define CAT(a, b) CAT_(a, b)
+#define FN(f) CAT(MODEL, f)
+
+static double now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return 1e9 * (double)t.tv_sec + (double)t.tv_nsec;
+}
+
+static int by_value(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, n, sizeof *v, by_value);
+    return v[n / 2];
+}
+
+static int wanted(int argc, char **argv, const char *name)
+{
+    int i;
+    if (argc <= 4)
+        return 1;
+    for (i = 4; i < argc; ++i)
+        if (!strcmp(argv[i], name))
+            return 1;
+    return 0;
+}
+
+static void check(const char *name, const double *out, int size)
+{
+    int i;
+    printf("check %s", name);
+    for (i = 0; i < size; ++i)
+        printf(" %.17g", out[i]);
+    printf("\n");
+}
+
+/* Time CALL (which writes out[]) over the state pool; then its outputs at state 3. */
+#define TIME(NAME, SIZE, CALL)                                                  \
+    if (wanted(argc, argv, NAME)) {                                             \
+        int r;                                                                  \
+        long i, k;                                                              \
+        for (r = 0; r < reps; ++r) {                                            \
+            double t0 = now_ns();                                               \
+            for (i = 0; i < ncalls; ++i) {                                      \
+                k = i & (K - 1);                                                \
+                CALL;                                                           \
+                sink += out[0];                                                 \
+            }                                                                   \
+            v[r] = (now_ns() - t0) / (double)ncalls;                            \
+        }                                                                       \
+        printf("time %s %.3f\n", NAME, median(v, reps));                       \
+        k = 3;                                                                  \
+        CALL;                                                                   \
+        check(NAME, out, SIZE);                                                 \
+    }
+
+int main(int argc, char **argv)
+{
+    enum { W = 4 * NDOF };
+    static double out[NDOF * NDOF];
+    volatile double sink = 0.0;
+    double *S, *v;
+    long K, ncalls, size;
+    int reps;
+    FILE *fh;
+    if (argc < 4) {
+        fprintf(stderr, "usage: %s STATES NCALLS REPS [FUNCTION ...]\n", argv[0]);
+        return 2;
+    }
+    ncalls = atol(argv[2]);
+    reps = atoi(argv[3]);
+    fh = fopen(argv[1], "rb");
+    if (!fh || ncalls < 1 || reps < 1) {
+        fprintf(stderr, "cannot read %s, or NCALLS/REPS not positive\n", argv[1]);
+        return 2;
+    }
+    fseek(fh, 0, SEEK_END);
+    size = ftell(fh) / (long)sizeof(double);
+    rewind(fh);
+    K = size / W;
+    if (K < 4 || (K & (K - 1)) || K * W != size) {
+        fprintf(stderr, "%s: %ld doubles, expected K*%d with K a power of two >= 4\n", argv[1], size, W);
+        return 2;
+    }
+    S = malloc(size * sizeof *S);
+    v = malloc(reps * sizeof *v);
+    if (!S || !v || fread(S, sizeof *S, size, fh) != (size_t)size) {
+        fprintf(stderr, "cannot read %s\n", argv[1]);
+        return 2;
+    }
+    fclose(fh);
+#define Q (S + k * W)
+#define QD (S + k * W + NDOF)
+#define QDD (S + k * W + 2 * NDOF)
+#define TAU (S + k * W + 3 * NDOF)
+    printf("states %ld calls %ld reps %d\n", K, ncalls, reps);
+    TIME("tau", NDOF, FN(tau)(Q, QD, QDD, out))
+    TIME("M", NDOF * NDOF, FN(M)(Q, out))
+    TIME("C", NDOF * NDOF, FN(C)(Q, QD, out))
+    TIME("Cqd", NDOF, FN(Cqd)(Q, QD, out))
+    TIME("G", NDOF, FN(G)(Q, out))
+    TIME("fdyn", NDOF, FN(fdyn)(Q, QD, TAU, out))
+#ifdef WITH_CASADI
+    {
+        casadi_int sz_arg, sz_res, sz_iw, sz_w;
+        const double **arg;
+        double **res, *w;
+        casadi_int *iw;
+        casadi_rnea_work(&sz_arg, &sz_res, &sz_iw, &sz_w);
+        arg = malloc((sz_arg + 3) * sizeof *arg);
+        res = malloc((sz_res + 1) * sizeof *res);
+        iw = malloc((sz_iw + 1) * sizeof *iw);
+        w = malloc((sz_w + 1) * sizeof *w);
+        res[0] = out;
+        TIME("casadi_rnea", NDOF, (arg[0] = Q, arg[1] = QD, arg[2] = QDD, casadi_rnea(arg, res, iw, w, 0)))
+        free(arg);
+        free(res);
+        free(iw);
+        free(w);
+    }
+#endif
+    free(S);
+    free(v);
+    return 0;
+}

@@ -1,0 +1,106 @@
+"""The same arm in Pinocchio, the independent peer the reference is tested against.
+
+`pinocchio_model(robot)` builds a `pinocchio.Model` from a numeric robot
+(standard or modified DH, revolute or prismatic joints, offsets, rotor
+inertia G²·Jm as armature); `pin_dh_table(robot, path)` writes the DH text
+table read by the C++ peer benchmark (shared/bench/pin_bench.cpp).
+Pinocchio's universe is the robot's frame {0}: gravity is rotated into it,
+so world poses are `robot.base · data.oMf[...]`.  Friction is not modelled
+(Pinocchio's `rnea` has none): compare with `robot.nofriction(all=True)`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..model import Robot
+
+__all__ = ["pinocchio_model", "pin_dh_table"]
+
+
+def _pin():
+    try:
+        import pinocchio
+    except ImportError as exc:
+        raise ImportError("symdyn.bench.peers needs Pinocchio: pip install symdyn[test] "
+                          "(or pip install pin)") from exc
+    return pinocchio
+
+
+def _rot(axis: str, angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    if axis == "x":
+        return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def _gravity0(robot: Robot) -> np.ndarray:
+    """Gravity itself (downward acceleration) in frame {0}: −R_baseᵀ·robot.gravity."""
+    Rb = np.array(robot.base, dtype=float)[:3, :3]
+    return -Rb.T @ np.array(robot.gravity, dtype=float)
+
+
+def pinocchio_model(robot: Robot):
+    """A `pinocchio.Model` of the numeric `robot`, without friction.
+
+    Joint i is a Pinocchio RZ (revolute) or PZ (prismatic) joint placed at
+    DH frame {i−1} (standard) or at {i−1}·Rx(α)Tx(a) (modified); the body
+    frame {i} is the joint frame moved by the constant part of Rz(θ)Tz(d)
+    (and Tx(a)Rx(α) for standard DH).  Frames "L1".."Ln" are the DH frames
+    {i} and "tool" the tool point, all relative to frame {0}.
+    """
+    pin = _pin()
+    robot.require_numeric("pinocchio_model")
+    model = pin.Model()
+    model.name = robot.name
+    parent, prev, frame = 0, pin.SE3.Identity(), 0
+    for i, link in enumerate(robot.links, start=1):
+        a, alpha, offset = float(link.a), float(link.alpha), float(link.offset)
+        dh_x = pin.SE3(_rot("x", alpha), np.array([a, 0.0, 0.0]))   # Tx(a)Rx(α) = Rx(α)Tx(a)
+        place = prev if robot.convention == "standard" else prev * dh_x
+        joint = pin.JointModelRZ() if link.is_revolute else pin.JointModelPZ()
+        j = model.addJoint(parent, joint, place, f"j{i}")
+        if link.is_revolute:
+            body = pin.SE3(_rot("z", offset), np.array([0.0, 0.0, float(link.d)]))
+        else:
+            body = pin.SE3(_rot("z", float(link.theta)), np.array([0.0, 0.0, offset]))
+        if robot.convention == "standard":
+            body = body * dh_x
+        inertia = pin.Inertia(float(link.m), np.array(link.r, dtype=float), np.array(link.I, dtype=float))
+        model.appendBodyToJoint(j, body.act(inertia), pin.SE3.Identity())
+        frame = model.addBodyFrame(f"L{i}", j, body, frame)
+        parent, prev = j, body
+    tool = pin.SE3(np.array(robot.tool, dtype=float))
+    model.addFrame(pin.Frame("tool", parent, frame, prev * tool, pin.FrameType.OP_FRAME))
+    model.armature = np.array([float(l.G) ** 2 * float(l.Jm) for l in robot.links])
+    model.gravity = pin.Motion(_gravity0(robot), np.zeros(3))
+    return model
+
+
+def pin_dh_table(robot: Robot, path: str | Path) -> Path:
+    """Write `robot` as the DH table of shared/bench/pin_bench.cpp; returns the path.
+
+    First line `n gx gy gz` (gravity itself in frame {0}), then per link
+    `d a alpha offset m rx ry rz Ixx Ixy Ixz Iyy Iyz Izz Ia` with Ia = G²·Jm.
+    The benchmark builds revolute joints from standard DH only.
+    """
+    robot.require_numeric("pin_dh_table")
+    if robot.convention != "standard":
+        raise ValueError(f"pin_dh_table writes standard DH only, but {robot.name!r} uses "
+                         f"{robot.convention!r} DH")
+    prismatic = [i + 1 for i, l in enumerate(robot.links) if not l.is_revolute]
+    if prismatic:
+        raise ValueError(f"pin_dh_table supports revolute joints only; {robot.name!r} has "
+                         f"prismatic joint(s) {prismatic}")
+    f = lambda x: repr(float(x))  # noqa: E731  (round-trip exact)
+    lines = [" ".join([str(robot.n), *map(f, _gravity0(robot) + 0.0)])]
+    for link in robot.links:
+        I = link.I
+        row = [link.d, link.a, link.alpha, link.offset, link.m, *link.r,
+               I[0][0], I[0][1], I[0][2], I[1][1], I[1][2], I[2][2], float(link.G) ** 2 * float(link.Jm)]
+        lines.append(" ".join(map(f, row)))
+    path = Path(path)
+    path.write_text("\n".join(lines) + "\n")
+    return path

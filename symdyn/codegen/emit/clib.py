@@ -1,0 +1,363 @@
+"""Compile a generated .c/.h into a shared library and call it from Python.
+
+The library is built with the system C compiler (`$CC`, else `cc`) into
+symdyn's cache folder (`symdyn.derivation.cache.cache_dir()`, outside the repository),
+under a name derived from the hash of everything that affects it (source,
+header, compiler, flags, Python and NumPy ABI): a changed source is
+rebuilt, an unchanged one is reused.  Two
+bindings: a small CPython extension (per-call overhead well under a
+microsecond; needs Python.h) and ctypes (no headers needed, a few µs per
+call).  Both take NumPy arrays of shape (n,) or (N, n) and return new ones.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import importlib.machinery
+import importlib.util
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...derivation.cache import cache_dir
+from . import write_atomic
+from .c import Signature, read_signatures
+
+__all__ = ["CompileOptions", "CLibrary", "load_library", "compiler"]
+
+#: -march=native: the library is built for this machine (the cache key includes the host name).
+DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared")
+
+
+@dataclass(frozen=True)
+class CompileOptions:
+    """How to build: compiler flags and binding ("auto": the extension when
+    Python.h is available, else ctypes; or "extension" / "ctypes")."""
+
+    flags: tuple = DEFAULT_FLAGS
+    binding: str = "auto"
+
+    def __post_init__(self) -> None:
+        if self.binding not in ("auto", "extension", "ctypes"):
+            raise ValueError(f"binding must be 'auto', 'extension' or 'ctypes', got {self.binding!r}")
+
+
+def compiler() -> str:
+    """Path of the C compiler ($CC or cc), or a RuntimeError saying what to install."""
+    cc = os.environ.get("CC", "cc")
+    path = shutil.which(cc)
+    if path is None:
+        raise RuntimeError(
+            f"no C compiler found (looked for {cc!r}, set by $CC or default 'cc'): the C target "
+            "needs one. Install it (Debian/Ubuntu: apt install gcc; Fedora: dnf install gcc; "
+            "macOS: xcode-select --install) or use target='numpy' or 'casadi'.")
+    return path
+
+
+def _python_headers() -> tuple[str, str] | None:
+    """(Python include dir, NumPy include dir) when Python.h exists, else None."""
+    inc = sysconfig.get_paths()["include"]
+    if not Path(inc, "Python.h").exists():
+        return None
+    return inc, np.get_include()
+
+
+# --------------------------------------------------------------------------- the extension glue
+
+_GLUE_HEAD = r'''#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+#include <limits.h>
+#include <math.h>
+#include <string.h>
+#include "%(model)s.h"
+
+#define MAXARGS 8
+typedef void (*one_fn)(const double *const *in, double *const *out);
+typedef void (*many_fn)(int n, const double *const *in, double *const *out);
+typedef struct {
+    const char *name, *args;
+    int nin, nout;
+    const npy_intp *in_size;
+    const int *out_nd;
+    const npy_intp (*out_dims)[2];
+    one_fn one;
+    many_fn many;
+} spec_t;
+
+/* Inputs as C-contiguous doubles with equal leading shapes; one output array
+   per output, shaped leading + its own shape; single or batched call. */
+static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
+{
+    PyArrayObject *in[MAXARGS] = {0};
+    PyObject *out[MAXARGS] = {0};
+    const double *pin[MAXARGS];
+    double *pout[MAXARGS];
+    npy_intp lead[NPY_MAXDIMS], dims[NPY_MAXDIMS], count = 1;
+    int lead_nd = 0, i, j;
+    PyObject *result = NULL;
+    if (nargs != s->nin) {
+        PyErr_Format(PyExc_TypeError, "%%s() takes %%d arguments (%%s), got %%zd", s->name, s->nin, s->args, nargs);
+        return NULL;
+    }
+    for (i = 0; i < s->nin; ++i) {
+        int nd;
+        if (PyArray_CheckExact(args[i]) && PyArray_TYPE((PyArrayObject *)args[i]) == NPY_DOUBLE
+            && PyArray_ISCARRAY_RO((PyArrayObject *)args[i])) {
+            Py_INCREF(args[i]);   /* fast path: already C-contiguous aligned doubles */
+            in[i] = (PyArrayObject *)args[i];
+        } else {
+            in[i] = (PyArrayObject *)PyArray_FROMANY(args[i], NPY_DOUBLE, 0, 0, NPY_ARRAY_IN_ARRAY);
+            if (!in[i])
+                goto done;
+        }
+        nd = PyArray_NDIM(in[i]);
+        if (nd == 0 || PyArray_DIMS(in[i])[nd - 1] != s->in_size[i]) {
+            PyObject *shape = PyObject_GetAttrString((PyObject *)in[i], "shape");
+            PyErr_Format(PyExc_ValueError, "%%s(): argument %%d must have shape (..., %%zd), got %%R",
+                         s->name, i + 1, (Py_ssize_t)s->in_size[i], shape);
+            Py_XDECREF(shape);
+            goto done;
+        }
+        if (i == 0) {
+            lead_nd = nd - 1;
+            memcpy(lead, PyArray_DIMS(in[i]), lead_nd * sizeof(npy_intp));
+        } else if (nd - 1 != lead_nd || memcmp(lead, PyArray_DIMS(in[i]), lead_nd * sizeof(npy_intp))) {
+            PyErr_Format(PyExc_ValueError, "%%s(): argument %%d has other leading dimensions than "
+                         "argument 1; the C target does not broadcast", s->name, i + 1);
+            goto done;
+        }
+        pin[i] = (const double *)PyArray_DATA(in[i]);
+    }
+    for (i = 0; i < lead_nd; ++i)
+        count *= lead[i];
+    for (i = 0; i < s->nin; ++i) {   /* a NaN or infinite state is bad input, not a result */
+        const npy_intp size = PyArray_SIZE(in[i]);
+        npy_intp k;
+        for (k = 0; k < size; ++k)
+            if (!isfinite(pin[i][k])) {
+                PyErr_Format(PyExc_ValueError, "%%s(): argument %%d contains NaN or infinity (element %%zd)",
+                             s->name, i + 1, (Py_ssize_t)k);
+                goto done;
+            }
+    }
+    if (count > INT_MAX) {
+        PyErr_Format(PyExc_ValueError, "%%s(): %%zd states, at most %%d per call", s->name, (Py_ssize_t)count, INT_MAX);
+        goto done;
+    }
+    memcpy(dims, lead, lead_nd * sizeof(npy_intp));
+    for (j = 0; j < s->nout; ++j) {
+        memcpy(dims + lead_nd, s->out_dims[j], s->out_nd[j] * sizeof(npy_intp));
+        out[j] = PyArray_SimpleNew(lead_nd + s->out_nd[j], dims, NPY_DOUBLE);
+        if (!out[j])
+            goto done;
+        pout[j] = (double *)PyArray_DATA((PyArrayObject *)out[j]);
+    }
+    if (lead_nd == 0) {
+        s->one(pin, pout);
+    } else if (count > 0) {
+        Py_BEGIN_ALLOW_THREADS
+        s->many((int)count, pin, pout);
+        Py_END_ALLOW_THREADS
+    }
+    if (s->nout == 1) {
+        result = out[0];
+        out[0] = NULL;
+    } else {
+        result = PyTuple_New(s->nout);
+        for (j = 0; result && j < s->nout; ++j) {
+            PyTuple_SET_ITEM(result, j, out[j]);
+            out[j] = NULL;
+        }
+    }
+done:
+    for (i = 0; i < MAXARGS; ++i) {
+        Py_XDECREF(in[i]);
+        Py_XDECREF(out[i]);
+    }
+    return result;
+}
+'''
+
+
+def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
+    """CPython extension wrapping every function of the model's header."""
+    parts = [_GLUE_HEAD % {"model": model}]
+    methods = []
+    for sig in sigs:
+        f, nin, nout = sig.name, len(sig.inputs), len(sig.outputs)
+        ins = ", ".join(f"in[{i}]" for i in range(nin))
+        outs = ", ".join(f"out[{j}]" for j in range(nout))
+        dims = ", ".join("{" + ", ".join(map(str, (list(s) + [0])[:2])) + "}" for _, s in sig.outputs)
+        args = ", ".join(a for a, _ in sig.inputs)
+        parts.append(
+            f"static void {f}_one(const double *const *in, double *const *out) "
+            f"{{ {model}_{f}({ins}, {outs}); }}\n"
+            f"static void {f}_many(int n, const double *const *in, double *const *out) "
+            f"{{ {model}_{f}_batch(n, {ins}, {outs}); }}\n"
+            f"static const npy_intp {f}_in[] = {{{', '.join(str(k) for _, k in sig.inputs)}}};\n"
+            f"static const int {f}_out_nd[] = {{{', '.join(str(len(s)) for _, s in sig.outputs)}}};\n"
+            f"static const npy_intp {f}_out_dims[][2] = {{{dims}}};\n"
+            f'static const spec_t {f}_spec = {{"{f}", "{args}", {nin}, {nout}, {f}_in, {f}_out_nd, '
+            f"{f}_out_dims, {f}_one, {f}_many}};\n"
+            f"static PyObject *py_{f}(PyObject *self, PyObject *const *args, Py_ssize_t nargs) "
+            f"{{ return call(&{f}_spec, args, nargs); }}\n")
+        doc = f"{sig.line()[len('function: '):]}; batched over leading axes"
+        methods.append(f'    {{"{f}", (PyCFunction)(void (*)(void))py_{f}, METH_FASTCALL, "{doc}"}},')
+    parts.append("static PyMethodDef methods[] = {\n" + "\n".join(methods) + "\n    {NULL, NULL, 0, NULL}\n};\n")
+    parts.append(
+        f'static struct PyModuleDef moduledef = {{PyModuleDef_HEAD_INIT, "{module}", NULL, -1, methods}};\n'
+        f"PyMODINIT_FUNC PyInit_{module}(void)\n{{\n    import_array();\n"
+        f"    return PyModule_Create(&moduledef);\n}}\n")
+    return "\n".join(parts)
+
+
+# --------------------------------------------------------------------------- building
+
+def _digest(*parts: str) -> str:
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p.encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _compile(cc: str, flags: tuple, sources: list[Path], includes: list[str], target: Path) -> None:
+    """cc flags sources -o target, atomically; a RuntimeError with the compiler's message on failure."""
+    fd, tmp = tempfile.mkstemp(suffix=target.suffix, prefix=f".{target.stem}.", dir=target.parent)
+    os.close(fd)
+    extra = ["-undefined", "dynamic_lookup"] if sys.platform == "darwin" else []
+    cmd = [cc, *flags, *extra, *(f"-I{i}" for i in includes), *map(str, sources), "-o", tmp, "-lm"]
+    try:
+        run = subprocess.run(cmd, capture_output=True, text=True)
+        if run.returncode != 0:
+            raise RuntimeError(f"compiling {sources[0].name} failed ({' '.join(cmd)}):\n{run.stderr[-2000:]}")
+        os.replace(tmp, target)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+
+
+def _build(flags: tuple, files: dict, includes: list[str], target: Path) -> None:
+    """Write the sources into target's folder and compile them (without
+    -march=native if the compiler rejects it)."""
+    for path, text in files.items():
+        write_atomic(path, text)
+    sources = [p for p in files if p.suffix == ".c"]
+    cc = compiler()
+    try:
+        _compile(cc, flags, sources, includes, target)
+    except RuntimeError:
+        if "-march=native" not in flags:
+            raise
+        _compile(cc, tuple(f for f in flags if f != "-march=native"), sources, includes, target)
+
+
+def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOptions()) -> "CLibrary":
+    """Compile (or reuse from the cache) the model in c_path/h_path and bind it."""
+    c_path, h_path = Path(c_path), Path(h_path)
+    model = h_path.stem
+    c_text, h_text = c_path.read_text(), h_path.read_text()
+    sigs = read_signatures(h_text)
+    if not sigs:
+        raise ValueError(f"{h_path} lists no 'function:' signatures: not a symdyn header")
+    headers = _python_headers() if options.binding != "ctypes" else None
+    if options.binding == "extension" and headers is None:
+        raise RuntimeError(f"Python.h not found in {sysconfig.get_paths()['include']}: install the "
+                           "Python development headers (Debian/Ubuntu: apt install python3-dev) "
+                           "or use binding='ctypes'")
+    kind = "extension" if headers else "ctypes"
+    host = platform.node() if "-march=native" in options.flags else ""
+    key = _digest(c_text, h_text, os.environ.get("CC", "cc"), " ".join(options.flags), kind, host,
+                  sys.version, np.__version__)[:16]
+    folder = cache_dir() / "c" / f"{model}-{key}"
+    files = {folder / c_path.name: c_text, folder / h_path.name: h_text}
+    if kind == "ctypes":
+        lib = folder / f"lib{model}.so"
+        if not lib.exists():
+            _build(options.flags, files, [str(folder)], lib)
+        return CLibrary(model, sigs, lib, _ctypes_functions(model, sigs, lib), kind)
+    module = f"_symdyn_{model}_{key}"
+    files[folder / f"{module}.c"] = _glue_source(model, module, sigs)
+    lib = folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    if not lib.exists():
+        _build(options.flags, files, [str(folder), *headers], lib)
+    ext = _import_extension(module, lib)
+    return CLibrary(model, sigs, lib, {s.name: getattr(ext, s.name) for s in sigs}, kind)
+
+
+def _import_extension(module: str, path: Path):
+    if module in sys.modules:
+        return sys.modules[module]
+    loader = importlib.machinery.ExtensionFileLoader(module, str(path))
+    spec = importlib.util.spec_from_file_location(module, str(path), loader=loader)
+    ext = importlib.util.module_from_spec(spec)
+    loader.exec_module(ext)
+    sys.modules[module] = ext
+    return ext
+
+
+# --------------------------------------------------------------------------- ctypes binding
+
+class _CtypesFunction:
+    """One generated function over ctypes: validates, allocates, calls single or batched."""
+
+    def __init__(self, lib: ctypes.CDLL, model: str, sig: Signature) -> None:
+        self.sig = sig
+        nargs = len(sig.inputs) + len(sig.outputs)
+        self._one = getattr(lib, f"{model}_{sig.name}")
+        self._one.argtypes, self._one.restype = [ctypes.c_void_p] * nargs, None
+        self._many = getattr(lib, f"{model}_{sig.name}_batch")
+        self._many.argtypes, self._many.restype = [ctypes.c_int] + [ctypes.c_void_p] * nargs, None
+        self.__name__ = sig.name
+        self.__doc__ = f"{sig.line()[len('function: '):]}; batched over leading axes"
+
+    def __call__(self, *args):
+        sig = self.sig
+        if len(args) != len(sig.inputs):
+            names = ", ".join(a for a, _ in sig.inputs)
+            raise TypeError(f"{sig.name}() takes {len(sig.inputs)} arguments ({names}), got {len(args)}")
+        arrays = []
+        for (name, size), x in zip(sig.inputs, args):
+            x = np.ascontiguousarray(x, dtype=float)
+            if x.ndim == 0 or x.shape[-1] != size:
+                raise ValueError(f"{sig.name}(): {name} must have shape (..., {size}), got {x.shape}")
+            if not np.isfinite(x).all():
+                raise ValueError(f"{sig.name}(): {name} contains NaN or infinity")
+            if arrays and x.shape[:-1] != arrays[0].shape[:-1]:
+                raise ValueError(f"{sig.name}(): {name} has leading shape {x.shape[:-1]}, "
+                                 f"{sig.inputs[0][0]} has {arrays[0].shape[:-1]}; the C target does not broadcast")
+            arrays.append(x)
+        lead = arrays[0].shape[:-1]
+        outs = [np.empty(lead + shape) for _, shape in sig.outputs]
+        pointers = [a.ctypes.data for a in arrays + outs]
+        if lead:
+            self._many(int(np.prod(lead)), *pointers)
+        else:
+            self._one(*pointers)
+        return outs[0] if len(outs) == 1 else tuple(outs)
+
+
+def _ctypes_functions(model: str, sigs: list[Signature], lib_path: Path) -> dict:
+    lib = ctypes.CDLL(str(lib_path))
+    return {s.name: _CtypesFunction(lib, model, s) for s in sigs}
+
+
+@dataclass(frozen=True)
+class CLibrary:
+    """A compiled model: its signatures, the library file and the callables."""
+
+    model: str
+    signatures: list
+    path: Path
+    functions: dict
+    binding: str

@@ -1,0 +1,235 @@
+"""`generate` and `load`: model code for NumPy, C and CasADi, from files.
+
+The end of model → derive → simplify → program → emit.  `generate(robot,
+target, out_dir)` derives (both methods, cached), builds one program per
+function and writes `<name>.py`, `<name>.c`/`<name>.h` and `<name>.casadi`,
+each headed with the symdyn version and the model fingerprint.
+`load(name_or_robot, target)` returns the functions tau, M, C, Cqd, G, F,
+fdyn, Y as attributes: from the checked-in `generated/<name>/` for the
+shipped models (a stale file is an error that says how to regenerate), else
+generated once into the cache.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+from pathlib import Path
+
+from .. import __version__
+from ..derivation.cache import cache_dir, package_fingerprint
+from ..model import Robot, arms
+from .emit import Bundle, identifier, read_header, write_atomic
+
+__all__ = ["generate", "load", "generate_all", "bundle", "GeneratedModel", "TARGETS", "SHIPPED",
+           "GENERATED", "configure_parser"]
+
+TARGETS = ("numpy", "c", "casadi")
+SHIPPED = ("twolink", "puma560")
+#: The checked-in outputs (present in a source checkout).
+GENERATED = Path(__file__).resolve().parents[2] / "generated"
+
+
+def _robot(name_or_robot) -> Robot:
+    if isinstance(name_or_robot, Robot):
+        return name_or_robot
+    if isinstance(name_or_robot, str):
+        return arms.load(name_or_robot)
+    raise ValueError(f"expected a model name or a symdyn Robot, got {type(name_or_robot).__name__}")
+
+
+def _targets(target: str) -> tuple[str, ...]:
+    if target == "all":
+        return TARGETS
+    if target not in TARGETS:
+        raise ValueError(f"unknown target {target!r}: expected one of {', '.join(TARGETS)} or 'all'")
+    return (target,)
+
+
+def files(name: str, target: str) -> tuple[str, ...]:
+    """The file names one target writes for model `name`."""
+    return {"numpy": (f"{name}.py",), "c": (f"{name}.c", f"{name}.h"), "casadi": (f"{name}.casadi",)}[target]
+
+
+def bundle(robot: Robot) -> Bundle:
+    """Derive `robot` by both methods (Newton–Euler on the regrouped base
+    parameters when the robot is numeric) and build every function's program."""
+    from ..derivation.entry import derive
+    from ..derivation.regressor import regressor
+    from .functions import programs
+
+    regroup = not robot.is_symbolic
+    dyns = [derive(robot, "newton-euler", regroup=regroup), derive(robot, "lagrange")]
+    origins = ["newton-euler, base parameters" if regroup else "newton-euler", "lagrange"]
+    progs = programs(dyns, regressor(robot), origins)
+    used = sorted({p.origin for p in progs}, key=str)
+    return Bundle(name=identifier(robot.name), n=robot.n, version=__version__,
+                  fingerprint=robot.fingerprint(), programs=tuple(progs),
+                  derivation="; ".join(used), source=robot.source)
+
+
+def _is_shipped(robot: Robot) -> bool:
+    """Whether robot is one of the models whose code lives in generated/."""
+    return robot.name in SHIPPED and robot.fingerprint() == arms.load(robot.name).fingerprint()
+
+
+def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False) -> list[Path]:
+    """Write the model code of `robot` (a Robot or a model's name) for
+    `target` ("numpy", "c", "casadi" or "all") into `out_dir` (default, for
+    the shipped models only: generated/<name>); `casadi_c` also writes
+    CasADi's own C code.  Returns the paths written."""
+    from .emit import c as c_emit, casadi as ca_emit, numpy as np_emit
+
+    robot = _robot(robot)
+    targets = _targets(target)
+    name = identifier(robot.name)
+    if out_dir is None and not _is_shipped(robot):
+        raise ValueError(f"generate({robot.name!r}) needs out_dir: generated/ holds only the shipped "
+                         f"models ({', '.join(SHIPPED)}) with their shipped parameters")
+    b = bundle(robot)
+    out = Path(out_dir) if out_dir is not None else GENERATED / name
+    written = []
+    for t in targets:
+        if t == "numpy":
+            written.append(write_atomic(out / f"{b.name}.py", np_emit.module_source(b)))
+        elif t == "c":
+            written.append(write_atomic(out / f"{b.name}.h", c_emit.h_source(b)))
+            written.append(write_atomic(out / f"{b.name}.c", c_emit.c_source(b)))
+        else:
+            written.append(ca_emit.serialize(b, out / f"{b.name}.casadi"))
+            if casadi_c:
+                written.append(ca_emit.generate_c(ca_emit.functions(b), b.name, out))
+    return written
+
+
+def generate_all(root=None) -> list[Path]:
+    """Regenerate every target of the shipped models into root/<name>/ (default generated/)."""
+    root = Path(root) if root is not None else GENERATED
+    return [p for name in SHIPPED for p in generate(name, "all", root / name)]
+
+
+# --------------------------------------------------------------------------- loading
+
+class GeneratedModel:
+    """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
+    fdyn, Y), with `name`, `n`, `target`, `fingerprint`, `folder` and
+    `functions` (name → callable)."""
+
+    def __init__(self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict):
+        self.name, self.n, self.target, self.fingerprint, self.folder = name, n, target, fingerprint, folder
+        self.functions = dict(functions)
+        self.__dict__.update(self.functions)  # plain attributes, and no __getattr__: it slows every call ~0.1 µs
+
+    def __repr__(self) -> str:
+        return f"<{self.name} model code ({self.target}): {', '.join(self.functions)}>"
+
+
+class CasadiModel(GeneratedModel):
+    """The CasADi target: attributes are casadi.Functions; Jacobians by CasADi's AD."""
+
+    def jacobian(self, function: str, wrt: str, output: str | None = None):
+        """casadi.Function of ∂output/∂wrt of `function` (same inputs), e.g.
+        jacobian("tau", "q") for ∂τ/∂q, jacobian("fdyn", "tau") for ∂q̈/∂τ."""
+        f = getattr(self, function)
+        output = output or f.name_out(0)
+        if wrt not in f.name_in():
+            raise ValueError(f"{function} has no input {wrt!r}: its inputs are {', '.join(f.name_in())}")
+        if output not in f.name_out():
+            raise ValueError(f"{function} has no output {output!r}: its outputs are {', '.join(f.name_out())}")
+        return f.factory(f"d{output}_d{wrt}", f.name_in(), [f"jac:{output}:{wrt}"])
+
+
+def _stale(path: Path, found: dict, robot: Robot, name: str) -> str | None:
+    """Why the file at `path` does not belong to this robot and symdyn, or None."""
+    version, fp = found.get("symdyn-version"), found.get("model-fingerprint")
+    if version == __version__ and fp == robot.fingerprint():
+        return None
+    return (f"{path} is stale: it was generated by symdyn {version} for model fingerprint "
+            f"{(fp or '?')[:12]}…, but this is symdyn {__version__} and {robot.name!r} has fingerprint "
+            f"{robot.fingerprint()[:12]}…. Regenerate it: symdyn generate {name} (or symdyn generate --all)")
+
+
+def _provenance(path: Path, target: str) -> dict:
+    if target == "casadi":
+        from .emit.casadi import deserialize
+        return deserialize(path)[0]
+    return read_header(path.read_text())
+
+
+def _load_folder(folder: Path, name: str, target: str, robot: Robot, options) -> GeneratedModel:
+    paths = [folder / f for f in files(name, target)]
+    for path in paths:
+        reason = _stale(path, _provenance(path, target), robot, name)
+        if reason:
+            raise RuntimeError(reason)
+    if target == "numpy":
+        module = _import_module(paths[0], f"_symdyn_generated_{name}_{robot.fingerprint()[:12]}")
+        funcs = {f: getattr(module, f) for f in module.FUNCTIONS}
+        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
+    if target == "c":
+        from .emit.clib import CompileOptions, load_library
+        lib = load_library(paths[0], paths[1], options or CompileOptions())
+        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
+    from .emit.casadi import deserialize
+    funcs = {f.name(): f for f in deserialize(paths[0])[1]}
+    return CasadiModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
+
+
+def _import_module(path: Path, module: str):
+    spec = importlib.util.spec_from_file_location(module, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def load(name_or_robot, target: str = "c", *, options=None) -> GeneratedModel:
+    """The generated functions of a model for `target` ("c", "numpy" or "casadi").
+
+    A shipped model's name loads generated/<name>/ (an error if stale); a
+    Robot loads it too when it is that model, else its code is generated once
+    into the cache.  `options`: a `symdyn.codegen.emit.clib.CompileOptions` for C.
+    """
+    if target not in TARGETS:
+        raise ValueError(f"unknown target {target!r}: load() takes one of {', '.join(TARGETS)}")
+    robot = _robot(name_or_robot)
+    name = identifier(robot.name)
+    shipped = GENERATED / name
+    if all((shipped / f).exists() for f in files(name, target)):
+        if isinstance(name_or_robot, str):
+            return _load_folder(shipped, name, target, robot, options)
+        found = _provenance(shipped / files(name, target)[0], target)
+        if _stale(shipped, found, robot, name) is None:
+            return _load_folder(shipped, name, target, robot, options)
+    folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
+    if not all((folder / f).exists() for f in files(name, target)):
+        generate(robot, target, folder)
+    return _load_folder(folder, name, target, robot, options)
+
+
+# --------------------------------------------------------------------------- command line
+
+def configure_parser(p: argparse.ArgumentParser) -> None:
+    """Arguments of `symdyn generate MODEL --target T [--out DIR]` / `symdyn generate --all`."""
+    p.add_argument("model", nargs="?", help=f"model name ({', '.join(arms.NAMES)})")
+    p.add_argument("--target", default="all", choices=(*TARGETS, "all"), help="default: all")
+    p.add_argument("--out", help="output folder (default: generated/MODEL for the shipped models, "
+                                 "else out/MODEL)")
+    p.add_argument("--all", action="store_true", help=f"regenerate generated/ ({', '.join(SHIPPED)})")
+    p.add_argument("--casadi-c", action="store_true", help="also write CasADi's own C code")
+    p.set_defaults(func=run_cli)
+
+
+def run_cli(args: argparse.Namespace) -> int:
+    """`symdyn generate`: write the files and list them."""
+    if args.all == bool(args.model):
+        raise ValueError("give a model name or --all (not both)")
+    if args.all:
+        paths = generate_all(args.out)
+    else:
+        out = args.out or (None if args.model in SHIPPED else Path("out") / args.model)
+        paths = generate(args.model, args.target, out, casadi_c=args.casadi_c)
+    for p in paths:
+        print(p)
+    print(f"{len(paths)} files written", file=sys.stderr)
+    return 0

@@ -1,0 +1,196 @@
+"""Which functions a model's generated code has, and from which expressions.
+
+Between derive and program.  Every derivation offers each term (τ, M, C,
+C·q̇, G, F and the bias C·q̇ + G + F = τ(q, q̇, 0)) as a `FunctionSpec`: named
+inputs, output expressions, and the intermediates it already named.  When
+several derivations are at hand, each function takes the one whose program
+has the fewest operations (Lagrange's trigonometric polynomials give a
+compact M, Newton–Euler's recursion a compact τ).  Forward dynamics is the
+chosen M and bias followed by an unrolled LDLᵀ solve, in one program; the
+regressor Y (τ = Y·π) is one more spec.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import sympy as sp
+
+from ..derivation.dynamics import Dynamics
+from ..derivation.program import Program, dag_size, make_program
+
+__all__ = ["FunctionSpec", "candidates", "fdyn_spec", "regressor_spec", "programs", "ldlt_solve", "NAMES"]
+
+NAMES = ("tau", "M", "C", "Cqd", "G", "F", "fdyn")
+
+_DOCS = {
+    "tau": "Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), ({n},).",
+    "M": "Joint-space inertia M(q), ({n}, {n}) row-major, rotor inertia G^2 Jm on the diagonal.",
+    "C": "Christoffel Coriolis/centripetal matrix C(q, qd), ({n}, {n}) row-major.",
+    "Cqd": "Coriolis/centripetal torques C(q, qd) qd, ({n},).",
+    "G": "Gravity load G(q), ({n},): the joint torques that hold the arm still.",
+    "F": "Joint friction F(qd) = G^2 B qd + |G| Tc(sign qd), ({n},).",
+    "bias": "Bias torques C(q, qd) qd + G(q) + F(qd) = tau(q, qd, 0), ({n},).",
+    "fdyn": "Forward dynamics qdd = M(q)^-1 (tau - C(q, qd) qd - F(qd) - G(q)), ({n},), "
+            "by an unrolled LDL^T of M.",
+    "Y": "Joint-torque regressor Y(q, qd, qdd), ({n}, {p}): tau = Y pi with the standard "
+         "parameters pi of symdyn.derivation.regressor.parameter_symbols.",
+}
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    """One function to generate: inputs [(argname, symbols)], outputs
+    [(outname, Matrix)], definitions [(Symbol, expr)] named by the derivation,
+    and `origin`, the derivation it comes from."""
+
+    name: str
+    inputs: tuple
+    outputs: tuple
+    definitions: tuple = ()
+    doc: str = ""
+    origin: str = ""
+
+    def program(self) -> Program:
+        return make_program(self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin)
+
+
+def _label(*indices: int, n: int) -> str:
+    return ("_" if n > 9 else "").join(str(i + 1) for i in indices)
+
+
+def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list]:
+    """x = M⁻¹ r for symmetric positive-definite M by an unrolled LDLᵀ.
+
+    Returns (definitions, x): definitions [(Symbol, expr)] named M21, W21
+    (= L21·D1), D1, iD1 = 1/D1, L21, z1 (= L⁻¹r), y1 (= z/D) and the solution
+    {result}1, …; exact zeros of M propagate, so a sparse M costs less.
+    n divisions, ~n³/6 mul.
+    """
+    n = M.rows
+    defs: list = []
+
+    def name(stem: str, expr, *idx: int):
+        expr = sp.sympify(expr)
+        if expr.is_Atom:
+            return expr
+        sym = sp.Symbol(f"{stem}{_label(*idx, n=n)}", real=True)
+        defs.append((sym, expr))
+        return sym
+
+    Ms = [[name("M", M[i, j], i, j) if i >= j else None for j in range(n)] for i in range(n)]
+    L = [[sp.S.Zero] * n for _ in range(n)]
+    W = [[sp.S.Zero] * n for _ in range(n)]
+    iD = [sp.S.Zero] * n
+    for j in range(n):
+        D = name("D", Ms[j][j] - sp.Add(*(W[j][k] * L[j][k] for k in range(j))), j)
+        iD[j] = name("iD", 1 / D, j)
+        for i in range(j + 1, n):
+            W[i][j] = name("W", Ms[i][j] - sp.Add(*(W[i][k] * L[j][k] for k in range(j))), i, j)
+            L[i][j] = name("L", W[i][j] * iD[j], i, j)
+    z: list = []
+    for i in range(n):
+        z.append(name("z", r[i] - sp.Add(*(L[i][k] * z[k] for k in range(i))), i))
+    y = [name("y", z[i] * iD[i], i) for i in range(n)]
+    x = [sp.S.Zero] * n
+    for i in reversed(range(n)):
+        x[i] = name(result, y[i] - sp.Add(*(L[k][i] * x[k] for k in range(i + 1, n))), i)
+    return defs, x
+
+
+def _params(dyn: Dynamics) -> list:
+    return [("p", dyn.params)] if dyn.params else []
+
+
+def _doc(term: str, dyn: Dynamics, **extra) -> str:
+    """The function's docstring; a symbolic model's last argument p lists its parameters."""
+    doc = _DOCS[term].format(n=dyn.n, **extra)
+    return doc + (f" p = ({', '.join(map(str, dyn.params))})." if dyn.params else "")
+
+
+def candidates(dyn: Dynamics, origin: str | None = None) -> dict[str, FunctionSpec]:
+    """Each term of one derivation as a spec (tau, M, C, Cqd, G, F, bias),
+    written in the derivation's named intermediates when it has them;
+    `origin` names the derivation in the generated files (default dyn.method)."""
+    origin = origin or dyn.method
+    out = {}
+    for term in ("tau", "M", "C", "Cqd", "G", "F"):
+        named = dyn.named.get(term)
+        expr, defs = (dyn.term(term), ()) if named is None else (named, tuple(dyn.definitions))
+        out[term] = FunctionSpec(term, tuple(dyn.inputs(term)), ((term, expr),), defs,
+                                 _doc(term, dyn), origin)
+    zero = {a: sp.S.Zero for a in dyn.qdd}
+    tau = out["tau"]
+    out["bias"] = FunctionSpec(
+        "bias", (("q", dyn.q), ("qd", dyn.qd), *_params(dyn)), (("bias", tau.outputs[0][1].xreplace(zero)),),
+        tuple((s, sp.sympify(e).xreplace(zero)) for s, e in tau.definitions), _doc("bias", dyn),
+        origin)
+    return out
+
+
+def fdyn_spec(M: FunctionSpec, bias: FunctionSpec) -> FunctionSpec:
+    """Forward dynamics from the specs of M and of the bias: r = τ − bias, then
+    the LDLᵀ solve of M q̈ = r, all definitions of one program."""
+    Mmat, b = M.outputs[0][1], bias.outputs[0][1]
+    n = Mmat.rows
+    q, qd = M.inputs[0], bias.inputs[1]
+    tau = ("tau", tuple(sp.Symbol(f"tau{_label(i, n=n)}", real=True) for i in range(n)))
+    rhs = [sp.Symbol(f"r{_label(i, n=n)}", real=True) for i in range(n)]
+    ldl, qdd = ldlt_solve(Mmat, rhs, result="qdd")
+    defs = dict(M.definitions)
+    defs.update(bias.definitions)
+    defs.update((r, tau[1][i] - b[i]) for i, r in enumerate(rhs))
+    defs.update(ldl)
+    params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
+    origin = M.origin if M.origin == bias.origin else f"M: {M.origin}, bias: {bias.origin}"
+    doc = _DOCS["fdyn"].format(n=n) + (f" p = ({', '.join(map(str, params[0][1]))})." if params else "")
+    return FunctionSpec("fdyn", (q, qd, tau, *params), (("qdd", sp.ImmutableMatrix(qdd)),),
+                        tuple(defs.items()), doc, origin)
+
+
+def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
+    """Y(q, q̇, q̈) (n × 14n) of a `symdyn.derivation.regressor.Regressor`, in its named columns."""
+    n, cols = dyn.n, reg.columns
+    Y = sp.ImmutableMatrix(n, len(cols), lambda i, k: cols[k][i])
+    return FunctionSpec("Y", (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)), (("Y", Y),),
+                        tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor")
+
+
+def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
+    """The spec whose program has the fewest operations (the first on ties).
+
+    Specs are built smallest first, by the nodes of their expression DAG; one
+    with more than twice as many nodes as the best program so far has
+    operations is not built (CSE leaves 0.9–1.7 operations per node here):
+    a generic 7-joint arm's expanded Lagrange C would take minutes to CSE
+    only to lose to the Newton–Euler recursion.
+    """
+    sizes = [dag_size(s.outputs, s.definitions) for s in specs]
+    best = None
+    for k in sorted(range(len(specs)), key=lambda k: (sizes[k], k)):
+        if best is not None and sizes[k] > 2 * best[0]:
+            continue
+        program = specs[k].program()
+        candidate = (program.op_count()["total"], k, specs[k], program)
+        best = candidate if best is None else min(best, candidate, key=lambda c: c[:2])
+    return best[2], best[3]
+
+
+def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> list[Program]:
+    """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is
+    given): each from the derivation giving the fewest operations (the first
+    on ties), fdyn from the cheapest M and bias.  `origins`: a label per
+    derivation for the generated files (default: their methods)."""
+    if not dyns:
+        raise ValueError("programs() needs at least one derivation")
+    origins = origins or [None] * len(dyns)
+    cands = [candidates(d, o) for d, o in zip(dyns, origins)]
+    chosen: dict[str, tuple[FunctionSpec, Program]] = {}
+    for term in ("tau", "M", "C", "Cqd", "G", "F", "bias"):
+        chosen[term] = _cheapest([c[term] for c in cands])
+    out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
+    out.append(fdyn_spec(chosen["M"][0], chosen["bias"][0]).program())
+    if regressor is not None:
+        out.append(regressor_spec(regressor, dyns[0]).program())
+    return out

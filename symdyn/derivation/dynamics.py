@@ -1,0 +1,96 @@
+"""The result of a symbolic derivation, shared by Lagrange and Newton–Euler.
+
+`derive(robot, method)` returns a `Dynamics`: sympy matrices M (n×n), C
+(n×n, Christoffel), G (n), F (n) and tau (n) in the symbols q, qd, qdd and
+the robot's own symbolic parameters, with τ = M q̈ + C q̇ + F + G.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from ..model import Robot
+from .symbols import exact, joint_symbols
+
+METHODS = ("lagrange", "newton-euler")
+TERMS = ("M", "C", "Cqd", "G", "F", "tau")
+
+
+@dataclass(frozen=True)
+class Dynamics:
+    """Closed-form dynamics of one robot, from one method.
+
+    `definitions` are the derivation's named intermediates (Symbol, expr) in
+    order and `named[term]` the term written in them (a DAG); M, C, G, F,
+    tau are the same terms as plain expressions in q, qd, qdd.
+    """
+
+    robot: Robot
+    method: str
+    q: tuple
+    qd: tuple
+    qdd: tuple
+    M: sp.ImmutableMatrix
+    C: sp.ImmutableMatrix
+    G: sp.ImmutableMatrix
+    F: sp.ImmutableMatrix
+    tau: sp.ImmutableMatrix
+    definitions: tuple = ()
+    named: dict = field(default_factory=dict, compare=False)
+    stats: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def n(self) -> int:
+        return self.robot.n
+
+    @property
+    def params(self) -> tuple:
+        """The robot's symbolic parameters, sorted by name."""
+        return tuple(sorted(self.robot.free_symbols, key=str))
+
+    def term(self, name: str) -> sp.ImmutableMatrix:
+        """One of M, C, Cqd, G, F, tau by name."""
+        if name not in TERMS:
+            raise ValueError(f"unknown term {name!r}: expected one of {', '.join(TERMS)}")
+        return getattr(self, name)
+
+    def inputs(self, name: str) -> list:
+        """The argument lists a term depends on: [("q", q), ("qd", qd), …]."""
+        args = {"M": ("q",), "C": ("q", "qd"), "Cqd": ("q", "qd"), "G": ("q",), "F": ("qd",),
+                "tau": ("q", "qd", "qdd")}[name]
+        out = [(a, getattr(self, a)) for a in args]
+        return out + [("p", self.params)] if self.params else out
+
+    def op_count(self, term: str, stage: str = "cse") -> dict:
+        """Operations of a term after CSE ({"mul", "add", …}); see `symdyn.derivation.simplify.op_counts`
+        for every stage (raw, cse, folded, pruned)."""
+        from .simplify import op_counts
+        return op_counts(self, term, stages=(stage,))[stage]
+
+    @property
+    def Cqd(self) -> sp.ImmutableMatrix:
+        """The Coriolis/centripetal vector C(q, q̇)·q̇ (named apart from C)."""
+        return sp.ImmutableMatrix(self.C * sp.Matrix(self.qd))
+
+
+def friction_expr(robot: Robot, qd) -> sp.ImmutableMatrix:
+    """Friction F(q̇) as sympy: G²·B·q̇ + |G|·[(Tc⁺−Tc⁻)/2·sgn q̇ + (Tc⁺+Tc⁻)/2·sgn² q̇].
+
+    The sign polynomial gives Tc⁺ for q̇ > 0, Tc⁻ for q̇ < 0 and 0 at rest.
+    """
+    out = []
+    for link, v in zip(robot.links, qd):
+        G, B, (tp, tn) = (exact(link.G), exact(link.B), map(exact, link.Tc))
+        s = sp.sign(v)
+        out.append(G**2 * B * v + sp.Abs(G) * ((tp - tn) / 2 * s + (tp + tn) / 2 * s**2))
+    return sp.ImmutableMatrix(out)
+
+
+def rotor_inertia(robot: Robot) -> list:
+    """G²·Jm per joint, exact."""
+    return [exact(link.G) ** 2 * exact(link.Jm) for link in robot.links]
+
+
+__all__ = ["Dynamics", "METHODS", "friction_expr", "rotor_inertia", "joint_symbols"]

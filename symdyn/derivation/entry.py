@@ -1,0 +1,78 @@
+"""`derive(robot, method)`: the one entry point to both derivations, cached.
+
+Dispatches to `lagrange` or `newton_euler`, records timing and keeps the
+result on disk (see `cache`) so a second run of the same derivation is a
+load, not a derivation.  The key covers the model, the method, symdyn's
+version and the source of the model and derivation stages.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import time
+from pathlib import Path
+
+from .. import __version__
+from .cache import cached, key
+from .dynamics import METHODS, Dynamics
+from ..model import Robot
+
+#: The stages whose code decides a derivation's result: their source is part of the cache key.
+_SOURCES = (Path(__file__).parent, Path(__file__).parent.parent / "model")
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """Hash of the model and derivation code (every module, by path and content),
+    so an edited derivation never reuses old cache entries."""
+    digest = hashlib.sha256()
+    for folder in _SOURCES:
+        for path in sorted(folder.rglob("*.py")):
+            digest.update(path.relative_to(folder.parent).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False, cache: bool = True,
+           progress: bool = False) -> Dynamics:
+    """Closed-form M, C, G, F and τ of `robot` by `method` ("lagrange" or "newton-euler").
+
+    regroup=True (Newton–Euler, numeric robots): run the recursion on the
+    regrouped base parameters (`regressor`), which gives the same
+    joint-space dynamics with about a quarter fewer operations — the form
+    code generation wants.
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    if not isinstance(robot, Robot):
+        raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
+    if regroup and (method != "newton-euler" or robot.is_symbolic):
+        raise ValueError("regroup=True needs method='newton-euler' and a numeric robot "
+                         f"(got {method!r}, symbols {sorted(map(str, robot.free_symbols))})")
+
+    def build() -> Dynamics:
+        start = time.perf_counter()
+        if method == "lagrange":  # well under a second for the Puma: no progress needed
+            from .lagrange import derive as lagrange
+
+            dyn = lagrange(robot)
+        else:
+            from .newton_euler import derive as newton_euler
+
+            inertias = None
+            if regroup:
+                from .regressor import base_parameters, regrouped_inertias
+
+                inertias = regrouped_inertias(robot, base_parameters(robot))
+            dyn = newton_euler(robot, inertias, progress=progress)
+            dyn.stats["regrouped"] = regroup
+        dyn.stats["derive_seconds"] = time.perf_counter() - start
+        return dyn
+
+    entry = key(robot.fingerprint(), method, __version__, code_fingerprint(), f"regroup={regroup}")
+    kind = f"derive-{method}" + ("-regrouped" if regroup else "")
+    dyn, hit = cached(kind, entry, build, use_cache=cache)
+    dyn = dataclasses.replace(dyn, robot=robot)  # the caller's name and poses
+    dyn.stats["from_cache"] = hit
+    return dyn

@@ -1,0 +1,369 @@
+"""Symbolic recursive Newton–Euler, customized (Khalil): the second route.
+
+Khalil's form of the recursion, in modified-DH frames (a standard-DH robot
+is re-expressed by `Robot.to_modified()` first, which changes no joint
+quantity): inertia about the body origin and first moments of mass (no COM
+accelerations), no linear velocities, exact constants, products
+with exact zeros and ones skipped, and every non-trivial intermediate given
+a name on a `Tape` as it is formed (w2_z, dv3_x, f4_y, …), so the result is
+a DAG, never one big tree.  M comes from unit accelerations, G from zero
+motion, C from unit velocities with the cross terms split symmetrically
+(which is exactly the Christoffel C).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import sympy as sp
+
+from .dynamics import Dynamics, friction_expr, rotor_inertia
+from .kinematics import LinkFrame, link_frames
+from ..model import Robot
+from .progress import Progress, silent
+from .symbols import exact, joint_symbols
+
+AXES = "xyz"
+
+
+# --------------------------------------------------------------------------- the tape
+
+class Tape:
+    """Named intermediates: an ordered DAG of definitions (Symbol → expression).
+
+    `name(expr, label)` returns expr itself when it is trivial (a number, a
+    symbol or its negative), an existing name when the same expression was
+    named before, and a new Symbol otherwise.
+    """
+
+    def __init__(self) -> None:
+        self.defs: dict[sp.Symbol, sp.Expr] = {}
+        self._index: dict[sp.Expr, sp.Symbol] = {}
+        self._full: dict[sp.Symbol, sp.Expr] = {}
+        self._taken: set[str] = set()
+
+    def name(self, expr: sp.Expr, label: str) -> sp.Expr:
+        expr = sp.sympify(expr)
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
+            return expr
+        if isinstance(expr, (sp.cos, sp.sin)) and expr.args[0].is_Symbol:
+            return expr
+        if expr in self._index:
+            return self._index[expr]
+        if -expr in self._index:
+            return -self._index[-expr]
+        sym = sp.Symbol(self._unique(label), real=True)
+        self.defs[sym] = expr
+        self._index[expr] = sym
+        return sym
+
+    def _unique(self, label: str) -> str:
+        name, k = label, 2
+        while name in self._taken:
+            name, k = f"{label}_{k}", k + 1
+        self._taken.add(name)
+        return name
+
+    def vector(self, exprs: Sequence, label: str) -> list:
+        return [self.name(e, f"{label}_{AXES[k]}") for k, e in enumerate(exprs)]
+
+    def full(self, expr: sp.Expr) -> sp.Expr:
+        """The expression with every name replaced by its definition (shared subtrees)."""
+        for sym, definition in self.defs.items():
+            if sym not in self._full:
+                self._full[sym] = definition.xreplace(self._full)
+        return sp.sympify(expr).xreplace(self._full)
+
+    def used_by(self, outputs: Sequence[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
+        """The definitions the outputs depend on, in order (dead ones dropped)."""
+        needed: set = set()
+        stack = [s for e in outputs for s in sp.sympify(e).free_symbols if s in self.defs]
+        while stack:
+            s = stack.pop()
+            if s in needed:
+                continue
+            needed.add(s)
+            stack.extend(t for t in self.defs[s].free_symbols if t in self.defs and t not in needed)
+        return [(s, e) for s, e in self.defs.items() if s in needed]
+
+
+# --------------------------------------------------------------------------- small vector algebra
+
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _add(*vs):
+    return [sp.Add(*(v[k] for v in vs)) for k in range(3)]
+
+
+def _matvec(M, v):
+    return [sp.Add(*(M[i, j] * v[j] for j in range(3))) for i in range(3)]
+
+
+def _tmatvec(M, v):
+    return [sp.Add(*(M[j, i] * v[j] for j in range(3))) for i in range(3)]
+
+
+def _scale(v, s):
+    return [x * s for x in v]
+
+
+def _dot(a, b):
+    return sp.Add(*(x * y for x, y in zip(a, b)))
+
+
+# --------------------------------------------------------------------------- inertial parameters
+
+@dataclass(frozen=True)
+class LinkInertia:
+    """Khalil's standard parameters of one link: inertia about the body origin
+    Io (3×3), first moment h = m·r, mass m, rotor inertia Ia = G²·Jm."""
+
+    Io: sp.Matrix
+    h: tuple
+    m: sp.Expr
+    Ia: sp.Expr
+
+
+def link_inertias(robot: Robot) -> list[LinkInertia]:
+    """Standard parameters of every link, exact (floats become rationals)."""
+    out = []
+    for link, Ia in zip(robot.links, rotor_inertia(robot)):
+        m = exact(link.m)
+        r = [exact(x) for x in link.r]
+        Ic = sp.Matrix([[exact(x) for x in row] for row in link.I])
+        rr = sum(x * x for x in r)
+        Io = sp.Matrix(3, 3, lambda i, j: sp.expand(Ic[i, j] + m * ((rr if i == j else 0) - r[i] * r[j])))
+        out.append(LinkInertia(Io=Io, h=tuple(sp.expand(m * x) for x in r), m=m, Ia=Ia))
+    return out
+
+
+# --------------------------------------------------------------------------- the recursion
+
+@dataclass
+class Motion:
+    """Angular velocity w and acceleration dw, the classical acceleration dV
+    of the body origin (gravity included) and U = dw× + w×w× (9 entries,
+    row-major), all named; Khalil's customized recursion needs no linear
+    velocity."""
+
+    w: list
+    dw: list
+    dV: list
+    U: list
+
+
+def _u_times(U, x):
+    return [sp.Add(*(U[3 * i + j] * x[j] for j in range(3))) for i in range(3)]
+
+
+def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "") -> list[Motion]:
+    """Outward pass in modified-DH frames (joint axis = z of the body frame).
+
+    g0 is the base's upward acceleration in frame {0} (Corke's gravity,
+    rotated by the base); the base itself is at rest.
+    """
+    w = [0, 0, 0]; dw = [0, 0, 0]; dV = list(g0); U = [0] * 9
+    out = []
+    for i, f in enumerate(frames):
+        k = i + 1
+        if f.S != (0, 0, 1, 0, 0, 0) and f.S != (0, 0, 0, 0, 0, 1):
+            raise ValueError("the customized recursion needs modified-DH frames (joint axis = z); "
+                             "convert with robot.to_modified()")
+        revolute = f.S[2] == 1
+        wI = tape.vector(_tmatvec(f.R, w), f"{tag}wi{k}")
+        dwI = _tmatvec(f.R, dw)
+        dV = _tmatvec(f.R, _add(dV, _u_times(U, list(f.p))))
+        if revolute:
+            w = tape.vector([wI[0], wI[1], wI[2] + qd[i]], f"{tag}w{k}")
+            dw = tape.vector([dwI[0] + wI[1] * qd[i], dwI[1] - wI[0] * qd[i], dwI[2] + qdd[i]], f"{tag}dw{k}")
+        else:
+            w, dw = wI, tape.vector(dwI, f"{tag}dw{k}")
+            dV = [dV[0] + 2 * wI[1] * qd[i], dV[1] - 2 * wI[0] * qd[i], dV[2] + qdd[i]]
+        dV = tape.vector(dV, f"{tag}dV{k}")
+        sq = [tape.name(w[a] * w[a], f"{tag}w{k}{'xyz'[a]}2") for a in range(3)]
+        wxy = tape.name(w[0] * w[1], f"{tag}w{k}xy")
+        wxz = tape.name(w[0] * w[2], f"{tag}w{k}xz")
+        wyz = tape.name(w[1] * w[2], f"{tag}w{k}yz")
+        U = [-(sq[1] + sq[2]), wxy - dw[2], wxz + dw[1],
+             wxy + dw[2], -(sq[0] + sq[2]), wyz - dw[0],
+             wxz - dw[1], wyz + dw[0], -(sq[0] + sq[1])]
+        U = [tape.name(u, f"{tag}U{k}_{r}{c}") for u, (r, c) in zip(U, [(r, c) for r in range(1, 4) for c in range(1, 4)])]
+        out.append(Motion(w, dw, dV, U))
+    return out
+
+
+def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, tag: str, k: int) -> tuple[list, list]:
+    """Force f = m·dV + U·h and moment n = Io·dw + w × (Io·w) + h × dV of body k
+    about its origin (Khalil); Io·w is named {tag}K{k}."""
+    Io, h, m = inertia.Io, list(inertia.h), inertia.m
+    K = tape.vector(_matvec(Io, mo.w), f"{tag}K{k}")
+    n = _add(_matvec(Io, mo.dw), _cross(mo.w, K), _cross(h, mo.dV))
+    f = _add(_scale(mo.dV, m), _u_times(mo.U, h))
+    return n, f
+
+
+def backward(tape: Tape, frames: Sequence[LinkFrame], forces: list, qdd, inertias, tag: str = "",
+             last: int | None = None) -> list:
+    """Inward pass: joint forces τᵢ = Sᵢ·fᵢ (+ rotor inertia), forces
+    transmitted to the parent; `forces[i]` is body i's own (n, f) or None."""
+    n_links = len(frames)
+    last = n_links - 1 if last is None else last
+    tau = [sp.S.Zero] * n_links
+    n_acc, f_acc = [0, 0, 0], [0, 0, 0]
+    for i in range(last, -1, -1):
+        k = i + 1
+        if forces[i] is not None:
+            n_acc, f_acc = _add(n_acc, forces[i][0]), _add(f_acc, forces[i][1])
+        n_i = tape.vector(n_acc, f"{tag}n{k}")
+        f_i = tape.vector(f_acc, f"{tag}f{k}")
+        S = frames[i].S
+        tau[i] = _dot(S[:3], n_i) + _dot(S[3:], f_i) + inertias[i].Ia * qdd[i]
+        if i > 0:
+            R, p = frames[i].R, frames[i].p
+            f_acc = _matvec(R, f_i)
+            n_acc = _add(_matvec(R, n_i), _cross(list(p), f_acc))
+    return tau
+
+
+def rnea(tape: Tape, frames, inertias, qd, qdd, g0, tag: str = "") -> list:
+    """Joint forces of the whole recursion (no friction), as named expressions."""
+    motions = forward(tape, frames, qd, qdd, g0, tag)
+    forces = [body_force(tape, mo, I, tag, i + 1) for i, (mo, I) in enumerate(zip(motions, inertias))]
+    return backward(tape, frames, forces, qdd, inertias, tag)
+
+
+def composite_inertia(tape: Tape, frames: Sequence[LinkFrame], inertias, tag: str = "c") -> list:
+    """Joint-space inertia M by the customized composite-link algorithm.
+
+    Composite parameters (J, MS, m) are accumulated from the tip in each
+    link's frame: J_j += R Jc Rᵀ + m(|P|²1 − PPᵀ) + 2(P·S′)1 − S′Pᵀ − PS′ᵀ with
+    S′ = R·MSc; then column j's force Ic·S_j is carried down to the base,
+    M_ij = S_i·(n, f).  Named entries keep it a DAG; returns M as n×n lists.
+    """
+    n = len(frames)
+    J = [None] * n
+    MS = [None] * n
+    mass = [None] * n
+    for j in range(n - 1, -1, -1):
+        k = j + 1
+        Jj = sp.Matrix(inertias[j].Io)
+        MSj = list(inertias[j].h)
+        mj = inertias[j].m
+        if j + 1 < n:
+            R, P = frames[j + 1].R, list(frames[j + 1].p)
+            Jc, S, m = J[j + 1], MS[j + 1], mass[j + 1]
+            RJ = R * Jc
+            RJR = sp.Matrix(3, 3, lambda a, b: sp.Add(*(RJ[a, c] * R[b, c] for c in range(3))) if a <= b else 0)
+            Sp = tape.vector(_matvec(R, S), f"{tag}S{k + 1}")
+            PS = _dot(P, Sp)
+            PP = _dot(P, P)
+            for a in range(3):
+                for b in range(a, 3):
+                    shift = m * ((PP if a == b else 0) - P[a] * P[b])
+                    shift += (2 * PS if a == b else 0) - Sp[a] * P[b] - P[a] * Sp[b]
+                    Jj[a, b] = Jj[a, b] + RJR[a, b] + shift
+            MSj = _add(MSj, Sp, _scale(P, m))
+            mj = mj + m
+        for a in range(3):
+            for b in range(a, 3):
+                Jj[a, b] = tape.name(Jj[a, b], f"{tag}J{k}_{'xyz'[a]}{'xyz'[b]}")
+                Jj[b, a] = Jj[a, b]
+        J[j], MS[j], mass[j] = Jj, tape.vector(MSj, f"{tag}MS{k}"), tape.name(mj, f"{tag}m{k}")
+    M = [[sp.S.Zero] * n for _ in range(n)]
+    for j in range(n):
+        revolute = frames[j].S[2] == 1
+        if revolute:
+            nn, ff = [J[j][0, 2], J[j][1, 2], J[j][2, 2]], [-MS[j][1], MS[j][0], 0]
+        else:
+            nn, ff = [MS[j][1], -MS[j][0], 0], [0, 0, mass[j]]
+        M[j][j] = (nn[2] if revolute else ff[2]) + inertias[j].Ia
+        for i in range(j - 1, -1, -1):
+            R, P = frames[i + 1].R, list(frames[i + 1].p)
+            ff = tape.vector(_matvec(R, ff), f"{tag}f{j + 1}_{i + 1}")
+            nn = tape.vector(_add(_matvec(R, nn), _cross(P, ff)), f"{tag}n{j + 1}_{i + 1}")
+            M[i][j] = M[j][i] = nn[2] if frames[i].S[2] == 1 else ff[2]
+    return M
+
+
+def gravity_in_base(robot: Robot) -> list:
+    """Corke's gravity (base upward acceleration, world) expressed in frame {0}."""
+    R = sp.Matrix([[exact(x) for x in row[:3]] for row in robot.base[:3]])
+    return list(R.T * sp.Matrix([exact(x) for x in robot.gravity]))
+
+
+# --------------------------------------------------------------------------- M, C, G, τ
+
+@dataclass(frozen=True)
+class Recursion:
+    """The named programs of one Newton–Euler derivation: the tape and the
+    outputs of each term in terms of its names."""
+
+    tape: Tape
+    outputs: dict
+
+
+def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
+              progress: Progress | None = None) -> Recursion:
+    """Run the customized recursion for τ, G (rest), C·q̇, the Christoffel
+    symbols (unit velocities, symmetric split), and M by composite links."""
+    n = robot.n
+    q, qd, qdd = joint_symbols(n)
+    robot = robot.to_modified()
+    frames = link_frames(robot, q)
+    inertias = link_inertias(robot) if inertias is None else list(inertias)
+    tape = Tape()
+    zero, none = [0] * n, [0, 0, 0]
+    g0 = gravity_in_base(robot)
+    unit = lambda j: [1 if i == j else 0 for i in range(n)]  # noqa: E731
+    progress = progress or silent()
+
+    tau = rnea(tape, frames, inertias, qd, qdd, g0)
+    progress.step("tau")
+    G = rnea(tape, frames, inertias, zero, zero, g0, tag="g")
+    progress.step("G")
+    Cqd = rnea(tape, frames, inertias, qd, zero, none, tag="c")
+    M = composite_inertia(tape, frames, inertias)
+    progress.step("M")
+    h = {}
+    for j in range(n):
+        h[j, j] = rnea(tape, frames, inertias, unit(j), zero, none, tag=f"h{j + 1}")
+        progress.step(f"Christoffel {j + 1}{j + 1}")
+    gamma = {}
+    for j in range(n):
+        gamma[j, j] = h[j, j]
+        for k in range(j + 1, n):
+            both = rnea(tape, frames, inertias, [a + b for a, b in zip(unit(j), unit(k))], zero, none,
+                        tag=f"h{j + 1}{k + 1}")
+            progress.step(f"Christoffel {j + 1}{k + 1}")
+            gamma[j, k] = gamma[k, j] = [(b - x - y) / 2 for b, x, y in zip(both, h[j, j], h[k, k])]
+    C = [[sp.Add(*(gamma[i, j][r] * qd[i] for i in range(n))) for j in range(n)] for r in range(n)]
+    return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C, "Cqd": Cqd,
+                                         "Gamma": gamma})
+
+
+def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
+           progress: bool = False) -> Dynamics:
+    """Closed-form dynamics by Newton–Euler: M, C, G, F and τ as sympy matrices."""
+    n = robot.n
+    bar = Progress(f"newton-euler {robot.name}", 3 + n * (n + 1) // 2, enabled=progress)
+    rec = recursion(robot, inertias, bar)
+    bar.done()
+    q, qd, qdd = joint_symbols(robot.n)
+    full = rec.tape.full
+    F = friction_expr(robot, qd)
+    tau = sp.ImmutableMatrix([full(t) for t in rec.outputs["tau"]]) + F
+    outs = rec.outputs
+    Cm = sp.ImmutableMatrix(outs["C"])
+    named = {"M": sp.ImmutableMatrix(outs["M"]), "C": Cm, "G": sp.ImmutableMatrix(outs["G"]),
+             "Cqd": sp.ImmutableMatrix(outs["Cqd"]), "F": F,
+             "tau": sp.ImmutableMatrix(outs["tau"]) + F}
+    return Dynamics(
+        robot=robot, method="newton-euler", q=q, qd=qd, qdd=qdd,
+        M=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["M"]]),
+        C=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["C"]]),
+        G=sp.ImmutableMatrix([full(x) for x in rec.outputs["G"]]),
+        F=F, tau=tau, definitions=tuple(rec.tape.defs.items()), named=named,
+    )

@@ -1,0 +1,28 @@
+"""Shipped arms: data with its source, loaded by name (also as `symdyn.models`).
+
+`load("puma560")`, `load("twolink", symbolic=True)`; every arm module has a
+`build(symbolic=False)` that returns a `symdyn.model.Robot`.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+
+from ..robot import Robot
+
+_MODULES = {
+    "twolink": ("twolink", {}),
+    "puma560": ("puma560", {}),
+    "puma560_mdh": ("puma560", {"modified": True}),
+    "rrp": ("rrp", {}),
+}
+
+NAMES = tuple(_MODULES)
+
+
+def load(name: str, symbolic: bool = False) -> Robot:
+    """The shipped robot called `name`; `symbolic=True` for the symbolic variant."""
+    if not isinstance(name, str) or name not in _MODULES:
+        raise KeyError(f"unknown model {name!r}: known models are {', '.join(NAMES)}")
+    module, options = _MODULES[name]
+    return import_module(f"{__name__}.{module}").build(symbolic=symbolic, **options)
