@@ -62,7 +62,10 @@ def bundle(robot: Robot) -> Bundle:
     regroup = not robot.is_symbolic
     dyns = [derive(robot, "newton-euler", regroup=regroup), derive(robot, "lagrange")]
     origins = ["newton-euler, base parameters" if regroup else "newton-euler", "lagrange"]
-    progs = programs(dyns, regressor(robot), origins)
+    try:
+        progs = programs(dyns, regressor(robot), origins)
+    except ValueError as exc:
+        raise ValueError(f"cannot generate code for {robot.name!r}: {exc}") from None
     used = sorted({p.origin for p in progs}, key=str)
     return Bundle(name=identifier(robot.name), n=robot.n, version=__version__,
                   fingerprint=robot.fingerprint(), programs=tuple(progs),

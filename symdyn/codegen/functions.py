@@ -51,9 +51,11 @@ class FunctionSpec:
     definitions: tuple = ()
     doc: str = ""
     origin: str = ""
+    matrices: tuple = ()
 
     def program(self) -> Program:
-        return make_program(self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin)
+        return make_program(self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin,
+                            self.matrices)
 
 
 def _label(*indices: int, n: int) -> str:
@@ -85,6 +87,10 @@ def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list
     iD = [sp.S.Zero] * n
     for j in range(n):
         D = name("D", Ms[j][j] - sp.Add(*(W[j][k] * L[j][k] for k in range(j))), j)
+        if D == 0:
+            raise ValueError(f"M(q) is singular for every q: pivot {j + 1} of its LDLᵀ is exactly 0 (joint "
+                             f"{j + 1} moves no mass and has no rotor inertia); forward dynamics is undefined. "
+                             "Give a link beyond that joint mass and inertia, or the joint a rotor (Jm and G)")
         iD[j] = name("iD", 1 / D, j)
         for i in range(j + 1, n):
             W[i][j] = name("W", Ms[i][j] - sp.Add(*(W[i][k] * L[j][k] for k in range(j))), i, j)
@@ -119,7 +125,7 @@ def candidates(dyn: Dynamics, origin: str | None = None) -> dict[str, FunctionSp
         named = dyn.named.get(term)
         expr, defs = (dyn.term(term), ()) if named is None else (named, tuple(dyn.definitions))
         out[term] = FunctionSpec(term, tuple(dyn.inputs(term)), ((term, expr),), defs,
-                                 _doc(term, dyn), origin)
+                                 _doc(term, dyn), origin, (term,) if term in ("M", "C") else ())
     zero = {a: sp.S.Zero for a in dyn.qdd}
     tau = out["tau"]
     out["bias"] = FunctionSpec(
@@ -154,7 +160,7 @@ def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
     n, cols = dyn.n, reg.columns
     Y = sp.ImmutableMatrix(n, len(cols), lambda i, k: cols[k][i])
     return FunctionSpec("Y", (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)), (("Y", Y),),
-                        tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor")
+                        tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor", ("Y",))
 
 
 def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from ..model import Robot, exact_cos_sin
-from .symbols import exact, joint_symbols
+from ..model import Robot
+from .symbols import exact, exact_cos_sin_of, joint_symbols
 
 
 @dataclass(frozen=True)
@@ -29,13 +29,13 @@ class LinkFrame:
 
 
 def _rx(alpha) -> sp.Matrix:
-    c, s = (exact(x) for x in exact_cos_sin(alpha))
+    c, s = exact_cos_sin_of(alpha)
     return sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
 
 
 def _cos_sin_of(q: sp.Symbol, offset) -> tuple[sp.Expr, sp.Expr]:
     """cos and sin of q + offset, written in cos(q), sin(q) with exact constants."""
-    co, so = (exact(x) for x in exact_cos_sin(offset))
+    co, so = exact_cos_sin_of(offset)
     c, s = sp.cos(q), sp.sin(q)
     return c * co - s * so, s * co + c * so
 
@@ -50,7 +50,7 @@ def link_frames(robot: Robot, q=None) -> list[LinkFrame]:
             c, s = _cos_sin_of(qi, link.offset)
             d = exact(link.d)
         else:
-            c, s = (exact(x) for x in exact_cos_sin(link.theta))
+            c, s = exact_cos_sin_of(link.theta)
             d = qi + exact(link.offset)
         Rz = sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
         if robot.convention == "standard":

@@ -178,7 +178,9 @@ class Program:
 
     inputs: ((argname, (Symbol, …)), …), each argument a flat double vector;
     assignments: ((Symbol, expr), …) in evaluation order, each expr in the
-    inputs and earlier symbols; outputs: ((outname, ImmutableMatrix), …).
+    inputs and earlier symbols; outputs: ((outname, ImmutableMatrix), …);
+    `matrices` names the outputs that are matrices even with one column (M of
+    a one-joint arm is 1×1, not a vector).
     """
 
     name: str
@@ -187,6 +189,11 @@ class Program:
     outputs: tuple
     doc: str = ""
     origin: str = ""
+    matrices: frozenset = frozenset()
+
+    def output_shapes(self) -> tuple[tuple[int, ...], ...]:
+        """Shape of each output per state: (rows,) for a vector, (rows, cols) for a matrix."""
+        return tuple((m.rows, m.cols) if o in self.matrices or m.cols != 1 else (m.rows,) for o, m in self.outputs)
 
     def op_count(self) -> dict[str, int]:
         """Primitive operations of the emitted code ({"mul", "add", "div", "neg",
@@ -214,7 +221,7 @@ class Program:
 # --------------------------------------------------------------------------- construction
 
 def make_program(name: str, inputs: Sequence, outputs: Sequence, definitions: Sequence = (),
-                 doc: str = "", origin: str = "") -> Program:
+                 doc: str = "", origin: str = "", matrices: Sequence[str] = ()) -> Program:
     """Build the program of one function by a joint CSE over all its outputs.
 
     inputs: [(argname, symbols)]; outputs: [(outname, Matrix)]; definitions:
@@ -250,7 +257,8 @@ def make_program(name: str, inputs: Sequence, outputs: Sequence, definitions: Se
     out_iter = iter(e.xreplace(rename) for e in out_exprs)
     out = tuple((o, sp.ImmutableMatrix(m.rows, m.cols, [next(out_iter) for _ in range(len(m))]))
                 for o, m in outputs)
-    return Program(name=name, inputs=inputs, assignments=assignments, outputs=out, doc=doc, origin=origin)
+    return Program(name=name, inputs=inputs, assignments=assignments, outputs=out, doc=doc, origin=origin,
+                   matrices=frozenset(matrices))
 
 
 def _nodes(exprs):

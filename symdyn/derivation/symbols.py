@@ -7,8 +7,12 @@ speak of the same sympy Symbols.
 from __future__ import annotations
 
 import functools
+import math
+from fractions import Fraction
 
 import sympy as sp
+
+from ..model import exact_cos_sin
 
 
 @functools.lru_cache(maxsize=None)
@@ -30,3 +34,19 @@ def exact(x) -> sp.Expr:
     if isinstance(x, int):
         return sp.Integer(x)
     return sp.Rational(repr(float(x)))
+
+
+def exact_cos_sin_of(angle) -> tuple[sp.Expr, sp.Expr]:
+    """cos and sin of a constant angle as exact numbers that lie exactly on the
+    unit circle: multiples of π/2 give 0 and ±1, a sympy angle gives cos and
+    sin of it, any other float gives ((1 − t²)/(1 + t²), 2t/(1 + t²)) with t
+    the exact rational of the double tan(angle/2) — within an ulp of the
+    double's cosine and sine, and cos² + sin² = 1 exactly, so the rotations of
+    a derivation are exactly orthogonal and derivations that rely on it in
+    different ways (composite links, base parameters, Lagrange) agree exactly.
+    """
+    c, s = exact_cos_sin(angle)
+    if not isinstance(c, float):
+        return exact(c), exact(s)
+    t = sp.Rational(Fraction(math.tan(float(angle) / 2)))
+    return (1 - t * t) / (1 + t * t), 2 * t / (1 + t * t)

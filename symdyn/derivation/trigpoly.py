@@ -39,8 +39,7 @@ import sympy as sp
 from sympy.polys.domains import QQ
 from sympy.polys.rings import PolyElement, PolyRing
 
-from ..model import exact_cos_sin
-from .symbols import exact
+from .symbols import exact, exact_cos_sin_of
 
 __all__ = ["TrigSpace", "TrigPoly", "from_expr", "to_expr", "fold", "equal", "space_for", "summation", "lincomb",
            "constant_cos_sin"]
@@ -95,8 +94,8 @@ def _to_qq(value):
 
 
 def constant_cos_sin(angle) -> tuple:
-    """cos and sin of a constant angle in QQ: exact for multiples of π/2, else rationals of doubles."""
-    c, s = exact_cos_sin(angle)
+    """cos and sin of a constant angle in QQ, exactly on the unit circle (`symbols.exact_cos_sin_of`)."""
+    c, s = exact_cos_sin_of(angle)
     return _to_qq(c), _to_qq(s)
 
 

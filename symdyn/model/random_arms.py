@@ -186,13 +186,13 @@ def robot_code(robot: Robot) -> str:
     lines = ["Robot(", f"    {robot.name!r},", "    ("]
     for link in robot.links:
         args = [f"{f.name}={_num(getattr(link, f.name))}" for f in dataclasses.fields(link)
-                if getattr(link, f.name) != getattr(defaults, f.name)]
+                if _num(getattr(link, f.name)) != _num(getattr(defaults, f.name))]
         lines.append(f"        Link({', '.join(args)}),")
     lines.append("    ),")
     for name, default in (("convention", "standard"), ("gravity", (0, 0, 9.81)), ("base", IDENTITY),
                           ("tool", IDENTITY)):
         value = getattr(robot, name)
-        if value != default:
+        if _num(value) != _num(default):
             lines.append(f"    {name}={_num(value)},")
     lines.append(")")
     return "\n".join(lines)

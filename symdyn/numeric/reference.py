@@ -333,7 +333,26 @@ def accel(robot: Robot, q, qd, tau) -> np.ndarray:
     g = np.concatenate([np.zeros((n, 3)), c.gravity[None]])
     out = _recursion(c, np.broadcast_to(q[..., None, :], batch + (n + 1, n)), rows, unit, g)[0]
     bias = out[..., n, :] + friction(robot, qd)
-    return np.linalg.solve(np.swapaxes(out[..., :n, :], -1, -2), (tau - bias)[..., None])[..., 0]
+    M = np.swapaxes(out[..., :n, :], -1, -2)
+    diagonal = np.diagonal(M, axis1=-2, axis2=-1)
+    dead = diagonal <= 1e-12 * np.maximum(diagonal.max(-1, keepdims=True), 1e-300)
+    if dead.any():
+        raise SingularInertia(robot, int(np.nonzero(dead.reshape(-1, n))[1][0]))
+    try:
+        return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        raise SingularInertia(robot, None) from None
+
+
+class SingularInertia(ValueError):
+    """M(q) is singular: forward dynamics is undefined (names the joint when one has no inertia)."""
+
+    def __init__(self, robot: Robot, joint: int | None):
+        where = (f"joint {joint + 1} moves no mass and has no rotor inertia (M[{joint + 1},{joint + 1}] = 0)"
+                 if joint is not None else "its joints' motions are not independent there")
+        super().__init__(f"the joint-space inertia M(q) of {robot.name!r} is singular: {where}; forward "
+                         "dynamics is undefined. Give a link beyond that joint mass and inertia, or the "
+                         "joint a rotor (Jm and G)")
 
 
 def fdyn(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *,

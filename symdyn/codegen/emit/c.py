@@ -76,7 +76,7 @@ class Signature:
 
 
 def signature(p: Program) -> Signature:
-    outs = tuple((o, (m.rows,) if m.cols == 1 else (m.rows, m.cols)) for o, m in p.outputs)
+    outs = tuple((o, shape) for (o, _), shape in zip(p.outputs, p.output_shapes()))
     return Signature(p.name, tuple((a, len(s)) for a, s in p.inputs), outs)
 
 

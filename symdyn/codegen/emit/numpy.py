@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from ...derivation.program import Program, lower
 from . import ATOM, Bundle, Infix, header_lines
 
-__all__ = ["module_source", "batched_source", "scalar_source", "output_shape", "CHUNK", "FEW"]
+__all__ = ["module_source", "batched_source", "scalar_source", "CHUNK", "FEW"]
 
 #: States per pass of the batched body (measured: per-call overhead of ~1 us per
 #: operation favours long rows; longer ones fall out of the caches).
@@ -192,11 +192,6 @@ class _Tape:
         return self._op("pow", x, float(exponent))
 
 
-def output_shape(mat) -> tuple[int, ...]:
-    """Shape of one output per state: (rows,) for a column vector, else (rows, cols)."""
-    return (mat.rows,) if mat.cols == 1 else (mat.rows, mat.cols)
-
-
 def _used_names(p: Program) -> list[tuple[str, str]]:
     """(argument, unpacking target) of each input the program reads: 'q1, _, q3'."""
     used = p.used_inputs()
@@ -323,7 +318,7 @@ def _dispatch_lines(p: Program) -> list[str]:
     """Argument checks; one state or a few: the scalar body (a zero division
     or math domain error there falls through to NumPy's inf/nan)."""
     args = [a for a, _ in p.inputs]
-    shapes = repr(tuple(output_shape(mat) for _, mat in p.outputs))
+    shapes = repr(p.output_shapes())
     fallback = ["        except (ArithmeticError, ValueError):",
                 "            pass  # a zero division or math domain error: inf/nan as NumPy gives below"]
     return [f"    {', '.join(args)} = " + ", ".join(f"_arg({a}, {len(s)}, {a!r})" for a, s in p.inputs),
@@ -344,7 +339,7 @@ def _dispatch_lines(p: Program) -> list[str]:
 def _loop_lines(p: Program, plan: _Plan, chunk: int) -> list[str]:
     """The batched body: chunks of states; per chunk sin/cos blocks, then one
     ufunc call per operation into its work row or output row."""
-    outs = [(name, output_shape(mat), len(mat)) for name, mat in p.outputs]
+    outs = [(name, shape, len(mat)) for (name, mat), shape in zip(p.outputs, p.output_shapes())]
     used = {v for _, args in plan.ops for v in args if isinstance(v, int)}
     used |= {v for _, _, v in plan.copies if isinstance(v, int)}
     syms = dict(p.inputs)

@@ -1,0 +1,118 @@
+"""Any arm, exactly right: random arms through every stage (issue 10).
+
+The fast sample of the random-arm differential check; the long sweep is
+`python scripts/fuzz_arms.py --arms 300`.  A failure prints the arm as
+constructor code, to paste into a named regression test below.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import symdyn
+from symdyn import reference as ref
+from symdyn.bench.differential import check_arm, evaluate
+from symdyn.derivation.symbols import exact_cos_sin_of
+from symdyn.model import Link, Robot
+from symdyn.model.random_arms import ArmOptions, degenerate_arm, random_arm, robot_code
+
+TOL = 1e-10
+SMALL = ArmOptions(n_max=4)
+#: Seeds of the fast sample: 1 to 4 joints, between them every feature of the generator.
+SAMPLE = tuple(range(100, 112))
+
+
+def _assert_agrees(robot, findings):
+    bad = [f for f in findings if not f.error <= TOL]
+    report = "\n".join(f"{f.stage}: {f.what}: {f.error:.3e} {f.detail}" for f in bad)
+    assert not bad, f"{report}\nthe arm:\n{robot_code(robot)}"
+
+
+@pytest.mark.parametrize("seed", SAMPLE)
+def test_random_arm_agrees_at_every_stage(seed):
+    robot = random_arm(seed, SMALL)
+    _assert_agrees(robot, check_arm(robot, count=12, seed=seed))
+
+
+@pytest.mark.parametrize("seed", range(200, 210))
+def test_reference_matches_pinocchio_on_arms_of_up_to_seven_joints(seed):
+    robot = random_arm(seed, ArmOptions(n_min=5, n_max=7))
+    _assert_agrees(robot, check_arm(robot, count=20, seed=seed, stages=("pinocchio",)))
+
+
+def test_the_sample_covers_the_features_of_the_generator():
+    arms = [random_arm(s, SMALL) for s in SAMPLE]
+    links = [link for r in arms for link in r.links]
+    assert {r.n for r in arms} == {1, 2, 3, 4}
+    assert {r.convention for r in arms} == {"standard", "modified"}
+    assert any(not link.is_revolute for link in links)
+    assert any(link.m == 0 for link in links) and any(link.m > 0 and not any(map(any, link.I)) for link in links)
+    assert any(float(link.G) < 0 for link in links) and any(sum(link.Tc) != 0 for link in links)
+    assert any(abs(math.sin(2 * float(link.alpha))) > 1e-6 for link in links)   # a generic twist
+    assert any(r.base != Robot("x", (Link(m=1),)).base for r in arms)
+    assert any(r.gravity != (0, 0, 9.81) for r in arms)
+
+
+def test_an_arm_prints_as_code_that_rebuilds_it():
+    for seed in SAMPLE:
+        robot = random_arm(seed, SMALL)
+        rebuilt = eval(robot_code(robot), {"Robot": Robot, "Link": Link, "sympify": sp.sympify})
+        assert rebuilt.fingerprint() == robot.fingerprint()
+
+
+# --------------------------------------------------------------------------- regressions
+
+def test_regrouping_keeps_the_coulomb_offset_of_a_prismatic_joint():
+    """Found by the random arms: FO (sgn² q̇ = 1 at the sample points) looked like
+    the constant gravity column of a vertical prismatic joint and was folded into its mass."""
+    robot = Robot("p1", (Link(joint="prismatic", m=2.0, Tc=(0.2, -0.1), qlim=(0, 1)),))
+    plain = symdyn.derive(robot, "newton-euler")
+    grouped = symdyn.derive(robot, "newton-euler", regroup=True)
+    assert grouped.G == plain.G == sp.Matrix([sp.Rational(981, 50)])
+    assert (grouped.tau - plain.tau).applyfunc(sp.expand) == sp.zeros(1, 1)
+    for target in ("numpy", "c", "casadi"):
+        f = symdyn.load(robot, target)
+        assert float(np.ravel(f.G([0.4]))[0]) == pytest.approx(19.62, rel=1e-14)
+        assert float(np.ravel(f.fdyn([0.4], [0.3], [25.0]))[0]) == pytest.approx((25.0 - 19.62 - 0.2) / 2.0, rel=1e-13)
+
+
+def test_generic_twists_rotate_exactly():
+    """cos and sin of a generic constant angle lie exactly on the unit circle, so
+    composite-link M and the base-parameter M agree exactly, not to 1e-17."""
+    for angle in (0.3, -2.6083261806162397, 3.1, 1e-9):
+        c, s = exact_cos_sin_of(angle)
+        assert c**2 + s**2 == 1
+        assert abs(float(c) - math.cos(angle)) <= 2e-16 and abs(float(s) - math.sin(angle)) <= 2e-16
+    assert exact_cos_sin_of(math.pi / 2) == (0, 1)
+
+
+def test_singular_inertia_is_a_clear_error_naming_the_joint():
+    zero_mass = Robot("zm", (Link(a=1),))
+    for robot, joint in ((zero_mass, 1), (degenerate_arm(3), degenerate_arm(3).n)):
+        for target in ("numpy", "c", "casadi"):
+            with pytest.raises(ValueError, match=rf"{robot.name}.*singular.*joint {joint}"):
+                symdyn.load(robot, target)
+        with pytest.raises(ValueError, match=rf"singular: joint {joint} moves no mass"):
+            ref.accel(robot, np.zeros(robot.n), np.zeros(robot.n), np.ones(robot.n))
+
+
+def test_the_batch_evaluator_matches_sympy():
+    x, y, d = sp.symbols("x y d", real=True)
+    expr = sp.cos(x) * d**2 - sp.sign(y) * sp.Abs(x) / 3 + sp.sin(x + y)
+    values = {x: np.array([0.3, -1.2]), y: np.array([0.0, 2.0])}
+    got = evaluate([expr], [(d, x * y + 1)], values)[0]
+    expected = [float(expr.subs(d, x * y + 1).subs({x: a, y: b})) for a, b in zip(*values.values())]
+    np.testing.assert_allclose(got, expected, rtol=1e-15)
+
+
+def test_a_one_joint_arm_returns_matrices_as_matrices():
+    """Found by the random arms: M, C (1×1) and Y (1×14) of a one-joint arm came back as vectors."""
+    robot = Robot("one", (Link(a=0.3, m=1.0, r=(0.1, 0, 0), I=np.eye(3) * 0.01),))
+    for target in ("numpy", "c"):
+        f = symdyn.load(robot, target)
+        assert f.M([0.1]).shape == (1, 1) and f.M(np.zeros((5, 1))).shape == (5, 1, 1)
+        assert f.C([0.1], [0.2]).shape == (1, 1) and f.Y([0.1], [0.2], [0.3]).shape == (1, 14)
+        assert f.tau([0.1], [0.2], [0.3]).shape == (1,) and f.G(np.zeros((5, 1))).shape == (5, 1)
+        assert f.M([0.1])[0, 0] == pytest.approx(ref.inertia(robot, [0.1])[0, 0], rel=1e-14)
