@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -98,9 +99,18 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return 0
 
 
+DESCRIPTION = ("symdyn: symbolic rigid-body dynamics of robot arms, by Lagrange's energy method and the "
+               "recursive Newton-Euler method, closed forms printed like a textbook, and fast generated model "
+               "code (NumPy, C, CasADi) checked against a numeric reference.")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="symdyn", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    from . import __version__
+    from .model import arms
+
+    parser = argparse.ArgumentParser(prog="symdyn", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"symdyn {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("run", help="the main job: derive the Puma 560, generate its code, summarise")
     p.add_argument("--out", default="out/puma560", help="where the generated code goes (default: out/puma560)")
@@ -112,10 +122,13 @@ def build_parser() -> argparse.ArgumentParser:
     compare.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
 
     p = sub.add_parser("print", help="print closed-form M, C, G, F, tau of a model")
-    p.add_argument("model")
-    p.add_argument("--term", default="all", choices=("M", "C", "Cqd", "G", "F", "tau", "all"))
-    p.add_argument("--method", default="newton-euler", choices=("newton-euler", "lagrange"))
-    p.add_argument("--format", default="text", choices=("text", "pretty", "latex"))
+    p.add_argument("model", help=f"a shipped model: {', '.join(arms.NAMES)}")
+    p.add_argument("--term", default="all", choices=("M", "C", "Cqd", "G", "F", "tau", "all"),
+                   help="which term to print (default: all)")
+    p.add_argument("--method", default="newton-euler", choices=("newton-euler", "lagrange"),
+                   help="which derivation (default: newton-euler)")
+    p.add_argument("--format", default="text", choices=("text", "pretty", "latex"),
+                   help="output format (default: text)")
     p.add_argument("--form", default="book", choices=("book", "folded"),
                    help="book: products of sines/cosines of natural angles (S23*C4*S5); "
                         "folded: sines/cosines of angle sums")
@@ -126,18 +139,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_print)
 
     p = sub.add_parser("study", help="run one of the chapter's studies (--list to see them)")
-    p.add_argument("name", nargs="?")
+    p.add_argument("name", nargs="?", help="the study to run (see --list)")
     p.add_argument("--list", action="store_true", help="list the studies")
     p.add_argument("--out", default="out", help="output folder (default: ./out)")
     p.set_defaults(func=_cmd_study)
     return parser
 
 
+def writable_folder(path: Path) -> Path:
+    """`path` created if needed and proven writable (a probe file), before any
+    work is done; else a ValueError that names it and says why."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".symdyn-probe-"):
+            pass
+    except OSError as exc:
+        raise ValueError(f"cannot write to {path}: {exc.strerror or exc}") from None
+    return path
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "out", None):
+            writable_folder(Path(args.out))
         return args.func(args)
-    except (KeyError, ValueError, RuntimeError, FileNotFoundError) as exc:
+    except KeyboardInterrupt:
+        print("symdyn: interrupted", file=sys.stderr)
+        return 130
+    except (KeyError, ValueError, RuntimeError, OSError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"symdyn: error: {msg}", file=sys.stderr)
         return 2

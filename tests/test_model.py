@@ -69,6 +69,8 @@ def test_bad_arguments_of_other_reference_functions_are_refused_by_name(puma, ca
      r"inertia of link 1 is not symmetric: I\[0,1\]=0.05, I\[1,0\]=0"),
     (lambda: _arm(Link(m=1, I=GOOD_I), Link(m=1, I=((1, 0, 0), (0, -0.2, 0), (0, 0, 0.3)))),
      r"inertia of link 2 is not positive semidefinite"),
+    (lambda: _arm(Link(m=1, I=np.diag([1.0, 1.0, 3.0]))),
+     r"inertia of link 1 is physically impossible: .* violate the triangle inequality"),
     (lambda: _arm(Link(m=-2.0)), r"mass of link 1 is negative: m = -2.0"),
     (lambda: _arm(Link(m=1), convention="craig"), r"unknown DH convention 'craig'"),
     (lambda: Link(joint="spherical"), r"unknown joint type 'spherical'"),

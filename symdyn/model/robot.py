@@ -150,6 +150,8 @@ class Link:
     (3×3, symmetric, about the COM, link-frame axes).
     Motor (motor side, as the Toolbox): rotor inertia `Jm`, viscous friction
     `B`, Coulomb friction `Tc` = (Tc⁺, Tc⁻) with Tc⁻ ≤ 0, gear ratio `G`.
+    `physical=False` waives the triangle inequality of the principal moments
+    for published data that violates it (it does not enter the dynamics).
     """
 
     joint: str = "revolute"
@@ -166,6 +168,7 @@ class Link:
     B: Number = 0
     Tc: tuple = (0, 0)
     G: Number = 1
+    physical: bool = field(default=True, compare=False)
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
@@ -187,11 +190,12 @@ class Link:
         return self.joint == "revolute"
 
     def _params(self) -> tuple:
-        return tuple(getattr(self, f.name) for f in dataclasses.fields(self))
+        return tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "physical")
 
 
 def _check_link_physics(link: Link, i: int) -> None:
-    """Mass ≥ 0, inertia symmetric and positive semidefinite, sane motor params."""
+    """Mass ≥ 0, inertia symmetric, positive semidefinite and obeying the triangle
+    inequality (unless the link says it is not physical); sane motor params."""
     label = f"link {i + 1}"
     if not _is_symbolic(link.m) and link.m < 0:
         raise ValueError(f"mass of {label} is negative: m = {link.m}")
@@ -207,6 +211,10 @@ def _check_link_physics(link: Link, i: int) -> None:
         eig = np.linalg.eigvalsh(np.array(I, dtype=float))
         if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
             raise ValueError(f"inertia of {label} is not positive semidefinite: eigenvalues {eig.tolist()}")
+        if link.physical and eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+            raise ValueError(f"inertia of {label} is physically impossible: its principal moments "
+                             f"{eig.tolist()} violate the triangle inequality (I1 + I2 ≥ I3); "
+                             "for published data known to violate it, pass Link(..., physical=False)")
     for name in ("Jm", "B"):
         v = getattr(link, name)
         if not _is_symbolic(v) and v < 0:

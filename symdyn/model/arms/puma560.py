@@ -14,6 +14,10 @@ from __future__ import annotations
 from ..robot import Link, Robot
 from ._data import read
 
+#: Links whose published inertia violates the triangle inequality, kept as published:
+#: link 1 is a lumped inertia about its axis (0, 0.35, 0) and link 3 has Ixx + Izz < Iyy.
+UNPHYSICAL = (1, 3)
+
 
 def build(symbolic: bool = False, modified: bool = False) -> Robot:
     """The Puma 560 (numeric parameters; symbolic inertial parameters come from
@@ -25,8 +29,8 @@ def build(symbolic: bool = False, modified: bool = False) -> Robot:
     links = tuple(
         Link(d=p["d"], a=p["a"], alpha=p["alpha"], offset=p["offset"], qlim=p["qlim"],
              m=p["m"], r=p["r"], I=p["I"], Jm=p["Jm"], B=p["B"],
-             Tc=(p["Tc_plus"], p["Tc_minus"]), G=p["G"])
-        for p in data["links"])
+             Tc=(p["Tc_plus"], p["Tc_minus"]), G=p["G"], physical=j not in UNPHYSICAL)
+        for j, p in enumerate(data["links"], start=1))
     cfg = data["configurations"]
     poses = {"qz": cfg["qz"], "qr": cfg["qr"], "qs": cfg["qs"], "qn": cfg["qn_matlab"]}
     robot = Robot("puma560", links, gravity=tuple(data["gravity_matlab"]), poses=poses,
