@@ -1,6 +1,6 @@
 """Long sweep of the random-arm differential check (issue 10).
 
-    python scripts/fuzz_arms.py --arms 300 --seed 1000 [--out fuzz.tsv] [--tol 1e-10]
+    python scripts/fuzz_arms.py --arms 300 --seed 1000 [--n-min 1 --n-max 7] [--out fuzz.tsv] [--tol 1e-10]
 
 Draws arms with `symdyn.model.random_arms.random_arm(seed + k)`, runs every
 stage of `symdyn.bench.differential.check_arm` on each, writes one row per
@@ -24,6 +24,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--arms", type=int, default=300, help="number of arms (default 300)")
     p.add_argument("--seed", type=int, default=1000, help="first seed (default 1000)")
+    p.add_argument("--n-min", type=int, default=1, help="fewest joints per arm (default 1)")
     p.add_argument("--n-max", type=int, default=7, help="most joints per arm (default 7)")
     p.add_argument("--tol", type=float, default=1e-10, help="largest relative error accepted (default 1e-10)")
     p.add_argument("--states", type=int, default=12, help="random states per arm (default 12)")
@@ -38,7 +39,7 @@ def main(argv=None) -> int:
     print(header, flush=True)
     for k in range(args.arms):
         seed = args.seed + k
-        robot = random_arm(seed, ArmOptions(n_max=args.n_max))
+        robot = random_arm(seed, ArmOptions(n_min=args.n_min, n_max=args.n_max))
         joints = "".join(link.joint[0] for link in robot.links)
         findings = check_arm(robot, count=args.states, seed=seed, stages=stages)
         for stage in stages:
@@ -56,7 +57,7 @@ def main(argv=None) -> int:
                 print(f"# {robot.name}: {f.stage} {f.what}: {f.error:.3e} {f.detail}", file=sys.stderr)
             print(f"# seed {seed}:\n{robot_code(robot)}", file=sys.stderr, flush=True)
     seconds = time.perf_counter() - start
-    summary = (f"{args.arms} arms (seeds {args.seed}…{args.seed + args.arms - 1}, n ≤ {args.n_max}), "
+    summary = (f"{args.arms} arms (seeds {args.seed}…{args.seed + args.arms - 1}, {args.n_min} ≤ n ≤ {args.n_max}), "
                f"{len(failures)} with disagreements over {args.tol:.0e}, {crashes} crashes, "
                f"worst per stage: " + ", ".join(f"{s} {worst_by_stage[s]:.1e}" for s in stages)
                + f"; {seconds:.0f} s")

@@ -43,3 +43,12 @@ def test_ctrl_c_prints_one_line_and_exits_130(tmp_path):
     out, err = proc.communicate(timeout=60)
     assert first and proc.returncode == 130, first + err
     assert "Traceback" not in err and err.strip().splitlines()[-1] == "symdyn: interrupted"
+
+
+def test_progress_without_a_terminal_is_a_handful_of_lines(capsys):
+    import symdyn
+    from symdyn import models
+
+    symdyn.derive(models.load("puma560"), "newton-euler", cache=False, progress=True)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert 2 <= len(lines) <= 6 and lines[-1].startswith("newton-euler puma560: done in")

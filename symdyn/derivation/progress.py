@@ -9,7 +9,9 @@ import time
 class Progress:
     """Counts steps of a long job and reports them on one stderr line.
 
-    Silent unless `enabled`; a finished job prints its total time.
+    Silent unless `enabled`; a finished job prints its total time.  On a
+    terminal every step rewrites the line; elsewhere (a log, CI) only the
+    quarters are printed, so a long job leaves a handful of lines.
     """
 
     def __init__(self, label: str, total: int, enabled: bool = True) -> None:
@@ -18,9 +20,12 @@ class Progress:
 
     def step(self, what: str = "") -> None:
         self.count += 1
-        if self.enabled:
-            end = "\r" if sys.stderr.isatty() else "\n"
-            print(f"{self.label}: {self.count}/{self.total} {what}".ljust(60), end=end, file=sys.stderr, flush=True)
+        if not self.enabled:
+            return
+        if sys.stderr.isatty():
+            print(f"{self.label}: {self.count}/{self.total} {what}".ljust(60), end="\r", file=sys.stderr, flush=True)
+        elif 4 * self.count // max(self.total, 1) > 4 * (self.count - 1) // max(self.total, 1):
+            print(f"{self.label}: {self.count}/{self.total} {what}", file=sys.stderr, flush=True)
 
     def done(self) -> float:
         elapsed = time.perf_counter() - self.start
