@@ -18,6 +18,7 @@ import pytest
 from conftest import random_states
 from symdyn import models
 from symdyn.bench import peers
+from symdyn.bench.differential import friction_law
 from symdyn.model import rotx, roty, transl
 from symdyn.numeric import reference as ref
 
@@ -63,14 +64,6 @@ def assert_close(actual, expected, rtol=RTOL, what=""):
     scale = max(np.abs(expected).max(), 1e-300)
     err = np.abs(actual - expected).max() / scale
     assert err <= rtol, f"{what}: relative error {err:.3e} > {rtol:.0e} (scale {scale:.3e})"
-
-
-def friction_law(robot, qd):
-    """F = G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest, from the link parameters."""
-    G = np.array([float(l.G) for l in robot.links])
-    B = np.array([float(l.B) for l in robot.links])
-    tp, tn = np.array([[float(x) for x in l.Tc] for l in robot.links]).T
-    return G**2 * B * qd + np.abs(G) * np.where(qd > 0, tp, np.where(qd < 0, tn, 0.0))
 
 
 def _sym(A):
