@@ -7,7 +7,7 @@ each headed with the symdyn version and the model fingerprint.
 `load(name_or_robot, target)` returns the functions tau, M, C, Cqd, G, F,
 fdyn, Y as attributes: from the checked-in `generated/<name>/` for the
 shipped models (a stale file is an error that says how to regenerate), else
-generated once into the cache.
+generated once into the cache (into a temporary folder if the cache cannot be written).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from .. import __version__
-from ..derivation.cache import cache_dir, package_fingerprint
+from ..derivation.cache import cache_dir, package_fingerprint, writable
 from ..model import Robot, arms
 from .emit import Bundle, identifier, read_header, write_atomic
 
@@ -206,6 +206,7 @@ def load(name_or_robot, target: str = "c", *, options=None) -> GeneratedModel:
             return _load_folder(shipped, name, target, robot, options)
     folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
     if not all((folder / f).exists() for f in files(name, target)):
+        folder = writable(folder)
         generate(robot, target, folder)
     return _load_folder(folder, name, target, robot, options)
 

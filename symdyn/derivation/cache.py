@@ -1,17 +1,22 @@
 """On-disk cache of derivations, keyed by a hash of model, method and version.
 
 Location: $SYMDYN_CACHE_DIR, else $XDG_CACHE_HOME/symdyn, else
-~/.cache/symdyn.  An entry records its own key; a corrupt, truncated or
-foreign entry is detected on load, reported, and rebuilt.  Writes are
-atomic (temporary file, then rename).
+~/.cache/symdyn.  An entry is the sha256 of its pickled payload, a newline
+and the payload, which records its own key: a corrupt, truncated or foreign
+entry is detected (before anything is unpickled), reported, and rebuilt.
+Writes are atomic (temporary file, then rename).  The cache is only an
+optimisation: when its folder cannot be written, symdyn says so once and goes
+on without it (`writable` gives code generation a temporary folder instead).
 """
 
 from __future__ import annotations
 
+import atexit
 import functools
 import hashlib
 import os
 import pickle
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -19,7 +24,7 @@ from typing import Any, Callable
 
 from sympy.core.parameters import evaluate
 
-FORMAT = 1
+FORMAT = 2
 
 
 def cache_dir() -> Path:
@@ -60,24 +65,77 @@ def write_atomic(path: Path, data: bytes) -> None:
         raise
 
 
+#: Cache folders already warned about (one line per process, not one per write).
+_WARNED: set[str] = set()
+
+
+def warn_unwritable(exc: OSError) -> None:
+    """Say once per process, in one line on stderr, that the cache folder
+    cannot be written (exc: the first failure) and that symdyn goes on without it."""
+    folder = str(cache_dir())
+    if folder not in _WARNED:
+        _WARNED.add(folder)
+        print(f"symdyn: warning: cache folder {folder} is not writable ({exc.strerror or exc}); going on "
+              "without the cache (set SYMDYN_CACHE_DIR to a writable folder to keep results)",
+              file=sys.stderr)
+
+
+def writable(folder: Path) -> Path:
+    """`folder` (under cache_dir()), created if need be; when it cannot be
+    written, the same place under a temporary folder of this process, removed
+    at exit (and the warning above)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise PermissionError(13, "permission denied", str(folder))
+        return folder
+    except OSError as exc:
+        warn_unwritable(exc)
+    fallback = _temporary() / folder.relative_to(cache_dir())
+    fallback.mkdir(parents=True, exist_ok=True)
+    return fallback
+
+
+@functools.lru_cache(maxsize=1)
+def _temporary() -> Path:
+    """A private temporary folder for this process, removed at exit."""
+    folder = Path(tempfile.mkdtemp(prefix="symdyn-cache-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
+
+
+def _read(path: Path, entry_key: str) -> tuple[Any, str | None]:
+    """(value, None) of the entry at `path`, or (None, why it cannot be used)."""
+    data = path.read_bytes()
+    digest, payload = data[:64], data[65:]
+    if data[64:65] != b"\n" or digest != hashlib.sha256(payload).hexdigest().encode():
+        return None, "its checksum does not match its content (corrupt or truncated)"
+    # stored expressions are already canonical: rebuilding them without
+    # re-evaluation gives equal objects three times faster
+    with evaluate(False):
+        stored = pickle.loads(payload)
+    if stored.get("format") == FORMAT and stored.get("key") == entry_key:
+        return stored["value"], None
+    return None, "it belongs to another model or symdyn version"
+
+
 def cached(kind: str, entry_key: str, build: Callable[[], Any], *, use_cache: bool = True) -> tuple[Any, bool]:
     """The value stored under (kind, key), or build() stored there; and
     whether it came from the cache."""
     path = cache_dir() / f"{kind}-{entry_key[:32]}.pickle"
-    if use_cache and path.exists():
+    if use_cache and os.path.isfile(path):  # False, not an error, in an unreadable folder
         try:
-            # stored expressions are already canonical: rebuilding them without
-            # re-evaluation gives equal objects three times faster
-            with open(path, "rb") as fh, evaluate(False):
-                stored = pickle.load(fh)
-            if stored.get("format") == FORMAT and stored.get("key") == entry_key:
-                return stored["value"], True
-            reason = "it belongs to another model or symdyn version"
+            value, reason = _read(path, entry_key)
+            if reason is None:
+                return value, True
         except Exception as exc:  # noqa: BLE001 (any unreadable entry is rebuilt)
             reason = f"it is unreadable ({type(exc).__name__})"
         print(f"symdyn: cache entry {path} ignored: {reason}; rebuilding", file=sys.stderr)
     value = build()
     if use_cache:
         payload = pickle.dumps({"format": FORMAT, "key": entry_key, "value": value}, protocol=5)
-        write_atomic(path, payload)
+        try:
+            write_atomic(path, hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload)
+        except OSError as exc:
+            warn_unwritable(exc)
     return value, False

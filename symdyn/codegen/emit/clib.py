@@ -4,7 +4,9 @@ The library is built with the system C compiler (`$CC`, else `cc`) into
 symdyn's cache folder (`symdyn.derivation.cache.cache_dir()`, outside the repository),
 under a name derived from the hash of everything that affects it (source,
 header, compiler, flags, Python and NumPy ABI): a changed source is
-rebuilt, an unchanged one is reused.  Two
+rebuilt, an unchanged one is reused once its sha256, recorded beside it when
+it was built, is verified (a truncated library would crash Python when
+loaded).  A cache that cannot be written means a temporary folder.  Two
 bindings: a small CPython extension (per-call overhead well under a
 microsecond; needs Python.h) and ctypes (no headers needed, a few µs per
 call).  Both take NumPy arrays of shape (n,) or (N, n) and return new ones.
@@ -28,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...derivation.cache import cache_dir
+from ...derivation.cache import cache_dir, writable
 from . import write_atomic
 from .c import Signature, read_signatures
 
@@ -247,19 +249,47 @@ def _compile(cc: str, flags: tuple, sources: list[Path], includes: list[str], ta
         Path(tmp).unlink(missing_ok=True)
 
 
-def _build(flags: tuple, files: dict, includes: list[str], target: Path) -> None:
-    """Write the sources into target's folder and compile them (without
-    -march=native if the compiler rejects it)."""
-    for path, text in files.items():
-        write_atomic(path, text)
-    sources = [p for p in files if p.suffix == ".c"]
+def _build(flags: tuple, files: dict, includes: list[str], target: Path) -> Path:
+    """Write the sources (file name → text) beside `target` and compile them
+    (without -march=native if the compiler rejects it), then record the
+    library's sha256 beside it; in a temporary folder if the cache cannot be
+    written.  Returns the library's path."""
     cc = compiler()
+    folder = writable(target.parent)
+    sources = [write_atomic(folder / name, text) for name, text in files.items()]
+    sources = [p for p in sources if p.suffix == ".c"]
+    includes = [str(folder), *includes]
+    target = folder / target.name
     try:
         _compile(cc, flags, sources, includes, target)
     except RuntimeError:
         if "-march=native" not in flags:
             raise
         _compile(cc, tuple(f for f in flags if f != "-march=native"), sources, includes, target)
+    write_atomic(_recorded(target), _sha256(target))
+    return target
+
+
+def _recorded(lib: Path) -> Path:
+    """The file beside a built library holding the sha256 it was built with."""
+    return lib.with_name(lib.name + ".sha256")
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _library(path: Path, flags: tuple, files: dict, includes: list[str]) -> Path:
+    """The library at `path` when it is intact, else built (see `_build`).
+    Intact: its sha256 is the one recorded when it was built.  A truncated or
+    altered library would crash the process that loads it (SIGBUS, SIGSEGV)
+    rather than raise, so a missing or different hash means rebuild."""
+    try:
+        if _recorded(path).read_text() == _sha256(path):
+            return path
+    except OSError:
+        pass
+    return _build(flags, files, includes, path)
 
 
 def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOptions()) -> "CLibrary":
@@ -280,17 +310,14 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
     key = _digest(c_text, h_text, os.environ.get("CC", "cc"), " ".join(options.flags), kind, host,
                   sys.version, np.__version__)[:16]
     folder = cache_dir() / "c" / f"{model}-{key}"
-    files = {folder / c_path.name: c_text, folder / h_path.name: h_text}
+    files = {c_path.name: c_text, h_path.name: h_text}
     if kind == "ctypes":
-        lib = folder / f"lib{model}.so"
-        if not lib.exists():
-            _build(options.flags, files, [str(folder)], lib)
+        lib = _library(folder / f"lib{model}.so", options.flags, files, [])
         return CLibrary(model, sigs, lib, _ctypes_functions(model, sigs, lib), kind)
     module = f"_symdyn_{model}_{key}"
-    files[folder / f"{module}.c"] = _glue_source(model, module, sigs)
-    lib = folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}"
-    if not lib.exists():
-        _build(options.flags, files, [str(folder), *headers], lib)
+    files[f"{module}.c"] = _glue_source(model, module, sigs)
+    lib = _library(folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}", options.flags, files,
+                   list(headers))
     ext = _import_extension(module, lib)
     return CLibrary(model, sigs, lib, {s.name: getattr(ext, s.name) for s in sigs}, kind)
 
