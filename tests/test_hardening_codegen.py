@@ -39,3 +39,33 @@ def test_a_truncated_library_in_the_cache_is_rebuilt(tmp_path, binding):
         assert float(run.stdout) < 1e-12, attempt
         (lib,) = tmp_path.glob("c/puma560-*/*.so")
         lib.write_bytes(lib.read_bytes()[:lib.stat().st_size // 3])
+
+
+_TOO_MANY_DIMENSIONS = """
+import sys
+import numpy as np
+from symdyn.codegen import entry as codegen
+from symdyn.codegen.emit.clib import CompileOptions
+
+target, binding = sys.argv[1:]
+options = CompileOptions(binding=binding) if target == "c" else None
+m = codegen.load("puma560", target, options=options)
+q = np.zeros((1,) * 63 + (6,))
+for name, args in (("M", (q,)), ("C", (q, q)), ("Y", (q, q, q))):
+    try:
+        getattr(m, name)(*args)
+    except ValueError as exc:
+        print(name, exc)
+print(m.M(np.zeros((1,) * 62 + (6,))).shape == (1,) * 62 + (6, 6))
+"""
+
+
+@pytest.mark.parametrize("target, binding", [("c", "extension"), ("c", "ctypes"), ("numpy", "")])
+def test_too_many_leading_dimensions_are_a_value_error_not_a_crash(target, binding):
+    run = _python(_TOO_MANY_DIMENSIONS, target, binding)
+    assert run.returncode == 0, f"exit {run.returncode}: {run.stderr}"
+    *errors, last = run.stdout.splitlines()
+    assert [e.split()[0] for e in errors] == ["M", "C", "Y"]
+    for line in errors:
+        assert "63 leading dimensions, at most 62" in line and "64" in line, line
+    assert last == "True"

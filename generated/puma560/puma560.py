@@ -28,14 +28,21 @@ FUNCTIONS = ('tau', 'M', 'C', 'Cqd', 'G', 'F', 'fdyn', 'Y')
 OP_COUNTS = {'tau': {'add': 171, 'mul': 230, 'div': 0, 'neg': 13, 'fun': 16, 'total': 417}, 'M': {'add': 78, 'mul': 110, 'div': 0, 'neg': 12, 'fun': 8, 'total': 196}, 'C': {'add': 484, 'mul': 509, 'div': 0, 'neg': 39, 'fun': 8, 'total': 1001}, 'Cqd': {'add': 123, 'mul': 187, 'div': 0, 'neg': 15, 'fun': 10, 'total': 320}, 'G': {'add': 12, 'mul': 28, 'div': 0, 'neg': 3, 'fun': 8, 'total': 48}, 'F': {'add': 12, 'mul': 24, 'div': 0, 'neg': 0, 'fun': 6, 'total': 42}, 'fdyn': {'add': 297, 'mul': 411, 'div': 6, 'neg': 32, 'fun': 16, 'total': 730}, 'Y': {'add': 578, 'mul': 819, 'div': 0, 'neg': 85, 'fun': 16, 'total': 1413}}
 
 
-def _arg(x, size, name):
-    """x as a finite float array of shape (..., size), or a ValueError naming it."""
+def _arg(x, size, name, lead):
+    """x as a finite float array of shape (..., size) with at most `lead`
+    leading dimensions (the result's own follow them), or a ValueError naming it."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {x.shape}")
+    if x.ndim - 1 > lead:
+        raise ValueError(f"{name} has {x.ndim - 1} leading dimensions, at most {lead} (NumPy arrays "
+                         f"have at most {_MAXDIMS} dimensions, the result's own included)")
     if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
         raise ValueError(f"{name} contains NaN or infinity")
     return x
+
+
+_MAXDIMS = 64  # NumPy's limit on the dimensions of an array (32 before NumPy 2)
 
 
 def _shape(*args):
@@ -118,7 +125,7 @@ def _sincos(x, work):
 
 def tau(q, qd, qdd):
     """Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), (6,)."""
-    q, qd, qdd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(qdd, 6, 'qdd')
+    q, qd, qdd = _arg(q, 6, 'q', _MAXDIMS - 1), _arg(qd, 6, 'qd', _MAXDIMS - 1), _arg(qdd, 6, 'qdd', _MAXDIMS - 1)
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
             return _outputs(_tau_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((6,),))
@@ -710,7 +717,7 @@ def _tau_one(q, qd, qdd):
 
 def M(q):
     """Joint-space inertia M(q), (6, 6) row-major, rotor inertia G^2 Jm on the diagonal."""
-    q = _arg(q, 6, 'q')
+    q = _arg(q, 6, 'q', _MAXDIMS - 2)
     if q.ndim == 1:
         try:
             return _outputs(_M_one(q.tolist()), (), ((6, 6),))
@@ -1098,7 +1105,7 @@ def _M_one(q):
 
 def C(q, qd):
     """Christoffel Coriolis/centripetal matrix C(q, qd), (6, 6) row-major."""
-    q, qd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd')
+    q, qd = _arg(q, 6, 'q', _MAXDIMS - 2), _arg(qd, 6, 'qd', _MAXDIMS - 2)
     if q.ndim == qd.ndim == 1:
         try:
             return _outputs(_C_one(q.tolist(), qd.tolist()), (), ((6, 6),))
@@ -2533,7 +2540,7 @@ def _C_one(q, qd):
 
 def Cqd(q, qd):
     """Coriolis/centripetal torques C(q, qd) qd, (6,)."""
-    q, qd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd')
+    q, qd = _arg(q, 6, 'q', _MAXDIMS - 1), _arg(qd, 6, 'qd', _MAXDIMS - 1)
     if q.ndim == qd.ndim == 1:
         try:
             return _outputs(_Cqd_one(q.tolist(), qd.tolist()), (), ((6,),))
@@ -3015,7 +3022,7 @@ def _Cqd_one(q, qd):
 
 def G(q):
     """Gravity load G(q), (6,): the joint torques that hold the arm still."""
-    q = _arg(q, 6, 'q')
+    q = _arg(q, 6, 'q', _MAXDIMS - 1)
     if q.ndim == 1:
         try:
             return _outputs(_G_one(q.tolist()), (), ((6,),))
@@ -3131,7 +3138,7 @@ def _G_one(q):
 
 def F(qd):
     """Joint friction F(qd) = G^2 B qd + |G| Tc(sign qd), (6,)."""
-    qd = _arg(qd, 6, 'qd')
+    qd = _arg(qd, 6, 'qd', _MAXDIMS - 1)
     if qd.ndim == 1:
         try:
             return _outputs(_F_one(qd.tolist()), (), ((6,),))
@@ -3220,7 +3227,7 @@ def _F_one(qd):
 
 def fdyn(q, qd, tau):
     """Forward dynamics qdd = M(q)^-1 (tau - C(q, qd) qd - F(qd) - G(q)), (6,), by an unrolled LDL^T of M."""
-    q, qd, tau = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(tau, 6, 'tau')
+    q, qd, tau = _arg(q, 6, 'q', _MAXDIMS - 1), _arg(qd, 6, 'qd', _MAXDIMS - 1), _arg(tau, 6, 'tau', _MAXDIMS - 1)
     if q.ndim == qd.ndim == tau.ndim == 1:
         try:
             return _outputs(_fdyn_one(q.tolist(), qd.tolist(), tau.tolist()), (), ((6,),))
@@ -4278,7 +4285,7 @@ def _fdyn_one(q, qd, tau):
 
 def Y(q, qd, qdd):
     """Joint-torque regressor Y(q, qd, qdd), (6, 84): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols."""
-    q, qd, qdd = _arg(q, 6, 'q'), _arg(qd, 6, 'qd'), _arg(qdd, 6, 'qdd')
+    q, qd, qdd = _arg(q, 6, 'q', _MAXDIMS - 2), _arg(qd, 6, 'qd', _MAXDIMS - 2), _arg(qdd, 6, 'qdd', _MAXDIMS - 2)
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
             return _outputs(_Y_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((6, 84),))

@@ -28,14 +28,21 @@ FUNCTIONS = ('tau', 'M', 'C', 'Cqd', 'G', 'F', 'fdyn', 'Y')
 OP_COUNTS = {'tau': {'add': 10, 'mul': 14, 'div': 0, 'neg': 1, 'fun': 4, 'total': 28}, 'M': {'add': 2, 'mul': 1, 'div': 0, 'neg': 0, 'fun': 1, 'total': 4}, 'C': {'add': 1, 'mul': 5, 'div': 0, 'neg': 1, 'fun': 1, 'total': 7}, 'Cqd': {'add': 2, 'mul': 6, 'div': 0, 'neg': 1, 'fun': 1, 'total': 9}, 'G': {'add': 2, 'mul': 4, 'div': 0, 'neg': 0, 'fun': 4, 'total': 10}, 'F': {'add': 0, 'mul': 0, 'div': 0, 'neg': 0, 'fun': 0, 'total': 0}, 'fdyn': {'add': 12, 'mul': 17, 'div': 2, 'neg': 1, 'fun': 4, 'total': 35}, 'Y': {'add': 11, 'mul': 16, 'div': 0, 'neg': 5, 'fun': 6, 'total': 33}}
 
 
-def _arg(x, size, name):
-    """x as a finite float array of shape (..., size), or a ValueError naming it."""
+def _arg(x, size, name, lead):
+    """x as a finite float array of shape (..., size) with at most `lead`
+    leading dimensions (the result's own follow them), or a ValueError naming it."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {x.shape}")
+    if x.ndim - 1 > lead:
+        raise ValueError(f"{name} has {x.ndim - 1} leading dimensions, at most {lead} (NumPy arrays "
+                         f"have at most {_MAXDIMS} dimensions, the result's own included)")
     if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
         raise ValueError(f"{name} contains NaN or infinity")
     return x
+
+
+_MAXDIMS = 64  # NumPy's limit on the dimensions of an array (32 before NumPy 2)
 
 
 def _shape(*args):
@@ -118,7 +125,7 @@ def _sincos(x, work):
 
 def tau(q, qd, qdd):
     """Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), (2,)."""
-    q, qd, qdd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(qdd, 2, 'qdd')
+    q, qd, qdd = _arg(q, 2, 'q', _MAXDIMS - 1), _arg(qd, 2, 'qd', _MAXDIMS - 1), _arg(qdd, 2, 'qdd', _MAXDIMS - 1)
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
             return _outputs(_tau_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((2,),))
@@ -200,7 +207,7 @@ def _tau_one(q, qd, qdd):
 
 def M(q):
     """Joint-space inertia M(q), (2, 2) row-major, rotor inertia G^2 Jm on the diagonal."""
-    q = _arg(q, 2, 'q')
+    q = _arg(q, 2, 'q', _MAXDIMS - 2)
     if q.ndim == 1:
         try:
             return _outputs(_M_one(q.tolist()), (), ((2, 2),))
@@ -248,7 +255,7 @@ def _M_one(q):
 
 def C(q, qd):
     """Christoffel Coriolis/centripetal matrix C(q, qd), (2, 2) row-major."""
-    q, qd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd')
+    q, qd = _arg(q, 2, 'q', _MAXDIMS - 2), _arg(qd, 2, 'qd', _MAXDIMS - 2)
     if q.ndim == qd.ndim == 1:
         try:
             return _outputs(_C_one(q.tolist(), qd.tolist()), (), ((2, 2),))
@@ -301,7 +308,7 @@ def _C_one(q, qd):
 
 def Cqd(q, qd):
     """Coriolis/centripetal torques C(q, qd) qd, (2,)."""
-    q, qd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd')
+    q, qd = _arg(q, 2, 'q', _MAXDIMS - 1), _arg(qd, 2, 'qd', _MAXDIMS - 1)
     if q.ndim == qd.ndim == 1:
         try:
             return _outputs(_Cqd_one(q.tolist(), qd.tolist()), (), ((2,),))
@@ -360,7 +367,7 @@ def _Cqd_one(q, qd):
 
 def G(q):
     """Gravity load G(q), (2,): the joint torques that hold the arm still."""
-    q = _arg(q, 2, 'q')
+    q = _arg(q, 2, 'q', _MAXDIMS - 1)
     if q.ndim == 1:
         try:
             return _outputs(_G_one(q.tolist()), (), ((2,),))
@@ -408,7 +415,7 @@ def _G_one(q):
 
 def F(qd):
     """Joint friction F(qd) = G^2 B qd + |G| Tc(sign qd), (2,)."""
-    qd = _arg(qd, 2, 'qd')
+    qd = _arg(qd, 2, 'qd', _MAXDIMS - 1)
     if qd.ndim == 1:
         try:
             return _outputs(_F_one(qd.tolist()), (), ((2,),))
@@ -442,7 +449,7 @@ def _F_one(qd):
 
 def fdyn(q, qd, tau):
     """Forward dynamics qdd = M(q)^-1 (tau - C(q, qd) qd - F(qd) - G(q)), (2,), by an unrolled LDL^T of M."""
-    q, qd, tau = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(tau, 2, 'tau')
+    q, qd, tau = _arg(q, 2, 'q', _MAXDIMS - 1), _arg(qd, 2, 'qd', _MAXDIMS - 1), _arg(tau, 2, 'tau', _MAXDIMS - 1)
     if q.ndim == qd.ndim == tau.ndim == 1:
         try:
             return _outputs(_fdyn_one(q.tolist(), qd.tolist(), tau.tolist()), (), ((2,),))
@@ -541,7 +548,7 @@ def _fdyn_one(q, qd, tau):
 
 def Y(q, qd, qdd):
     """Joint-torque regressor Y(q, qd, qdd), (2, 28): tau = Y pi with the standard parameters pi of symdyn.derivation.regressor.parameter_symbols."""
-    q, qd, qdd = _arg(q, 2, 'q'), _arg(qd, 2, 'qd'), _arg(qdd, 2, 'qdd')
+    q, qd, qdd = _arg(q, 2, 'q', _MAXDIMS - 2), _arg(qd, 2, 'qd', _MAXDIMS - 2), _arg(qdd, 2, 'qdd', _MAXDIMS - 2)
     if q.ndim == qd.ndim == qdd.ndim == 1:
         try:
             return _outputs(_Y_one(q.tolist(), qd.tolist(), qdd.tolist()), (), ((2, 28),))

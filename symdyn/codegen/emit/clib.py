@@ -36,6 +36,9 @@ from .c import Signature, read_signatures
 
 __all__ = ["CompileOptions", "CLibrary", "load_library", "compiler"]
 
+#: NumPy's limit on the dimensions of an array (NPY_MAXDIMS; 32 before NumPy 2).
+MAXDIMS = 64
+
 #: -march=native: the library is built for this machine (the cache key includes the host name).
 DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared")
 
@@ -106,12 +109,14 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
     const double *pin[MAXARGS];
     double *pout[MAXARGS];
     npy_intp lead[NPY_MAXDIMS], dims[NPY_MAXDIMS], count = 1;
-    int lead_nd = 0, i, j;
+    int lead_nd = 0, out_nd = 0, i, j;
     PyObject *result = NULL;
     if (nargs != s->nin) {
         PyErr_Format(PyExc_TypeError, "%%s() takes %%d arguments (%%s), got %%zd", s->name, s->nin, s->args, nargs);
         return NULL;
     }
+    for (j = 0; j < s->nout; ++j)   /* an output has lead_nd + out_nd dimensions: they must fit dims */
+        out_nd = s->out_nd[j] > out_nd ? s->out_nd[j] : out_nd;
     for (i = 0; i < s->nin; ++i) {
         int nd;
         if (PyArray_CheckExact(args[i]) && PyArray_TYPE((PyArrayObject *)args[i]) == NPY_DOUBLE
@@ -133,6 +138,12 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
         }
         if (i == 0) {
             lead_nd = nd - 1;
+            if (lead_nd + out_nd > NPY_MAXDIMS) {
+                PyErr_Format(PyExc_ValueError, "%%s(): argument 1 has %%d leading dimensions, at most %%d "
+                             "(NumPy arrays have at most %%d dimensions, the result's own included)",
+                             s->name, lead_nd, NPY_MAXDIMS - out_nd, NPY_MAXDIMS);
+                goto done;
+            }
             memcpy(lead, PyArray_DIMS(in[i]), lead_nd * sizeof(npy_intp));
         } else if (nd - 1 != lead_nd || memcmp(lead, PyArray_DIMS(in[i]), lead_nd * sizeof(npy_intp))) {
             PyErr_Format(PyExc_ValueError, "%%s(): argument %%d has other leading dimensions than "
@@ -347,6 +358,7 @@ class _CtypesFunction:
         self._many.argtypes, self._many.restype = [ctypes.c_int] + [ctypes.c_void_p] * nargs, None
         self.__name__ = sig.name
         self.__doc__ = f"{sig.line()[len('function: '):]}; batched over leading axes"
+        self._lead_max = MAXDIMS - max(len(shape) for _, shape in sig.outputs)
 
     def __call__(self, *args):
         sig = self.sig
@@ -358,6 +370,10 @@ class _CtypesFunction:
             x = np.ascontiguousarray(x, dtype=float)
             if x.ndim == 0 or x.shape[-1] != size:
                 raise ValueError(f"{sig.name}(): {name} must have shape (..., {size}), got {x.shape}")
+            if x.ndim - 1 > self._lead_max:
+                raise ValueError(f"{sig.name}(): {name} has {x.ndim - 1} leading dimensions, at most "
+                                 f"{self._lead_max} (NumPy arrays have at most {MAXDIMS} dimensions, "
+                                 "the result's own included)")
             if not np.isfinite(x).all():
                 raise ValueError(f"{sig.name}(): {name} contains NaN or infinity")
             if arrays and x.shape[:-1] != arrays[0].shape[:-1]:

@@ -38,14 +38,21 @@ UFUNCS = {"neg": "negative", "add": "add", "sub": "subtract", "mul": "multiply",
 
 _HELPERS = '''
 
-def _arg(x, size, name):
-    """x as a finite float array of shape (..., size), or a ValueError naming it."""
+def _arg(x, size, name, lead):
+    """x as a finite float array of shape (..., size) with at most `lead`
+    leading dimensions (the result's own follow them), or a ValueError naming it."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {x.shape}")
+    if x.ndim - 1 > lead:
+        raise ValueError(f"{name} has {x.ndim - 1} leading dimensions, at most {lead} (NumPy arrays "
+                         f"have at most {_MAXDIMS} dimensions, the result's own included)")
     if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
         raise ValueError(f"{name} contains NaN or infinity")
     return x
+
+
+_MAXDIMS = 64  # NumPy's limit on the dimensions of an array (32 before NumPy 2)
 
 
 def _shape(*args):
@@ -319,9 +326,10 @@ def _dispatch_lines(p: Program) -> list[str]:
     or math domain error there falls through to NumPy's inf/nan)."""
     args = [a for a, _ in p.inputs]
     shapes = repr(p.output_shapes())
+    lead = f"_MAXDIMS - {max(map(len, p.output_shapes()))}"
     fallback = ["        except (ArithmeticError, ValueError):",
                 "            pass  # a zero division or math domain error: inf/nan as NumPy gives below"]
-    return [f"    {', '.join(args)} = " + ", ".join(f"_arg({a}, {len(s)}, {a!r})" for a, s in p.inputs),
+    return [f"    {', '.join(args)} = " + ", ".join(f"_arg({a}, {len(s)}, {a!r}, {lead})" for a, s in p.inputs),
             f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
             "        try:",
             f"            return _outputs(_{p.name}_one({', '.join(f'{a}.tolist()' for a in args)}), (), {shapes})",
