@@ -3,11 +3,19 @@ file is an error, a damaged library is rebuilt, and no input crashes Python.
 Whatever could crash runs in a subprocess, so a crash fails the test instead
 of ending pytest."""
 
+import dataclasses
 import os
+import re
+import shutil
 import subprocess
 import sys
 
+import numpy as np
 import pytest
+
+from symdyn import models
+from symdyn.codegen import entry as codegen
+from symdyn.numeric import reference as ref
 
 
 def _python(code: str, *args: str, **env: str) -> subprocess.CompletedProcess:
@@ -69,3 +77,38 @@ def test_too_many_leading_dimensions_are_a_value_error_not_a_crash(target, bindi
     for line in errors:
         assert "63 leading dimensions, at most 62" in line and "64" in line, line
     assert last == "True"
+
+
+def _edit(path):
+    """Change one character of the body of a generated file: the last digit of
+    a text file (a coefficient or a size), a letter mid-way through a CasADi file."""
+    data = bytearray(path.read_bytes())
+    if path.suffix == ".casadi":
+        k = len(data) // 2
+        data[k] = ord("a") + (data[k] - ord("a") + 1) % 16
+    else:
+        k = max(data.rfind(str(d).encode()) for d in range(10))
+        data[k] = ord("0") + (data[k] - ord("0") + 1) % 10
+    path.write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize("target, suffix", [("numpy", ".py"), ("c", ".c"), ("c", ".h"), ("casadi", ".casadi")])
+def test_an_edited_generated_file_is_an_error_that_says_how_to_regenerate(tmp_path, monkeypatch, target, suffix):
+    shutil.copytree(codegen.GENERATED / "puma560", tmp_path / "puma560")
+    monkeypatch.setattr(codegen, "GENERATED", tmp_path)
+    assert codegen.load("puma560", target).G is not None
+    path = tmp_path / "puma560" / f"puma560{suffix}"
+    _edit(path)
+    with pytest.raises(RuntimeError, match=rf"{re.escape(str(path))} was modified.*symdyn generate puma560"):
+        codegen.load("puma560", target)
+
+
+def test_an_edited_file_in_the_generated_code_cache_is_regenerated(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
+    heavy = dataclasses.replace(models.load("twolink").payload(2.5, (0.1, 0, 0)), name="heavy")
+    path = codegen.load(heavy, "numpy").folder / "heavy.py"
+    original = path.read_bytes()
+    _edit(path)
+    q = np.array([[0.3, -0.7], [1.1, 0.4]])
+    np.testing.assert_allclose(codegen.load(heavy, "numpy").G(q), ref.gravload(heavy, q), rtol=1e-13)
+    assert path.read_bytes() == original

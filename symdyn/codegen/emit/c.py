@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ...derivation.program import Program, lower
-from . import Bundle, Infix, header_lines
+from . import Bundle, Infix, header_lines, seal
 
 __all__ = ["c_source", "h_source", "Signature", "read_signatures"]
 
@@ -131,7 +131,7 @@ def h_source(bundle: Bundle) -> str:
             parts.append(f"/* {p.doc} */")
         parts.append(f"{single};\n{batch};\n")
     parts.append("#ifdef __cplusplus\n}\n#endif\n#endif")
-    return "\n".join(parts) + "\n"
+    return seal("\n".join(parts) + "\n")
 
 
 def _text(expr) -> str:
@@ -182,4 +182,4 @@ def c_source(bundle: Bundle) -> str:
     parts = [_comment(header_lines(bundle, "c")), "#include <math.h>",
              f'#include "{bundle.name}.h"\n', _HELPERS]
     parts += [function_source(bundle.name, p) for p in bundle.programs]
-    return "\n".join(parts)
+    return seal("\n".join(parts))

@@ -4,8 +4,10 @@ The program's assignments are evaluated once in CasADi SX (so the function is
 the same DAG the C and NumPy targets compute); CasADi's AD then gives any
 Jacobian (∂τ/∂q, ∂q̈/∂τ, …).  A model's functions are stored together in one
 file with CasADi's serialiser, preceded by the provenance strings (symdyn
-version, model fingerprint), and can be passed through CasADi's own C code
-generator.
+version, model fingerprint); the functions are packed as one sealed string
+(their serialisation headed by its sha256, see `symdyn.codegen.emit.seal`) so
+an edited file is detected before it is deserialised.  They can be passed
+through CasADi's own C code generator.
 """
 
 from __future__ import annotations
@@ -17,11 +19,11 @@ from pathlib import Path
 import casadi as ca
 
 from ...derivation.program import Program, lower
-from . import Bundle, write_atomic
+from . import DIGEST_FIELD, Bundle, seal, write_atomic
 
-__all__ = ["function", "functions", "serialize", "deserialize", "generate_c", "FORMAT"]
+__all__ = ["function", "functions", "serialize", "read", "deserialize", "generate_c", "FORMAT"]
 
-FORMAT = "symdyn-casadi-1"
+FORMAT = "symdyn-casadi-2"
 
 _CALLS = {"sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "sqrt": ca.sqrt, "sign": ca.sign, "abs": ca.fabs}
 
@@ -84,16 +86,19 @@ def functions(bundle: Bundle) -> list[ca.Function]:
 
 def serialize(bundle: Bundle, path: Path) -> Path:
     """Write the model's functions to `path` (atomically): format tag, version,
-    fingerprint, model name, then one serialised Function per program."""
+    fingerprint, model name, then the sealed content: "content-sha256: <hex>"
+    and the serialised list of Functions, one per program."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    inner = ca.StringSerializer()
+    inner.pack(functions(bundle))
+    content = seal(f"{DIGEST_FIELD}\n{inner.encode()}")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(fd)
     try:
         s = ca.FileSerializer(tmp)
-        for text in (FORMAT, bundle.version, bundle.fingerprint, bundle.name):
+        for text in (FORMAT, bundle.version, bundle.fingerprint, bundle.name, content):
             s.pack(text)
-        s.pack(functions(bundle))
         del s
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
@@ -102,18 +107,24 @@ def serialize(bundle: Bundle, path: Path) -> Path:
     return path
 
 
-def deserialize(path: Path) -> tuple[dict, list[ca.Function]]:
-    """({"format", "symdyn-version", "model-fingerprint", "model"}, functions) of a file."""
+def read(path: Path) -> tuple[dict, str]:
+    """({"format", "symdyn-version", "model-fingerprint", "model"}, sealed content) of a file."""
     d = ca.FileDeserializer(str(path))
     try:
         head = dict(zip(("format", "symdyn-version", "model-fingerprint", "model"),
                         (d.unpack() for _ in range(4))))
+        if head.get("format") != FORMAT:
+            raise ValueError(f"{path} is not a symdyn CasADi file (format {head.get('format')!r}, "
+                             f"expected {FORMAT!r})")
+        return head, d.unpack()
     except RuntimeError as exc:
         raise ValueError(f"{path} is not a symdyn CasADi file: {exc}") from exc
-    if head.get("format") != FORMAT:
-        raise ValueError(f"{path} is not a symdyn CasADi file (format {head.get('format')!r}, "
-                         f"expected {FORMAT!r})")
-    return head, list(d.unpack())
+
+
+def deserialize(path: Path) -> tuple[dict, list[ca.Function]]:
+    """(the head of `read`, functions) of a file (check `is_intact` of its content first)."""
+    head, content = read(path)
+    return head, list(ca.StringDeserializer(content.split("\n", 1)[1]).unpack())
 
 
 def generate_c(funcs: list[ca.Function], name: str, out_dir: Path) -> Path:

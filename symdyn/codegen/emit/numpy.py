@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...derivation.program import Program, lower
-from . import ATOM, Bundle, Infix, header_lines
+from . import ATOM, Bundle, Infix, header_lines, seal
 
 __all__ = ["module_source", "batched_source", "scalar_source", "CHUNK", "FEW"]
 
@@ -415,4 +415,4 @@ def module_source(bundle: Bundle) -> str:
     ]
     for p in bundle.programs:
         parts += ["\n\n" + batched_source(p), "\n\n" + scalar_source(p)]
-    return "\n".join(parts) + "\n"
+    return seal("\n".join(parts) + "\n")
