@@ -170,7 +170,8 @@ def _provenance(path: Path, target: str) -> tuple[dict, str]:
 def _intact(folder: Path, name: str, target: str) -> bool:
     """Whether every file of `target` is in `folder`, as generated."""
     try:
-        return all(is_intact(_provenance(folder / f, target)[1]) for f in files(name, target))
+        return all((folder / f).is_file() and is_intact(_provenance(folder / f, target)[1])
+                   for f in files(name, target))
     except (OSError, ValueError):
         return False
 
