@@ -89,7 +89,7 @@ def test_smooth_friction_matches_the_exact_law_away_from_rest(puma):
 def sticky_pendulum(twolink, level=10.0):
     """Link 1 of the two-link arm alone (1 kg at 0.5 m, I_zz = 0.75 kg·m² about the COM, so M = 1 kg·m²)
     with a unit gear ratio and Coulomb friction `level` N·m above its largest gravity load (4.9 N·m)."""
-    link = dataclasses.replace(twolink.links[0], I=((0, 0, 0), (0, 0, 0), (0, 0, 0.75)), G=1,
+    link = dataclasses.replace(twolink.links[0], I=((0.375, 0, 0), (0, 0.375, 0), (0, 0, 0.75)), G=1,
                                Tc=(level, -level))
     return dataclasses.replace(twolink, name="pendulum", links=(link,), poses={})
 

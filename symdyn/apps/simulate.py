@@ -86,7 +86,7 @@ class StderrProgress:
     """Progress lines on stderr (`symdyn.derivation.progress`) every `step` of the simulated span, then the run time."""
 
     def __init__(self, label: str, step: float = 0.1):
-        self.lines = Progress(label, round(1 / step))
+        self.lines = Progress(label, round(1 / step), lines=round(1 / step))
         self.step, self.next = step, step
 
     def __call__(self, fraction: float, t: float, T: float) -> None:

@@ -10,12 +10,13 @@ class Progress:
     """Counts steps of a long job and reports them on one stderr line.
 
     Silent unless `enabled`; a finished job prints its total time.  On a
-    terminal every step rewrites the line; elsewhere (a log, CI) only the
-    quarters are printed, so a long job leaves a handful of lines.
+    terminal every step rewrites the line; elsewhere (a log, CI) at most
+    `lines` evenly spread steps are printed (the quarters by default), so a
+    long job leaves a handful of lines.
     """
 
-    def __init__(self, label: str, total: int, enabled: bool = True) -> None:
-        self.label, self.total, self.enabled = label, total, enabled
+    def __init__(self, label: str, total: int, enabled: bool = True, lines: int = 4) -> None:
+        self.label, self.total, self.enabled, self.lines = label, total, enabled, lines
         self.count, self.start = 0, time.perf_counter()
 
     def step(self, what: str = "") -> None:
@@ -24,7 +25,7 @@ class Progress:
             return
         if sys.stderr.isatty():
             print(f"{self.label}: {self.count}/{self.total} {what}".ljust(60), end="\r", file=sys.stderr, flush=True)
-        elif 4 * self.count // max(self.total, 1) > 4 * (self.count - 1) // max(self.total, 1):
+        elif self.lines * self.count // max(self.total, 1) > self.lines * (self.count - 1) // max(self.total, 1):
             print(f"{self.label}: {self.count}/{self.total} {what}", file=sys.stderr, flush=True)
 
     def done(self) -> float:
