@@ -15,6 +15,10 @@ from pathlib import Path
 import numpy as np
 
 
+#: The largest disagreement `symdyn run` accepts between the code it wrote and the reference.
+RUN_TOLERANCE = 1e-10
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     """The main job: derive the Puma 560 both ways, generate its code into
     args.out, check it against the reference, and summarise."""
@@ -40,17 +44,24 @@ def _cmd_run(args: argparse.Namespace) -> int:
           ", ".join(f"{t} {c['mul']} mul + {c['add']} add" for t, c in counts.items()))
     paths = generate(robot, "all", args.out)
     print(f"generated {len(paths)} files in {paths[0].parent}")
-    fast = load(robot, "c")
     np.set_printoptions(precision=4, suppress=True, linewidth=120)
+    written = {target: load(robot, target, folder=paths[0].parent) for target in ("c", "numpy", "casadi")}
     worst = 0.0
     for pose in ("qz", "qr", "qs", "qn"):
         q = getattr(robot, pose)
-        G = ref.gravload(robot, q)
-        worst = max(worst, float(np.abs(fast.G(q) - G).max()), float(np.abs(fast.M(q) - ref.inertia(robot, q)).max()))
+        G, M = ref.gravload(robot, q), ref.inertia(robot, q)
+        for f in written.values():
+            worst = max(worst, float(np.abs(np.ravel(f.G(q)) - G).max()),
+                        float(np.abs(np.reshape(f.M(q), M.shape) - M).max()))
         print(f"\n{pose} = {q}")
         print(f"  G(q)      = {G}  N·m")
-        print(f"  diag M(q) = {np.diag(ref.inertia(robot, q))}  kg·m²")
-    print(f"\ngenerated C vs reference at the book poses: max |error| {worst:.1e}")
+        print(f"  diag M(q) = {np.diag(M)}  kg·m²")
+    print(f"\ngenerated code (C, NumPy, CasADi) in {paths[0].parent} vs reference at the book poses: "
+          f"max |error| {worst:.1e}")
+    if not worst <= RUN_TOLERANCE:
+        print(f"symdyn: error: the generated code disagrees with the reference by {worst:.1e} "
+              f"(more than {RUN_TOLERANCE:.0e})", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -112,3 +112,38 @@ def test_an_edited_file_in_the_generated_code_cache_is_regenerated(tmp_path, mon
     q = np.array([[0.3, -0.7], [1.1, 0.4]])
     np.testing.assert_allclose(codegen.load(heavy, "numpy").G(q), ref.gravload(heavy, q), rtol=1e-13)
     assert path.read_bytes() == original
+
+
+def _snapshot(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+def test_generate_interrupted_midway_leaves_the_old_set(tmp_path, monkeypatch):
+    """Issue 12 item 12: a reader sees the old set or the new one, never .py and .h without .c."""
+    from symdyn.codegen.emit import c as c_emit
+
+    out = tmp_path / "twolink"
+    codegen.generate("twolink", "all", out)
+    before = _snapshot(out)
+    robot = dataclasses.replace(models.load("twolink"), gravity=(0, 0, 1.62))
+
+    def killed(bundle):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(c_emit, "c_source", killed)
+    with pytest.raises(KeyboardInterrupt):
+        codegen.generate(robot, "all", out)
+    assert _snapshot(out) == before
+    assert [p.name for p in tmp_path.iterdir()] == ["twolink"]
+
+
+def test_leftovers_of_a_killed_generate_are_cleaned_up_or_restored(tmp_path):
+    out = tmp_path / "twolink"
+    codegen.generate("twolink", "numpy", out)
+    before = _snapshot(out)
+    os.rename(out, tmp_path / ".twolink.old-4242")           # killed between the two renames
+    (tmp_path / ".twolink.staging-abc").mkdir()              # and a staging folder left behind
+    (tmp_path / ".twolink.staging-abc" / "twolink.py").write_text("half")
+    codegen.generate("twolink", "c", out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["twolink"]
+    after = _snapshot(out)
+    assert after["twolink.py"] == before["twolink.py"] and {"twolink.c", "twolink.h"} <= set(after)

@@ -15,7 +15,10 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import os
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 from .. import __version__
@@ -93,18 +96,58 @@ def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False
                          f"models ({', '.join(SHIPPED)}) with their shipped parameters")
     b = bundle(robot)
     out = Path(out_dir) if out_dir is not None else GENERATED / name
-    written = []
-    for t in targets:
-        if t == "numpy":
-            written.append(write_atomic(out / f"{b.name}.py", np_emit.module_source(b)))
-        elif t == "c":
-            written.append(write_atomic(out / f"{b.name}.h", c_emit.h_source(b)))
-            written.append(write_atomic(out / f"{b.name}.c", c_emit.c_source(b)))
+
+    def write(folder: Path) -> list[Path]:
+        written = []
+        for t in targets:
+            if t == "numpy":
+                written.append(write_atomic(folder / f"{b.name}.py", np_emit.module_source(b)))
+            elif t == "c":
+                written.append(write_atomic(folder / f"{b.name}.h", c_emit.h_source(b)))
+                written.append(write_atomic(folder / f"{b.name}.c", c_emit.c_source(b)))
+            else:
+                written.append(ca_emit.serialize(b, folder / f"{b.name}.casadi"))
+                if casadi_c:
+                    written.append(ca_emit.generate_c(ca_emit.functions(b), b.name, folder))
+        return written
+
+    return publish(out, write)
+
+
+def publish(out: Path, write) -> list[Path]:
+    """Write a set of files into the folder `out` as one: `write(staging)`
+    fills a fresh sibling folder, which gets copies of whatever else `out`
+    holds and then takes its place by two renames — a reader sees the old
+    set or the new one, never a mix.  Leftovers of a run that was killed
+    (staging folders, a set moved aside) are cleaned up or restored first."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for left in out.parent.glob(f".{out.name}.staging-*"):
+        shutil.rmtree(left, ignore_errors=True)
+    for old in out.parent.glob(f".{out.name}.old-*"):
+        if out.exists():
+            shutil.rmtree(old, ignore_errors=True)
         else:
-            written.append(ca_emit.serialize(b, out / f"{b.name}.casadi"))
-            if casadi_c:
-                written.append(ca_emit.generate_c(ca_emit.functions(b), b.name, out))
-    return written
+            os.rename(old, out)   # killed between the two renames: the old set comes back
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.staging-", dir=out.parent))
+    try:
+        os.chmod(staging, 0o755)
+        written = write(staging)
+        if out.exists():
+            for entry in out.iterdir():
+                if not (staging / entry.name).exists():
+                    copy = shutil.copytree if entry.is_dir() else shutil.copy2
+                    copy(entry, staging / entry.name)
+            old = out.parent / f".{out.name}.old-{os.getpid()}"
+            os.rename(out, old)
+            os.rename(staging, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.rename(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return [out / p.name for p in written]
 
 
 def generate_all(root=None) -> list[Path]:
@@ -206,17 +249,25 @@ def _import_module(path: Path, module: str):
     return mod
 
 
-def load(name_or_robot, target: str = "c", *, options=None) -> GeneratedModel:
+def load(name_or_robot, target: str = "c", *, options=None, folder=None) -> GeneratedModel:
     """The generated functions of a model for `target` ("c", "numpy" or "casadi").
 
     A shipped model's name loads generated/<name>/ (an error if stale); a
     Robot loads it too when it is that model, else its code is generated once
-    into the cache.  `options`: a `symdyn.codegen.emit.clib.CompileOptions` for C.
+    into the cache.  `folder`: load the files `generate` wrote there instead
+    (an error if they are missing, stale or edited).  `options`: a
+    `symdyn.codegen.emit.clib.CompileOptions` for C.
     """
     if target not in TARGETS:
         raise ValueError(f"unknown target {target!r}: load() takes one of {', '.join(TARGETS)}")
     robot = _robot(name_or_robot)
     name = identifier(robot.name)
+    if folder is not None:
+        missing = [f for f in files(name, target) if not (Path(folder) / f).is_file()]
+        if missing:
+            raise FileNotFoundError(f"{folder} has no {', '.join(missing)}: generate it with "
+                                    f"symdyn generate {name} --target {target} --out {folder}")
+        return _load_folder(Path(folder), name, target, robot, options)
     shipped = GENERATED / name
     if all((shipped / f).exists() for f in files(name, target)):
         if isinstance(name_or_robot, str):
