@@ -76,6 +76,13 @@ def bundle(robot: Robot) -> Bundle:
                   derivation="; ".join(used), source=robot.source)
 
 
+def in_checkout() -> bool:
+    """Whether symdyn runs from a source checkout, whose generated/ holds the
+    shipped models' code; an installed wheel has none and never writes
+    beside its package: `load` generates that code into the cache, once."""
+    return (GENERATED.parent / "pyproject.toml").is_file()
+
+
 def _is_shipped(robot: Robot) -> bool:
     """Whether robot is one of the models whose code lives in generated/."""
     return robot.name in SHIPPED and robot.fingerprint() == arms.load(robot.name).fingerprint()
@@ -94,6 +101,10 @@ def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False
     if out_dir is None and not _is_shipped(robot):
         raise ValueError(f"generate({robot.name!r}) needs out_dir: generated/ holds only the shipped "
                          f"models ({', '.join(SHIPPED)}) with their shipped parameters")
+    if out_dir is None and not in_checkout():
+        raise ValueError(f"generate({robot.name!r}) needs out_dir: this symdyn is an installed package, and "
+                         "generated/ belongs to a source checkout (load() keeps the shipped models' code "
+                         "in the cache)")
     b = bundle(robot)
     out = Path(out_dir) if out_dir is not None else GENERATED / name
 
@@ -152,6 +163,9 @@ def publish(out: Path, write) -> list[Path]:
 
 def generate_all(root=None) -> list[Path]:
     """Regenerate every target of the shipped models into root/<name>/ (default generated/)."""
+    if root is None and not in_checkout():
+        raise ValueError("generate --all needs --out: this symdyn is an installed package, and generated/ "
+                         "belongs to a source checkout")
     root = Path(root) if root is not None else GENERATED
     return [p for name in SHIPPED for p in generate(name, "all", root / name)]
 
@@ -277,6 +291,9 @@ def load(name_or_robot, target: str = "c", *, options=None, folder=None) -> Gene
             return _load_folder(shipped, name, target, robot, options)
     folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
     if not _intact(folder, name, target):
+        if name in SHIPPED and not in_checkout():
+            print(f"symdyn: generating the code of {name} ({target}) into the cache, once: an installed "
+                  "symdyn carries no generated/", file=sys.stderr)
         folder = writable(folder)
         generate(robot, target, folder)
     return _load_folder(folder, name, target, robot, options)

@@ -1,0 +1,56 @@
+"""A wheel installed elsewhere is a first-class symdyn (issue 12, item 13): the
+README's examples run from another directory, the shipped models' code comes
+from the cache, and nothing is ever written beside the installed package."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    """symdyn built as a wheel and installed (without dependencies: those of this
+    environment serve) into a folder of its own; returns (site, environment)."""
+    tmp = tmp_path_factory.mktemp("wheel")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(tmp / "dist"), str(ROOT)],
+                   check=True, capture_output=True, timeout=600)
+    wheel = next((tmp / "dist").glob("symdyn-*.whl"))
+    site = tmp / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target", str(site), str(wheel)],
+                   check=True, capture_output=True, timeout=600)
+    env = dict(os.environ, PYTHONPATH=str(site), SYMDYN_CACHE_DIR=str(tmp / "cache"))
+    return site, env, tmp
+
+
+def _run(args, env, cwd):
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env, cwd=cwd, timeout=600)
+
+
+def test_the_wheel_runs_the_readme_from_another_directory(installed):
+    site, env, tmp = installed
+    from tests.test_readme import python_blocks
+
+    code = "import symdyn; assert symdyn.__file__.startswith(%r), symdyn.__file__\n" % str(site)
+    code += "\n".join(python_blocks())
+    code += "\nprint('fdyn', float(np.abs(f.fdyn(q, qd, tau) - qdd).max()))"
+    done = _run(["-c", code], env, tmp)
+    assert done.returncode == 0, done.stderr
+    assert float(done.stdout.split("fdyn")[-1]) < 1e-10
+    assert "into the cache, once" in done.stderr
+    assert not (site / "generated").exists()
+
+
+def test_the_wheel_never_writes_beside_its_package(installed):
+    site, env, tmp = installed
+    done = _run(["-m", "symdyn", "generate", "puma560", "--target", "numpy"], env, tmp)
+    assert done.returncode == 2 and "needs out_dir" in done.stderr
+    before = sorted(p.relative_to(site) for p in site.rglob("*") if "__pycache__" not in p.parts)
+    assert not (site / "generated").exists()
+    done = _run(["-m", "symdyn", "generate", "twolink", "--target", "numpy", "--out", str(tmp / "out")], env, tmp)
+    assert done.returncode == 0 and (tmp / "out" / "twolink.py").is_file()
+    assert sorted(p.relative_to(site) for p in site.rglob("*") if "__pycache__" not in p.parts) == before
