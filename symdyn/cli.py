@@ -8,8 +8,11 @@ delegates to the module that owns the work; this file only parses.
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -52,8 +55,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         q = getattr(robot, pose)
         G, M = ref.gravload(robot, q), ref.inertia(robot, q)
         for f in written.values():
-            worst = max(worst, float(np.abs(np.ravel(f.G(q)) - G).max()),
-                        float(np.abs(np.reshape(f.M(q), M.shape) - M).max()))
+            worst = max(worst, float(np.abs(np.asarray(f.G(q), dtype=float).reshape(G.shape) - G).max()),
+                        float(np.abs(np.asarray(f.M(q), dtype=float).reshape(M.shape) - M).max()))
         print(f"\n{pose} = {q}")
         print(f"  G(q)      = {G}  N·m")
         print(f"  diag M(q) = {np.diag(M)}  kg·m²")
@@ -170,19 +173,28 @@ def writable_folder(path: Path) -> Path:
     return path
 
 
+def _interrupted(signum, frame) -> None:
+    """Ctrl-C: one line and exit 130 at once (a KeyboardInterrupt could be
+    swallowed deep inside a library and come out as a traceback or not at all)."""
+    print("\nsymdyn: interrupted", file=sys.stderr, flush=True)
+    os._exit(130)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, _interrupted) if main_thread else None
     try:
         if getattr(args, "out", None):
             writable_folder(Path(args.out))
         return args.func(args)
-    except KeyboardInterrupt:
-        print("symdyn: interrupted", file=sys.stderr)
-        return 130
     except (KeyError, ValueError, RuntimeError, OSError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"symdyn: error: {msg}", file=sys.stderr)
         return 2
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
 
 
 if __name__ == "__main__":
