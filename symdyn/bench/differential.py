@@ -27,7 +27,7 @@ import sympy as sp
 from ..numeric import reference as ref
 from ..model import Robot
 
-__all__ = ["Finding", "STAGES", "check_arm", "evaluate", "friction_law", "pinocchio_at", "relative_error", "states"]
+__all__ = ["Finding", "STAGES", "check_arm", "disagreements", "evaluate", "friction_law", "pinocchio_at", "relative_error", "states"]
 
 STAGES = ("pinocchio", "derive", "exact", "targets", "identities")
 TARGETS = ("numpy", "c", "casadi")
@@ -44,6 +44,12 @@ class Finding:
     error: float
     seconds: float
     detail: str = ""
+
+
+def disagreements(findings: Iterable[Finding], tol: float = 1e-10) -> list[Finding]:
+    """The findings that fail: over `tol` relative, a crash, or any nonzero
+    difference in the exact stage (rational arithmetic has no rounding)."""
+    return [f for f in findings if not f.error <= (0.0 if f.stage == "exact" else tol)]
 
 
 def relative_error(got, expected, floor: float = 1e-6) -> float:

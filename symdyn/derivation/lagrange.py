@@ -144,8 +144,13 @@ def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
             c, s = const(ct), const(st)
             d = S.gen(q[i]) + const(link.offset)
         out.append(_Link(pre_R, pre_p, post_R, post_p, c, s, d, link.is_revolute, const(link.m),
-                         [const(x) for x in link.r], [[const(x) for x in row] for row in link.I]))
+                         [const(x) for x in link.r], _symmetric(link.I, const)))
     return out
+
+
+def _symmetric(I, const) -> list:
+    """The inertia's upper triangle, mirrored: symmetric to rounding is read as exactly symmetric."""
+    return [[const(I[min(a, b)][max(a, b)]) for b in range(3)] for a in range(3)]
 
 
 def _back(links: list[_Link], j: int, S: TrigSpace) -> tuple:

@@ -133,7 +133,9 @@ def link_inertias(robot: Robot) -> list[LinkInertia]:
     for link, Ia in zip(robot.links, rotor_inertia(robot)):
         m = exact(link.m)
         r = [exact(x) for x in link.r]
-        Ic = sp.Matrix([[exact(x) for x in row] for row in link.I])
+        # the upper triangle, mirrored: an inertia symmetric to rounding is read as exactly symmetric,
+        # as the regressor's XY, XZ, YZ parameters read it
+        Ic = sp.Matrix(3, 3, lambda i, j: exact(link.I[min(i, j)][max(i, j)]))
         rr = sum(x * x for x in r)
         Io = sp.Matrix(3, 3, lambda i, j: sp.expand(Ic[i, j] + m * ((rr if i == j else 0) - r[i] * r[j])))
         out.append(LinkInertia(Io=Io, h=tuple(sp.expand(m * x) for x in r), m=m, Ia=Ia))

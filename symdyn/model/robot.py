@@ -387,8 +387,9 @@ class Robot:
             c, s = exact_cos_sin(link.alpha)
             R = ((1, 0, 0), (0, c, -s), (0, s, c))
             r = tuple((link.a if i == 0 else 0) + sum(R[i][k] * link.r[k] for k in range(3)) for i in range(3))
-            I = tuple(tuple(sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
-                            for j in range(3)) for i in range(3))
+            upper = {(i, j): sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
+                     for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
+            I = tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))
             links.append(dataclasses.replace(link, a=prev_a, alpha=prev_alpha, r=r, I=I))
             prev_a, prev_alpha = link.a, link.alpha
         tool = _matmul4(_matmul4(transl(prev_a, 0, 0), rotx(prev_alpha)), self.tool)
