@@ -7,11 +7,10 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: run test generate bench clean
 
-# editable_mode=compat: the checkout on sys.path by a .pth (setuptools' default mode warns on every install)
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,plot]' --config-settings editable_mode=compat
+	$(BIN)/python -m pip install --quiet -e '.[test,plot]'
 	touch $(STAMP)
 
 run: $(STAMP)
