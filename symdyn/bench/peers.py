@@ -42,13 +42,25 @@ def _gravity0(robot: Robot) -> np.ndarray:
     return -Rb.T @ np.array(robot.gravity, dtype=float)
 
 
+def _general_joint(pin, link):
+    """Pinocchio's joint about (along) a link's axis: RX…PZ when it is +x, +y or
+    +z, else the unaligned joint."""
+    axis = np.array(link.axis, dtype=float)
+    for k, name in enumerate("XYZ"):
+        if np.array_equal(axis, np.eye(3)[k]):
+            return getattr(pin, f"JointModel{'R' if link.is_revolute else 'P'}{name}")()
+    return pin.JointModelRevoluteUnaligned(axis) if link.is_revolute else pin.JointModelPrismaticUnaligned(axis)
+
+
 def pinocchio_model(robot: Robot):
     """A `pinocchio.Model` of the numeric `robot`, without friction.
 
     Joint i is a Pinocchio RZ (revolute) or PZ (prismatic) joint placed at
     DH frame {i−1} (standard) or at {i−1}·Rx(α)Tx(a) (modified); the body
     frame {i} is the joint frame moved by the constant part of Rz(θ)Tz(d)
-    (and Tx(a)Rx(α) for standard DH).  Frames "L1".."Ln" are the DH frames
+    (and Tx(a)Rx(α) for standard DH).  A general joint is placed by its
+    origin and moves about (along) its axis; its body frame is the joint's,
+    turned (shifted) by the offset.  Frames "L1".."Ln" are the DH frames
     {i} and "tool" the tool point, all relative to frame {0}.
     """
     pin = _pin()
@@ -57,6 +69,18 @@ def pinocchio_model(robot: Robot):
     model.name = robot.name
     parent, prev, frame = 0, pin.SE3.Identity(), 0
     for i, link in enumerate(robot.links, start=1):
+        if robot.convention == "general":
+            place = prev * pin.SE3(np.array(link.origin or np.eye(4), dtype=float))
+            j = model.addJoint(parent, _general_joint(pin, link), place, f"j{i}")
+            axis, zero = np.array(link.axis, dtype=float), np.zeros(3)
+            # q + offset: the body is the joint frame moved by the offset
+            twist = pin.Motion(zero, axis) if link.is_revolute else pin.Motion(axis, zero)
+            body = pin.exp6(twist * float(link.offset))
+            inertia = pin.Inertia(float(link.m), np.array(link.r, dtype=float), np.array(link.I, dtype=float))
+            model.appendBodyToJoint(j, body.act(inertia), pin.SE3.Identity())
+            frame = model.addBodyFrame(f"L{i}", j, body, frame)
+            parent, prev = j, body
+            continue
         a, alpha, offset = float(link.a), float(link.alpha), float(link.offset)
         dh_x = pin.SE3(_rot("x", alpha), np.array([a, 0.0, 0.0]))   # Tx(a)Rx(α) = Rx(α)Tx(a)
         place = prev if robot.convention == "standard" else prev * dh_x

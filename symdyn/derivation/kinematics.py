@@ -2,7 +2,8 @@
 
 Part of the derive stage.  Each link's transform from its parent is
 pre · joint(q) · post, exactly as in `symdyn.reference`: standard DH has
-pre = 1, post = Tx(a)Rx(α); modified DH has pre = Rx(α)Tx(a), post = 1.
+pre = 1, post = Tx(a)Rx(α); modified DH has pre = Rx(α)Tx(a), post = 1; a general joint (URDF) has pre = its
+origin and turns about (slides along) its own axis.
 Constant angles are exact (α = π/2 gives 0 and 1) and float parameters
 become exact rationals, so two derivations can be compared exactly.
 """
@@ -13,7 +14,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from ..model import Robot
+from ..model import IDENTITY, Robot
+from ..model.placement import axis_rotation, exact_rotation
 from .symbols import exact, exact_cos_sin_of, joint_symbols
 
 
@@ -43,6 +45,8 @@ def _cos_sin_of(q: sp.Symbol, offset) -> tuple[sp.Expr, sp.Expr]:
 def link_frames(robot: Robot, q=None) -> list[LinkFrame]:
     """The exact transform of every body from its parent, in the joint symbols."""
     q = joint_symbols(robot.n)[0] if q is None else q
+    if robot.convention == "general":
+        return [_general_frame(link, qi) for link, qi in zip(robot.links, q)]
     frames = []
     for link, qi in zip(robot.links, q):
         Rx, a = _rx(link.alpha), exact(link.a)
@@ -68,6 +72,21 @@ def link_frames(robot: Robot, q=None) -> list[LinkFrame]:
             S = (0, 0, 0) + tuple(post_R.T * z)
         frames.append(LinkFrame(R=R, p=p, S=tuple(sp.sympify(x) for x in S)))
     return frames
+
+
+def _general_frame(link, qi) -> LinkFrame:
+    """origin · Rot(a, q + offset) (Rodrigues) or origin · Trans(a·(q + offset)),
+    with the exact placement and axis of `model.placement`."""
+    T = link.origin or IDENTITY
+    R0 = sp.Matrix(exact_rotation([row[:3] for row in T[:3]]))
+    p0 = sp.Matrix([exact(T[i][3]) for i in range(3)])
+    a = sp.Matrix(axis_rotation(link.axis))[:, 2]
+    if link.is_revolute:
+        c, s = _cos_sin_of(qi, link.offset)
+        ax = sp.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+        Rj = c * sp.eye(3) + s * ax + (1 - c) * a * a.T
+        return LinkFrame(R=R0 * Rj, p=p0, S=tuple(a) + (sp.S.Zero,) * 3)
+    return LinkFrame(R=R0, p=p0 + R0 * a * (qi + exact(link.offset)), S=(sp.S.Zero,) * 3 + tuple(a))
 
 
 def _homogeneous(R: sp.Matrix, p: sp.Matrix) -> sp.Matrix:

@@ -23,7 +23,7 @@ from sympy.polys.domains import QQ
 from .dynamics import Dynamics, friction_expr, rotor_inertia
 from ..model import Robot
 from .symbols import exact, joint_symbols
-from .trigpoly import TrigPoly, TrigSpace, constant_cos_sin, lincomb, summation
+from .trigpoly import TrigPoly, TrigSpace, constant_cos_sin, lincomb, summation, to_qq
 
 __all__ = ["space", "TrigDynamics", "trig_dynamics", "christoffel", "equations", "derive"]
 
@@ -126,12 +126,18 @@ def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
     q = joint_symbols(robot.n)[0]
     const = S.const
     eye = [[QQ(int(a == b)) for b in range(3)] for a in range(3)]
+    if robot.convention == "general":
+        robot = robot.to_modified()   # every axis along its link's z, exact placements
     out, a_idx = [], 0
     for i, link in enumerate(robot.links):
         Rx = _rx(link.alpha, f"alpha of link {i + 1}")
         zero3 = [S.zero] * 3
         ax = [const(link.a), S.zero, S.zero]
-        if robot.convention == "standard":
+        if robot.convention == "general":   # origin · Rz(q) or origin · Tz(q)
+            T = link.origin
+            pre_R, pre_p = [[to_qq(x) for x in row[:3]] for row in T[:3]], [const(row[3]) for row in T[:3]]
+            post_R, post_p = eye, zero3
+        elif robot.convention == "standard":
             pre_R, pre_p, post_R, post_p = eye, zero3, Rx, ax
         else:
             pre_R, pre_p, post_R, post_p = Rx, ax, eye, zero3

@@ -191,10 +191,11 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
     fresh points; a sample that found a dependency the dynamics do not have
     is retried with more points.
     """
-    geometric = [x for link in robot.links for x in (link.a, link.d, link.alpha, link.theta, link.offset)]
+    geometric = [x for link in robot.links for x in (link.a, link.d, link.alpha, link.theta, link.offset,
+                                                     *link.axis, *(x for row in link.origin or () for x in row))]
     geometric += [x for row in robot.base for x in row] + list(robot.gravity)
     if any(isinstance(x, sp.Basic) and x.free_symbols for x in geometric):
-        raise ValueError("base parameters need numeric geometry and gravity (a, d, α, θ, offset, base, "
+        raise ValueError("base parameters need numeric geometry and gravity (a, d, α, θ, offset, origin, axis, base, "
                          f"gravity); robot {robot.name!r} has symbols there")
     reg = reg or regressor(robot)
     n, p = robot.n, len(reg.params)

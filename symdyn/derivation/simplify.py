@@ -45,8 +45,11 @@ def parallel_chains(robot) -> list[tuple[int, ...]]:
     mdh = robot.to_modified()
     chains, run = [], []
     for j, link in enumerate(mdh.links):
-        parallel = j > 0 and link.is_revolute and mdh.links[j - 1].is_revolute \
-            and not isinstance(link.alpha, sp.Basic) and exact_cos_sin(link.alpha)[1] == 0
+        if mdh.convention == "general":   # axes along z: parallel when the placement keeps z
+            turned = link.origin[0][2] != 0 or link.origin[1][2] != 0
+        else:
+            turned = isinstance(link.alpha, sp.Basic) or exact_cos_sin(link.alpha)[1] != 0
+        parallel = j > 0 and link.is_revolute and mdh.links[j - 1].is_revolute and not turned
         if parallel:
             run = run or [j - 1]
             run.append(j)
@@ -93,17 +96,26 @@ def book_form(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
     signs = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(sorted(expr.atoms(sp.sign), key=str))}
     space = trigpoly.space_for([expr.xreplace(signs)], angles)
     poly = trigpoly.from_expr(expr.xreplace(signs), space)
-    chains = [tuple(angles.index(dyn.q[i]) for i in c) for c in parallel_chains(dyn.robot)
-              if all(dyn.q[i] in angles for i in c)]
+    chains = natural_chains(dyn)
     out = []
     for k, kind, coeff in poly.items():
-        out.append(coeff.as_expr() * _expand_atoms(tuple(k), kind, tuple(chains), tuple(angles)))
+        out.append(coeff.as_expr() * angle_products(tuple(k), kind, chains, tuple(angles)))
     back = {v: k for k, v in signs.items()}
     return sp.expand(sp.Add(*out)).xreplace(back)
 
 
+def natural_chains(dyn: Dynamics) -> tuple:
+    """The parallel chains of `dyn`'s robot as indices into its revolute angles."""
+    angles = _angles(dyn)
+    return tuple(tuple(angles.index(dyn.q[i]) for i in c) for c in parallel_chains(dyn.robot)
+                 if all(dyn.q[i] in angles for i in c))
+
+
 @functools.lru_cache(maxsize=4096)
-def _expand_atoms(k: tuple, kind: str, chains: tuple, angles: tuple) -> sp.Expr:
+def angle_products(k: tuple, kind: str, chains: tuple, angles: tuple) -> sp.Expr:
+    """cos(k·θ) or sin(k·θ) as a polynomial in sines and cosines of natural
+    angles (single angles and parallel-chain sums), sin² written 1 − cos²:
+    the one frequency term of `book_form`, exactly."""
     atoms = _decompose(k, list(chains))
     if not atoms:
         return sp.S.One if kind == "cos" else sp.S.Zero
@@ -160,25 +172,58 @@ def tidy(expr: sp.Expr, dyn: Dynamics, form: str = "book") -> sp.Expr:
     parts = []
     for rate in sorted(by_rate, key=lambda r: (r == 1, sp.default_sort_key(r))):
         coeff = by_rate[rate]
+        symbolic = set(dyn.robot.free_symbols)
         if params:
             by_param = sp.collect(coeff, params, evaluate=False)
-            coeff = sp.Add(*(k * _trig_collect(v) for k, v in by_param.items()))
+            coeff = sp.Add(*(k * _trig_collect(v, symbolic) for k, v in by_param.items()))
         else:
-            coeff = _trig_collect(coeff)
+            coeff = _trig_collect(coeff, symbolic)
         parts.append(coeff * rate)
     return sp.Add(*parts)
 
 
-def _trig_collect(expr: sp.Expr) -> sp.Expr:
-    """Group by products of trig functions; factor each (symbolic) coefficient."""
+def _trig_collect(expr: sp.Expr, symbolic: set) -> sp.Expr:
+    """Group by products of trig functions; factor each coefficient that holds
+    the robot's symbols (`group_parameters`).  Numeric coefficients are left
+    alone: factoring a polynomial in a prismatic q with rational coefficients
+    pulls out a tiny content and leaves giant integers (1.9e-67·(11276…·q3² …))."""
     trig = sorted(expr.atoms(sp.sin, sp.cos), key=sp.default_sort_key)
     if not trig:
-        return sp.factor(expr) if len(expr.free_symbols) <= 8 else expr
+        return group_parameters(expr, symbolic)
     groups: dict = {}
     for term in sp.Add.make_args(sp.expand(expr)):
         coeff, monomial = term.as_independent(*trig, as_Add=False)
         groups[monomial] = groups.get(monomial, 0) + coeff
-    return sp.Add(*((sp.factor(v) if v.free_symbols else v) * k for k, v in groups.items()))
+    return sp.Add(*(group_parameters(v, symbolic) * k for k, v in groups.items()))
+
+
+def group_parameters(expr: sp.Expr, symbolic: set) -> sp.Expr:
+    """A coefficient in the robot's symbols as a reader groups it: factored, and
+    where it does not factor, perfect squares completed (a1² + a2² + 2a2c2 + c2²
+    → a1² + (a2 + c2)², the COM distance of Eq. 9.3).  Expressions without the
+    robot's symbols, or with more than 8 symbols, are returned as they are."""
+    syms = sorted(expr.free_symbols & symbolic, key=str)
+    if not syms or len(expr.free_symbols) > 8:
+        return expr
+    factored = sp.factor(expr)
+    if factored.is_Mul or factored.is_Pow or not expr.is_polynomial(*syms):
+        return factored
+    return _complete_squares(sp.expand(expr), syms)
+
+
+def _complete_squares(expr: sp.Expr, syms: list) -> sp.Expr:
+    """Rewrite c·(x² + 2xy + y²) inside expr as c·(x + y)², pair by pair."""
+    poly = sp.Poly(expr, *syms)
+    squares = []
+    for a, b in itertools.combinations(range(len(syms)), 2):
+        x, y = syms[a], syms[b]
+        c = poly.coeff_monomial(x**2)
+        if c == 0 or poly.coeff_monomial(y**2) != c or poly.coeff_monomial(x * y) != 2 * c:
+            continue
+        poly = poly - sp.Poly(c * (x + y) ** 2, *syms)
+        squares.append(c * (x + y) ** 2)
+    rest = poly.as_expr()
+    return sp.Add(*squares, sp.factor(rest) if rest.free_symbols else rest)
 
 
 # --------------------------------------------------------------------------- pruning

@@ -42,7 +42,7 @@ from sympy.polys.rings import PolyElement, PolyRing
 from .symbols import exact, exact_cos_sin_of
 
 __all__ = ["TrigSpace", "TrigPoly", "from_expr", "to_expr", "fold", "equal", "space_for", "summation", "lincomb",
-           "constant_cos_sin"]
+           "constant_cos_sin", "to_qq"]
 
 _BITS = 21
 _BASE = 1 << _BITS
@@ -88,7 +88,7 @@ def _ratio(value) -> tuple[int, int]:
     return int(value.p), int(value.q)
 
 
-def _to_qq(value):
+def to_qq(value):
     """A constant as an element of QQ (see `_ratio`)."""
     return QQ(*_ratio(value))
 
@@ -96,7 +96,7 @@ def _to_qq(value):
 def constant_cos_sin(angle) -> tuple:
     """cos and sin of a constant angle in QQ, exactly on the unit circle (`symbols.exact_cos_sin_of`)."""
     c, s = exact_cos_sin_of(angle)
-    return _to_qq(c), _to_qq(s)
+    return to_qq(c), to_qq(s)
 
 
 def _make(space: "TrigSpace", acc: dict, den: int) -> "TrigPoly":

@@ -1,7 +1,8 @@
 """Random arms for differential tests: every feature of the model, in any mix.
 
 `random_arm(seed)` draws a serial arm with 1…7 joints in standard or
-modified DH: revolute and prismatic joints, exact twists (0, ±π/2, π) and
+modified DH, or (`ArmOptions(general=…)`) with URDF-like joints placed by
+an origin (rpy exact or generic) about an axis (±x, ±y, ±z or generic): revolute and prismatic joints, exact twists (0, ±π/2, π) and
 generic ones, joint offsets, massless links, point masses and full inertia
 tensors, motors with gear ratios of either sign, rotor inertia, viscous and
 asymmetric Coulomb friction, a tilted or upside-down base, a tool, gravity
@@ -25,11 +26,13 @@ import random
 import numpy as np
 import sympy as sp
 
+from .placement import placement
 from .robot import IDENTITY, Link, Robot
 
 __all__ = ["random_arm", "degenerate_arm", "robot_code", "ArmOptions"]
 
 _EXACT_TWISTS = (0.0, math.pi / 2, -math.pi / 2, math.pi)
+_AXES = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0), (0, -1, 0), (0, 0, -1))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,6 +47,7 @@ class ArmOptions:
     point_mass: float = 0.15
     motor: float = 0.6
     symbolic: float = 0.15
+    general: float = 0.0    # arms in the general convention (URDF-like origin and axis); 0 keeps old seeds
 
 
 def _rotation(rng: random.Random) -> np.ndarray:
@@ -105,6 +109,19 @@ def _link(rng: random.Random, o: ArmOptions, last: bool) -> Link:
                 m=m, r=r, I=I, Jm=Jm, B=B, Tc=Tc, G=G)
 
 
+def _general(rng: random.Random, link: Link) -> Link:
+    """The link's joint re-placed as a URDF joint: a random origin (each rpy angle
+    a multiple of π/2 or generic) and an axis along ±x, ±y, ±z or generic."""
+    angle = lambda: rng.choice(_EXACT_TWISTS) if rng.random() < 0.6 else rng.uniform(-math.pi, math.pi)  # noqa: E731
+    origin = placement([_length(rng) for _ in range(3)], [angle() for _ in range(3)])
+    if rng.random() < 0.8:
+        axis = rng.choice(_AXES)
+    else:
+        v = np.array([rng.gauss(0, 1) for _ in range(3)])
+        axis = tuple(float(x) for x in v / np.linalg.norm(v))
+    return dataclasses.replace(link, theta=0, d=0, a=0, alpha=0, origin=origin, axis=axis)
+
+
 def _gravity(rng: random.Random) -> tuple:
     choice = rng.random()
     if choice < 0.5:
@@ -131,7 +148,7 @@ def _symbolize(robot: Robot, rng: random.Random) -> Robot:
     links = []
     for i, link in enumerate(robot.links):
         fields = {}
-        for name in ("m", "a", "d", "B"):
+        for name in ("m", "B") if robot.convention == "general" else ("m", "a", "d", "B"):
             if rng.random() < 0.3 and (name != "d" or link.is_revolute):
                 sym = sp.Symbol(f"{name}{i + 1}", real=True)
                 values[sym] = getattr(link, name)
@@ -146,9 +163,13 @@ def _symbolize(robot: Robot, rng: random.Random) -> Robot:
 def random_arm(seed: int, options: ArmOptions = ArmOptions(), *, n: int | None = None) -> Robot:
     """A random numeric arm, the same for the same seed (see the module docstring)."""
     rng = random.Random(seed)
+    general = options.general > 0 and rng.random() < options.general
     n = n or rng.randint(options.n_min, options.n_max)
     links = [_link(rng, options, last=i == n - 1) for i in range(n)]
-    robot = Robot(f"arm{seed}", tuple(links), convention=rng.choice(("standard", "modified")),
+    convention = rng.choice(("standard", "modified"))
+    if general:
+        links, convention = [_general(rng, link) for link in links], "general"
+    robot = Robot(f"arm{seed}", tuple(links), convention=convention,
                   gravity=_gravity(rng), base=_base(rng),
                   tool=IDENTITY if rng.random() < 0.5 else _transform(_rotation(rng), [rng.uniform(-0.2, 0.2) for _ in range(3)]),
                   source=f"symdyn.model.random_arms.random_arm({seed})")

@@ -19,30 +19,15 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-CONVENTIONS = ("standard", "modified")
+from .placement import axis_rotation, exact, exact_cos_sin, exact_rotation
+
+CONVENTIONS = ("standard", "modified", "general")
 JOINT_TYPES = ("revolute", "prismatic")
 
 Number = Any  # int, float or sympy expression
 
 
 # --------------------------------------------------------------------------- exact trig
-
-def exact_cos_sin(angle: Number) -> tuple[Number, Number]:
-    """cos and sin of a constant angle, exact for multiples of π/2.
-
-    A float within 1e-12 of k·π/2 gives exact integers (cos(π/2) is 0, never
-    6.1e-17); a sympy expression gives sympy's cos/sin; any other float gives
-    floats.  Both derivations and the reference use this one function.
-    """
-    if isinstance(angle, sp.Basic) and not angle.is_Number:
-        return sp.cos(angle), sp.sin(angle)
-    value = float(angle)
-    quarter = value / (math.pi / 2)
-    k = round(quarter)
-    if abs(quarter - k) < 1e-12:
-        return ((1, 0), (0, 1), (-1, 0), (0, -1))[k % 4]
-    return math.cos(value), math.sin(value)
-
 
 def rotx(angle: Number) -> tuple:
     """4×4 homogeneous rotation about x (exact for multiples of π/2)."""
@@ -146,6 +131,11 @@ class Link:
     (constant part for a revolute joint), `a`, `alpha`, `offset` (added to
     the joint variable), `qlim` (lower, upper) or None.  In the modified
     convention `a`, `alpha` are Craig's a_{i-1}, α_{i-1}.
+    Kinematics (general convention, as URDF): `origin`, the joint's constant
+    4×4 placement in the parent link's frame (see `placement(xyz, rpy)`),
+    and `axis`, the unit joint axis in the link's own frame, which moves
+    with the joint: ^{i-1}T_i = origin · Rot(axis, q + offset) or
+    origin · Trans(axis·(q + offset)).
     Inertia: mass `m`, centre of mass `r` in the link frame, inertia `I`
     (3×3, symmetric, about the COM, link-frame axes).
     Motor (motor side, as the Toolbox): rotor inertia `Jm`, viscous friction
@@ -161,6 +151,8 @@ class Link:
     alpha: Number = 0
     offset: Number = 0
     qlim: tuple | None = None
+    origin: tuple | None = None
+    axis: tuple = (0, 0, 1)
     m: Number = 0
     r: tuple = (0, 0, 0)
     I: tuple = ((0, 0, 0), (0, 0, 0), (0, 0, 0))
@@ -179,6 +171,13 @@ class Link:
         set_("r", _vector(self.r, 3, "r"))
         set_("I", _matrix(self.I, 3, 3, "I"))
         set_("Tc", _vector(self.Tc, 2, "Tc"))
+        if self.origin is not None:
+            set_("origin", _transform(self.origin, "origin"))
+        set_("axis", _vector(self.axis, 3, "axis"))
+        if not any(_is_symbolic(x) for x in self.axis):
+            norm = math.sqrt(sum(float(x) ** 2 for x in self.axis))
+            if abs(norm - 1) > 1e-9:
+                raise ValueError(f"joint axis must be a unit vector, got {self.axis} (norm {norm})")
         if self.qlim is not None:
             lo, hi = _vector(self.qlim, 2, "qlim")
             if not _is_symbolic(lo) and not _is_symbolic(hi) and not lo < hi:
@@ -189,8 +188,16 @@ class Link:
     def is_revolute(self) -> bool:
         return self.joint == "revolute"
 
+    @property
+    def is_general(self) -> bool:
+        """Placed by `origin` and `axis` (general convention) rather than DH."""
+        return self.origin is not None or tuple(self.axis) != (0, 0, 1)
+
     def _params(self) -> tuple:
-        return tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "physical")
+        """Every parameter that affects the dynamics; a DH link's unused origin
+        and axis are left out, so its fingerprint is what it always was."""
+        skip = {"physical"} | (set() if self.is_general else {"origin", "axis"})
+        return tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip)
 
 
 def _check_link_physics(link: Link, i: int) -> None:
@@ -229,6 +236,20 @@ def _check_link_physics(link: Link, i: int) -> None:
                              f"(Jm, B, Tc) = ({link.Jm}, {link.B}, {link.Tc}); give the ratio G")
 
 
+def _check_link_convention(link: Link, i: int, convention: str, robot: str) -> None:
+    """DH links have no origin or axis; general links have no DH parameters."""
+    if convention == "general":
+        for name in ("a", "alpha", "d", "theta"):
+            if _is_symbolic(getattr(link, name)) or getattr(link, name) != 0:
+                raise ValueError(f"link {i + 1} of robot {robot!r} sets DH parameter {name} = "
+                                 f"{getattr(link, name)}, but the robot uses the general convention: "
+                                 "place its joint by origin (and axis) instead")
+    elif link.is_general:
+        raise ValueError(f"link {i + 1} of robot {robot!r} sets origin or axis, which only the general "
+                         f"convention reads, but the robot uses {convention} DH; "
+                         "pass convention='general'")
+
+
 # --------------------------------------------------------------------------- Robot
 
 @dataclass(frozen=True)
@@ -261,6 +282,7 @@ class Robot:
             if not isinstance(link, Link):
                 raise ValueError(f"links[{i}] of robot {self.name!r} is a {type(link).__name__}, expected Link")
             _check_link_physics(link, i)
+            _check_link_convention(link, i, self.convention, self.name)
         set_("links", links)
         set_("gravity", _vector(self.gravity, 3, "gravity"))
         set_("base", _transform(self.base, "base"))
@@ -381,6 +403,8 @@ class Robot:
         """
         if self.convention == "modified":
             return self
+        if self.convention == "general":
+            return self._axes_along_z()
         links = []
         prev_a, prev_alpha = 0, 0
         for link in self.links:
@@ -395,6 +419,33 @@ class Robot:
         tool = _matmul4(_matmul4(transl(prev_a, 0, 0), rotx(prev_alpha)), self.tool)
         return dataclasses.replace(self, links=tuple(links), convention="modified", tool=tool,
                                    name=f"{self.name}_mdh" if not self.name.endswith("_mdh") else self.name)
+
+
+    def _axes_along_z(self) -> "Robot":
+        """A general robot with every joint axis along its link's z and exact,
+        exactly orthogonal placements: the frames both recursions work in.
+
+        Link frame i turns by R_a (R_a·z = axis_i, `axis_rotation`): its COM
+        and inertia are re-expressed by R_aᵀ, the next origin becomes
+        R_aᵀ·origin, and the last R_aᵀ moves into the tool.
+        """
+        links, prev = [], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        for link in self.links:
+            Ra = axis_rotation(link.axis)
+            T = link.origin or IDENTITY
+            R0 = exact_rotation([row[:3] for row in T[:3]])
+            R = [[sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3))
+                  for j in range(3)] for i in range(3)]
+            p = [sum(prev[k][i] * exact(T[k][3]) for k in range(3)) for i in range(3)]
+            r = tuple(sum(Ra[k][i] * exact(link.r[k]) for k in range(3)) for i in range(3))
+            upper = {(i, j): sum(Ra[k][i] * exact(link.I[k][l]) * Ra[l][j] for k in range(3) for l in range(3))
+                     for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
+            I = tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))
+            origin = tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
+            links.append(dataclasses.replace(link, origin=origin, axis=(0, 0, 1), r=r, I=I))
+            prev = Ra
+        back = tuple(tuple(prev[k][i] for k in range(3)) + (0,) for i in range(3)) + ((0, 0, 0, 1),)
+        return dataclasses.replace(self, links=tuple(links), tool=_matmul4(back, self.tool))
 
 
 def _walk(x):

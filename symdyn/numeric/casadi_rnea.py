@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from ..model import Robot, exact_cos_sin
+from .reference import rotation_z_to
 
 __all__ = ["rnea_function", "mass_function", "fdyn_function", "functions"]
 
@@ -37,7 +38,10 @@ def _constants(robot: Robot) -> list[dict]:
     for link in robot.links:
         Rx = _rx(link.alpha)
         ax = np.array([float(link.a), 0.0, 0.0])
-        if robot.convention == "standard":
+        if robot.convention == "general":   # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
+            T, Ra = np.array(link.origin or np.eye(4), dtype=float), rotation_z_to(np.array(link.axis, dtype=float))
+            pre_R, pre_p, post_R, post_p = T[:3, :3] @ Ra, T[:3, 3], Ra.T, np.zeros(3)
+        elif robot.convention == "standard":
             pre_R, pre_p, post_R, post_p = np.eye(3), np.zeros(3), Rx, ax
         else:
             pre_R, pre_p, post_R, post_p = Rx, ax, np.eye(3), np.zeros(3)

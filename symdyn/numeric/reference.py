@@ -73,6 +73,16 @@ def _rz(theta: np.ndarray) -> np.ndarray:
     return R
 
 
+def rotation_z_to(a: np.ndarray) -> np.ndarray:
+    """A rotation taking z to the unit vector a (Rodrigues about z × a)."""
+    a = a / np.linalg.norm(a)
+    if a[2] < -1 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])
+    v = np.cross([0.0, 0.0, 1.0], a)
+    V = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    return np.eye(3) + V + V @ V / (1 + a[2])
+
+
 @functools.lru_cache(maxsize=64)
 def _chain(robot: Robot) -> _Chain:
     robot.require_numeric("the numeric reference")
@@ -81,7 +91,11 @@ def _chain(robot: Robot) -> _Chain:
     pre_R, pre_p, post_R, post_p, S = [], [], [], [], []
     for link in robot.links:
         Rx = _rx(link.alpha)
-        if robot.convention == "standard":
+        if robot.convention == "general":   # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
+            T, Ra = np.array(link.origin or np.eye(4), dtype=float), rotation_z_to(np.array(link.axis, dtype=float))
+            pre_R.append(T[:3, :3] @ Ra); pre_p.append(T[:3, 3])
+            post_R.append(Ra.T); post_p.append(np.zeros(3))
+        elif robot.convention == "standard":
             pre_R.append(np.eye(3)); pre_p.append(np.zeros(3))
             post_R.append(Rx); post_p.append(np.array([f(link.a), 0.0, 0.0]))
         else:

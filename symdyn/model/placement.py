@@ -1,0 +1,124 @@
+"""Exact constant rotations for general joints: `placement(xyz, rpy)`, joint axes.
+
+A general joint (URDF's `<origin xyz rpy>` and `<axis>`) is placed by a
+constant transform.  Derivations compare exactly, so constant rotations are
+built from exact numbers that are exactly orthogonal: multiples of π/2 give
+0 and ±1, any other angle the rational point of the unit circle nearest its
+double (`exact_cos_sin_of`), and an axis along ±x, ±y or ±z is exact.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+from typing import Sequence
+
+import numpy as np
+import sympy as sp
+
+__all__ = ["exact_cos_sin", "exact", "exact_cos_sin_of", "rpy_rotation", "placement", "axis_rotation", "exact_rotation"]
+
+
+def exact_cos_sin(angle) -> tuple:
+    """cos and sin of a constant angle, exact for multiples of π/2.
+
+    A float within 1e-12 of k·π/2 gives exact integers (cos(π/2) is 0, never
+    6.1e-17); a sympy expression gives sympy's cos/sin; any other float gives
+    floats.  Both derivations and the reference use this one function.
+    """
+    if isinstance(angle, sp.Basic) and not angle.is_Number:
+        return sp.cos(angle), sp.sin(angle)
+    value = float(angle)
+    quarter = value / (math.pi / 2)
+    k = round(quarter)
+    if abs(quarter - k) < 1e-12:
+        return ((1, 0), (0, 1), (-1, 0), (0, -1))[k % 4]
+    return math.cos(value), math.sin(value)
+
+
+def exact(x) -> sp.Expr:
+    """A model parameter as an exact sympy number: floats become the rational
+    of their shortest decimal (0.4318 → 2159/5000), so derivations are exact."""
+    if isinstance(x, sp.Basic):
+        return x
+    if isinstance(x, bool):
+        raise ValueError("a parameter cannot be a bool")
+    if isinstance(x, int):
+        return sp.Integer(x)
+    return sp.Rational(repr(float(x)))
+
+
+def exact_cos_sin_of(angle) -> tuple[sp.Expr, sp.Expr]:
+    """cos and sin of a constant angle as exact numbers that lie exactly on the
+    unit circle: multiples of π/2 give 0 and ±1, a sympy angle gives cos and
+    sin of it, any other float gives ((1 − t²)/(1 + t²), 2t/(1 + t²)) with t
+    the exact rational of the double tan(angle/2) — within an ulp of the
+    double's cosine and sine, and cos² + sin² = 1 exactly, so the rotations of
+    a derivation are exactly orthogonal and derivations that rely on it in
+    different ways (composite links, base parameters, Lagrange) agree exactly.
+    """
+    c, s = exact_cos_sin(angle)
+    if not isinstance(c, float):
+        return exact(c), exact(s)
+    t = sp.Rational(Fraction(math.tan(float(angle) / 2)))
+    return (1 - t * t) / (1 + t * t), 2 * t / (1 + t * t)
+
+
+def _mul(A, B) -> list:
+    return [[sum((A[i][k] * B[k][j] for k in range(3)), sp.S.Zero) for j in range(3)] for i in range(3)]
+
+
+def _axis_rot(axis: str, angle) -> list:
+    c, s = exact_cos_sin_of(angle)
+    o, z = sp.S.One, sp.S.Zero
+    return {"x": [[o, z, z], [z, c, -s], [z, s, c]],
+            "y": [[c, z, s], [z, o, z], [-s, z, c]],
+            "z": [[c, -s, z], [s, c, z], [z, z, o]]}[axis]
+
+
+def rpy_rotation(rpy: Sequence) -> list:
+    """URDF's fixed-axis roll, pitch, yaw: Rz(yaw)·Ry(pitch)·Rx(roll), exact."""
+    roll, pitch, yaw = rpy
+    return _mul(_mul(_axis_rot("z", yaw), _axis_rot("y", pitch)), _axis_rot("x", roll))
+
+
+def placement(xyz: Sequence = (0, 0, 0), rpy: Sequence = (0, 0, 0)) -> tuple:
+    """The 4×4 transform of URDF's `<origin xyz rpy>`, with exact entries."""
+    R = rpy_rotation(rpy)
+    p = [exact(x) for x in xyz]
+    return tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
+
+
+def axis_rotation(axis: Sequence) -> list:
+    """An exact rotation R with R·z along `axis` (a unit 3-vector).
+
+    ±x, ±y, ±z give signed permutations; any other axis Rz(φ)·Ry(θ) with φ, θ
+    its spherical angles, so R·z is within an ulp of the axis and exactly unit.
+    """
+    a = np.array([float(x) for x in axis])
+    for k, name in enumerate("xyz"):
+        for sign in (1, -1):
+            if np.array_equal(a, sign * np.eye(3)[k]):
+                if name == "z":
+                    return _axis_rot("x", 0 if sign > 0 else math.pi)
+                if name == "x":
+                    return _axis_rot("y", sign * math.pi / 2)
+                return _axis_rot("x", -sign * math.pi / 2)
+    phi, theta = math.atan2(a[1], a[0]), math.acos(max(-1.0, min(1.0, a[2])))
+    return _mul(_axis_rot("z", phi), _axis_rot("y", theta))
+
+
+def exact_rotation(R: Sequence) -> list:
+    """A constant rotation as exact, exactly orthogonal numbers: exact entries
+    are kept; a float matrix is rebuilt from its roll, pitch and yaw."""
+    if all(isinstance(x, (int, sp.Rational)) for row in R for x in row):
+        E = [[exact(x) for x in row] for row in R]
+        if sp.Matrix(E) * sp.Matrix(E).T == sp.eye(3):
+            return E
+    M = np.array([[float(x) for x in row] for row in R])
+    pitch = math.asin(max(-1.0, min(1.0, -M[2, 0])))
+    if abs(abs(M[2, 0]) - 1) < 1e-12:   # gimbal lock: roll folded into yaw
+        roll, yaw = 0.0, math.atan2(-M[0, 1], M[1, 1])
+    else:
+        roll, yaw = math.atan2(M[2, 1], M[2, 2]), math.atan2(M[1, 0], M[0, 0])
+    return rpy_rotation((roll, pitch, yaw))
