@@ -37,7 +37,7 @@ def test_latex_is_a_complete_document_with_balanced_braces():
     tex = closed_form(dyn, ("M", "tau"), "latex")
     assert tex.startswith("\\documentclass") and tex.rstrip().endswith("\\end{document}")
     assert tex.count("{") == tex.count("}")
-    assert tex.count("\\begin{multline*}") == tex.count("\\end{multline*}") == 5
+    assert tex.count("\\begin{align*}") == tex.count("\\end{align*}") == 5
     assert "\\dot{q}_{2}" in tex and "\\ddot{q}_{1}" in tex
 
 

@@ -3,27 +3,265 @@
 The last step for the reader: each element is rewritten (book form: S23·C4·S5
 products of natural angles; or folded: sin(q2 + q3 + q5) sums) and collected by
 `symdyn.derivation.simplify.tidy`; numeric coefficients are shown to `digits`
-significant figures (the exact values stay in the derivation).
+significant figures, as an engineer writes them (0.25, 1.2e-5; the exact
+values stay in the derivation).  Long right-hand sides are broken across
+lines at top-level + and − (and, for a term that alone is too wide, inside
+its parenthesised factor) to a width budget, the same way in every format:
+LaTeX gets one `align*` row per line, so every equation fits the page.
 """
 
 from __future__ import annotations
 
+import re
+from dataclasses import dataclass
+
 import sympy as sp
+from sympy.printing.latex import LatexPrinter
+from sympy.printing.pretty.pretty import PrettyPrinter
+from sympy.printing.pretty.stringpict import prettyForm, stringPict
+from sympy.printing.str import StrPrinter
 
 from .dynamics import TERMS, Dynamics
 from .simplify import prune, tidy
 
 FORMATS = ("text", "pretty", "latex")
 
+#: Width budget per format: characters for text and pretty; for LaTeX, the
+#: estimated printed width (`latex_width`) of one line of a \small display in
+#: the article class's 345 pt text width.
+WIDTHS = {"text": 100, "pretty": 100, "latex": 66}
+DIGITS = 5
 
-def _display(expr: sp.Expr, digits: int) -> sp.Expr:
-    """Rationals shown as short decimals; integers and symbols untouched."""
-    repl = {r: sp.Float(r, digits) for r in expr.atoms(sp.Rational) if not r.is_Integer}
+
+def number(x: float, digits: int = DIGITS) -> str:
+    """x to `digits` significant figures, trailing zeros dropped: 0.25, 6.5, 1.2e-5."""
+    text = f"{x:.{digits}g}"
+    if "e" in text:
+        mantissa, exp = text.split("e")
+        text = f"{mantissa}e{int(exp)}"
+    return text
+
+
+def _latex_number(x: float, digits: int) -> str:
+    text = number(x, digits)
+    if "e" in text:
+        mantissa, exp = text.split("e")
+        return rf"{mantissa} \cdot 10^{{{exp}}}"
+    return text
+
+
+def _display(expr: sp.Expr) -> sp.Expr:
+    """Non-integer rationals as Floats (printed to the chosen digits); integers and symbols untouched."""
+    repl = {r: sp.Float(r, 17) for r in expr.atoms(sp.Rational) if not r.is_Integer}
     return expr.xreplace(repl)
 
 
-def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, digits: int = 5,
-             form: str = "book") -> list:
+class _Text(StrPrinter):
+    def __init__(self, digits: int):
+        super().__init__()
+        self.digits = digits
+
+    def _print_Float(self, expr):
+        return number(float(expr), self.digits)
+
+
+class _Latex(LatexPrinter):
+    def __init__(self, digits: int):
+        super().__init__()
+        self.digits = digits
+
+    def _print_Symbol(self, expr, style="plain"):
+        return _latex_symbol(expr.name) or super()._print_Symbol(expr, style)
+
+    def _print_Float(self, expr):
+        return _latex_number(float(expr), self.digits)
+
+    def _print_sign(self, expr, exp=None):
+        tex = rf"\operatorname{{sgn}}\left({self._print(expr.args[0])}\right)"
+        return f"{tex}^{{{exp}}}" if exp else tex
+
+
+class _Pretty(PrettyPrinter):
+    def __init__(self, digits: int):
+        super().__init__({"use_unicode": True, "wrap_line": False})
+        self.digits = digits
+
+    def _print_Float(self, expr):
+        return prettyForm(number(float(expr), self.digits))
+
+
+def _latex_symbol(name: str) -> str | None:
+    """qd2 → \\dot{q}_{2}, qdd2 → \\ddot{q}_{2}, tau1 → \\tau_{1}; None for other names."""
+    for stem, tex in (("qdd", r"\ddot{q}"), ("qd", r"\dot{q}"), ("tau", r"\tau")):
+        if name.startswith(stem) and name[len(stem):].isdigit():
+            return f"{tex}_{{{name[len(stem):]}}}"
+    return None
+
+
+# --------------------------------------------------------------------------- line breaking
+
+@dataclass(frozen=True)
+class _Piece:
+    """One unbreakable run of a right-hand side: an operator ("", "+", "-"),
+    the (factor, sign) pairs that open a parenthesis before the term, as in
+    "m2*(-", the term itself, and how many parentheses close after it."""
+
+    op: str
+    opens: tuple
+    term: sp.Expr
+    closes: int
+
+
+def _terms(expr, printer) -> list:
+    """The top-level terms in print order (a list or tuple is taken as given)."""
+    if isinstance(expr, (list, tuple)):
+        return list(expr)
+    return list(printer._as_ordered_terms(expr, order=None)) if expr.is_Add else [expr]
+
+
+def _pieces(expr, fmt: str, printer, budget: float) -> list[_Piece]:
+    """Break points of a right-hand side: before each top-level term, and inside
+    a term too wide for the budget that is a product with a sum factor."""
+    out = []
+    for k, term in enumerate(_terms(expr, printer)):
+        op, body = ("-", -term) if term.could_extract_minus_sign() else ("+", term)
+        if k == 0 and op == "+":
+            op = ""
+        piece = _Piece(op, (), body, 0)
+        sums = [f for f in sp.Mul.make_args(body) if f.is_Add]
+        if not sums or _width([piece], fmt, printer) <= budget:
+            out.append(piece)
+            continue
+        coeff = sp.Mul(*[f for f in sp.Mul.make_args(body) if f is not sums[0]])
+        parts = _pieces(sums[0], fmt, printer, budget)
+        first, last = parts[0], parts[-1]
+        parts[0] = _Piece(op, ((coeff, first.op),) + first.opens, first.term, first.closes)
+        parts[-1] = _Piece(parts[-1].op, parts[-1].opens, parts[-1].term, last.closes + 1) \
+            if len(parts) > 1 else _Piece(op, parts[0].opens, parts[0].term, parts[0].closes + 1)
+        out += parts
+    return out
+
+
+def _render_piece(piece: _Piece, fmt: str, printer, lead: bool = False):
+    """A piece as a string (text, LaTeX) or a prettyForm (pretty); the first
+    piece of an equation (`lead`) writes its minus sign without a space."""
+    op = piece.op
+    if fmt == "pretty":
+        parts = [prettyForm(op if lead else op + " ")] if op else []
+        for factor, sign in piece.opens:
+            parts += [printer._print(factor) if factor != 1 else prettyForm(""),
+                      prettyForm(("⋅(" if factor != 1 else "(") + sign)]
+        parts.append(printer._print(piece.term))
+        parts.append(prettyForm(")" * piece.closes))
+        return prettyForm(*stringPict.next(*parts))
+    mul, open_, close = ("*", "(", ")") if fmt == "text" else (" ", r"\bigl(", r"\bigr)")
+    text = {"": "", "-": "-"}.get(op, f"{op} ") if lead else (f"{op} " if op else "")
+    for factor, sign in piece.opens:
+        text += (printer.doprint(factor) + mul if factor != 1 else "") + open_ + sign
+    text += printer.doprint(piece.term) + close * piece.closes
+    return text
+
+
+def _width(pieces: list, fmt: str, printer) -> float:
+    """Printed width of pieces on one line (characters; LaTeX: `latex_width`)."""
+    return sum(_piece_width(_render_piece(p, fmt, printer), fmt) for p in pieces) + len(pieces) - 1
+
+
+def _piece_width(rendered, fmt: str) -> float:
+    if fmt == "pretty":
+        return rendered.width()
+    return latex_width(rendered) if fmt == "latex" else len(rendered)
+
+
+_COMMAND = re.compile(r"\\([a-zA-Z]+)")
+_WORDS = {"cos": 3, "sin": 3, "operatorname": 0, "cdot": 1, "left": 0, "right": 0, "bigl": 0.3, "bigr": 0.3,
+          "dot": 0, "ddot": 0, "quad": 2, "tau": 1, "pi": 1, "mathrm": 0, "colon": 0.5}
+
+
+def latex_width(tex: str) -> float:
+    """Estimated printed width of one line of math, in character units: a
+    character counts 1, one in a sub- or superscript 0.7, + − = with their
+    spacing 2, \\cos 3; commands that only place things (\\left, \\dot) 0."""
+    width, i = 0.0, 0
+    scripts: list = []      # brace depths at which open sub/superscripts end
+    depth = 0
+    while i < len(tex):
+        ch = tex[i]
+        scale = 0.7 if scripts else 1.0
+        if ch == "\\":
+            m = _COMMAND.match(tex, i)
+            width += (_WORDS.get(m.group(1), 1) if m else 0.5) * scale
+            i = m.end() if m else i + 2
+            continue
+        if ch in "^_" and tex[i + 1:i + 2] == "{":
+            scripts.append(depth + 1)
+        elif ch in "^_":            # a one-character script
+            width += 0.7
+            i += 2
+            continue
+        elif ch == "{":
+            depth += 1
+        elif ch == "}":
+            if scripts and scripts[-1] == depth:
+                scripts.pop()
+            depth -= 1
+        elif ch in "+-=":
+            width += 2 * scale
+        elif ch != " ":
+            width += scale
+        i += 1
+    return width
+
+
+def wrap(name: str, expr, fmt: str = "text", *, width: float | None = None, digits: int = DIGITS) -> list:
+    """name = expr broken into lines of at most `width` (the format's budget by
+    default): text lines, LaTeX `align*` rows (`&=` and `&\\quad` aligned), or
+    pretty-printed blocks.  expr may be an ordered list of terms."""
+    printer = _printer(fmt, digits)
+    width = WIDTHS[fmt] if width is None else width
+    if fmt == "latex":
+        head = f"{_latex_name(name)} &= "
+        cont = r"&\quad "
+        lead = latex_width(_latex_name(name)) + 3
+    else:
+        head = f"{name} = "
+        cont = " " * len(head)
+        lead = len(head)
+    budget = width - lead
+    pieces = _pieces(expr, fmt, printer, budget)
+    lines, current, used = [], [], 0.0
+    for piece in pieces:
+        w = _piece_width(_render_piece(piece, fmt, printer), fmt)
+        if current and used + 1 + w > budget:
+            lines.append(current)
+            current, used = [], 0.0
+        current.append(piece)
+        used += w + (1 if len(current) > 1 else 0)
+    lines.append(current)
+    if fmt == "pretty":
+        blocks = []
+        for k, line in enumerate(lines):
+            parts = [prettyForm(head if k == 0 else cont)]
+            for j, piece in enumerate(line):
+                if j:
+                    parts.append(prettyForm(" "))
+                parts.append(_render_piece(piece, fmt, printer, k == 0 and j == 0))
+            blocks.append(prettyForm(*stringPict.next(*parts)).render(wrap_line=False))
+        return blocks
+    return [(head if k == 0 else cont) + " ".join(_render_piece(p, fmt, printer, k == 0 and j == 0)
+                                                  for j, p in enumerate(line))
+            for k, line in enumerate(lines)]
+
+
+def _printer(fmt: str, digits: int):
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
+    return {"text": _Text, "pretty": _Pretty, "latex": _Latex}[fmt](digits)
+
+
+# --------------------------------------------------------------------------- elements and documents
+
+def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, form: str = "book") -> list:
     """[(name, expr)] for one term: M and C by (row, column), vectors by row;
     M lists its upper triangle only (it is symmetric).  form: "book" (products
     of sines and cosines of natural angles) or "folded" (sums of angles)."""
@@ -36,48 +274,44 @@ def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, digits
             if term == "M" and j < i:
                 continue
             name = f"{term}{i + 1}{j + 1}" if mat.cols > 1 else f"{term}{i + 1}"
-            out.append((name, _display(tidy(mat[i, j], dyn, form), digits)))
+            out.append((name, _display(tidy(mat[i, j], dyn, form))))
     return out
 
 
 def _latex_name(name: str) -> str:
-    stem = name.rstrip("0123456789")
-    index = name[len(stem):]
+    """M11 → M_{11}, tau2 → \\tau_{2}, b1_23 → b_{1,23}, Cqd1 → (C\\dot q)_{1}."""
+    stem = name.rstrip("0123456789_")
+    index = name[len(stem):].replace("_", ",")
     stem = {"tau": r"\tau", "Cqd": r"(C\dot q)"}.get(stem, stem)
     return f"{stem}_{{{index}}}"
 
 
-def render(items: list, fmt: str = "text") -> str:
-    """The elements as text lines, pretty-printed blocks or LaTeX equations."""
-    if fmt not in FORMATS:
-        raise ValueError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
+def render(items: list, fmt: str = "text", *, digits: int = DIGITS, width: float | None = None,
+           document: bool = True) -> str:
+    """The elements [(name, expr or ordered terms)] as wrapped text lines,
+    pretty-printed blocks or LaTeX `align*` rows (a complete document unless
+    document=False)."""
+    _printer(fmt, digits)
+    blocks = [wrap(name, e, fmt, width=width, digits=digits) for name, e in items]
     if fmt == "text":
-        return "\n".join(f"{name} = {sp.sstr(e)}" for name, e in items)
+        return "\n".join(line for b in blocks for line in b)
     if fmt == "pretty":
-        return "\n\n".join(f"{name} =\n{sp.pretty(e, use_unicode=True, wrap_line=False)}" for name, e in items)
-    body = "\n".join(
-        f"\\begin{{multline*}}\n{_latex_name(name)} = {sp.latex(e, symbol_names=_latex_symbols(e))}\n\\end{{multline*}}"
-        for name, e in items)
+        return "\n\n".join("\n".join(b) for b in blocks)
+    body = "\n".join("\\begin{align*}\n" + " \\\\\n".join(b) + "\n\\end{align*}" for b in blocks)
+    return latex_document(body) if document else body
+
+
+def latex_document(body: str) -> str:
+    """A complete article around display math (amsmath; long pages break between displays)."""
     return ("\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n"
             "\\begin{document}\n\\small\n" + body + "\n\\end{document}\n")
 
 
-def _latex_symbols(expr: sp.Expr) -> dict:
-    """qd2 → \\dot{q}_{2}, qdd2 → \\ddot{q}_{2}."""
-    names = {}
-    for s in expr.free_symbols:
-        for stem, tex in (("qdd", r"\ddot{q}"), ("qd", r"\dot{q}")):
-            if s.name.startswith(stem) and s.name[len(stem):].isdigit():
-                names[s] = f"{tex}_{{{s.name[len(stem):]}}}"
-                break
-    return names
-
-
 def closed_form(dyn: Dynamics, terms=("M", "C", "G", "F", "tau"), fmt: str = "text",
-                prune_tol: float | None = None, form: str = "book") -> str:
-    """Every requested term of `dyn`, rendered."""
+                prune_tol: float | None = None, form: str = "book", *, digits: int = DIGITS) -> str:
+    """Every requested term of `dyn`, rendered and wrapped."""
     for t in terms:
         if t not in TERMS:
             raise ValueError(f"unknown term {t!r}: expected one of {', '.join(TERMS)} or all")
     items = [item for t in terms for item in elements(dyn, t, prune_tol=prune_tol, form=form)]
-    return render(items, fmt)
+    return render(items, fmt, digits=digits)
