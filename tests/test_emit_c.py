@@ -37,20 +37,6 @@ def test_ctypes_binding_agrees_with_the_reference(twolink_ctypes):
         assert_close(getattr(twolink_ctypes, function)(*(a[7] for a in args)), expected[7], function)
 
 
-@pytest.mark.parametrize("binding", ["extension", "ctypes"])
-def test_wrong_shapes_are_clear_errors(binding, model, twolink_ctypes):
-    m = model if binding == "extension" else twolink_ctypes
-    n = m.n
-    with pytest.raises(ValueError, match=r"must have shape \(\.\.\., %d\)" % n):
-        m.M(np.zeros(n + 1))
-    with pytest.raises(ValueError, match=r"must have shape"):
-        m.M(1.0)
-    with pytest.raises(ValueError, match="does not broadcast"):
-        m.C(np.zeros((3, n)), np.zeros(n))
-    with pytest.raises(TypeError, match="takes 2 arguments"):
-        m.C(np.zeros(n))
-
-
 def _copy_model(tmp_path, name="twolink"):
     src = codegen.GENERATED / name
     for suffix in (".c", ".h"):

@@ -187,12 +187,21 @@ class GeneratedModel:
 
 
 class CasadiModel(GeneratedModel):
-    """The CasADi target: attributes are casadi.Functions; Jacobians by CasADi's AD."""
+    """The CasADi target: `functions` are the casadi.Functions, for symbolic
+    use; the attributes are the same Functions following the contract of every
+    target when called with numbers (`emit.casadi.Numeric`); Jacobians by
+    CasADi's AD."""
+
+    def __init__(self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict):
+        super().__init__(name, n, target, fingerprint, folder, functions)
+        self.functions = {f: numeric.function for f, numeric in functions.items()}
 
     def jacobian(self, function: str, wrt: str, output: str | None = None):
         """casadi.Function of ∂output/∂wrt of `function` (same inputs), e.g.
         jacobian("tau", "q") for ∂τ/∂q, jacobian("fdyn", "tau") for ∂q̈/∂τ."""
-        f = getattr(self, function)
+        if function not in self.functions:
+            raise ValueError(f"{self.name} has no function {function!r}: it has {', '.join(self.functions)}")
+        f = self.functions[function]
         output = output or f.name_out(0)
         if wrt not in f.name_in():
             raise ValueError(f"{function} has no input {wrt!r}: its inputs are {', '.join(f.name_in())}")

@@ -6,24 +6,30 @@ Jacobian (∂τ/∂q, ∂q̈/∂τ, …).  A model's functions are stored togeth
 file with CasADi's serialiser, preceded by the provenance strings (symdyn
 version, model fingerprint); the functions are packed as one sealed string
 (their serialisation headed by its sha256, see `symdyn.codegen.emit.seal`) so
-an edited file is detected before it is deserialised.  They can be passed
-through CasADi's own C code generator.
+an edited file is detected before it is deserialised, with the shape of
+each output (a 1×1 M is a matrix, a 1-vector τ is not).  They can be passed
+through CasADi's own C code generator.  `Numeric` gives a Function the
+contract of every target (`symdyn.codegen.contract`) when it is called with
+numbers, batched over leading axes by CasADi's map.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 
 from ...derivation.program import Program, lower
+from .. import contract
 from . import DIGEST_FIELD, Bundle, seal, write_atomic
 
-__all__ = ["function", "functions", "serialize", "read", "deserialize", "generate_c", "FORMAT"]
+__all__ = ["function", "functions", "serialize", "read", "deserialize", "generate_c", "FORMAT", "Numeric"]
 
-FORMAT = "symdyn-casadi-2"
+FORMAT = "symdyn-casadi-3"
 
 _CALLS = {"sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "sqrt": ca.sqrt, "sign": ca.sign, "abs": ca.fabs}
 
@@ -86,13 +92,15 @@ def functions(bundle: Bundle) -> list[ca.Function]:
 
 def serialize(bundle: Bundle, path: Path) -> Path:
     """Write the model's functions to `path` (atomically): format tag, version,
-    fingerprint, model name, then the sealed content: "content-sha256: <hex>"
-    and the serialised list of Functions, one per program."""
+    fingerprint, model name, then the sealed content: "content-sha256: <hex>",
+    the output shapes of every function (JSON, one line) and the serialised
+    list of Functions, one per program."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     inner = ca.StringSerializer()
     inner.pack(functions(bundle))
-    content = seal(f"{DIGEST_FIELD}\n{inner.encode()}")
+    shapes = json.dumps({p.name: p.output_shapes() for p in bundle.programs}, separators=(",", ":"))
+    content = seal(f"{DIGEST_FIELD}\n{shapes}\n{inner.encode()}")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(fd)
     try:
@@ -121,10 +129,59 @@ def read(path: Path) -> tuple[dict, str]:
         raise ValueError(f"{path} is not a symdyn CasADi file: {exc}") from exc
 
 
-def deserialize(path: Path) -> tuple[dict, list[ca.Function]]:
-    """(the head of `read`, functions) of a file (check `is_intact` of its content first)."""
+def deserialize(path: Path) -> tuple[dict, list["Numeric"]]:
+    """(the head of `read`, the functions with their output shapes) of a file
+    (check `is_intact` of its content first)."""
     head, content = read(path)
-    return head, list(ca.StringDeserializer(content.split("\n", 1)[1]).unpack())
+    _, shapes, encoded = content.split("\n", 2)
+    shapes = json.loads(shapes)
+    return head, [Numeric(f, shapes[f.name()]) for f in ca.StringDeserializer(encoded).unpack()]
+
+
+class Numeric:
+    """A casadi.Function that follows the contract of every target when called
+    with numbers (NumPy arrays, lists, floats): single or batched states,
+    broadcasting, keyword arguments, NumPy outputs of the documented shapes,
+    bad input refused.  Called with CasADi values (SX, MX, DM), and in every
+    attribute (name_in, map, factory, …), it is the Function itself."""
+
+    def __init__(self, function: ca.Function, shapes) -> None:
+        self.function = function
+        self.shapes = tuple(tuple(s) for s in shapes)
+        self.inputs = tuple((function.name_in(i), function.size1_in(i)) for i in range(function.n_in()))
+        self.__name__ = function.name()
+        self.__doc__ = function.__str__()
+        self._lead = contract.MAXDIMS - max(map(len, self.shapes))
+
+    def __getattr__(self, name):
+        if name == "function":   # not set yet (a copy being built)
+            raise AttributeError(name)
+        return getattr(self.function, name)
+
+    def __repr__(self) -> str:
+        return repr(self.function)
+
+    def __call__(self, *args, **kwargs):
+        if any(isinstance(x, (ca.SX, ca.MX, ca.DM)) for x in (*args, *kwargs.values())):
+            return self.function(*args, **kwargs)
+        arrays, lead = contract.arguments(self.__name__, self.inputs, args, kwargs, self._lead)
+        count = int(np.prod(lead))
+        if lead and not count:
+            outs = tuple(np.empty(lead + s) for s in self.shapes)
+            return outs[0] if len(outs) == 1 else outs
+        if lead:
+            values = self.function.map(count).call([ca.DM(x.reshape(count, -1).T) for x in arrays])
+        else:
+            values = self.function.call([ca.DM(x) for x in arrays])
+        outs = tuple(_rows(np.array(v), count, s).reshape(lead + s) for v, s in zip(values, self.shapes))
+        return outs[0] if len(outs) == 1 else outs
+
+
+def _rows(value: np.ndarray, count: int, shape: tuple) -> np.ndarray:
+    """One state's output (rows, cols), or CasADi's map of `count` states
+    (rows, count·cols), as (count, *shape) row-major."""
+    per = value.reshape(value.shape[0], count, -1).transpose(1, 0, 2)
+    return np.ascontiguousarray(per).reshape((count, *shape))
 
 
 def generate_c(funcs: list[ca.Function], name: str, out_dir: Path) -> Path:

@@ -9,7 +9,8 @@ it was built, is verified (a truncated library would crash Python when
 loaded).  A cache that cannot be written means a temporary folder.  Two
 bindings: a small CPython extension (per-call overhead well under a
 microsecond; needs Python.h) and ctypes (no headers needed, a few µs per
-call).  Both take NumPy arrays of shape (n,) or (N, n) and return new ones.
+call).  Both follow the contract of `symdyn.codegen.contract` (shapes,
+broadcasting, keyword arguments, bad input) and return new arrays.
 """
 
 from __future__ import annotations
@@ -31,13 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from ...derivation.cache import cache_dir, writable
+from .. import contract
 from . import write_atomic
 from .c import Signature, read_signatures
 
 __all__ = ["CompileOptions", "CLibrary", "load_library", "compiler"]
-
-#: NumPy's limit on the dimensions of an array (NPY_MAXDIMS; 32 before NumPy 2).
-MAXDIMS = 64
 
 #: -march=native: the library is built for this machine (the cache key includes the host name).
 DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared")
@@ -91,7 +90,8 @@ _GLUE_HEAD = r'''#define PY_SSIZE_T_CLEAN
 typedef void (*one_fn)(const double *const *in, double *const *out);
 typedef void (*many_fn)(int n, const double *const *in, double *const *out);
 typedef struct {
-    const char *name, *args;
+    const char *name;
+    const char *const *in_names;
     int nin, nout;
     const npy_intp *in_size;
     const int *out_nd;
@@ -100,75 +100,106 @@ typedef struct {
     many_fn many;
 } spec_t;
 
-/* Inputs as C-contiguous doubles with equal leading shapes; one output array
-   per output, shaped leading + its own shape; single or batched call. */
-static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
+/* Whether the call is the common one: positional C-contiguous finite double
+   arrays (..., size) of one leading shape with room for the outputs' dimensions. */
+static int plain(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames, int out_nd)
 {
-    PyArrayObject *in[MAXARGS] = {0};
+    int i, nd = 0;
+    if (nargs != s->nin || (kwnames && PyTuple_GET_SIZE(kwnames)))
+        return 0;
+    for (i = 0; i < s->nin; ++i) {
+        PyArrayObject *a = (PyArrayObject *)args[i];
+        npy_intp size, k;
+        const double *x;
+        if (!PyArray_CheckExact(args[i]) || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISCARRAY_RO(a))
+            return 0;
+        if (i == 0) {
+            nd = PyArray_NDIM(a);
+            if (nd == 0 || nd - 1 + out_nd > NPY_MAXDIMS)
+                return 0;
+        } else if (PyArray_NDIM(a) != nd
+                   || memcmp(PyArray_DIMS(a), PyArray_DIMS((PyArrayObject *)args[0]), (nd - 1) * sizeof(npy_intp)))
+            return 0;
+        if (PyArray_DIMS(a)[nd - 1] != s->in_size[i])
+            return 0;
+        size = PyArray_SIZE(a);
+        x = (const double *)PyArray_DATA(a);
+        for (k = 0; k < size; ++k)
+            if (!isfinite(x[k]))
+                return 0;
+    }
+    return 1;
+}
+
+/* Any other call goes through symdyn.codegen.contract.arguments, the contract
+   every target shares: (checked arrays of one leading shape, that shape), or an error. */
+static PyObject *checked(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames, int out_nd)
+{
+    static PyObject *arguments = NULL;
+    PyObject *inputs = NULL, *pos = NULL, *kw = NULL, *result = NULL;
+    Py_ssize_t i, nkw = kwnames ? PyTuple_GET_SIZE(kwnames) : 0;
+    if (!arguments) {
+        PyObject *module = PyImport_ImportModule("symdyn.codegen.contract");
+        if (!module)
+            return NULL;
+        arguments = PyObject_GetAttrString(module, "arguments");
+        Py_DECREF(module);
+        if (!arguments)
+            return NULL;
+    }
+    inputs = PyTuple_New(s->nin);
+    pos = PyTuple_New(nargs);
+    kw = PyDict_New();
+    if (!inputs || !pos || !kw)
+        goto done;
+    for (i = 0; i < s->nin; ++i) {
+        PyObject *pair = Py_BuildValue("(sn)", s->in_names[i], (Py_ssize_t)s->in_size[i]);
+        if (!pair)
+            goto done;
+        PyTuple_SET_ITEM(inputs, i, pair);
+    }
+    for (i = 0; i < nargs; ++i) {
+        Py_INCREF(args[i]);
+        PyTuple_SET_ITEM(pos, i, args[i]);
+    }
+    for (i = 0; i < nkw; ++i)
+        if (PyDict_SetItem(kw, PyTuple_GET_ITEM(kwnames, i), args[nargs + i]) < 0)
+            goto done;
+    result = PyObject_CallFunction(arguments, "sOOOi", s->name, inputs, pos, kw, NPY_MAXDIMS - out_nd);
+done:
+    Py_XDECREF(inputs);
+    Py_XDECREF(pos);
+    Py_XDECREF(kw);
+    return result;
+}
+
+/* One output array per output, shaped leading + its own shape; single or batched call. */
+static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames)
+{
     PyObject *out[MAXARGS] = {0};
+    PyObject *normal = NULL, *result = NULL;
     const double *pin[MAXARGS];
     double *pout[MAXARGS];
-    npy_intp lead[NPY_MAXDIMS], dims[NPY_MAXDIMS], count = 1;
-    int lead_nd = 0, out_nd = 0, i, j;
-    PyObject *result = NULL;
-    if (nargs != s->nin) {
-        PyErr_Format(PyExc_TypeError, "%%s() takes %%d arguments (%%s), got %%zd", s->name, s->nin, s->args, nargs);
-        return NULL;
-    }
+    npy_intp dims[NPY_MAXDIMS], count = 1;
+    int lead_nd, out_nd = 0, i, j;
     for (j = 0; j < s->nout; ++j)   /* an output has lead_nd + out_nd dimensions: they must fit dims */
         out_nd = s->out_nd[j] > out_nd ? s->out_nd[j] : out_nd;
-    for (i = 0; i < s->nin; ++i) {
-        int nd;
-        if (PyArray_CheckExact(args[i]) && PyArray_TYPE((PyArrayObject *)args[i]) == NPY_DOUBLE
-            && PyArray_ISCARRAY_RO((PyArrayObject *)args[i])) {
-            Py_INCREF(args[i]);   /* fast path: already C-contiguous aligned doubles */
-            in[i] = (PyArrayObject *)args[i];
-        } else {
-            in[i] = (PyArrayObject *)PyArray_FROMANY(args[i], NPY_DOUBLE, 0, 0, NPY_ARRAY_IN_ARRAY);
-            if (!in[i])
-                goto done;
-        }
-        nd = PyArray_NDIM(in[i]);
-        if (nd == 0 || PyArray_DIMS(in[i])[nd - 1] != s->in_size[i]) {
-            PyObject *shape = PyObject_GetAttrString((PyObject *)in[i], "shape");
-            PyErr_Format(PyExc_ValueError, "%%s(): argument %%d must have shape (..., %%zd), got %%R",
-                         s->name, i + 1, (Py_ssize_t)s->in_size[i], shape);
-            Py_XDECREF(shape);
-            goto done;
-        }
-        if (i == 0) {
-            lead_nd = nd - 1;
-            if (lead_nd + out_nd > NPY_MAXDIMS) {
-                PyErr_Format(PyExc_ValueError, "%%s(): argument 1 has %%d leading dimensions, at most %%d "
-                             "(NumPy arrays have at most %%d dimensions, the result's own included)",
-                             s->name, lead_nd, NPY_MAXDIMS - out_nd, NPY_MAXDIMS);
-                goto done;
-            }
-            memcpy(lead, PyArray_DIMS(in[i]), lead_nd * sizeof(npy_intp));
-        } else if (nd - 1 != lead_nd || memcmp(lead, PyArray_DIMS(in[i]), lead_nd * sizeof(npy_intp))) {
-            PyErr_Format(PyExc_ValueError, "%%s(): argument %%d has other leading dimensions than "
-                         "argument 1; the C target does not broadcast", s->name, i + 1);
-            goto done;
-        }
-        pin[i] = (const double *)PyArray_DATA(in[i]);
+    if (!plain(s, args, nargs, kwnames, out_nd)) {
+        normal = checked(s, args, nargs, kwnames, out_nd);
+        if (!normal)
+            return NULL;
+        args = &PyTuple_GET_ITEM(PyTuple_GET_ITEM(normal, 0), 0);
     }
+    lead_nd = PyArray_NDIM((PyArrayObject *)args[0]) - 1;
+    memcpy(dims, PyArray_DIMS((PyArrayObject *)args[0]), lead_nd * sizeof(npy_intp));
     for (i = 0; i < lead_nd; ++i)
-        count *= lead[i];
-    for (i = 0; i < s->nin; ++i) {   /* a NaN or infinite state is bad input, not a result */
-        const npy_intp size = PyArray_SIZE(in[i]);
-        npy_intp k;
-        for (k = 0; k < size; ++k)
-            if (!isfinite(pin[i][k])) {
-                PyErr_Format(PyExc_ValueError, "%%s(): argument %%d contains NaN or infinity (element %%zd)",
-                             s->name, i + 1, (Py_ssize_t)k);
-                goto done;
-            }
-    }
+        count *= dims[i];
+    for (i = 0; i < s->nin; ++i)
+        pin[i] = (const double *)PyArray_DATA((PyArrayObject *)args[i]);
     if (count > INT_MAX) {
         PyErr_Format(PyExc_ValueError, "%%s(): %%zd states, at most %%d per call", s->name, (Py_ssize_t)count, INT_MAX);
         goto done;
     }
-    memcpy(dims, lead, lead_nd * sizeof(npy_intp));
     for (j = 0; j < s->nout; ++j) {
         memcpy(dims + lead_nd, s->out_dims[j], s->out_nd[j] * sizeof(npy_intp));
         out[j] = PyArray_SimpleNew(lead_nd + s->out_nd[j], dims, NPY_DOUBLE);
@@ -194,10 +225,9 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs)
         }
     }
 done:
-    for (i = 0; i < MAXARGS; ++i) {
-        Py_XDECREF(in[i]);
-        Py_XDECREF(out[i]);
-    }
+    for (j = 0; j < MAXARGS; ++j)
+        Py_XDECREF(out[j]);
+    Py_XDECREF(normal);
     return result;
 }
 '''
@@ -212,21 +242,23 @@ def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
         ins = ", ".join(f"in[{i}]" for i in range(nin))
         outs = ", ".join(f"out[{j}]" for j in range(nout))
         dims = ", ".join("{" + ", ".join(map(str, (list(s) + [0])[:2])) + "}" for _, s in sig.outputs)
-        args = ", ".join(a for a, _ in sig.inputs)
+        names = ", ".join(f'"{a}"' for a, _ in sig.inputs)
         parts.append(
             f"static void {f}_one(const double *const *in, double *const *out) "
             f"{{ {model}_{f}({ins}, {outs}); }}\n"
             f"static void {f}_many(int n, const double *const *in, double *const *out) "
             f"{{ {model}_{f}_batch(n, {ins}, {outs}); }}\n"
+            f"static const char *const {f}_names[] = {{{names}}};\n"
             f"static const npy_intp {f}_in[] = {{{', '.join(str(k) for _, k in sig.inputs)}}};\n"
             f"static const int {f}_out_nd[] = {{{', '.join(str(len(s)) for _, s in sig.outputs)}}};\n"
             f"static const npy_intp {f}_out_dims[][2] = {{{dims}}};\n"
-            f'static const spec_t {f}_spec = {{"{f}", "{args}", {nin}, {nout}, {f}_in, {f}_out_nd, '
+            f'static const spec_t {f}_spec = {{"{f}", {f}_names, {nin}, {nout}, {f}_in, {f}_out_nd, '
             f"{f}_out_dims, {f}_one, {f}_many}};\n"
-            f"static PyObject *py_{f}(PyObject *self, PyObject *const *args, Py_ssize_t nargs) "
-            f"{{ return call(&{f}_spec, args, nargs); }}\n")
-        doc = f"{sig.line()[len('function: '):]}; batched over leading axes"
-        methods.append(f'    {{"{f}", (PyCFunction)(void (*)(void))py_{f}, METH_FASTCALL, "{doc}"}},')
+            f"static PyObject *py_{f}(PyObject *self, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames) "
+            f"{{ return call(&{f}_spec, args, nargs, kwnames); }}\n")
+        doc = (f"{f}($module, {', '.join(a for a, _ in sig.inputs)})\\n--\\n\\n"
+               f"{sig.line()[len('function: '):]}; batched over leading axes")
+        methods.append(f'    {{"{f}", (PyCFunction)(void (*)(void))py_{f}, METH_FASTCALL | METH_KEYWORDS, "{doc}"}},')
     parts.append("static PyMethodDef methods[] = {\n" + "\n".join(methods) + "\n    {NULL, NULL, 0, NULL}\n};\n")
     parts.append(
         f'static struct PyModuleDef moduledef = {{PyModuleDef_HEAD_INIT, "{module}", NULL, -1, methods}};\n'
@@ -358,31 +390,12 @@ class _CtypesFunction:
         self._many.argtypes, self._many.restype = [ctypes.c_int] + [ctypes.c_void_p] * nargs, None
         self.__name__ = sig.name
         self.__doc__ = f"{sig.line()[len('function: '):]}; batched over leading axes"
-        self._lead_max = MAXDIMS - max(len(shape) for _, shape in sig.outputs)
+        self._lead_max = contract.MAXDIMS - max(len(shape) for _, shape in sig.outputs)
 
-    def __call__(self, *args):
-        sig = self.sig
-        if len(args) != len(sig.inputs):
-            names = ", ".join(a for a, _ in sig.inputs)
-            raise TypeError(f"{sig.name}() takes {len(sig.inputs)} arguments ({names}), got {len(args)}")
-        arrays = []
-        for (name, size), x in zip(sig.inputs, args):
-            x = np.ascontiguousarray(x, dtype=float)
-            if x.ndim == 0 or x.shape[-1] != size:
-                raise ValueError(f"{sig.name}(): {name} must have shape (..., {size}), got {x.shape}")
-            if x.ndim - 1 > self._lead_max:
-                raise ValueError(f"{sig.name}(): {name} has {x.ndim - 1} leading dimensions, at most "
-                                 f"{self._lead_max} (NumPy arrays have at most {MAXDIMS} dimensions, "
-                                 "the result's own included)")
-            if not np.isfinite(x).all():
-                raise ValueError(f"{sig.name}(): {name} contains NaN or infinity")
-            if arrays and x.shape[:-1] != arrays[0].shape[:-1]:
-                raise ValueError(f"{sig.name}(): {name} has leading shape {x.shape[:-1]}, "
-                                 f"{sig.inputs[0][0]} has {arrays[0].shape[:-1]}; the C target does not broadcast")
-            arrays.append(x)
-        lead = arrays[0].shape[:-1]
-        outs = [np.empty(lead + shape) for _, shape in sig.outputs]
-        pointers = [a.ctypes.data for a in arrays + outs]
+    def __call__(self, *args, **kwargs):
+        arrays, lead = contract.arguments(self.sig.name, self.sig.inputs, args, kwargs, self._lead_max)
+        outs = [np.empty(lead + shape) for _, shape in self.sig.outputs]
+        pointers = [a.ctypes.data for a in (*arrays, *outs)]
         if lead:
             self._many(int(np.prod(lead)), *pointers)
         else:

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ...derivation.program import Program, lower
+from .. import contract
 from . import ATOM, Bundle, Infix, header_lines, seal
 
 __all__ = ["module_source", "batched_source", "scalar_source", "CHUNK", "FEW"]
@@ -37,31 +38,6 @@ UFUNCS = {"neg": "negative", "add": "add", "sub": "subtract", "mul": "multiply",
           "pow": "power"}
 
 _HELPERS = '''
-
-def _arg(x, size, name, lead):
-    """x as a finite float array of shape (..., size) with at most `lead`
-    leading dimensions (the result's own follow them), or a ValueError naming it."""
-    x = np.asarray(x, dtype=float)
-    if x.ndim == 0 or x.shape[-1] != size:
-        raise ValueError(f"{name} must have shape (..., {size}), got {x.shape}")
-    if x.ndim - 1 > lead:
-        raise ValueError(f"{name} has {x.ndim - 1} leading dimensions, at most {lead} (NumPy arrays "
-                         f"have at most {_MAXDIMS} dimensions, the result's own included)")
-    if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
-        raise ValueError(f"{name} contains NaN or infinity")
-    return x
-
-
-_MAXDIMS = 64  # NumPy's limit on the dimensions of an array (32 before NumPy 2)
-
-
-def _shape(*args):
-    """The leading shape of the arguments (..., size_i) broadcast together."""
-    shape = args[0].shape[:-1]
-    if any(x.shape[:-1] != shape for x in args):
-        shape = np.broadcast_shapes(*(x.shape[:-1] for x in args))
-    return shape
-
 
 def _rows(x, shape):
     """x (..., size) broadcast to shape + (size,), as contiguous rows (size, states)."""
@@ -313,12 +289,17 @@ def _allocate(ops: list, direct: dict, copies: list, fixed: dict) -> tuple[dict,
     return row, count
 
 
+#: Module-level names the functions read (a local of the same name would hide them).
+_MODULE_NAMES = {"argument", "leading", "MAXDIMS", "FEW", "shape"}
+
+
 def _check_names(p: Program) -> None:
     taken = {s.name for _, syms in p.inputs for s in syms} | {a for a, _ in p.inputs} \
         | {s.name for s, _ in p.assignments}
-    clash = sorted(n for n in taken if n.startswith("_"))
+    clash = sorted(n for n in taken if n.startswith("_") or n in _MODULE_NAMES)
     if clash:
-        raise ValueError(f"function {p.name!r}: names starting with '_' are the emitter's, got {', '.join(clash)}")
+        raise ValueError(f"function {p.name!r}: names starting with '_' and {', '.join(sorted(_MODULE_NAMES))} "
+                         f"are the emitter's, got {', '.join(clash)}")
 
 
 def _dispatch_lines(p: Program) -> list[str]:
@@ -326,15 +307,16 @@ def _dispatch_lines(p: Program) -> list[str]:
     or math domain error there falls through to NumPy's inf/nan)."""
     args = [a for a, _ in p.inputs]
     shapes = repr(p.output_shapes())
-    lead = f"_MAXDIMS - {max(map(len, p.output_shapes()))}"
+    lead = f"MAXDIMS - {max(map(len, p.output_shapes()))}"
     fallback = ["        except (ArithmeticError, ValueError):",
                 "            pass  # a zero division or math domain error: inf/nan as NumPy gives below"]
-    return [f"    {', '.join(args)} = " + ", ".join(f"_arg({a}, {len(s)}, {a!r}, {lead})" for a, s in p.inputs),
+    checks = ", ".join(f"argument({a}, {len(s)}, {a!r}, {lead}, {p.name!r})" for a, s in p.inputs)
+    return [f"    {', '.join(args)} = {checks}",
             f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
             "        try:",
             f"            return _outputs(_{p.name}_one({', '.join(f'{a}.tolist()' for a in args)}), (), {shapes})",
             *fallback,
-            f"    shape = _shape({', '.join(args)})",
+            f"    shape = leading({p.name!r}, {tuple(args)!r}, {_tuple(args)})",
             f"    {', '.join(args)} = " + ", ".join(f"_rows({a}, shape)" for a in args),
             f"    _states = {args[0]}.shape[1]",
             "    if _states <= FEW:",
@@ -342,6 +324,11 @@ def _dispatch_lines(p: Program) -> list[str]:
             f"            return _outputs([_{p.name}_one(*state) for state in zip("
             f"{', '.join(f'{a}.T.tolist()' for a in args)})], shape, {shapes})",
             *fallback]
+
+
+def _tuple(names: list[str]) -> str:
+    """Python text of a tuple of the variables `names`."""
+    return f"({names[0]},)" if len(names) == 1 else f"({', '.join(names)})"
 
 
 def _loop_lines(p: Program, plan: _Plan, chunk: int) -> list[str]:
@@ -411,6 +398,7 @@ def module_source(bundle: Bundle) -> str:
         f"FEW = {FEW}  # batches of at most FEW states: the scalar body, state by state",
         f"FUNCTIONS = {tuple(p.name for p in bundle.programs)!r}",
         f"OP_COUNTS = {counts!r}",
+        "\n" + contract.source(),
         _HELPERS,
     ]
     for p in bundle.programs:
