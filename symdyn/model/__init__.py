@@ -1,7 +1,13 @@
-"""The model stage: `Link`, `Robot` and the DH conventions (`robot`), and the
-shipped arms with their sources (`arms`, also `symdyn.models`)."""
+"""The model stage: `Link`, `Robot` and the conventions — standard and modified DH,
+and general (URDF-like) joints (`robot`, `placement`); URDF input (`urdf`, also
+`Robot.from_urdf`); the shipped arms with their sources (`arms`, also `symdyn.models`)."""
 
+from .placement import placement
 from .robot import CONVENTIONS, IDENTITY, JOINT_TYPES, Link, Robot, exact_cos_sin, rotx, roty, rotz, transl
+from .urdf import URDFError, from_urdf
+
+#: `Robot.from_urdf(path_or_xml, base_link=…, tip_link=…)`: defined in `urdf`, which builds on `robot`.
+Robot.from_urdf = staticmethod(from_urdf)
 
 __all__ = ["Link", "Robot", "CONVENTIONS", "JOINT_TYPES", "IDENTITY", "exact_cos_sin", "rotx", "roty", "rotz",
-           "transl"]
+           "transl", "placement", "from_urdf", "URDFError"]

@@ -140,6 +140,8 @@ class Link:
     (3×3, symmetric, about the COM, link-frame axes).
     Motor (motor side, as the Toolbox): rotor inertia `Jm`, viscous friction
     `B`, Coulomb friction `Tc` = (Tc⁺, Tc⁻) with Tc⁻ ≤ 0, gear ratio `G`.
+    Limits that do not enter the dynamics (as URDF's `<limit effort velocity>`):
+    `effort_limit` (N·m or N) and `velocity_limit` (rad/s or m/s), or None.
     `physical=False` waives the triangle inequality of the principal moments
     for published data that violates it (it does not enter the dynamics).
     """
@@ -160,6 +162,8 @@ class Link:
     B: Number = 0
     Tc: tuple = (0, 0)
     G: Number = 1
+    effort_limit: float | None = field(default=None, compare=False)
+    velocity_limit: float | None = field(default=None, compare=False)
     physical: bool = field(default=True, compare=False)
 
     def __post_init__(self) -> None:
@@ -174,6 +178,10 @@ class Link:
         if self.origin is not None:
             set_("origin", _transform(self.origin, "origin"))
         set_("axis", _vector(self.axis, 3, "axis"))
+        for name in ("effort_limit", "velocity_limit"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float)) and 0 < value < math.inf):
+                raise ValueError(f"{name} must be a positive number or None, got {value!r}")
         if not any(_is_symbolic(x) for x in self.axis):
             norm = math.sqrt(sum(float(x) ** 2 for x in self.axis))
             if abs(norm - 1) > 1e-9:
@@ -196,7 +204,7 @@ class Link:
     def _params(self) -> tuple:
         """Every parameter that affects the dynamics; a DH link's unused origin
         and axis are left out, so its fingerprint is what it always was."""
-        skip = {"physical"} | (set() if self.is_general else {"origin", "axis"})
+        skip = {"physical", "effort_limit", "velocity_limit"} | (set() if self.is_general else {"origin", "axis"})
         return tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip)
 
 

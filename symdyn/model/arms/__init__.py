@@ -1,7 +1,7 @@
 """Shipped arms: data with its source, loaded by name (also as `symdyn.models`).
 
-`load("puma560")`, `load("twolink", symbolic=True)`; every arm module has a
-`build(symbolic=False)` that returns a `symdyn.model.Robot`.
+`load("puma560")`, `load("twolink", symbolic=True)`, `load("panda")`; every
+arm module has a `build(symbolic=False, …)` that returns a `symdyn.model.Robot`.
 """
 
 from __future__ import annotations
@@ -15,6 +15,9 @@ _MODULES = {
     "puma560": ("puma560", {}),
     "puma560_mdh": ("puma560", {"modified": True}),
     "rrp": ("rrp", {}),
+    "panda": ("urdf_arms", {"name": "panda"}),
+    "iiwa14": ("urdf_arms", {"name": "iiwa14"}),
+    "ur5": ("urdf_arms", {"name": "ur5"}),
 }
 
 NAMES = tuple(_MODULES)
