@@ -76,9 +76,13 @@ def _cmd_print(args: argparse.Namespace) -> int:
     from .derivation.simplify import op_counts
 
     robot = _load_model(args.model, args.numeric)
-    terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
+    if not 1 <= args.digits <= 17:
+        raise ValueError(f"--digits must be between 1 and 17, got {args.digits}")
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
-    print(closed_form(dyn, terms, args.format, args.prune, args.form))
+    if args.constants:
+        return _print_constants(dyn, args)
+    terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
+    print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits))
     comment = "%" if args.format == "latex" else "#"
     stages = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
     print(f"{comment} {robot.name} by {dyn.method}; operations (mul+add) at each stage:")
@@ -86,6 +90,30 @@ def _cmd_print(args: argparse.Namespace) -> int:
         counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
         row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
         print(f"{comment}   {t:4s} {row}")
+    return 0
+
+
+def _print_constants(dyn, args: argparse.Namespace) -> int:
+    """The named-constant form, then its term and op counts beside the generated code's."""
+    from .codegen.entry import bundle
+    from .derivation.constants import constant_form, render_form
+
+    form = constant_form(dyn)
+    print(render_form(form, args.format, digits=args.digits))
+    comment = "%" if args.format == "latex" else "#"
+    kinds = {k: sum(1 for c in form.constants if str(c.symbol).startswith(k)) for k in ("I", "g", "F")}
+    terms = {k: form.term_count(k) for k in "MbcGF"}
+    print(f"{comment} {len(form.constants)} named constants ({kinds['I']} inertial, {kinds['g']} gravity, "
+          f"{kinds['F']} friction); constant x abbreviation terms: "
+          + ", ".join(f"{k} {v}" for k, v in terms.items()) + f" ({sum(terms.values())} in all)")
+    generated = {p.name: p for p in bundle(dyn.robot).programs}
+    how = "constants from their definitions" if dyn.robot.is_symbolic else "constants as numbers"
+    print(f"{comment} operations (mul + add, sin/cos calls) of evaluating this form ({how}, one joint CSE) "
+          f"vs the generated code (the program every emitter prints):")
+    for kind in ("M", "Cqd", "G", "tau"):
+        ours, theirs = form.op_count(kind), generated[kind].op_count()
+        print(f"{comment}   {kind:4s} named constants {ours['mul'] + ours['add']:5d} + {ours['fun']:2d} fun   "
+              f"generated ({generated[kind].origin}) {theirs['mul'] + theirs['add']:5d} + {theirs['fun']:2d} fun")
     return 0
 
 
@@ -147,6 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--form", default="book", choices=("book", "folded"),
                    help="book: products of sines/cosines of natural angles (S23*C4*S5); "
                         "folded: sines/cosines of angle sums")
+    p.add_argument("--constants", action="store_true",
+                   help="named-constant form (Armstrong, Khatib & Burdick 1986): M, b, c, G, F, tau in named "
+                        "inertial constants with their definitions, values and units, and C2, S23 abbreviations")
+    p.add_argument("--digits", type=int, default=5, help="significant digits of printed numbers (default: 5)")
     p.add_argument("--prune", type=float, default=None, metavar="TOL",
                    help="drop terms below TOL relative to each element's scale")
     p.add_argument("--numeric", action="store_true", help="numeric parameters even where a symbolic variant exists")

@@ -213,18 +213,20 @@ def latex_width(tex: str) -> float:
     return width
 
 
-def wrap(name: str, expr, fmt: str = "text", *, width: float | None = None, digits: int = DIGITS) -> list:
+def wrap(name: str, expr, fmt: str = "text", *, width: float | None = None, digits: int = DIGITS,
+         lhs: str | None = None) -> list:
     """name = expr broken into lines of at most `width` (the format's budget by
     default): text lines, LaTeX `align*` rows (`&=` and `&\\quad` aligned), or
-    pretty-printed blocks.  expr may be an ordered list of terms."""
+    pretty-printed blocks.  expr may be an ordered list of terms; `lhs`
+    replaces the left-hand side "name = " (LaTeX: it must hold the `&`)."""
     printer = _printer(fmt, digits)
     width = WIDTHS[fmt] if width is None else width
     if fmt == "latex":
-        head = f"{_latex_name(name)} &= "
+        head = lhs or f"{latex_name(name)} &= "
         cont = r"&\quad "
-        lead = latex_width(_latex_name(name)) + 3
+        lead = latex_width(head.split("&")[-1]) + max(latex_width(head.split("&")[0]), 2)
     else:
-        head = f"{name} = "
+        head = lhs or f"{name} = "
         cont = " " * len(head)
         lead = len(head)
     budget = width - lead
@@ -278,7 +280,7 @@ def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, form: 
     return out
 
 
-def _latex_name(name: str) -> str:
+def latex_name(name: str) -> str:
     """M11 → M_{11}, tau2 → \\tau_{2}, b1_23 → b_{1,23}, Cqd1 → (C\\dot q)_{1}."""
     stem = name.rstrip("0123456789_")
     index = name[len(stem):].replace("_", ",")

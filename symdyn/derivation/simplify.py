@@ -197,18 +197,29 @@ def _trig_collect(expr: sp.Expr, symbolic: set) -> sp.Expr:
     return sp.Add(*(group_parameters(v, symbolic) * k for k, v in groups.items()))
 
 
-def group_parameters(expr: sp.Expr, symbolic: set) -> sp.Expr:
-    """A coefficient in the robot's symbols as a reader groups it: factored, and
-    where it does not factor, perfect squares completed (a1² + a2² + 2a2c2 + c2²
-    → a1² + (a2 + c2)², the COM distance of Eq. 9.3).  Expressions without the
-    robot's symbols, or with more than 8 symbols, are returned as they are."""
+def group_parameters(expr: sp.Expr, symbolic: set, masses=()) -> sp.Expr:
+    """A coefficient in the robot's symbols as a reader groups it: factored;
+    a sum in which every term holds exactly one of `masses` (to the first
+    power) collected by them, masses outside; elsewhere perfect squares
+    completed (a1² + a2² + 2a2c2 + c2² → a1² + (a2 + c2)², the COM distance
+    of Eq. 9.3).  Expressions without the robot's symbols, or with more than
+    8 symbols, are returned as they are."""
     syms = sorted(expr.free_symbols & symbolic, key=str)
     if not syms or len(expr.free_symbols) > 8:
         return expr
     factored = sp.factor(expr)
-    if factored.is_Mul or factored.is_Pow or not expr.is_polynomial(*syms):
+    if factored.is_Mul:
+        return sp.Mul(*(group_parameters(f, symbolic, masses) if f.is_Add else f for f in factored.args))
+    if factored.is_Pow or not expr.is_polynomial(*syms):
         return factored
-    return _complete_squares(sp.expand(expr), syms)
+    expr = sp.expand(expr)
+    present = [m for m in masses if m in expr.free_symbols]
+    terms = sp.Add.make_args(expr)
+    if present and all(sum(sp.degree(t, m) for m in present) == 1 and
+                       all(sp.degree(t, m) <= 1 for m in present) for t in terms):
+        by_mass = sp.collect(expr, present, evaluate=False)
+        return sp.Add(*(m * group_parameters(c, symbolic) for m, c in by_mass.items()))
+    return _complete_squares(expr, syms)
 
 
 def _complete_squares(expr: sp.Expr, syms: list) -> sp.Expr:
