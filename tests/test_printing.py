@@ -1,5 +1,7 @@
 """Printed closed forms, significance pruning and the `symdyn print` command."""
 
+import re
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -41,18 +43,107 @@ def test_latex_is_a_complete_document_with_balanced_braces():
     assert "\\dot{q}_{2}" in tex and "\\ddot{q}_{1}" in tex
 
 
-def test_latex_compiles_when_a_tex_engine_is_present(tmp_path):
+def _overfull_boxes(tex: str, folder) -> list[float]:
+    """Compile `tex` with pdflatex; the widths (pt) by which boxes overflow."""
+    import re
     import shutil
     import subprocess
 
     engine = shutil.which("pdflatex")
     if engine is None:
-        pytest.skip("pdflatex is not installed (Debian: texlive-latex-base)")
-    dyn = derive(models.load("twolink", symbolic=True))
-    (tmp_path / "eq.tex").write_text(closed_form(dyn, ("M", "C", "G", "tau"), "latex"))
-    run = subprocess.run([engine, "-interaction=nonstopmode", "-halt-on-error", "eq.tex"], cwd=tmp_path,
+        pytest.skip("pdflatex is not installed (Debian: apt-get install texlive-latex-base); "
+                    "test_every_printed_line_fits_its_width_budget guards the widths without TeX")
+    (folder / "eq.tex").write_text(tex)
+    run = subprocess.run([engine, "-interaction=nonstopmode", "-halt-on-error", "eq.tex"], cwd=folder,
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout[-2000:]
+    return [float(w) for w in re.findall(r"Overfull \\\\hbox \\(([\\d.]+)pt too wide\\)", run.stdout)]
+
+
+def test_latex_of_the_two_link_arm_compiles_with_no_overfull_box(tmp_path):
+    dyn = derive(models.load("twolink", symbolic=True))
+    tex = closed_form(dyn, ("M", "C", "G", "tau"), "latex")
+    assert not [w for w in _overfull_boxes(tex, tmp_path) if w > 1]
+
+
+def test_latex_of_the_pumas_named_constants_compiles_with_no_overfull_box(tmp_path):
+    from symdyn.derivation.constants import constant_form, render_form
+
+    tex = render_form(constant_form(derive(models.load("puma560"))), "latex")
+    assert not [w for w in _overfull_boxes(tex, tmp_path) if w > 1]
+
+
+@pytest.mark.parametrize("fmt", ["text", "pretty", "latex"])
+def test_every_printed_line_fits_its_width_budget(fmt):
+    from symdyn.derivation.printing import WIDTHS, latex_width
+
+    measure = latex_width if fmt == "latex" else len
+    for name, terms in (("twolink", ("M", "C", "G", "tau")), ("puma560", ("G",))):
+        dyn = derive(models.load(name, symbolic=name == "twolink"))
+        out = closed_form(dyn, terms, fmt)
+        rows = [r.removesuffix(" \\\\") for r in out.splitlines() if r.strip() and not r.startswith("\\")]
+        assert len(rows) > len(terms)
+        assert max(measure(r) for r in rows) <= WIDTHS[fmt], max(rows, key=measure)
+    # and the budget is what breaks them: the two-link tau1 needs several lines at 60 characters
+    from symdyn.derivation.printing import wrap
+    tau1 = dict(elements(derive(models.load("twolink", symbolic=True)), "tau"))["tau1"]
+    lines = wrap("tau1", tau1, "text", width=60)
+    assert len(lines) >= 4 and max(map(len, lines)) <= 60
+
+
+def test_numbers_print_like_an_engineer_writes_them():
+    from symdyn.derivation.printing import number
+
+    assert number(0.25) == "0.25" and number(6.5) == "6.5" and number(1.23456e-5, 3) == "1.23e-5"
+    dyn = derive(models.load("rrp"))
+    text = closed_form(dyn, ("M",), "text", digits=4)
+    assert "M33 = 6.5" in text and "0.25000" not in text and "e-" not in text
+    assert not re.search(r"\\d{12,}", text)          # no giant integers of factored rationals
+
+
+def test_twolink_prints_eq_9_3_as_the_book_groups_it():
+    """Corke, RVC Eq. 9.3: τ1 = M11 q̈1 + M12 q̈2 + C1 q̇1q̇2 + C2 q̇2² + g1, with (the book's grouping)
+    M11 = m1(a1² + 2a1c1 + c1²) + m2(a1² + (a2 + c2)² + (2a1a2 + 2a1c2) cos q2),
+    M12 = m2(a2 + c2)(a2 + c2 + a1 cos q2), C1 = −2a1m2(a2 + c2) sin q2,
+    C2 = −a1m2(a2 + c2) sin q2, g1 = g((a1m1 + a1m2 + c1m1) cos q1 + (a2m2 + c2m2) cos(q1 + q2))."""
+    dyn = derive(models.load("twolink", symbolic=True))
+    a1, a2, c1, c2, m1, m2, g = sp.symbols("a1 a2 c1 c2 m1 m2 g", real=True)
+    q1, q2 = dyn.q
+    qd1, qd2 = dyn.qd
+    qdd1, qdd2 = dyn.qdd
+    C, S = sp.cos(q2), sp.sin(q2)
+    book = {   # outer factor → {trig monomial: coefficient}, as printed in the book
+        "M11": {m1: {1: a1**2 + 2 * a1 * c1 + c1**2}, m2: {1: a1**2 + (a2 + c2)**2, C: 2 * a1 * a2 + 2 * a1 * c2}},
+        "M12": {m2: {1: (a2 + c2)**2, C: a1 * (a2 + c2)}},
+        "C1": {m2: {S: -2 * a1 * (a2 + c2)}},
+        "C2": {m2: {S: -a1 * (a2 + c2)}},
+        "g1": {g: {sp.cos(q1): a1 * m1 + a1 * m2 + c1 * m1, sp.cos(q1 + q2): a2 * m2 + c2 * m2}},
+    }
+    tau1 = dict(elements(dyn, "tau"))["tau1"]
+    by_rate = {t.as_independent(qdd1, qdd2, qd1, qd2)[1]: t.as_independent(qdd1, qdd2, qd1, qd2)[0]
+               for t in sp.Add.make_args(tau1)}
+    printed = {"M11": by_rate[qdd1], "M12": by_rate[qdd2], "C1": by_rate[qd1 * qd2], "C2": by_rate[qd2**2],
+               "g1": by_rate[1]}
+    printed["M11"] = dict(elements(dyn, "M"))["M11"]
+    for name, groups in book.items():
+        expr = printed[name]
+        outer = {}      # the printed outer factors: masses (M, C) or g (gravity), each once
+        for term in sp.Add.make_args(expr):
+            factor = [f for f in sp.Mul.make_args(term) if f in groups]
+            assert len(factor) == 1, f"{name}: term {term} is not grouped by one of {list(groups)}"
+            outer[factor[0]] = outer.get(factor[0], 0) + term / factor[0]
+        assert set(outer) == set(groups), name
+        for factor, inner in groups.items():
+            trig = {}
+            for t in sp.Add.make_args(sp.expand(outer[factor])):
+                coeff, mono = t.as_independent(q1, q2)
+                trig[mono] = trig.get(mono, 0) + coeff
+            assert set(trig) == set(inner), f"{name}: {factor}·(…) has trig terms {set(trig)}"
+            for mono, coeff in inner.items():
+                assert sp.expand(trig[mono] - coeff) == 0, f"{name}: coefficient of {mono}"
+        # the printed M entries keep each mass outside its bracket, as the book does
+        if name in ("M11", "M12"):
+            assert all(t.is_Mul and any(f in groups for f in t.args) for t in sp.Add.make_args(expr))
 
 
 @pytest.mark.parametrize("form", ["book", "folded"])
