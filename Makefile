@@ -22,7 +22,13 @@ test: $(STAMP)
 generate: $(STAMP)
 	$(BIN)/symdyn generate --all
 
-bench: $(STAMP)
+# The bench extra (Pinocchio's wheel with its C++ headers, Eigen's headers, the Robotics
+# Toolbox); `symdyn bench` builds the Pinocchio C++ peer once into the cache, then times.
+$(VENV)/.bench-installed: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[bench]'
+	touch $@
+
+bench: $(VENV)/.bench-installed
 	$(BIN)/symdyn bench
 
 clean:

@@ -1,15 +1,24 @@
-"""Smoke tests of the benchmark (symdyn.bench): the C harness compiles, runs and
-times code that agrees with the reference; the table reports speed-ups.  No
-timing assertions (the machine is shared and noisy)."""
+"""Tests of the benchmark (symdyn.bench): the C harness compiles, runs and times
+code that agrees with the reference; the Pinocchio C++ peer is fed the same arm
+(its arm file, rebuilt as the C++ builds it, gives the reference's dynamics),
+is cached by content and rebuilt when stale or damaged; the report compares
+only with real peers and says what to install for a missing one.  The peer's
+C++ itself is not compiled here (minutes); no timing assertions (the machine is
+shared and noisy)."""
 
 import math
 import re
+import sys
+import types
 
 import numpy as np
 import pytest
 
 from symdyn import models
 from symdyn.bench import compare as bench
+from symdyn.bench import pin_peer
+from symdyn.model import Link, Robot
+from symdyn.numeric import reference
 from symdyn.codegen.entry import GENERATED
 
 PUMA = GENERATED / "puma560"
@@ -68,24 +77,245 @@ def test_op_counts_read_from_generated_header(tmp_path):
     assert sorted(shipped) == sorted(functions) and all(n > 0 for n in shipped.values())
 
 
+def _row(function, ours, peer, theirs, ops=None, target=None, level=bench.C_PEER):
+    return bench.Row(level, function, ours, peer, theirs, ops, target)
+
+
 def test_table_has_speed_up_and_target_columns():
-    rows = [bench.Row("C", "tau", (100.0, 125.0, 90.0), "Pinocchio rnea", (850.0, 900.0, 800.0), 369, 8),
-            bench.Row("C", "M", (200.0,), "Pinocchio crba", (850.0,), 196, 6),
-            bench.Row("C", "G", (50.0,), "Pinocchio computeGeneralizedGravity", (), 48)]
-    assert [r.ratio for r in rows] == [8.5, 4.25, None]
+    rows = [_row("tau", (100.0, 125.0, 90.0), "Pinocchio rnea", (850.0, 900.0, 800.0), 369, 8),
+            _row("M", (200.0,), "Pinocchio crba", (850.0,), 196, 6),
+            _row("tau", (50.0,), "plain RNEA, CasADi C codegen", (100.0,), 369, 1, level=bench.C_BASELINE)]
+    assert [r.ratio for r in rows] == [8.5, 4.25, 2.0]
     assert rows[0].spread == (900.0 / 125.0, 800.0 / 90.0) and rows[1].spread is None
-    assert [r.met for r in rows] == ["yes", "no", ""]
-    text = bench.format_table(rows)
-    header = text.splitlines()[0].split()
-    assert {"symdyn", "peer", "speed-up", "range", "ops", "target", "met"} <= set(header)
-    assert "8.50×" in text and "7.20–8.89" in text and "4.25×" in text and "n/a" in text
+    assert [r.met for r in rows] == ["yes", "no", "yes"]
+    text = bench.format_table(rows, ["Robotics Toolbox: not installed (roboticstoolbox-python): run `make bench`"])
+    lines = text.splitlines()
+    assert lines[0] == bench.C_PEER and lines.index(bench.C_BASELINE) == 6
+    assert {"symdyn", "peer", "speed-up", "range", "ops", "target", "met"} <= set(lines[1].split())
+    assert "8.50×" in text and "7.20–8.89" in text and "4.25×" in text and "n/a" not in text
+    assert lines[-2] == bench.OPS_NOTE and lines[-1].endswith("run `make bench`")
     md = bench.markdown_table(rows).splitlines()
-    assert md[0].startswith("| level | function | symdyn ns") and "speed-up" in md[0]
-    assert len(md) == 2 + len(rows) and "| 8.50× | 7.20–8.89 | 369 | ≥ 8× | yes |" in md[2]
+    assert md[0] == f"**{bench.C_PEER}**" and md[2].startswith("| function | symdyn ns")
+    assert "| 8.50× | 7.20–8.89 | 369 | ≥ 8× | yes |" in md[4]
 
 
-def test_missing_pin_peer_says_how_to_fix(tmp_path, monkeypatch):
-    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
-    binary, why = bench.pin_harness(tmp_path / "nowhere")
-    assert binary is None
-    assert "--pin-bench-dir" in why or "pip install pin" in why
+def test_a_row_needs_a_measured_peer():
+    with pytest.raises(ValueError, match="'tau' vs 'Robotics Toolbox'"):
+        _row("tau", (1.0,), "Robotics Toolbox", ())
+
+
+def test_missing_toolbox_makes_no_row_and_says_make_bench(puma, monkeypatch):
+    """Without the Toolbox the NumPy target is compared with nothing (formerly with symdyn's own
+    reference, under a peer's column); every row's peer is an outside library."""
+    bare = puma.nofriction(all=True)
+    tau = lambda q, qd, qdd: reference.rne(bare, q, qd, qdd)  # noqa: E731
+    monkeypatch.setattr("symdyn.codegen.emit.clib.load_library",
+                        lambda c, h: types.SimpleNamespace(functions={"tau": tau}))
+    monkeypatch.setattr(bench, "_import_path", lambda path, name: types.SimpleNamespace(tau=tau))
+    monkeypatch.setattr(bench, "_paired_ns", lambda ours, peer, number, repeat, per=1: ((1.0,), (2.0,)))
+    monkeypatch.setattr(bench, "_shipped_model", lambda: None)
+    monkeypatch.setattr(bench, "toolbox_robot", lambda robot: None)
+    states = bench.random_states(bare, bench.POOL, seed=2)
+    missing = []
+    rows = bench.python_level(puma, {"c": PUMA / "puma560.c", "h": PUMA / "puma560.h", "py": PUMA / "puma560.py"},
+                              states, None, print, missing)
+    assert [r.peer for r in rows] == ["pin.rnea", "pin.rneaInParallel, 1 thread"]
+    assert missing == [f"Robotics Toolbox: not installed (roboticstoolbox-python): {pin_peer.HOW_TO_INSTALL}"]
+    assert "make bench" in missing[0]
+
+
+def test_every_c_row_compares_with_pinocchio_or_is_titled_a_baseline():
+    for group, label, _, _, peer, algo, _ in bench.C_ROWS:
+        if group == bench.C_PEER:
+            assert peer.startswith("Pinocchio") and algo in pin_peer.ALGORITHMS, (label, peer)
+        else:
+            assert group == bench.C_BASELINE and "not a peer" in group and algo == "casadi_rnea"
+    assert "Pinocchio C++" in bench.C_PEER and "same run" in bench.C_PEER
+
+
+# --------------------------------------------------------------------------- the C++ peer's arm file
+
+def _read_arm(path):
+    """The arm file parsed by its documented format (pin_peer.cpp's header): (joints, gravity)."""
+    lines = path.read_text().splitlines()
+    assert lines[0] == "symdyn-pin-arm 1" and lines[1].split()[0] == "n" and lines[2].split()[0] == "gravity"
+    n, gravity = int(lines[1].split()[1]), np.array(lines[2].split()[1:], dtype=float)
+    assert len(lines) == 3 + n
+    joints = []
+    for line in lines[3:]:
+        kind, *v = line.split()
+        v = np.array(v, dtype=float)
+        assert kind in "RP" and len(v) == 26
+        Ixx, Ixy, Ixz, Iyy, Iyz, Izz = v[19:25]
+        joints.append(pin_peer.PeerJoint(kind == "R", tuple(v[:3]), tuple(map(tuple, v[3:15].reshape(3, 4))),
+                                         v[15], tuple(v[16:19]),
+                                         ((Ixx, Ixy, Ixz), (Ixy, Iyy, Iyz), (Ixz, Iyz, Izz)), v[25]))
+    return joints, gravity
+
+
+def _model_like_the_cpp(joints, gravity):
+    """A Pinocchio model built from PeerJoints as pin_peer.cpp's read_arm builds it."""
+    import pinocchio as pin
+
+    model, parent = pin.Model(), 0
+    for i, j in enumerate(joints, start=1):
+        axis = np.array(j.axis)
+        aligned = [k for k in range(3) if np.array_equal(axis, np.eye(3)[k])]
+        if aligned:
+            joint = getattr(pin, f"JointModel{'R' if j.revolute else 'P'}{'XYZ'[aligned[0]]}")()
+        else:
+            joint = pin.JointModelRevoluteUnaligned(axis) if j.revolute else pin.JointModelPrismaticUnaligned(axis)
+        placement = np.vstack([np.array(j.placement), [0, 0, 0, 1]])
+        parent = model.addJoint(parent, joint, pin.SE3(placement), f"j{i}")
+        model.appendBodyToJoint(parent, pin.Inertia(j.mass, np.array(j.com), np.array(j.inertia)), pin.SE3.Identity())
+    model.armature = np.array([j.armature for j in joints])
+    model.gravity = pin.Motion(np.array(gravity), np.zeros(3))
+    return model
+
+
+def _outputs(model, q, qd, qdd, tau):
+    """What pin_peer.cpp prints on its check lines, computed by Pinocchio's Python bindings."""
+    import pinocchio as pin
+
+    data = model.createData()
+    sym = lambda m: np.triu(m) + np.triu(m, 1).T  # noqa: E731
+    M = sym(pin.crba(model, data, q))
+    return {"rnea": pin.rnea(model, data, q, qd, qdd).copy(), "crba": M,
+            "aba": pin.aba(model, data, q, qd, tau).copy(),
+            "computeGeneralizedGravity": pin.computeGeneralizedGravity(model, data, q).copy(),
+            "nonLinearEffects": pin.nonLinearEffects(model, data, q, qd).copy(),
+            "computeCoriolisMatrix": pin.computeCoriolisMatrix(model, data, q, qd).copy(),
+            "crba_cholesky": np.linalg.solve(M, tau - pin.nonLinearEffects(model, data, q, qd)),
+            "computeRNEADerivatives": M, "computeABADerivatives": np.linalg.inv(M),
+            "computeMinverse": sym(pin.computeMinverse(model, data, q))}
+
+
+def _modified_prismatic_arm():
+    """Modified DH with a prismatic joint, offsets and rotor inertia: the other branches of the DH walk."""
+    I = ((0.02, 0.001, 0.0), (0.001, 0.03, 0.002), (0.0, 0.002, 0.025))
+    links = [Link(d=0.3, alpha=0.0, a=0.0, offset=0.2, m=2.0, r=(0.01, 0.02, 0.1), I=I, Jm=1e-4, G=50),
+             Link(joint="prismatic", theta=0.4, a=0.1, alpha=-np.pi / 2, offset=0.05, m=1.5, r=(0.0, 0.03, -0.05), I=I),
+             Link(d=0.1, a=0.25, alpha=np.pi / 3, m=0.8, r=(0.05, 0.0, 0.0), I=I, Jm=2e-4, G=-30)]
+    return Robot("mdh3", tuple(links), convention="modified")
+
+
+@pytest.mark.parametrize("arm", ["puma560", "mdh3"])
+def test_arm_file_round_trip_gives_the_reference_dynamics(arm, puma, tmp_path):
+    """The arm written for the C++ peer, read back and built as the C++ builds it, has the
+    dynamics of symdyn's reference: the peer is timed on the very arm symdyn is."""
+    robot = (puma if arm == "puma560" else _modified_prismatic_arm()).nofriction(all=True)
+    from symdyn.bench.peers import pinocchio_model
+
+    joints, gravity = pin_peer.arm_joints(pinocchio_model(robot))
+    path = pin_peer.write_arm(tmp_path / "arm.txt", joints, gravity)
+    back, g = _read_arm(path)
+    assert back == joints and np.array_equal(g, gravity)
+    model = _model_like_the_cpp(back, g)
+    q, qd, qdd, tau = bench.random_states(robot, 8, seed=3)
+    for k in range(len(q)):
+        outputs = _outputs(model, q[k], qd[k], qdd[k], tau[k])
+        assert pin_peer.check_peer(robot, outputs, q, qd, qdd, tau, k=k) < 1e-10
+
+
+def test_unaligned_axes_reach_the_cpp_unchanged(tmp_path):
+    """A general joint (any unit axis, any placement): written and rebuilt, Pinocchio gives the same τ."""
+    import pinocchio as pin
+
+    rng = np.random.default_rng(4)
+    model = pin.Model()
+    axes = [np.array([0.6, 0.8, 0.0]), np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.6, -0.8])]
+    kinds = [pin.JointModelRevoluteUnaligned(axes[0]), pin.JointModelPZ(), pin.JointModelPrismaticUnaligned(axes[2])]
+    for i, joint in enumerate(kinds, start=1):
+        j = model.addJoint(i - 1, joint, pin.SE3.Random(), f"j{i}")
+        model.appendBodyToJoint(j, pin.Inertia.Random(), pin.SE3.Identity())
+    model.armature = np.array([0.1, 0.0, 0.2])
+    joints, gravity = pin_peer.arm_joints(model)
+    assert [(j.revolute, np.allclose(j.axis, a)) for j, a in zip(joints, axes)] == \
+        [(True, True), (False, True), (False, True)]
+    rebuilt = _model_like_the_cpp(*_read_arm(pin_peer.write_arm(tmp_path / "arm.txt", joints, gravity)))
+    assert [rebuilt.joints[k].shortname() for k in (1, 2, 3)] == \
+        ["JointModelRevoluteUnaligned", "JointModelPZ", "JointModelPrismaticUnaligned"]
+    q, qd, qdd = rng.uniform(-1, 1, (3, 3))
+    want = pin.rnea(model, model.createData(), q, qd, qdd)
+    assert np.abs(pin.rnea(rebuilt, rebuilt.createData(), q, qd, qdd) - want).max() < 1e-12
+
+
+def test_arm_joints_refuse_what_the_cpp_cannot_build():
+    import pinocchio as pin
+
+    model = pin.Model()
+    model.addJoint(0, pin.JointModelSpherical(), pin.SE3.Identity(), "ball")
+    with pytest.raises(ValueError, match=r"joint 1 \(ball\) is a Pinocchio Spherical joint"):
+        pin_peer.arm_joints(model)
+
+
+def test_check_peer_names_a_wrong_algorithm(puma):
+    robot = puma.nofriction(all=True)
+    from symdyn.bench.peers import pinocchio_model
+
+    q, qd, qdd, tau = bench.random_states(robot, 4, seed=5)
+    outputs = _outputs(pinocchio_model(robot), q[3], qd[3], qdd[3], tau[3])
+    outputs["computeMinverse"] = outputs["computeMinverse"] * (1 + 1e-6)
+    with pytest.raises(RuntimeError, match="computeMinverse at state 3 differs"):
+        pin_peer.check_peer(robot, outputs, q, qd, qdd, tau)
+
+
+# --------------------------------------------------------------------------- the C++ peer's build
+
+def test_cache_key_changes_with_source_flags_and_compiler():
+    base = pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, [])
+    assert base == pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, [])
+    others = {pin_peer.cache_key("int main(){ }", "c++", pin_peer.CXXFLAGS, []),
+              pin_peer.cache_key("int main(){}", "c++", ("-O2",), []),
+              pin_peer.cache_key("int main(){}", "g++-nonexistent", pin_peer.CXXFLAGS, []),
+              pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, ["/elsewhere"])}
+    assert base not in others and len(others) == 4
+
+
+@pytest.fixture
+def fake_compiler(tmp_path, monkeypatch):
+    """CXX that 'compiles' in no time (writes the source's first line to -o) and logs each call."""
+    log = tmp_path / "calls"
+    script = tmp_path / "fakecxx"
+    script.write_text("#!/bin/sh\n[ \"$1\" = --version ] && { echo fake 1.0; exit 0; }\necho x >> " + str(log) +
+                      "\nwhile [ $# -gt 0 ]; do [ \"$1\" = -o ] && out=$2; shift; done\n"
+                      "head -1 \"$SRC\" > \"$out\"\n")
+    script.chmod(0o755)
+    source = tmp_path / "pin_peer.cpp"
+    source.write_text("// version 1\n")
+    monkeypatch.setenv("CXX", str(script))
+    monkeypatch.setenv("SRC", str(source))
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(pin_peer, "SOURCE", source)
+    monkeypatch.setattr(pin_peer, "include_dirs", lambda: [])
+    return source, lambda: len(log.read_text().split()) if log.exists() else 0
+
+
+def test_peer_is_built_once_and_rebuilt_when_stale_or_damaged(fake_compiler):
+    source, calls = fake_compiler
+    said = []
+    binary = pin_peer.peer_binary(said.append)
+    assert binary.read_text() == "// version 1\n" and calls() == 1
+    assert said[0].startswith("building the Pinocchio C++ peer") and "minutes" in said[0]
+    assert pin_peer.peer_binary(said.append) == binary and calls() == 1          # reused
+    binary.write_text("// truncated")                                          # damaged: rebuilt
+    assert pin_peer.peer_binary(said.append) == binary and calls() == 2
+    assert binary.read_text() == "// version 1\n"
+    source.write_text("// version 2\n")                                        # stale: a new key
+    fresh = pin_peer.peer_binary(said.append)
+    assert fresh != binary and fresh.read_text() == "// version 2\n" and calls() == 3
+
+
+def test_missing_pinocchio_says_make_bench(monkeypatch):
+    monkeypatch.setitem(sys.modules, "cmeel", None)
+    with pytest.raises(pin_peer.PeerUnavailable, match=r"Pinocchio is not installed \(pin\): run `make bench`"):
+        pin_peer.include_dirs()
+
+
+def test_failed_build_names_the_command(fake_compiler, monkeypatch, tmp_path):
+    broken = tmp_path / "brokencxx"
+    broken.write_text("#!/bin/sh\necho 'pin_peer.cpp:1: error: nope' >&2\nexit 1\n")
+    broken.chmod(0o755)
+    monkeypatch.setenv("CXX", str(broken))
+    with pytest.raises(pin_peer.PeerUnavailable, match=r"(?s)compiling the Pinocchio C\+\+ peer failed.*error: nope"):
+        pin_peer.peer_binary(lambda msg: None)

@@ -1,19 +1,22 @@
 """`symdyn bench`: the generated Puma 560 code against Pinocchio and the Robotics Toolbox.
 
-One run, one set of random states (q, q̇, q̈ uniform in [−3, 3], as the
-Pinocchio C++ peer draws its own; τ by the reference RNEA) and the
-frictionless Puma 560 (Pinocchio has no friction), compared like with like:
+One run, one set of random states (q, q̇, q̈ uniform in [−3, 3]; τ by the
+reference RNEA) and the frictionless Puma 560 (Pinocchio has no friction),
+compared like with like:
 
-- C level, no Python: `harness.c` compiled with the generated C times
-  10⁶ calls per function; `shared/bench/pin_bench.cpp` times Pinocchio C++
-  the same way; a plain CasADi RNEA goes through CasADi's C code generator.
+- C level, no Python: `harness.c` compiled with the generated C and
+  `pin_peer.cpp` (Pinocchio C++, built once into the cache by `pin_peer`)
+  time 10⁶ and 10⁵ calls per function on the same states file; a plain
+  CasADi RNEA through CasADi's C code generator is a baseline, labelled so.
   Rounds alternate the harnesses (the machine is noisy); medians are reported.
 - From Python: one call of the C target vs `pin.rnea`; per state in batches:
   the C target vs `pin.rneaInParallel` (one thread), the NumPy target vs the
   Robotics Toolbox's batched `rne`.
 
 Speed-up = peer time / symdyn time; the targets are issue 4's.  Every timed
-output is first checked against `symdyn.reference`.
+output, symdyn's and the peers', is first checked against `symdyn.reference`.
+A peer that is not installed makes no row: the report says what to install
+(`make bench` installs them all).
 """
 
 from __future__ import annotations
@@ -39,45 +42,50 @@ from ..codegen.emit import write_atomic
 from ..derivation.cache import cache_dir
 from ..model import arms
 from ..numeric import reference as ref
+from . import pin_peer
+from .pin_peer import PeerUnavailable, read_report
 
 __all__ = ["Row", "main", "configure_parser", "frictionless_sources", "random_states", "write_states",
-           "build_harness", "run_harness", "check_harness", "pin_harness", "run_pin", "op_counts",
+           "build_harness", "run_harness", "check_harness", "op_counts",
            "format_table", "markdown_table"]
 
 MODEL = "puma560"
 POOL = 1024                      # states cycled by the C harnesses (a power of two, as pin_bench.cpp)
 HARNESS = Path(__file__).with_name("harness.c")
-REPO = Path(__file__).resolve().parents[2]
-SHARED_BENCH = REPO.parent / "shared" / "bench"
 CFLAGS = ("-O3", "-march=native")
 
 
 @dataclass
 class Row:
-    """One comparison: paired samples (one per round or repetition) of ns per call
-    (per state for batches) of symdyn and the peer (none: peer not measured), the
-    op count of the symdyn function and the speed-up (peer/symdyn) issue 4 asks for."""
+    """One comparison, under its group's title (`level`): paired samples (one per round or
+    repetition) of ns per call (per state for batches) of symdyn and of the peer, the op count
+    of the symdyn function and the speed-up (peer/symdyn) issue 4 asks for.  A peer that was
+    not measured makes no row (the report says what to install instead)."""
 
     level: str
     function: str
     symdyn: tuple
     peer: str
-    peer_samples: tuple = ()
+    peer_samples: tuple
     ops: int | None = None
     target: float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.symdyn or not self.peer_samples:
+            raise ValueError(f"row {self.function!r} vs {self.peer!r}: both sides need at least one timing")
 
     @property
     def symdyn_ns(self) -> float:
         return statistics.median(self.symdyn)
 
     @property
-    def peer_ns(self) -> float | None:
-        return statistics.median(self.peer_samples) if self.peer_samples else None
+    def peer_ns(self) -> float:
+        return statistics.median(self.peer_samples)
 
     @property
-    def ratio(self) -> float | None:
+    def ratio(self) -> float:
         """Speed-up: median peer time / median symdyn time."""
-        return None if self.peer_ns is None else self.peer_ns / self.symdyn_ns
+        return self.peer_ns / self.symdyn_ns
 
     @property
     def spread(self) -> tuple[float, float] | None:
@@ -89,7 +97,7 @@ class Row:
 
     @property
     def met(self) -> str:
-        if self.target is None or self.ratio is None:
+        if self.target is None:
             return ""
         return "yes" if self.ratio >= self.target else "no"
 
@@ -208,14 +216,7 @@ def run_harness(binary: Path, states: Path, ncalls: int, reps: int, functions=()
                          capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(f"{binary} failed ({run.returncode}): {run.stderr.strip()}")
-    times, checks = {}, {}
-    for line in run.stdout.splitlines():
-        kind, name, *values = line.split()
-        if kind == "time":
-            times[name] = float(values[0])
-        elif kind == "check":
-            checks[name] = np.array(values, dtype=float)
-    return times, checks
+    return read_report(run.stdout)
 
 
 def check_harness(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1e-9) -> float:
@@ -235,64 +236,33 @@ def check_harness(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float 
     return worst
 
 
-def pin_harness(bench_dir: Path = SHARED_BENCH) -> tuple[Path | None, str]:
-    """The Pinocchio C++ peer binary (cached; built by bench_dir/build.sh if missing, minutes),
-    or (None, what is missing and how to fix it)."""
-    try:
-        import cmeel
-        import pinocchio
-    except ImportError:
-        return None, "Pinocchio is not installed: pip install pin (or pip install symdyn[test])"
-    binary = cache_dir() / "bench" / f"pin-{pinocchio.__version__}" / "pin_bench"
-    if binary.exists():
-        return binary, ""
-    build = Path(bench_dir) / "build.sh"
-    if not build.exists():
-        return None, (f"{build} not found: the Pinocchio C++ peer lives in shared/bench beside the "
-                      "repository (give its folder with --pin-bench-dir)")
-    prefix = Path(cmeel.__file__).resolve().parent.parent / "cmeel.prefix"
-    if not (prefix / "include" / "pinocchio").is_dir():
-        return None, f"Pinocchio's C++ headers are not in {prefix / 'include'}: reinstall the wheel (pip install pin)"
-    if not Path("/usr/include/eigen3/Eigen").is_dir():
-        return None, "Eigen's headers are missing (/usr/include/eigen3): apt-get install libeigen3-dev"
-    print(f"building the Pinocchio C++ peer into {binary.parent} (several minutes, once)", file=sys.stderr)
-    binary.parent.mkdir(parents=True, exist_ok=True)
-    run = subprocess.run(["sh", str(build)], capture_output=True, text=True,
-                         env={**os.environ, "PY": sys.executable, "OUT_DIR": str(binary.parent)})
-    if run.returncode != 0 or not binary.exists():
-        return None, f"building the Pinocchio C++ peer failed:\n{run.stderr[-2000:]}"
-    return binary, ""
+#: Titles of the row groups: which code is compared with which, so no row passes for what it is not.
+C_PEER = "C level, same run: symdyn generated C vs Pinocchio C++ (symdyn/bench/pin_peer.cpp)"
+C_BASELINE = ("C level, same run, baseline (not a peer): symdyn generated C vs a plain recursive Newton–Euler "
+              "(symdyn.numeric.casadi_rnea) through CasADi's C code generator")
+PY_ONE = "From Python, one call: symdyn C target vs Pinocchio's Python bindings"
 
-
-def run_pin(binary: Path, dh_table: Path, ncalls: int) -> dict[str, float]:
-    """{algorithm: ns per call} from pin_bench (median of its 9 repetitions)."""
-    run = subprocess.run([str(binary), str(dh_table), str(int(ncalls))], capture_output=True, text=True)
-    if run.returncode != 0:
-        raise RuntimeError(f"{binary} failed ({run.returncode}): {run.stderr.strip()}")
-    check = re.search(r"check \|aba\(rnea\(a\)\) - a\| = (\S+)", run.stdout)
-    if check is None or not float(check[1]) < 1e-8:
-        raise RuntimeError(f"pin_bench's own check failed:\n{run.stdout}")
-    return {m[1]: float(m[2]) for m in re.finditer(r"^(\S.*?)\s+([0-9.]+) ns$", run.stdout, re.M)}
-
-
-# (label, symdyn harness, symdyn function, peer label, pin_bench algorithm or casadi, target)
+# (group, label, symdyn harness, symdyn function, peer label, pin_peer.cpp algorithm or casadi_rnea, target)
 C_ROWS = (
-    ("tau", "bare", "tau", "Pinocchio rnea", "rnea", 8),
-    ("tau", "bare", "tau", "plain CasADi RNEA (CasADi C codegen)", "casadi_rnea", 1),
-    ("M", "bare", "M", "Pinocchio crba", "crba", 6),
-    ("fdyn", "bare", "fdyn", "Pinocchio aba", "aba", 6),
-    ("fdyn", "bare", "fdyn", "Pinocchio crba+nle+cholesky", "crba+nle+cholesky (FD)", None),
-    ("C", "bare", "C", "Pinocchio computeCoriolisMatrix", "computeCoriolisMatrix", 6),
-    ("G", "bare", "G", "Pinocchio computeGeneralizedGravity", "computeGeneralizedGravity", None),
-    ("Cqd", "bare", "Cqd", "Pinocchio nonLinearEffects (C q̇ + G)", "nonLinearEffects", None),
-    ("tau +friction (shipped)", "shipped", "tau", "Pinocchio rnea (no friction)", "rnea", None),
-    ("fdyn +friction (shipped)", "shipped", "fdyn", "Pinocchio aba (no friction)", "aba", None),
+    (C_PEER, "tau", "bare", "tau", "Pinocchio rnea", "rnea", 8),
+    (C_PEER, "M", "bare", "M", "Pinocchio crba", "crba", 6),
+    (C_PEER, "fdyn", "bare", "fdyn", "Pinocchio aba", "aba", 6),
+    (C_PEER, "fdyn", "bare", "fdyn", "Pinocchio crba + nonLinearEffects + Cholesky", "crba_cholesky", None),
+    (C_PEER, "C", "bare", "C", "Pinocchio computeCoriolisMatrix", "computeCoriolisMatrix", 6),
+    (C_PEER, "G", "bare", "G", "Pinocchio computeGeneralizedGravity", "computeGeneralizedGravity", None),
+    (C_PEER, "Cqd", "bare", "Cqd", "Pinocchio nonLinearEffects (C q̇ + G)", "nonLinearEffects", None),
+    (C_PEER, "tau +friction (shipped)", "shipped", "tau", "Pinocchio rnea (no friction)", "rnea", None),
+    (C_PEER, "fdyn +friction (shipped)", "shipped", "fdyn", "Pinocchio aba (no friction)", "aba", None),
+    (C_BASELINE, "tau", "bare", "tau", "plain RNEA, CasADi C codegen", "casadi_rnea", 1),
 )
 
 
-def c_level(robot, src: dict, states, args, log) -> list[Row]:
-    """Rows of the C-level comparison (src: frictionless_sources): harnesses in alternating rounds."""
+def c_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
+    """Rows of the C-level comparison (src: frictionless_sources): symdyn's harnesses and the
+    Pinocchio C++ peer on one states file, in alternating rounds; a peer that cannot be had
+    is added to `missing` with what to install."""
     from ..codegen.entry import GENERATED
+    from .peers import pinocchio_model
 
     q, qd, qdd, tau = states
     bare = robot.nofriction(all=True)
@@ -307,38 +277,50 @@ def c_level(robot, src: dict, states, args, log) -> list[Row]:
         harnesses["shipped"] = (build_harness(shipped / f"{MODEL}.c", shipped / f"{MODEL}.h"), ("tau", "fdyn"), robot)
     else:
         log(f"no {shipped}: the with-friction rows are left out")
-    pin_bin, why = (None, "--no-pin") if args.no_pin else pin_harness(Path(args.pin_bench_dir))
-    if pin_bin is None:
-        log(f"Pinocchio C++ peer skipped: {why}")
-    dh = None
-    if pin_bin is not None:
-        from .peers import pin_dh_table
-        dh = pin_dh_table(bare, work / f"dh-{os.getpid()}.txt")
+    peer, arm = None, None
+    if args.no_pin:
+        missing.append("Pinocchio C++: skipped (--no-pin)")
+    else:
+        try:
+            joints, gravity = pin_peer.arm_joints(pinocchio_model(bare))
+            peer = pin_peer.peer_binary(log)
+        except PeerUnavailable as exc:
+            missing.append(f"Pinocchio C++: not measured: {exc}")
+        except ImportError:
+            missing.append(f"Pinocchio C++: not measured: Pinocchio is not installed (pin): {pin_peer.HOW_TO_INSTALL}")
+        else:
+            arm = pin_peer.write_arm(work / f"arm-{os.getpid()}.txt", joints, gravity)
+    algorithms = sorted({row[5] for row in C_ROWS if row[5] != "casadi_rnea"})
     times = {key: [] for key in harnesses}
-    pin_times = []
+    peer_times = []
+
+    def time_peer():
+        t, checks = pin_peer.run_peer(peer, arm, states_file, args.pin_calls, args.reps, algorithms)
+        pin_peer.check_peer(bare, checks, q, qd, qdd, tau)
+        peer_times.append(t)
+
     try:
         for r in range(args.rounds):
-            if pin_bin is not None and r % 2:       # ABAB… → ABBA…: slow drifts of load cancel
-                pin_times.append(run_pin(pin_bin, dh, args.pin_calls))
+            if peer is not None and r % 2:       # ABAB… → ABBA…: slow drifts of load cancel
+                time_peer()
             for key, (binary, functions, model) in harnesses.items():
                 t, checks = run_harness(binary, states_file, args.calls, args.reps, functions)
                 check_harness(model, checks, q, qd, qdd, tau)
                 times[key].append(t)
-            if pin_bin is not None and not r % 2:
-                pin_times.append(run_pin(pin_bin, dh, args.pin_calls))
+            if peer is not None and not r % 2:
+                time_peer()
             log(f"C level: round {r + 1}/{args.rounds} done")
     finally:
         states_file.unlink(missing_ok=True)
-        if dh is not None:
-            dh.unlink(missing_ok=True)
+        if arm is not None:
+            arm.unlink(missing_ok=True)
     samples = lambda runs, name: tuple(t[name] for t in runs if name in t)  # noqa: E731
     ops = {"bare": op_counts(src["c"]), "shipped": op_counts(shipped / f"{MODEL}.c") if "shipped" in harnesses else {}}
     rows = []
-    for label, key, fn, peer, algo, target in C_ROWS:
-        if key not in harnesses or (algo == "casadi_rnea" and casadi_c is None):
-            continue
-        peer_ns = samples(times["bare"] if algo == "casadi_rnea" else pin_times, algo)
-        rows.append(Row("C", label, samples(times[key], fn), peer, peer_ns, ops[key].get(fn), target))
+    for group, label, key, fn, peer_label, algo, target in C_ROWS:
+        peer_ns = samples(times["bare"] if algo == "casadi_rnea" else peer_times, algo)
+        if key in harnesses and peer_ns:
+            rows.append(Row(group, label, samples(times[key], fn), peer_label, peer_ns, ops[key].get(fn), target))
     return rows
 
 
@@ -389,8 +371,9 @@ def _shipped_model():
     return load(MODEL, "c")
 
 
-def python_level(robot, src: dict, states, args, log) -> list[Row]:
-    """Rows of the comparison from Python (src: frictionless_sources): single calls, batches."""
+def python_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
+    """Rows of the comparison from Python (src: frictionless_sources): single calls, batches;
+    a peer that is not installed is added to `missing` with what to install."""
     from ..codegen.emit.clib import load_library
     from ..codegen.entry import GENERATED
 
@@ -401,16 +384,17 @@ def python_level(robot, src: dict, states, args, log) -> list[Row]:
     ops = op_counts(src["c"]).get("tau")
     want = ref.rne(bare, q, qd, qdd)
     N = len(q)
+    batch = f"From Python, N={N} states per call, ns per state: symdyn C and NumPy targets vs Pinocchio, the Toolbox"
     q1, qd1, qdd1 = (np.ascontiguousarray(x[0]) for x in (q, qd, qdd))
     _agree("C target tau", fast_tau(q, qd, qdd), want)
     _agree("NumPy target tau", npmod.tau(q, qd, qdd), want)
-    one = many = None
+    rows = []
     try:
         import pinocchio as pin
 
         from .peers import pinocchio_model
     except ImportError:
-        log("Pinocchio (Python) skipped: pip install pin")
+        missing.append(f"Pinocchio (Python): not installed (pin): {pin_peer.HOW_TO_INSTALL}")
     else:
         model = pinocchio_model(bare)
         data, pool = model.createData(), pin.ModelPool(model, 1)
@@ -418,65 +402,78 @@ def python_level(robot, src: dict, states, args, log) -> list[Row]:
         _agree("pin.rnea", pin.rnea(model, data, q1, qd1, qdd1), want[0])
         _agree("pin.rneaInParallel", pin.rneaInParallel(1, pool, Q, V, A).T, want)
         one = lambda: pin.rnea(model, data, q1, qd1, qdd1)  # noqa: E731
+        ours, peer = _paired_ns(lambda: fast_tau(q1, qd1, qdd1), one, 20000, 7)
+        rows.append(Row(PY_ONE, "tau (C target)", ours, "pin.rnea", peer, ops, 3))
+        shipped = _shipped_model()
+        if shipped is not None:
+            _agree("symdyn.load(...).tau", shipped.tau(q1, qd1, qdd1), ref.rne(robot, q1, qd1, qdd1))
+            ours, peer = _paired_ns(lambda: shipped.tau(q1, qd1, qdd1), one, 20000, 7)
+            rows.append(Row(PY_ONE, "tau +friction (symdyn.load)", ours, "pin.rnea (no friction)", peer,
+                            op_counts(GENERATED / MODEL / f"{MODEL}.c").get("tau"), None))
         many = lambda: pin.rneaInParallel(1, pool, Q, V, A)  # noqa: E731
-    batch = f"Python, N={N}, per state"
-    ours, peer = _paired_ns(lambda: fast_tau(q1, qd1, qdd1), one, 20000, 7)
-    rows = [Row("Python, 1 call", "tau (C target)", ours, "pin.rnea", peer, ops, 3)]
-    shipped = _shipped_model()
-    if shipped is not None:
-        _agree("symdyn.load(...).tau", shipped.tau(q1, qd1, qdd1), ref.rne(robot, q1, qd1, qdd1))
-        ours, peer = _paired_ns(lambda: shipped.tau(q1, qd1, qdd1), one, 20000, 7)
-        rows.append(Row("Python, 1 call", "tau +friction (symdyn.load)", ours, "pin.rnea (no friction)", peer,
-                        op_counts(GENERATED / MODEL / f"{MODEL}.c").get("tau"), None))
-    ours, peer = _paired_ns(lambda: fast_tau(q, qd, qdd), many, 3, 7, N)
-    rows.append(Row(batch, "tau (C target)", ours, "pin.rneaInParallel, 1 thread", peer, ops, 4))
+        ours, peer = _paired_ns(lambda: fast_tau(q, qd, qdd), many, 3, 7, N)
+        rows.append(Row(batch, "tau (C target)", ours, "pin.rneaInParallel, 1 thread", peer, ops, 4))
     bot = toolbox_robot(bare)
-    if bot is not None:
+    if bot is None:
+        missing.append(f"Robotics Toolbox: not installed (roboticstoolbox-python): {pin_peer.HOW_TO_INSTALL}")
+    else:
         import roboticstoolbox as rtb
         _agree("Robotics Toolbox rne", bot.rne(q, qd, qdd), want)
         ours, peer = _paired_ns(lambda: npmod.tau(q, qd, qdd), lambda: bot.rne(q, qd, qdd), 1, 5, N)
         rows.append(Row(batch, "tau (NumPy target)", ours, f"Robotics Toolbox {rtb.__version__} rne (batched)",
                         peer, ops, 3))
-    else:
-        log("Robotics Toolbox not installed (pip install roboticstoolbox-python): "
-            "the NumPy target is compared with symdyn.reference.rne instead")
-        ours, peer = _paired_ns(lambda: npmod.tau(q, qd, qdd), lambda: ref.rne(bare, q, qd, qdd), 1, 5, N)
-        rows.append(Row(batch, "tau (NumPy target)", ours, "symdyn.reference.rne (NumPy RNEA; not the Toolbox)",
-                        peer, ops, None))
     return rows
 
 
 # --------------------------------------------------------------------------- report
 
-COLUMNS = ("level", "function", "symdyn ns", "peer", "peer ns", "speed-up", "range", "ops", "target", "met")
-RIGHT = {2, 4, 5, 6, 7}
+COLUMNS = ("function", "symdyn ns", "peer", "peer ns", "speed-up", "range", "ops", "target", "met")
+RIGHT = {1, 3, 4, 5, 6}
+#: What the ops column counts, printed with every table (a count that does not say what it counts misleads).
+OPS_NOTE = ("ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
+            "after one joint CSE; Newton–Euler on regrouped base parameters, C by Lagrange), without friction "
+            "unless the function says +friction")
 
 
 def _cells(row: Row) -> list[str]:
-    num = lambda x, fmt: "n/a" if x is None else format(x, fmt)  # noqa: E731
     spread = row.spread
-    return [row.level, row.function, num(row.symdyn_ns, ".1f"), row.peer, num(row.peer_ns, ".1f"),
-            num(row.ratio, ".2f") + ("×" if row.ratio is not None else ""),
-            f"{spread[0]:.2f}–{spread[1]:.2f}" if spread else "", num(row.ops, "d"),
+    return [row.function, f"{row.symdyn_ns:.1f}", row.peer, f"{row.peer_ns:.1f}", f"{row.ratio:.2f}×",
+            f"{spread[0]:.2f}–{spread[1]:.2f}" if spread else "", "" if row.ops is None else str(row.ops),
             f"≥ {row.target}×" if row.target else "", row.met]
 
 
-def format_table(rows: list[Row]) -> str:
-    """A plain-text table, one line per comparison."""
-    cells = [list(COLUMNS)] + [_cells(r) for r in rows]
-    widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
-    lines = ["  ".join(c.rjust(w) if i in RIGHT else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
-             for line in cells]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(line.rstrip() for line in lines)
+def _groups(rows: list[Row]) -> list[tuple[str, list[Row]]]:
+    """Rows grouped by their level (the group's title), in order of first appearance."""
+    groups: dict[str, list[Row]] = {}
+    for row in rows:
+        groups.setdefault(row.level, []).append(row)
+    return list(groups.items())
 
 
-def markdown_table(rows: list[Row]) -> str:
-    """The same table in Markdown."""
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "|".join("---:" if i in RIGHT else "---"
-                                                           for i in range(len(COLUMNS))) + "|"]
-    lines += ["| " + " | ".join(_cells(r)) + " |" for r in rows]
-    return "\n".join(lines)
+def format_table(rows: list[Row], missing: list[str] = ()) -> str:
+    """Plain-text tables, one per group of rows under its title, the ops legend, then one line
+    per peer that was not measured (what to install)."""
+    out = []
+    for title, group in _groups(rows):
+        cells = [list(COLUMNS)] + [_cells(r) for r in group]
+        widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
+        lines = ["  ".join(c.rjust(w) if i in RIGHT else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
+                 for line in cells]
+        lines.insert(1, "  ".join("-" * w for w in widths))
+        out += ["", title, *(line.rstrip() for line in lines)]
+    out += ["", OPS_NOTE, *missing]
+    return "\n".join(out).strip("\n")
+
+
+def markdown_table(rows: list[Row], missing: list[str] = ()) -> str:
+    """The same tables in Markdown: the title of each in bold above it."""
+    out = []
+    for title, group in _groups(rows):
+        out += ["", f"**{title}**", "", "| " + " | ".join(COLUMNS) + " |",
+                "|" + "|".join("---:" if i in RIGHT else "---" for i in range(len(COLUMNS))) + "|"]
+        out += ["| " + " | ".join(_cells(r)) + " |" for r in group]
+    out += ["", OPS_NOTE + ".", *(f"\n{m}" for m in missing)]
+    return "\n".join(out).strip("\n")
 
 
 def machine() -> str:
@@ -514,8 +511,6 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-pin", action="store_true", help="skip the Pinocchio C++ peer")
     p.add_argument("--no-casadi", action="store_true", help="skip the plain CasADi RNEA in C")
     p.add_argument("--no-python", action="store_true", help="skip the comparisons from Python")
-    p.add_argument("--pin-bench-dir", default=str(SHARED_BENCH),
-                   help="folder of pin_bench.cpp and build.sh (default: shared/bench beside the repository)")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown to FILE")
     p.set_defaults(func=main)
 
@@ -532,17 +527,18 @@ def main(args=None) -> int:
     robot = arms.load(MODEL)
     states = random_states(robot.nofriction(all=True), args.batch, args.seed)
     src = frictionless_sources(robot)
-    rows = c_level(robot, src, states, args, log)
+    missing: list[str] = []
+    rows = c_level(robot, src, states, args, log, missing)
     if not args.no_python:
-        rows += python_level(robot, src, states, args, log)
+        rows += python_level(robot, src, states, args, log, missing)
     print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
           f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions")
-    print(format_table(rows))
+    print(format_table(rows, missing))
     print(f"machine: {machine()}")
     if args.markdown:
         prog = "symdyn" if Path(sys.argv[0]).name == "symdyn" else f"python {sys.argv[0]}"
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
         text = (f"Measured with `{' '.join([prog, *sys.argv[1:]])}` on {machine()}; load average "
-                f"{load:.1f} at the end of the run.\n\n{markdown_table(rows)}\n")
+                f"{load:.1f} at the end of the run.\n\n{markdown_table(rows, missing)}\n")
         Path(args.markdown).write_text(text)
     return 0

@@ -1,0 +1,278 @@
+/*
+ * symdyn's Pinocchio C++ peer: ns per call of Pinocchio's algorithms on the
+ * arm symdyn benchmarks, no Python involved.  The C++ counterpart of
+ * harness.c (same loop: a pool of K states cycled, one volatile sink per
+ * call, median of `reps` repetitions of `ncalls` calls), built once into the
+ * cache by symdyn.bench.pin_peer against the headers of the `pin` and
+ * `cmeel-eigen` wheels (Pinocchio is header-only here; nothing is linked).
+ *
+ * Run: pin_peer ARM STATES NCALLS REPS [FUNCTION ...]
+ *
+ * ARM (text, written by symdyn.bench.pin_peer.write_arm):
+ *   symdyn-pin-arm 1
+ *   n N
+ *   gravity GX GY GZ                  gravity itself (downward) in the base frame
+ *   then N lines, one per joint, parent = the previous joint (a serial chain):
+ *   TYPE AX AY AZ  R00 R01 R02 PX R10 R11 R12 PY R20 R21 R22 PZ  M CX CY CZ  IXX IXY IXZ IYY IYZ IZZ  IA
+ *     TYPE R (revolute) or P (prismatic) about / along the unit axis A, in the
+ *     joint frame; [R | P] the joint frame's fixed placement in the parent
+ *     joint's frame (at q = 0); M the mass, C the centre of mass and I the
+ *     inertia about it, both in the joint frame (after the motion); IA the
+ *     armature (rotor inertia reflected to the joint, G^2 Jm).
+ *   An axis along x, y or z becomes JointModelR{X,Y,Z} / P{X,Y,Z}, any other
+ *   JointModelRevoluteUnaligned / PrismaticUnaligned.
+ * STATES: K (a power of two) states, each q, qd, qdd, tau as 4*N doubles (the
+ *   file harness.c reads, so both time the same states).
+ *
+ * Prints "pinocchio VERSION", then "time NAME NS" per algorithm, then
+ * "check NAME v..." with its outputs at state 3 (matrices row-major and made
+ * symmetric where Pinocchio fills the upper triangle only), which the caller
+ * compares with symdyn's reference before it believes any time.
+ */
+#include <pinocchio/multibody.hpp>
+#include <pinocchio/algorithm/rnea.hpp>
+#include <pinocchio/algorithm/crba.hpp>
+#include <pinocchio/algorithm/aba.hpp>
+#include <pinocchio/algorithm/cholesky.hpp>
+#include <pinocchio/algorithm/rnea-derivatives.hpp>
+#include <pinocchio/algorithm/aba-derivatives.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+using namespace pinocchio;
+typedef std::chrono::steady_clock clk;
+
+static std::string arm_path;
+
+/* A line of the arm file that is not what it should be: the file and line, as a compiler says it. */
+[[noreturn]] static void bad(int line, const std::string &what)
+{
+    throw std::runtime_error(arm_path + ":" + std::to_string(line) + ": " + what);
+}
+
+/* Pinocchio's joint model for a unit axis: the axis-aligned kinds where they apply (faster). */
+static JointIndex add_joint(Model &model, JointIndex parent, char type, const Eigen::Vector3d &axis,
+                            const SE3 &placement, const std::string &name)
+{
+    for (int k = 0; k < 3; ++k) {
+        if (std::abs(axis[k] - 1.0) < 1e-15 && std::abs(axis[(k + 1) % 3]) < 1e-15 &&
+            std::abs(axis[(k + 2) % 3]) < 1e-15) {
+            if (type == 'R')
+                return k == 0 ? model.addJoint(parent, JointModelRX(), placement, name)
+                     : k == 1 ? model.addJoint(parent, JointModelRY(), placement, name)
+                              : model.addJoint(parent, JointModelRZ(), placement, name);
+            return k == 0 ? model.addJoint(parent, JointModelPX(), placement, name)
+                 : k == 1 ? model.addJoint(parent, JointModelPY(), placement, name)
+                          : model.addJoint(parent, JointModelPZ(), placement, name);
+        }
+    }
+    if (type == 'R')
+        return model.addJoint(parent, JointModelRevoluteUnaligned(axis), placement, name);
+    return model.addJoint(parent, JointModelPrismaticUnaligned(axis), placement, name);
+}
+
+static Model read_arm(const char *path)
+{
+    arm_path = path;
+    std::ifstream in(path);
+    if (!in)
+        throw std::runtime_error(arm_path + ": cannot open");
+    std::string line, word;
+    int version = 0, n = 0, lineno = 1;
+    double gx, gy, gz;
+    if (!std::getline(in, line) || !(std::istringstream(line) >> word >> version) || word != "symdyn-pin-arm" ||
+        version != 1)
+        bad(1, "not a symdyn arm file (first line must be 'symdyn-pin-arm 1')");
+    ++lineno;
+    if (!std::getline(in, line) || !(std::istringstream(line) >> word >> n) || word != "n" || n < 1)
+        bad(lineno, "expected 'n N' with N >= 1 joints");
+    ++lineno;
+    if (!std::getline(in, line) || !(std::istringstream(line) >> word >> gx >> gy >> gz) || word != "gravity")
+        bad(lineno, "expected 'gravity GX GY GZ'");
+    Model model;
+    Eigen::VectorXd armature(n);
+    JointIndex parent = 0;
+    for (int i = 0; i < n; ++i) {
+        ++lineno;
+        if (!std::getline(in, line))
+            bad(lineno, "missing joint " + std::to_string(i + 1) + " of " + std::to_string(n));
+        std::istringstream s(line);
+        std::string type;
+        double v[26];
+        s >> type;
+        for (double &x : v)
+            s >> x;
+        if (!s || (type != "R" && type != "P"))
+            bad(lineno, "joint " + std::to_string(i + 1) + ": expected R or P and 26 numbers");
+        Eigen::Vector3d axis(v[0], v[1], v[2]);
+        if (std::abs(axis.norm() - 1.0) > 1e-12)
+            bad(lineno, "joint " + std::to_string(i + 1) + ": the axis is not a unit vector");
+        Eigen::Matrix3d R;
+        Eigen::Vector3d p;
+        for (int r = 0; r < 3; ++r) {
+            R.row(r) << v[3 + 4 * r], v[4 + 4 * r], v[5 + 4 * r];
+            p[r] = v[6 + 4 * r];
+        }
+        if (!(R.transpose() * R).isIdentity(1e-12) || R.determinant() < 0)
+            bad(lineno, "joint " + std::to_string(i + 1) + ": the placement's rotation is not a rotation");
+        Eigen::Matrix3d I;
+        I << v[19], v[20], v[21], v[20], v[22], v[23], v[21], v[23], v[24];
+        std::string name = "j" + std::to_string(i + 1);
+        JointIndex j = add_joint(model, parent, type[0], axis, SE3(R, p), name);
+        model.appendBodyToJoint(j, Inertia(v[15], Eigen::Vector3d(v[16], v[17], v[18]), I), SE3::Identity());
+        armature[i] = v[25];
+        parent = j;
+    }
+    model.armature = armature;
+    model.gravity = Motion(Eigen::Vector3d(gx, gy, gz), Eigen::Vector3d::Zero());
+    return model;
+}
+
+static std::vector<double> read_states(const char *path, int n)
+{
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    if (!in)
+        throw std::runtime_error(std::string(path) + ": cannot open");
+    const std::streamoff bytes = in.tellg();
+    const std::size_t per = 4 * (std::size_t)n;
+    const std::size_t k = bytes > 0 ? (std::size_t)bytes / (sizeof(double) * per) : 0;
+    if (k < 4 || (k & (k - 1)) || (std::size_t)bytes != k * per * sizeof(double))
+        throw std::runtime_error(std::string(path) + ": expected a power of two (>= 4) of states of " +
+                                 std::to_string(per) + " doubles each");
+    std::vector<double> states(k * per);
+    in.seekg(0);
+    in.read(reinterpret_cast<char *>(states.data()), (std::streamsize)(states.size() * sizeof(double)));
+    return states;
+}
+
+template <typename F>
+static double time_ns(F f, long ncalls, int reps)
+{
+    std::vector<double> v;
+    for (int r = 0; r < reps; ++r) {
+        auto t0 = clk::now();
+        for (long i = 0; i < ncalls; ++i)
+            f(i);
+        auto t1 = clk::now();
+        v.push_back(std::chrono::duration<double, std::nano>(t1 - t0).count() / (double)ncalls);
+    }
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+static void check(const char *name, const Eigen::MatrixXd &m)
+{
+    std::printf("check %s", name);
+    for (Eigen::Index r = 0; r < m.rows(); ++r)
+        for (Eigen::Index c = 0; c < m.cols(); ++c)
+            std::printf(" %.17g", m(r, c));
+    std::printf("\n");
+}
+
+static Eigen::MatrixXd symmetric_from_upper(const Eigen::MatrixXd &m)
+{
+    Eigen::MatrixXd s = m;
+    s.triangularView<Eigen::StrictlyLower>() = m.transpose();
+    return s;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 5) {
+        std::fprintf(stderr, "usage: %s ARM STATES NCALLS REPS [FUNCTION ...]\n", argv[0]);
+        return 2;
+    }
+    try {
+        const Model model = read_arm(argv[1]);
+        const int n = model.nv;
+        const std::vector<double> raw = read_states(argv[2], n);
+        const long ncalls = std::atol(argv[3]);
+        const int reps = std::atoi(argv[4]);
+        if (ncalls < 1 || reps < 1)
+            throw std::runtime_error("NCALLS and REPS must be positive");
+        const std::size_t K = raw.size() / (4 * (std::size_t)n);
+        std::vector<Eigen::VectorXd> Q(K), V(K), A(K), T(K);
+        for (std::size_t k = 0; k < K; ++k) {
+            const double *s = raw.data() + 4 * n * k;
+            Q[k] = Eigen::Map<const Eigen::VectorXd>(s, n);
+            V[k] = Eigen::Map<const Eigen::VectorXd>(s + n, n);
+            A[k] = Eigen::Map<const Eigen::VectorXd>(s + 2 * n, n);
+            T[k] = Eigen::Map<const Eigen::VectorXd>(s + 3 * n, n);
+        }
+        const std::size_t mask = K - 1;
+        Data data(model);
+        Eigen::VectorXd tmp(n);
+        Eigen::MatrixXd dtau_dq = Eigen::MatrixXd::Zero(n, n), dtau_dv = dtau_dq, dtau_da = dtau_dq;
+        Eigen::MatrixXd dddq_dq = dtau_dq, dddq_dv = dtau_dq, dddq_dtau = dtau_dq;
+        volatile double sink = 0;
+        auto fdyn = [&](std::size_t k) {  /* forward dynamics by CRBA + Cholesky: M^-1 (tau - nle) */
+            crba(model, data, Q[k]);
+            nonLinearEffects(model, data, Q[k], V[k]);
+            cholesky::decompose(model, data);
+            tmp = T[k] - data.nle;
+            cholesky::solve(model, data, tmp);
+        };
+        struct Algorithm {
+            const char *name;
+            std::function<void(std::size_t)> call;
+            std::function<Eigen::MatrixXd()> output;
+        };
+        const std::vector<Algorithm> algorithms = {
+            {"rnea", [&](std::size_t k) { rnea(model, data, Q[k], V[k], A[k]); sink = data.tau[0]; },
+             [&] { return Eigen::MatrixXd(data.tau); }},
+            {"crba", [&](std::size_t k) { crba(model, data, Q[k]); sink = data.M(0, 0); },
+             [&] { return symmetric_from_upper(data.M); }},
+            {"aba", [&](std::size_t k) { aba(model, data, Q[k], V[k], T[k]); sink = data.ddq[0]; },
+             [&] { return Eigen::MatrixXd(data.ddq); }},
+            {"computeGeneralizedGravity", [&](std::size_t k) { computeGeneralizedGravity(model, data, Q[k]); sink = data.g[0]; },
+             [&] { return Eigen::MatrixXd(data.g); }},
+            {"nonLinearEffects", [&](std::size_t k) { nonLinearEffects(model, data, Q[k], V[k]); sink = data.nle[0]; },
+             [&] { return Eigen::MatrixXd(data.nle); }},
+            {"computeCoriolisMatrix", [&](std::size_t k) { computeCoriolisMatrix(model, data, Q[k], V[k]); sink = data.C(0, 0); },
+             [&] { return Eigen::MatrixXd(data.C); }},
+            {"crba_cholesky", [&](std::size_t k) { fdyn(k); sink = tmp[0]; },
+             [&] { return Eigen::MatrixXd(tmp); }},
+            {"computeRNEADerivatives", [&](std::size_t k) {
+                 computeRNEADerivatives(model, data, Q[k], V[k], A[k], dtau_dq, dtau_dv, dtau_da); sink = dtau_dq(0, 0); },
+             [&] { return symmetric_from_upper(dtau_da); }},
+            {"computeABADerivatives", [&](std::size_t k) {
+                 computeABADerivatives(model, data, Q[k], V[k], T[k], dddq_dq, dddq_dv, dddq_dtau); sink = dddq_dq(0, 0); },
+             [&] { return symmetric_from_upper(dddq_dtau); }},
+            {"computeMinverse", [&](std::size_t k) { computeMinverse(model, data, Q[k]); sink = data.Minv(0, 0); },
+             [&] { return symmetric_from_upper(data.Minv); }},
+        };
+        std::vector<std::string> wanted(argv + 5, argv + argc);
+        for (const std::string &w : wanted)
+            if (std::none_of(algorithms.begin(), algorithms.end(), [&](const Algorithm &a) { return w == a.name; }))
+                throw std::runtime_error("unknown algorithm '" + w + "'");
+        std::printf("pinocchio %s\n", PINOCCHIO_VERSION);
+        std::vector<const Algorithm *> run;
+        for (const Algorithm &a : algorithms)
+            if (wanted.empty() || std::find(wanted.begin(), wanted.end(), a.name) != wanted.end())
+                run.push_back(&a);
+        for (const Algorithm *a : run) {
+            const double t = time_ns([&](long i) { a->call((std::size_t)i & mask); }, ncalls, reps);
+            std::printf("time %s %.2f\n", a->name, t);
+        }
+        for (const Algorithm *a : run) {
+            a->call(3);
+            check(a->name, a->output());
+        }
+        (void)sink;
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "pin_peer: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

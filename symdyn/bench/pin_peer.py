@@ -1,0 +1,257 @@
+"""The Pinocchio C++ peer of `symdyn bench`: the arm it reads, its build, its run.
+
+`pin_peer.cpp` (beside this file) times Pinocchio's algorithms in C++ with
+the loop of symdyn's own C harness, on the same states file.  This module
+writes the arm it is fed (`write_arm`: one line per joint — type, unit
+axis, 3×4 placement in the parent joint's frame, mass, centre of mass,
+inertia about it, armature — taken from `peers.pinocchio_model`, the very
+model the reference is tested against, so DH arms of either convention and
+general-joint arms reach the C++ alike), compiles it once into the cache
+against the headers of the `pin` and `cmeel-eigen` wheels (`peer_binary`:
+keyed by a hash of the source, flags, compiler and Pinocchio version;
+rebuilt when stale or when the binary's recorded sha256 no longer matches),
+and runs it (`run_peer`).  Missing pieces raise `PeerUnavailable`, whose
+message says what to install.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from ..derivation.cache import cache_dir
+
+__all__ = ["SOURCE", "CXXFLAGS", "ALGORITHMS", "PeerUnavailable", "PeerJoint", "arm_joints", "write_arm",
+           "include_dirs", "cache_key", "peer_binary", "run_peer", "read_report", "check_peer"]
+
+SOURCE = Path(__file__).with_name("pin_peer.cpp")
+#: The flags of symdyn's own harness (-O3 -march=native), so neither side is favoured; the Boost
+#: defines are those Pinocchio's own build passes (its headers need the longer MPL lists).
+CXXFLAGS = ("-std=c++17", "-O3", "-march=native", "-DNDEBUG", "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
+            "-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
+            "-DBOOST_FUSION_INVOKE_MAX_ARITY=12")
+#: What pin_peer.cpp times, in its order; see `check_peer` for what each is checked against.
+ALGORITHMS = ("rnea", "crba", "aba", "computeGeneralizedGravity", "nonLinearEffects", "computeCoriolisMatrix",
+              "crba_cholesky", "computeRNEADerivatives", "computeABADerivatives", "computeMinverse")
+#: How to get every peer: the `bench` extra (pin, cmeel-eigen, roboticstoolbox-python).
+HOW_TO_INSTALL = "run `make bench`, which installs the bench extra (pip install -e '.[bench]')"
+
+
+class PeerUnavailable(RuntimeError):
+    """The C++ peer cannot be built here; the message says what is missing and how to get it."""
+
+
+@dataclass(frozen=True)
+class PeerJoint:
+    """One joint of a serial chain as pin_peer.cpp reads it.
+
+    `placement` (3×4, [R | p]): the joint frame at q = 0 in the parent
+    joint's frame; `axis`: unit vector in the joint frame, rotated about
+    (`revolute`) or moved along; `com` (m) and `inertia` (kg·m², about the
+    COM) in the joint frame after the motion; `armature`: G²·Jm (kg·m²).
+    """
+
+    revolute: bool
+    axis: tuple
+    placement: tuple
+    mass: float
+    com: tuple
+    inertia: tuple
+    armature: float
+
+    def line(self) -> str:
+        """The joint's line of the arm file (floats written to round-trip exactly)."""
+        I = self.inertia
+        numbers = [*self.axis, *np.ravel(self.placement), self.mass, *self.com,
+                   I[0][0], I[0][1], I[0][2], I[1][1], I[1][2], I[2][2], self.armature]
+        return " ".join(["R" if self.revolute else "P", *(repr(float(x) + 0.0) for x in numbers)])
+
+
+_ALIGNED = {"RX": (True, 0), "RY": (True, 1), "RZ": (True, 2), "PX": (False, 0), "PY": (False, 1), "PZ": (False, 2)}
+
+
+def arm_joints(model) -> tuple[list[PeerJoint], np.ndarray]:
+    """(joints, gravity) of a serial `pinocchio.Model` of one-DOF revolute or prismatic joints.
+
+    gravity: the downward acceleration in the base frame (m/s²), as Pinocchio's `model.gravity`.
+    """
+    joints = []
+    for j in range(1, model.njoints):
+        kind = model.joints[j].shortname().removeprefix("JointModel")
+        if model.parents[j] != j - 1:
+            raise ValueError(f"joint {j} ({model.names[j]}) hangs from joint {model.parents[j]}: "
+                             "the C++ peer takes a serial chain only")
+        if kind in _ALIGNED:
+            revolute, k = _ALIGNED[kind]
+            axis = tuple(np.eye(3)[k])
+        elif kind in ("RevoluteUnaligned", "PrismaticUnaligned"):
+            revolute, axis = kind == "RevoluteUnaligned", tuple(np.array(model.joints[j].extract().axis, float))
+        else:
+            raise ValueError(f"joint {j} ({model.names[j]}) is a Pinocchio {kind} joint: the C++ peer "
+                             "takes revolute and prismatic joints only")
+        Y = model.inertias[j]
+        joints.append(PeerJoint(revolute, axis, tuple(map(tuple, model.jointPlacements[j].homogeneous[:3])),
+                                float(Y.mass), tuple(Y.lever), tuple(map(tuple, Y.inertia)),
+                                float(model.armature[j - 1])))
+    return joints, np.array(model.gravity.linear, dtype=float)
+
+
+def write_arm(path: str | Path, joints: list[PeerJoint], gravity) -> Path:
+    """Write the arm file pin_peer.cpp reads (format in its header comment); returns the path."""
+    if not joints:
+        raise ValueError("an arm needs at least one joint")
+    g = " ".join(repr(float(x) + 0.0) for x in gravity)
+    text = f"symdyn-pin-arm 1\nn {len(joints)}\ngravity {g}\n" + "".join(j.line() + "\n" for j in joints)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+# --------------------------------------------------------------------------- build
+
+def _compiler() -> str:
+    cxx = os.environ.get("CXX") or next((c for c in ("c++", "g++", "clang++") if shutil.which(c)), None)
+    if cxx is None or shutil.which(cxx) is None:
+        raise PeerUnavailable(f"no C++ compiler found{f' (CXX={cxx})' if cxx else ''}: install g++ "
+                              "(Debian/Ubuntu: apt-get install g++) or set CXX")
+    return cxx
+
+
+def include_dirs() -> list[Path]:
+    """Pinocchio's and Eigen's header folders, from the `pin` and `cmeel-eigen` wheels
+    (Eigen also from Debian's libeigen3-dev), else PeerUnavailable saying what to install."""
+    try:
+        import cmeel
+        pin_version = metadata.version("pin")
+    except (ImportError, metadata.PackageNotFoundError):
+        raise PeerUnavailable(f"Pinocchio is not installed (pin): {HOW_TO_INSTALL}") from None
+    prefix = Path(cmeel.__file__).resolve().parent.parent / "cmeel.prefix" / "include"
+    if not (prefix / "pinocchio" / "multibody.hpp").is_file():
+        raise PeerUnavailable(f"Pinocchio's C++ headers are not in {prefix} (pin {pin_version}): "
+                              "reinstall the wheel (pip install --force-reinstall pin)")
+    eigen = next((d for d in (prefix / "eigen3", Path("/usr/include/eigen3")) if (d / "Eigen" / "Core").is_file()),
+                 None)
+    if eigen is None:
+        raise PeerUnavailable(f"Eigen's C++ headers are missing (cmeel-eigen): {HOW_TO_INSTALL}")
+    return [prefix, eigen]
+
+
+def cache_key(source: str, cxx: str, flags: tuple, includes: list[Path]) -> str:
+    """Hash of everything the binary depends on: the source, the compiler (and its version), the flags,
+    the header folders, the Pinocchio version and, for -march=native, the host."""
+    try:
+        version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
+    except OSError:
+        version = ""
+    try:
+        pin_version = metadata.version("pin")
+    except metadata.PackageNotFoundError:
+        pin_version = ""
+    host = platform.node() if "-march=native" in flags else ""
+    h = hashlib.sha256()
+    for part in (source, cxx, version, *flags, *map(str, includes), pin_version, host):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def peer_binary(log=lambda msg: print(msg, file=sys.stderr, flush=True)) -> Path:
+    """The compiled peer in the cache, built first if missing, stale or damaged (minutes on 2 cores).
+
+    Intact: the sha256 recorded beside it when it was built still matches.
+    PeerUnavailable if the headers or a C++ compiler are missing, or the build fails.
+    """
+    includes = include_dirs()
+    cxx = _compiler()
+    source = SOURCE.read_text()
+    folder = cache_dir() / "bench" / f"pin-peer-{cache_key(source, cxx, CXXFLAGS, includes)}"
+    binary, recorded = folder / "pin_peer", folder / "pin_peer.sha256"
+    try:
+        if recorded.read_text() == _sha256(binary):
+            return binary
+    except OSError:
+        pass
+    folder.mkdir(parents=True, exist_ok=True)
+    cmd = [cxx, *CXXFLAGS, *(f"-I{d}" for d in includes), str(SOURCE)]
+    log(f"building the Pinocchio C++ peer into {folder} (once; several minutes on 2 cores) ...")
+    start = time.monotonic()
+    fd, tmp = tempfile.mkstemp(prefix=".pin_peer.", dir=folder)
+    os.close(fd)
+    try:
+        run = subprocess.run([*cmd, "-o", tmp], capture_output=True, text=True)
+        if run.returncode != 0:
+            raise PeerUnavailable(f"compiling the Pinocchio C++ peer failed ({' '.join(cmd)}):\n{run.stderr[-3000:]}")
+        os.replace(tmp, binary)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+    recorded.write_text(_sha256(binary))
+    log(f"built the Pinocchio C++ peer in {time.monotonic() - start:.0f} s")
+    return binary
+
+
+# --------------------------------------------------------------------------- run
+
+def read_report(stdout: str) -> tuple[dict, dict]:
+    """({name: ns per call}, {name: outputs at state 3}) from the "time NAME NS" and
+    "check NAME v..." lines that harness.c and pin_peer.cpp print."""
+    times, checks = {}, {}
+    for line in stdout.splitlines():
+        kind, _, rest = line.partition(" ")
+        name, *values = rest.split()
+        if kind == "time":
+            times[name] = float(values[0])
+        elif kind == "check":
+            checks[name] = np.array(values, dtype=float)
+    return times, checks
+
+
+def run_peer(binary: Path, arm: Path, states: Path, ncalls: int, reps: int, algorithms=()) -> tuple[dict, dict]:
+    """Time Pinocchio on the arm and states files: ({algorithm: ns per call}, {algorithm: outputs at state 3})."""
+    run = subprocess.run([str(binary), str(arm), str(states), str(int(ncalls)), str(int(reps)), *algorithms],
+                         capture_output=True, text=True)
+    if run.returncode != 0:
+        raise RuntimeError(f"{binary} failed ({run.returncode}): {run.stderr.strip()}")
+    return read_report(run.stdout)
+
+
+def check_peer(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1e-9) -> float:
+    """Largest relative error of the peer's outputs at state k against symdyn's reference (frictionless
+    `robot`); a RuntimeError naming the algorithm if above rtol: a peer timed on a different arm or
+    computing something else would make the comparison worthless."""
+    from ..numeric import reference as ref
+
+    q, qd, qdd, tau = q[k], qd[k], qdd[k], tau[k]
+    M, C, G = ref.inertia(robot, q), ref.coriolis(robot, q, qd), ref.gravload(robot, q)
+    Minv, n = np.linalg.inv(M), robot.n
+    expected = {"rnea": ref.rne(robot, q, qd, qdd), "crba": M, "aba": ref.accel(robot, q, qd, tau),
+                "computeGeneralizedGravity": G, "nonLinearEffects": C @ qd + G,
+                "computeCoriolisMatrix": C @ qd,          # Pinocchio's C need not be the Christoffel one; C q̇ is
+                "crba_cholesky": ref.accel(robot, q, qd, tau),
+                "computeRNEADerivatives": M, "computeABADerivatives": Minv, "computeMinverse": Minv}
+    worst = 0.0
+    for name, got in checks.items():
+        if name == "computeCoriolisMatrix":
+            got = got.reshape(n, n) @ qd
+        want = np.ravel(expected[name])
+        err = float(np.abs(np.ravel(got) - want).max() / max(1.0, np.abs(want).max()))
+        if not err <= rtol:
+            raise RuntimeError(f"Pinocchio C++ peer: {name} at state {k} differs from symdyn's reference "
+                               f"by {err:.1e} (relative): not the same arm")
+        worst = max(worst, err)
+    return worst
