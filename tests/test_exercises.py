@@ -9,6 +9,7 @@ import pytest
 
 from symdyn import cli
 from symdyn.apps import air_puck as P
+from symdyn.apps import analysis
 from symdyn.apps import control as C
 from symdyn.apps import exercises_arm as XA
 from symdyn.apps import exercises_motor as XM
@@ -122,7 +123,6 @@ def test_ellipsoid_radii_are_the_singular_values_of_J_and_J_inv_M():
     force = XA.force_ellipsoid(puma, q)
     np.testing.assert_allclose(force.radii, np.sort(1 / np.linalg.svd(J, compute_uv=False)), rtol=1e-10)
     acc = np.sort(np.linalg.svd(J @ np.linalg.inv(ref.inertia(puma, q)), compute_uv=False))
-    from symdyn.apps import analysis
     np.testing.assert_allclose(analysis.acceleration_ellipsoid(puma, q).radii, acc, rtol=1e-8)
     assert XA.major_axis_angle([1, 0, 0], [-1, 1e-12, 0]) == pytest.approx(0, abs=1e-6)
 

@@ -49,7 +49,7 @@ def independent_joint_runs(T: float = 1.5, horizon: float = 2.0, joints=range(6)
     hold = np.broadcast_to(plant.G(q0) / (G * Ki), masks.shape)
     ctrl = X.IndependentJoints(G, trajectory, Kv, Ki, 40.0, integral=hold)
     tr = C.simulate(lambda t, q, qd, tau: plant.fdyn(q, qd, tau), ctrl, horizon, np.tile(q0, (len(masks), 1)),
-                    dt=1e-3, period=1e-3, delay=1, progress=None)
+                    dt=1e-3, period=1e-3, delay=1)
     demand = np.stack([trajectory(t)[0] for t in tr.t])
     return tr, demand, (Kv, Ki, J), plant
 

@@ -21,7 +21,7 @@ START = np.array([0.0, np.pi / 4, np.pi, 0.0, np.pi / 4, 0.0])     # the arm at 
 GOAL = np.array([0.02, 0.0, np.radians(10.0)])                     # base x, y (m), yaw (rad)
 
 
-def run(robot, model: backend.Model, trajectory, T: float, dt: float = 2e-3) -> C.Trace:
+def run(model: backend.Model, trajectory, T: float, dt: float = 2e-3) -> C.Trace:
     """The puck robot from rest with the base at the origin and the arm at START, the arm
     under `PassiveBase` computed torque along `trajectory`, zero base torque, RK4 at dt."""
     ctrl = P.PassiveBase(model, trajectory)
@@ -38,9 +38,9 @@ def air_puck(out_dir: Path, quick: bool = False) -> str:
     """Puma on an air puck: arm motion moves the unactuated base; a planned motion reaches a base pose and stops."""
     robot = P.puck_robot()
     model = backend.model(robot, "c")
-    swing = run(robot, model, waist_swing(), 2.5)
+    swing = run(model, waist_swing(), 2.5)
     path, params, planned = P.plan(model, START, GOAL, steps=60)
-    moved = run(robot, model, P.timed(path, params, 4.0), 4.5)
+    moved = run(model, P.timed(path, params, 4.0), 4.5)
     plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(11, 7))
     lines = [f"Puma 560 (Coulomb friction removed) on a {robot.links[2].m} kg disc of radius 0.25 m, free in x, y, yaw: "
