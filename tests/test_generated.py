@@ -64,7 +64,8 @@ def test_a_robot_other_than_the_files_is_generated_into_the_cache(tmp_path, monk
 
 def test_loaded_model_lists_its_functions():
     m = codegen.load("puma560", "numpy")
-    assert list(m.functions) == ["tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y"]
+    assert list(m.functions) == ["tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives",
+                                 "fdyn_derivatives", "Minv"]
     with pytest.raises(AttributeError, match="'aba'"):
         m.aba
     with pytest.raises(ValueError, match="unknown target 'fortran'"):

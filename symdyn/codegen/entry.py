@@ -57,15 +57,19 @@ def files(name: str, target: str) -> tuple[str, ...]:
 
 
 def bundle(robot: Robot) -> Bundle:
-    """Derive `robot` by both methods (Newton–Euler on the regrouped base
-    parameters when the robot is numeric) and build every function's program."""
-    from ..derivation.entry import derive
+    """Derive `robot` (Newton–Euler on the regrouped base parameters when the
+    robot is numeric, and Lagrange where its expanded form may be leaner) and
+    build every function's program, each from the derivation with fewer operations."""
+    from ..derivation.entry import EXPANDED_MAX_JOINTS, derive
     from ..derivation.regressor import regressor
-    from .functions import programs
+    from .choice import programs
 
     regroup = not robot.is_symbolic
-    dyns = [derive(robot, "newton-euler", regroup=regroup), derive(robot, "lagrange")]
-    origins = ["newton-euler, base parameters" if regroup else "newton-euler", "lagrange"]
+    dyns = [derive(robot, "newton-euler", regroup=regroup)]
+    origins = ["newton-euler, base parameters" if regroup else "newton-euler"]
+    if robot.n <= EXPANDED_MAX_JOINTS:   # Lagrange's expanded M can be the leanest; named, it never is
+        dyns.append(derive(robot, "lagrange"))
+        origins.append("lagrange")
     try:
         progs = programs(dyns, regressor(robot), origins)
     except ValueError as exc:

@@ -3,11 +3,10 @@
 Between derive and program.  Every derivation offers each term (τ, M, C,
 C·q̇, G, F and the bias C·q̇ + G + F = τ(q, q̇, 0)) as a `FunctionSpec`: named
 inputs, output expressions, and the intermediates it already named.  When
-several derivations are at hand, each function takes the one whose program
-has the fewest operations (Lagrange's trigonometric polynomials give a
-compact M, Newton–Euler's recursion a compact τ).  Forward dynamics is the
+several derivations are at hand, `choice.programs` takes for each function
+the one whose program has the fewest operations.  Forward dynamics is the
 chosen M and bias followed by an unrolled LDLᵀ solve, in one program; the
-regressor Y (τ = Y·π) is one more spec.
+regressor Y (τ = Y·π) is one more spec; the derivatives are in `derivatives`.
 """
 
 from __future__ import annotations
@@ -18,9 +17,10 @@ from typing import Sequence
 import sympy as sp
 
 from ..derivation.dynamics import Dynamics
-from ..derivation.program import Program, dag_size, make_program
+from ..derivation.program import Program, make_program
 
-__all__ = ["FunctionSpec", "candidates", "fdyn_spec", "regressor_spec", "programs", "ldlt_solve", "NAMES"]
+__all__ = ["FunctionSpec", "candidates", "fdyn_spec", "regressor_spec", "ldlt_factor", "ldlt_solve", "ldlt_inverse",
+           "NAMES"]
 
 NAMES = ("tau", "M", "C", "Cqd", "G", "F", "fdyn")
 
@@ -62,25 +62,28 @@ def _label(*indices: int, n: int) -> str:
     return ("_" if n > 9 else "").join(str(i + 1) for i in indices)
 
 
-def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list]:
-    """x = M⁻¹ r for symmetric positive-definite M by an unrolled LDLᵀ.
+class _Namer:
+    """Definitions of an unrolled factorisation: each non-atomic value gets a
+    name stem + its 1-based indices; atoms (exact zeros, ones) stay as they are."""
 
-    Returns (definitions, x): definitions [(Symbol, expr)] named M21, W21
-    (= L21·D1), D1, iD1 = 1/D1, L21, z1 (= L⁻¹r), y1 (= z/D) and the solution
-    {result}1, …; exact zeros of M propagate, so a sparse M costs less.
-    n divisions, ~n³/6 mul.
-    """
-    n = M.rows
-    defs: list = []
+    def __init__(self, n: int) -> None:
+        self.n, self.defs = n, []
 
-    def name(stem: str, expr, *idx: int):
+    def __call__(self, stem: str, expr, *idx: int):
         expr = sp.sympify(expr)
         if expr.is_Atom:
             return expr
-        sym = sp.Symbol(f"{stem}{_label(*idx, n=n)}", real=True)
-        defs.append((sym, expr))
+        sym = sp.Symbol(f"{stem}{_label(*idx, n=self.n)}", real=True)
+        self.defs.append((sym, expr))
         return sym
 
+
+def ldlt_factor(M: sp.Matrix) -> tuple[list, list, list]:
+    """The unrolled LDLᵀ of symmetric positive-definite M: (definitions named
+    M21, W21 (= L21·D1), D1, iD1 = 1/D1, L21, …; L as rows of values, 1/D).
+    Exact zeros of M propagate, so a sparse M costs less; n divisions."""
+    n = M.rows
+    name = _Namer(n)
     Ms = [[name("M", M[i, j], i, j) if i >= j else None for j in range(n)] for i in range(n)]
     L = [[sp.S.Zero] * n for _ in range(n)]
     W = [[sp.S.Zero] * n for _ in range(n)]
@@ -95,6 +98,18 @@ def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list
         for i in range(j + 1, n):
             W[i][j] = name("W", Ms[i][j] - sp.Add(*(W[i][k] * L[j][k] for k in range(j))), i, j)
             L[i][j] = name("L", W[i][j] * iD[j], i, j)
+    return name.defs, L, iD
+
+
+def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list]:
+    """x = M⁻¹ r for symmetric positive-definite M by an unrolled LDLᵀ.
+
+    Returns (definitions, x): the factor's definitions (`ldlt_factor`), z1
+    (= L⁻¹r), y1 (= z/D) and the solution {result}1, …; ~n³/6 mul.
+    """
+    n = M.rows
+    defs, L, iD = ldlt_factor(M)
+    name = _Namer(n)
     z: list = []
     for i in range(n):
         z.append(name("z", r[i] - sp.Add(*(L[i][k] * z[k] for k in range(i))), i))
@@ -102,7 +117,25 @@ def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list
     x = [sp.S.Zero] * n
     for i in reversed(range(n)):
         x[i] = name(result, y[i] - sp.Add(*(L[k][i] * x[k] for k in range(i + 1, n))), i)
-    return defs, x
+    return defs + name.defs, x
+
+
+def ldlt_inverse(L: list, iD: list) -> tuple[list, sp.ImmutableMatrix]:
+    """M⁻¹ = L⁻ᵀ D⁻¹ L⁻¹ from the factor of `ldlt_factor`: (definitions named
+    Li21 (L⁻¹, unit lower triangular), P21 (= L⁻¹/D), Minv21, …; the symmetric
+    matrix).  ~n³/3 mul."""
+    n = len(iD)
+    name = _Namer(n)
+    Li = [[sp.S.One if i == j else sp.S.Zero for j in range(n)] for i in range(n)]
+    for i in range(n):
+        for j in range(i):
+            Li[i][j] = name("Li", -sp.Add(*(L[i][k] * Li[k][j] for k in range(j, i))), i, j)
+    P = [[name("P", iD[k] * Li[k][j], k, j) for j in range(k + 1)] for k in range(n)]
+    inv = [[sp.S.Zero] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i + 1):
+            inv[i][j] = inv[j][i] = name("Minv", sp.Add(*(Li[k][i] * P[k][j] for k in range(i, n))), i, j)
+    return name.defs, sp.ImmutableMatrix(inv)
 
 
 def _params(dyn: Dynamics) -> list:
@@ -161,42 +194,3 @@ def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
     Y = sp.ImmutableMatrix(n, len(cols), lambda i, k: cols[k][i])
     return FunctionSpec("Y", (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)), (("Y", Y),),
                         tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor", ("Y",))
-
-
-def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
-    """The spec whose program has the fewest operations (the first on ties).
-
-    Specs are built smallest first, by the nodes of their expression DAG; one
-    with more than twice as many nodes as the best program so far has
-    operations is not built (CSE leaves 0.9–1.7 operations per node here):
-    a generic 7-joint arm's expanded Lagrange C would take minutes to CSE
-    only to lose to the Newton–Euler recursion.
-    """
-    sizes = [dag_size(s.outputs, s.definitions) for s in specs]
-    best = None
-    for k in sorted(range(len(specs)), key=lambda k: (sizes[k], k)):
-        if best is not None and sizes[k] > 2 * best[0]:
-            continue
-        program = specs[k].program()
-        candidate = (program.op_count()["total"], k, specs[k], program)
-        best = candidate if best is None else min(best, candidate, key=lambda c: c[:2])
-    return best[2], best[3]
-
-
-def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> list[Program]:
-    """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is
-    given): each from the derivation giving the fewest operations (the first
-    on ties), fdyn from the cheapest M and bias.  `origins`: a label per
-    derivation for the generated files (default: their methods)."""
-    if not dyns:
-        raise ValueError("programs() needs at least one derivation")
-    origins = origins or [None] * len(dyns)
-    cands = [candidates(d, o) for d, o in zip(dyns, origins)]
-    chosen: dict[str, tuple[FunctionSpec, Program]] = {}
-    for term in ("tau", "M", "C", "Cqd", "G", "F", "bias"):
-        chosen[term] = _cheapest([c[term] for c in cands])
-    out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
-    out.append(fdyn_spec(chosen["M"][0], chosen["bias"][0]).program())
-    if regressor is not None:
-        out.append(regressor_spec(regressor, dyns[0]).program())
-    return out

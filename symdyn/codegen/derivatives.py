@@ -1,0 +1,175 @@
+"""Derivatives of the dynamics as function specs: ∂τ/∂(q, q̇), ∂q̈/∂(q, q̇), M⁻¹.
+
+Between derive and program, beside `functions`.  The chosen τ's named
+definitions are differentiated forward, once per definition and direction
+(q_k, q̇_k), each nonzero derivative a new named definition that reuses the
+earlier ones — a straight-line program again, which `make_program` CSEs like
+any other.  Coulomb friction's sign(q̇) is held constant: its derivative is
+taken as zero everywhere, also at q̇ = 0 where it does not exist.  Forward
+dynamics: ∂q̈/∂x = −M⁻¹ ∂τ/∂x at (q, q̇, q̈), with M⁻¹ = L⁻ᵀD⁻¹L⁻¹ from the
+LDLᵀ that gives q̈.  Matrices have row i = output i (Pinocchio's layout).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import sympy as sp
+
+from .functions import FunctionSpec, fdyn_spec, ldlt_factor, ldlt_inverse
+
+__all__ = ["forward", "tau_derivatives_spec", "fdyn_derivatives_spec", "minv_spec"]
+
+_DOCS = {
+    "tau_derivatives": "Inverse dynamics and its derivatives (tau, dtau_dq, dtau_dqd): ({n},), ({n}, {n}), "
+                       "({n}, {n}), row i = d tau_i; dtau/dqdd = M. Coulomb friction's derivative is taken "
+                       "as 0, also at qd = 0.",
+    "fdyn_derivatives": "Forward dynamics and its derivatives (qdd, dqdd_dq, dqdd_dqd, Minv): ({n},) and "
+                        "({n}, {n}) x 3, row i = d qdd_i; dqdd/dtau = Minv. Coulomb friction's derivative "
+                        "is taken as 0, also at qd = 0.",
+    "Minv": "Inverse joint-space inertia M(q)^-1, ({n}, {n}), from the unrolled LDL^T of M.",
+}
+
+
+def _reachable(definitions: dict, roots: Sequence) -> list:
+    """The definitions the roots use, in their given (evaluation) order."""
+    seen, stack = set(), [s for e in roots for s in sp.sympify(e).free_symbols if s in definitions]
+    while stack:
+        s = stack.pop()
+        if s not in seen:
+            seen.add(s)
+            stack.extend(t for t in definitions[s].free_symbols if t in definitions and t not in seen)
+    return [(s, e) for s, e in definitions.items() if s in seen]
+
+
+def _partial(expr: sp.Expr, u: sp.Symbol) -> sp.Expr:
+    """∂expr/∂u with every sign(·) held constant (Coulomb friction: 0, not a Dirac delta)."""
+    signs = {node: sp.Dummy() for node in expr.atoms(sp.sign)}
+    if not signs:
+        return expr.diff(u)
+    back = {d: node for node, d in signs.items()}
+    return expr.xreplace(signs).diff(u).xreplace(back)
+
+
+def forward(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "D") -> tuple[list, list]:
+    """Forward-mode derivatives of a straight-line program.
+
+    definitions: [(Symbol, expr)] in evaluation order; outputs: [expr]; wrt:
+    the input symbols.  Returns (new definitions, rows): each nonzero ∂s/∂x of
+    a definition s is named {stem}{x}_{s} (atoms stay inline), and rows[i][k]
+    = ∂outputs[i]/∂wrt[k] in those names.
+    """
+    index = {x: k for k, x in enumerate(wrt)}
+    tangent: dict = {x: {k: sp.S.One} for x, k in index.items()}
+    new: list = []
+
+    def derivative(expr) -> dict:
+        out: dict = {}
+        for u in expr.free_symbols:
+            du = tangent.get(u)
+            if not du:
+                continue
+            pe = _partial(expr, u)
+            if pe == 0:
+                continue
+            for k, v in du.items():
+                out[k] = out.get(k, sp.S.Zero) + pe * v
+        return out
+
+    defs = dict(definitions)
+    for s, e in _reachable(defs, outputs):
+        named = {}
+        for k, v in sorted(derivative(sp.sympify(e)).items()):
+            if v == 0:
+                continue
+            if v.is_Atom:
+                named[k] = v
+            else:
+                sym = sp.Symbol(f"{stem}{wrt[k].name}_{s.name}", real=True)
+                new.append((sym, v))
+                named[k] = sym
+        if named:
+            tangent[s] = named
+    rows = []
+    for o in outputs:
+        d = derivative(sp.sympify(o))
+        rows.append([d.get(k, sp.S.Zero) for k in range(len(wrt))])
+    return new, rows
+
+
+def _params(spec: FunctionSpec) -> list:
+    return [a for a in spec.inputs if a[0] == "p"][:1]
+
+
+def _doc(name: str, n: int, params: list) -> str:
+    return _DOCS[name].format(n=n) + (f" p = ({', '.join(map(str, params[0][1]))})." if params else "")
+
+
+def _jacobians(tau: FunctionSpec) -> tuple[list, sp.ImmutableMatrix, sp.ImmutableMatrix]:
+    """(derivative definitions, ∂τ/∂q, ∂τ/∂q̇) of a τ spec, n × n each."""
+    q, qd = tau.inputs[0][1], tau.inputs[1][1]
+    n = len(q)
+    defs, rows = forward(tau.definitions, list(tau.outputs[0][1]), list(q) + list(qd))
+    dq = sp.ImmutableMatrix(n, n, lambda i, k: rows[i][k])
+    dqd = sp.ImmutableMatrix(n, n, lambda i, k: rows[i][n + k])
+    return defs, dq, dqd
+
+
+def tau_derivatives_spec(tau: FunctionSpec) -> FunctionSpec:
+    """(τ, ∂τ/∂q, ∂τ/∂q̇)(q, q̇, q̈) from the spec of τ, in one program."""
+    defs, dq, dqd = _jacobians(tau)
+    n = dq.rows
+    return FunctionSpec("tau_derivatives", tau.inputs,
+                        (("tau", tau.outputs[0][1]), ("dtau_dq", dq), ("dtau_dqd", dqd)),
+                        tuple(tau.definitions) + tuple(defs), _doc("tau_derivatives", n, _params(tau)),
+                        tau.origin, ("dtau_dq", "dtau_dqd"))
+
+
+def minv_spec(M: FunctionSpec) -> FunctionSpec:
+    """M(q)⁻¹ from the spec of M: its LDLᵀ, then L⁻ᵀD⁻¹L⁻¹."""
+    factor, L, iD = ldlt_factor(M.outputs[0][1])
+    inv_defs, inv = ldlt_inverse(L, iD)
+    return FunctionSpec("Minv", M.inputs, (("Minv", inv),), tuple(M.definitions) + tuple(factor + inv_defs),
+                        _doc("Minv", inv.rows, _params(M)), M.origin, ("Minv",))
+
+
+def fdyn_derivatives_spec(M: FunctionSpec, bias: FunctionSpec, tau: FunctionSpec) -> FunctionSpec:
+    """(q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹)(q, q̇, τ): q̈ as `fdyn_spec`, then −M⁻¹ ∂τ/∂x with
+    ∂τ/∂x from the τ spec at (q, q̇, q̈) (its definitions renamed t_…: the bias's
+    have the same names with q̈ = 0)."""
+    fdyn = fdyn_spec(M, bias)
+    qdd = list(fdyn.outputs[0][1])
+    n = len(qdd)
+    taken = {s.name for s, _ in fdyn.definitions}
+    rename = {s: sp.Symbol(f"t_{s.name}", real=True) for s, _ in tau.definitions}
+    clash = taken & {s.name for s in rename.values()}
+    if clash:
+        raise ValueError(f"fdyn_derivatives: names {', '.join(sorted(clash))} are taken")
+    rename.update(zip(tau.inputs[2][1], qdd))
+    tau_defs = tuple((rename[s], sp.sympify(e).xreplace(rename)) for s, e in tau.definitions)
+    tau_out = tau.outputs[0][1].xreplace(rename)
+    moved = FunctionSpec("tau", tau.inputs[:2], (("tau", tau_out),), tau_defs)
+    defs, dq, dqd = _jacobians(moved)
+    factor, L, iD = ldlt_factor(M.outputs[0][1])
+    inv_defs, inv = ldlt_inverse(L, iD)
+    named = []
+
+    def symbols(stem: str, mat: sp.ImmutableMatrix) -> sp.ImmutableMatrix:
+        """Each non-atomic entry of ∂τ/∂x named once: it is read n times by the product."""
+        out = []
+        for i in range(n):
+            for k in range(n):
+                e = mat[i, k]
+                if not e.is_Atom:
+                    sym = sp.Symbol(f"{stem}{i + 1}_{k + 1}", real=True)
+                    named.append((sym, e))
+                    e = sym
+                out.append(e)
+        return sp.ImmutableMatrix(n, n, out)
+
+    dq, dqd = symbols("dtau_dq", dq), symbols("dtau_dqd", dqd)
+    outputs = (("qdd", fdyn.outputs[0][1]), ("dqdd_dq", -(inv * dq)), ("dqdd_dqd", -(inv * dqd)), ("Minv", inv))
+    definitions = tuple(fdyn.definitions) + tau_defs + tuple(defs) + tuple(factor + inv_defs) + tuple(named)
+    return FunctionSpec("fdyn_derivatives", fdyn.inputs, outputs, definitions,
+                        _doc("fdyn_derivatives", n, _params(fdyn)), fdyn.origin,
+                        ("dqdd_dq", "dqdd_dqd", "Minv"))
