@@ -5,7 +5,8 @@ target, out_dir)` derives (both methods, cached), builds one program per
 function and writes `<name>.py`, `<name>.c`/`<name>.h` and `<name>.casadi`,
 each headed with the symdyn version, the model fingerprint and the sha256 of
 its content.  `load(name_or_robot, target)` returns the functions tau, M, C,
-Cqd, G, F, fdyn, Y as attributes: from the checked-in `generated/<name>/` for
+Cqd, G, F, fdyn, Y, tau_derivatives, fdyn_derivatives and Minv as attributes,
+every target's taking the same arguments (docs/functions.md): from the checked-in `generated/<name>/` for
 the shipped models (a stale or edited file is an error that says how to
 regenerate), else generated once into the cache (again if a file there was
 edited; into a temporary folder if the cache cannot be written).
@@ -178,7 +179,7 @@ def generate_all(root=None) -> list[Path]:
 
 class GeneratedModel:
     """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
-    fdyn, Y), with `name`, `n`, `target`, `fingerprint`, `folder` and
+    fdyn, Y, tau_derivatives, fdyn_derivatives, Minv), with `name`, `n`, `target`, `fingerprint`, `folder` and
     `functions` (name → callable)."""
 
     def __init__(self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict):
