@@ -23,8 +23,11 @@ class Dynamics:
     """Closed-form dynamics of one robot, from one method.
 
     `definitions` are the derivation's named intermediates (Symbol, expr) in
-    order and `named[term]` the term written in them (a DAG); M, C, G, F,
-    tau are the same terms as plain expressions in q, qd, qdd.
+    order and `named[term]` the term written in them (a DAG); M, C, G, tau
+    are the same terms as plain expressions in q, qd, qdd.  A derivation may
+    hand them over (`expanded`) or leave them to be expanded from the DAG on
+    first request: a 7-joint arm's expanded C is a tree of 10⁵–10⁶ nodes that
+    code generation never needs.
     """
 
     robot: Robot
@@ -32,14 +35,28 @@ class Dynamics:
     q: tuple
     qd: tuple
     qdd: tuple
-    M: sp.ImmutableMatrix
-    C: sp.ImmutableMatrix
-    G: sp.ImmutableMatrix
     F: sp.ImmutableMatrix
-    tau: sp.ImmutableMatrix
     definitions: tuple = ()
     named: dict = field(default_factory=dict, compare=False)
     stats: dict = field(default_factory=dict, compare=False)
+    expanded: dict = field(default_factory=dict, compare=False, repr=False)
+
+    M = property(lambda self: self._expanded("M"), doc="Joint-space inertia M(q), n×n.")
+    C = property(lambda self: self._expanded("C"), doc="Christoffel Coriolis/centripetal matrix C(q, q̇), n×n.")
+    G = property(lambda self: self._expanded("G"), doc="Gravity load G(q), n×1.")
+    tau = property(lambda self: self._expanded("tau"), doc="Inverse dynamics τ = M q̈ + C q̇ + F + G, n×1.")
+
+    def _expanded(self, term: str) -> sp.ImmutableMatrix:
+        """A term as plain expressions: handed over, or its named form with every
+        definition substituted (shared subtrees; computed once)."""
+        if term not in self.expanded:
+            if "_definitions" not in self.expanded:
+                full: dict = {}
+                for sym, definition in self.definitions:
+                    full[sym] = sp.sympify(definition).xreplace(full)
+                self.expanded["_definitions"] = full
+            self.expanded[term] = sp.ImmutableMatrix(self.named[term].xreplace(self.expanded["_definitions"]))
+        return self.expanded[term]
 
     @property
     def n(self) -> int:

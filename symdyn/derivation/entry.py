@@ -1,6 +1,7 @@
 """`derive(robot, method)`: the one entry point to both derivations, cached.
 
-Dispatches to `lagrange` or `newton_euler`, records timing and keeps the
+Dispatches to `lagrange` (expanded trigonometric polynomials up to six
+joints, `lagrange_dag` beyond) or `newton_euler`, records timing and keeps the
 result on disk (see `cache`) so a second run of the same derivation is a
 load, not a derivation.  The key covers the model, the method, symdyn's
 version and the source of the model and derivation stages.
@@ -18,6 +19,10 @@ from .. import __version__
 from .cache import cached, key
 from .dynamics import METHODS, Dynamics
 from ..model import Robot
+
+#: Up to this many joints Lagrange expands trigonometric polynomials (closed forms a reader
+#: can fold and print); beyond, they grow to 10⁴–10⁶ terms and it works on named intermediates.
+EXPANDED_MAX_JOINTS = 6
 
 #: The stages whose code decides a derivation's result: their source is part of the cache key.
 _SOURCES = (Path(__file__).parent, Path(__file__).parent.parent / "model")
@@ -53,10 +58,14 @@ def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False,
 
     def build() -> Dynamics:
         start = time.perf_counter()
-        if method == "lagrange":  # well under a second for the Puma: no progress needed
+        if method == "lagrange" and robot.n <= EXPANDED_MAX_JOINTS:   # under a second for the Puma
             from .lagrange import derive as lagrange
 
             dyn = lagrange(robot)
+        elif method == "lagrange":   # the same method on named intermediates: seconds, not minutes
+            from .lagrange_dag import derive as lagrange_dag
+
+            dyn = lagrange_dag(robot)
         else:
             from .newton_euler import derive as newton_euler
 

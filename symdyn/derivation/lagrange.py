@@ -352,8 +352,8 @@ def derive(robot: Robot) -> Dynamics:
     # 7-joint arm is a ~10⁵-operation tree that code generation cannot afford to CSE
     Cqd = sp.ImmutableMatrix(C_named * sp.Matrix(T.qd))
     named = {"C": C_named, "Cqd": Cqd, "tau": sp.ImmutableMatrix(M * sp.Matrix(T.qdd) + Cqd + G + F)}
-    return Dynamics(robot=robot, method="lagrange", q=T.q, qd=T.qd, qdd=T.qdd, M=M, C=C, G=G, F=F, tau=tau,
-                    definitions=definitions, named=named, stats=stats)
+    return Dynamics(robot=robot, method="lagrange", q=T.q, qd=T.qd, qdd=T.qdd, F=F, definitions=definitions,
+                    named=named, stats=stats, expanded={"M": M, "C": C, "G": G, "tau": tau})
 
 
 def _christoffel_program(T: "TrigDynamics", n: int) -> tuple[tuple, sp.ImmutableMatrix]:

@@ -23,69 +23,8 @@ from .kinematics import LinkFrame, link_frames
 from ..model import Robot
 from .progress import Progress, silent
 from .symbols import exact, joint_symbols
+from .tape import AXES, Tape
 
-AXES = "xyz"
-
-
-# --------------------------------------------------------------------------- the tape
-
-class Tape:
-    """Named intermediates: an ordered DAG of definitions (Symbol → expression).
-
-    `name(expr, label)` returns expr itself when it is trivial (a number, a
-    symbol or its negative), an existing name when the same expression was
-    named before, and a new Symbol otherwise.
-    """
-
-    def __init__(self) -> None:
-        self.defs: dict[sp.Symbol, sp.Expr] = {}
-        self._index: dict[sp.Expr, sp.Symbol] = {}
-        self._full: dict[sp.Symbol, sp.Expr] = {}
-        self._taken: set[str] = set()
-
-    def name(self, expr: sp.Expr, label: str) -> sp.Expr:
-        expr = sp.sympify(expr)
-        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
-            return expr
-        if isinstance(expr, (sp.cos, sp.sin)) and expr.args[0].is_Symbol:
-            return expr
-        if expr in self._index:
-            return self._index[expr]
-        if -expr in self._index:
-            return -self._index[-expr]
-        sym = sp.Symbol(self._unique(label), real=True)
-        self.defs[sym] = expr
-        self._index[expr] = sym
-        return sym
-
-    def _unique(self, label: str) -> str:
-        name, k = label, 2
-        while name in self._taken:
-            name, k = f"{label}_{k}", k + 1
-        self._taken.add(name)
-        return name
-
-    def vector(self, exprs: Sequence, label: str) -> list:
-        return [self.name(e, f"{label}_{AXES[k]}") for k, e in enumerate(exprs)]
-
-    def full(self, expr: sp.Expr) -> sp.Expr:
-        """The expression with every name replaced by its definition (shared subtrees)."""
-        for sym, definition in self.defs.items():
-            if sym not in self._full:
-                self._full[sym] = definition.xreplace(self._full)
-        return sp.sympify(expr).xreplace(self._full)
-
-    def used_by(self, outputs: Sequence[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
-        """The definitions the outputs depend on, in order (dead ones dropped)."""
-        needed: set = set()
-        stack = [s for e in outputs for s in sp.sympify(e).free_symbols if s in self.defs]
-        while stack:
-            s = stack.pop()
-            if s in needed:
-                continue
-            needed.add(s)
-            stack.extend(t for t in self.defs[s].free_symbols if t in self.defs and t not in needed)
-        return [(s, e) for s, e in self.defs.items() if s in needed]
 
 
 # --------------------------------------------------------------------------- small vector algebra
@@ -348,24 +287,17 @@ def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
 
 def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
            progress: bool = False) -> Dynamics:
-    """Closed-form dynamics by Newton–Euler: M, C, G, F and τ as sympy matrices."""
+    """Closed-form dynamics by Newton–Euler: M, C, G, F and τ written in the
+    recursion's named intermediates (plain sympy matrices on request)."""
     n = robot.n
     bar = Progress(f"newton-euler {robot.name}", 3 + n * (n + 1) // 2, enabled=progress)
     rec = recursion(robot, inertias, bar)
     bar.done()
     q, qd, qdd = joint_symbols(robot.n)
-    full = rec.tape.full
     F = friction_expr(robot, qd)
-    tau = sp.ImmutableMatrix([full(t) for t in rec.outputs["tau"]]) + F
     outs = rec.outputs
-    Cm = sp.ImmutableMatrix(outs["C"])
-    named = {"M": sp.ImmutableMatrix(outs["M"]), "C": Cm, "G": sp.ImmutableMatrix(outs["G"]),
-             "Cqd": sp.ImmutableMatrix(outs["Cqd"]), "F": F,
+    named = {"M": sp.ImmutableMatrix(outs["M"]), "C": sp.ImmutableMatrix(outs["C"]),
+             "G": sp.ImmutableMatrix(outs["G"]), "Cqd": sp.ImmutableMatrix(outs["Cqd"]), "F": F,
              "tau": sp.ImmutableMatrix(outs["tau"]) + F}
-    return Dynamics(
-        robot=robot, method="newton-euler", q=q, qd=qd, qdd=qdd,
-        M=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["M"]]),
-        C=sp.ImmutableMatrix([[full(x) for x in row] for row in rec.outputs["C"]]),
-        G=sp.ImmutableMatrix([full(x) for x in rec.outputs["G"]]),
-        F=F, tau=tau, definitions=tuple(rec.tape.defs.items()), named=named,
-    )
+    return Dynamics(robot=robot, method="newton-euler", q=q, qd=qd, qdd=qdd, F=F,
+                    definitions=tuple(rec.tape.defs.items()), named=named)

@@ -31,9 +31,10 @@ from sympy.printing.pycode import PythonCodePrinter
 from .dynamics import rotor_inertia
 from .kinematics import link_frames
 from ..model import Robot
-from .newton_euler import LinkInertia, Tape, backward, body_force, forward, gravity_in_base, link_inertias
+from .newton_euler import LinkInertia, backward, body_force, forward, gravity_in_base, link_inertias
 from .progress import Progress
 from .symbols import exact, joint_symbols
+from .tape import Tape
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M", "IA")
 FRICTION = ("FV", "FS", "FO")
