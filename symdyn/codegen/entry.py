@@ -31,7 +31,7 @@ __all__ = ["generate", "load", "generate_all", "bundle", "GeneratedModel", "TARG
            "GENERATED", "configure_parser"]
 
 TARGETS = ("numpy", "c", "casadi")
-SHIPPED = ("twolink", "puma560")
+SHIPPED = ("twolink", "puma560", "panda", "iiwa14", "ur5")
 #: The checked-in outputs (present in a source checkout).
 GENERATED = Path(__file__).resolve().parents[2] / "generated"
 
