@@ -98,6 +98,17 @@ class Infix:
         return (f"{self.power}({x[0]}, {exponent!r})", ATOM)
 
 
+def _friction(bundle: Bundle) -> str:
+    """Whether the counts include friction: the model's F is identically zero or not
+    (τ's count differs by the friction terms, so a count must say which it is)."""
+    try:
+        outputs = bundle.program("F").outputs
+    except KeyError:
+        return "friction not generated"
+    zero = all(expr == 0 for _, mat in outputs for expr in mat)
+    return "without friction" if zero else "with the model's friction"
+
+
 def header_lines(bundle: Bundle, target: str) -> list[str]:
     """Provenance lines every generated file starts with (no dates: reproducible)."""
     width = max(len(p.name) for p in bundle.programs)
@@ -112,7 +123,8 @@ def header_lines(bundle: Bundle, target: str) -> list[str]:
     if bundle.source:
         lines.append(f"model source: {bundle.source}")
     lines += [f"regenerate: symdyn generate {bundle.name} --target {target}",
-              "operation counts (a - b counts as one add, negation is free):"]
+              f"operation counts after one joint CSE, {_friction(bundle)}, [derivation] (fun: sin/cos/sign "
+              "calls; a - b counts as one add, negation is free):"]
     lines += [f"  {p.name:<{width}}  {format_ops(p.op_count())}" + (f"  [{p.origin}]" if p.origin else "")
               for p in bundle.programs]
     return lines
