@@ -30,7 +30,7 @@ from fractions import Fraction
 import sympy as sp
 
 from .dynamics import Dynamics
-from .printing import DIGITS, _display, latex_document, latex_name, number, wrap
+from .printing import DIGITS, _display, latex_document, latex_name, latex_number, number, wrap
 from .program import make_program
 from .regressor import FRICTION, INERTIAL, base_parameters, regressor
 from .simplify import angle_products, group_parameters, natural_chains
@@ -373,7 +373,7 @@ def render_form(form: ConstantForm, fmt: str = "text", *, digits: int = DIGITS) 
             definition = sorted(sp.Add.make_args(c.definition), key=_param_key)
             value = _display(c.value)
             lhs = (f"{c.symbol} = {number(float(value), digits)} {c.units} = " if fmt != "latex" else
-                   f"{latex_name(str(c.symbol))} &= {_latex_value(float(value), digits)}\\,"
+                   f"{latex_name(str(c.symbol))} &= {latex_number(float(value), digits)}\\,"
                    f"\\mathrm{{{_latex_units(c.units)}}} = ")
         else:
             definition = c.definition
@@ -409,14 +409,6 @@ def render_form(form: ConstantForm, fmt: str = "text", *, digits: int = DIGITS) 
 
 def _display_terms(e):
     return [_display(t) for t in e] if isinstance(e, (list, tuple)) else _display(e)
-
-
-def _latex_value(x: float, digits: int) -> str:
-    text = number(x, digits)
-    if "e" in text:
-        mantissa, exp = text.split("e")
-        return f"{mantissa} \\cdot 10^{{{exp}}}"
-    return text
 
 
 def _latex_units(text: str) -> str:

@@ -42,7 +42,8 @@ def number(x: float, digits: int = DIGITS) -> str:
     return text
 
 
-def _latex_number(x: float, digits: int) -> str:
+def latex_number(x: float, digits: int = DIGITS) -> str:
+    """`number` for LaTeX: 1.2e-5 → 1.2 \\cdot 10^{-5}."""
     text = number(x, digits)
     if "e" in text:
         mantissa, exp = text.split("e")
@@ -74,7 +75,7 @@ class _Latex(LatexPrinter):
         return _latex_symbol(expr.name) or super()._print_Symbol(expr, style)
 
     def _print_Float(self, expr):
-        return _latex_number(float(expr), self.digits)
+        return latex_number(float(expr), self.digits)
 
     def _print_sign(self, expr, exp=None):
         tex = rf"\operatorname{{sgn}}\left({self._print(expr.args[0])}\right)"
