@@ -43,9 +43,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"{method:13s} {how} in {time.perf_counter() - start:.2f} s")
     dyn = derive(robot, "newton-euler", regroup=True, progress=True)
     counts = {t: op_counts(dyn, t, ("cse",))["cse"] for t in ("tau", "M", "G", "Cqd")}
-    print("derivation's operations after one joint CSE (Newton–Euler on base parameters, mul + add; the "
-          "generated code's own counts, with sin/cos and friction, head each generated file): " +
-          ", ".join(f"{t} {c['mul']} mul + {c['add']} add" for t, c in counts.items()))
+    print(f"derivation's operations after one joint CSE, mul + add (Newton–Euler on regrouped base parameters, "
+          f"{friction_variant(robot)}; the generated files' headers count sin/cos/sign calls too): " +
+          ", ".join(f"{t} {c['mul'] + c['add']} ({c['mul']} mul + {c['add']} add)" for t, c in counts.items()))
     paths = generate(robot, "all", args.out)
     print(f"generated {len(paths)} files in {paths[0].parent}")
     np.set_printoptions(precision=4, suppress=True, linewidth=120)
@@ -85,7 +85,8 @@ def _cmd_print(args: argparse.Namespace) -> int:
     print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits))
     comment = "%" if args.format == "latex" else "#"
     stages = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
-    print(f"{comment} {robot.name} by {dyn.method}; operations (mul+add) at each stage:")
+    print(f"{comment} {robot.name} by {dyn.method}; operations (mul + add) at each stage, full inertial "
+          f"parameters (not regrouped), {friction_variant(robot)}:")
     for t in terms:
         counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
         row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
@@ -108,13 +109,21 @@ def _print_constants(dyn, args: argparse.Namespace) -> int:
           + ", ".join(f"{k} {v}" for k, v in terms.items()) + f" ({sum(terms.values())} in all)")
     generated = {p.name: p for p in bundle(dyn.robot).programs}
     how = "constants from their definitions" if dyn.robot.is_symbolic else "constants as numbers"
-    print(f"{comment} operations (mul + add, sin/cos calls) of evaluating this form ({how}, one joint CSE) "
+    print(f"{comment} operations (mul + add, sin/cos calls) of evaluating this form ({how}, one joint CSE, "
+          f"{friction_variant(dyn.robot)}) "
           f"vs the generated code (the program every emitter prints):")
     for kind in ("M", "Cqd", "G", "tau"):
         ours, theirs = form.op_count(kind), generated[kind].op_count()
         print(f"{comment}   {kind:4s} named constants {ours['mul'] + ours['add']:5d} + {ours['fun']:2d} fun   "
               f"generated ({generated[kind].origin}) {theirs['mul'] + theirs['add']:5d} + {theirs['fun']:2d} fun")
     return 0
+
+
+def friction_variant(robot) -> str:
+    """'with friction' or 'without friction': τ's op count differs by the friction terms, so every
+    printed count says which model it counts."""
+    rough = any(link.B != 0 or any(t != 0 for t in link.Tc) for link in robot.links)
+    return "with friction" if rough else "without friction"
 
 
 def _load_model(name: str, numeric: bool):
