@@ -31,7 +31,7 @@ def test_printed_text_names_every_element(capsys):
     out = capsys.readouterr().out
     assert "M11 = " in out and "M12 = " in out and "M22 = " in out and "M21" not in out
     assert "cos(q2)" in out
-    assert "operations (mul+add) at each stage" in out
+    assert "operations (mul + add) at each stage, full inertial parameters (not regrouped), without friction:" in out
 
 
 def test_latex_is_a_complete_document_with_balanced_braces():
