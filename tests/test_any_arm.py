@@ -5,6 +5,7 @@ The fast sample of the random-arm differential check; the long sweep is
 constructor code, to paste into a named regression test below.
 """
 
+import dataclasses
 import math
 
 import numpy as np
@@ -34,6 +35,43 @@ def _assert_agrees(robot, findings):
 def test_random_arm_agrees_at_every_stage(seed):
     robot = random_arm(seed, SMALL)
     _assert_agrees(robot, check_arm(robot, count=12, seed=seed))
+
+
+#: Seeds of general-convention (URDF-like) arms through every stage: origins with exact and
+#: generic rpy, axes along ±x, ±y, ±z and generic ones, prismatic joints, offsets.
+GENERAL = ArmOptions(n_max=4, general=1.0)
+
+
+@pytest.mark.parametrize("seed", (303, 304, 306))
+def test_random_general_arm_agrees_at_every_stage(seed):
+    robot = random_arm(seed, GENERAL)
+    assert robot.convention == "general"
+    _assert_agrees(robot, check_arm(robot, count=12, seed=seed))
+
+
+def test_general_arms_cover_generic_axes_and_placements():
+    links = [link for s in range(300, 330) for link in random_arm(s, GENERAL).links]
+    axes = {tuple(float(x) for x in link.axis) for link in links}
+    assert {(0.0, -1.0, 0.0), (1.0, 0.0, 0.0)} <= axes and any(max(map(abs, a)) < 0.99 for a in axes)
+    assert any(not link.is_revolute for link in links)
+    assert any(isinstance(x, sp.Rational) and not x.is_Integer for link in links for row in link.origin for x in row)
+
+
+def test_a_dh_arm_is_the_same_arm_in_general_form():
+    """The general convention reproduces DH: each modified-DH link is placed by Rx(α)Tx(a)Tz(d)
+    and turns about z, so both conventions give the same dynamics."""
+    puma = symdyn.models.load("puma560_mdh")
+    links = tuple(dataclasses.replace(link, a=0, alpha=0, d=0, origin=_dh_origin(link)) for link in puma.links)
+    general = dataclasses.replace(puma, links=links, convention="general")
+    q, qd, qdd = np.random.default_rng(1).normal(size=(3, 50, 6))
+    np.testing.assert_allclose(ref.rne(general, q, qd, qdd), ref.rne(puma, q, qd, qdd), atol=1e-12)
+
+
+def _dh_origin(link):
+    from symdyn.model import placement
+    T = np.array(placement((link.a, 0, 0), (link.alpha, 0, 0)), dtype=float)
+    T[:3, 3] += T[:3, 2] * float(link.d)
+    return T
 
 
 @pytest.mark.parametrize("seed", range(200, 210))
