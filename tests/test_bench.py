@@ -22,7 +22,7 @@ from symdyn.numeric import reference
 from symdyn.codegen.entry import GENERATED
 
 PUMA = GENERATED / "puma560"
-FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "fdyn", "casadi_rnea")
+FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "fdyn", "tau_derivatives", "fdyn_derivatives", "Minv", "casadi_rnea")
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +56,14 @@ def test_harness_check_rejects_wrong_output(harness_run):
     robot, states, _, checks = harness_run
     wrong = dict(checks, M=checks["M"] + np.eye(6).ravel() * 1e-3)
     with pytest.raises(RuntimeError, match="M at state 3"):
+        bench.check_harness(robot, wrong, *states)
+
+
+def test_harness_checks_derivatives_against_central_differences(harness_run):
+    robot, states, _, checks = harness_run
+    assert checks["tau_derivatives"].shape == (36,) and checks["fdyn_derivatives"].shape == (36,)
+    wrong = dict(checks, fdyn_derivatives=checks["fdyn_derivatives"] * (1 + 1e-4))
+    with pytest.raises(RuntimeError, match="fdyn_derivatives at state 3"):
         bench.check_harness(robot, wrong, *states)
 
 
@@ -186,7 +194,8 @@ def _outputs(model, q, qd, qdd, tau):
             "nonLinearEffects": pin.nonLinearEffects(model, data, q, qd).copy(),
             "computeCoriolisMatrix": pin.computeCoriolisMatrix(model, data, q, qd).copy(),
             "crba_cholesky": np.linalg.solve(M, tau - pin.nonLinearEffects(model, data, q, qd)),
-            "computeRNEADerivatives": M, "computeABADerivatives": np.linalg.inv(M),
+            "computeRNEADerivatives": pin.computeRNEADerivatives(model, data, q, qd, qdd)[0].copy(),
+            "computeABADerivatives": pin.computeABADerivatives(model, data, q, qd, tau)[0].copy(),
             "computeMinverse": sym(pin.computeMinverse(model, data, q))}
 
 
@@ -214,7 +223,9 @@ def test_arm_file_round_trip_gives_the_reference_dynamics(arm, puma, tmp_path):
     q, qd, qdd, tau = bench.random_states(robot, 8, seed=3)
     for k in range(len(q)):
         outputs = _outputs(model, q[k], qd[k], qdd[k], tau[k])
-        assert pin_peer.check_peer(robot, outputs, q, qd, qdd, tau, k=k) < 1e-10
+        exact = {name: v for name, v in outputs.items() if not name.endswith("Derivatives")}
+        assert pin_peer.check_peer(robot, exact, q, qd, qdd, tau, k=k) < 1e-10
+        assert pin_peer.check_peer(robot, outputs, q, qd, qdd, tau, k=k) < 1e-8     # central differences
 
 
 def test_unaligned_axes_reach_the_cpp_unchanged(tmp_path):

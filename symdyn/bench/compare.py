@@ -43,7 +43,7 @@ from ..derivation.cache import cache_dir
 from ..model import arms
 from ..numeric import reference as ref
 from . import pin_peer
-from .pin_peer import PeerUnavailable, read_report
+from .pin_peer import FD_RTOL, PeerUnavailable, central_jacobian, read_report
 
 __all__ = ["Row", "main", "configure_parser", "frictionless_sources", "random_states", "write_states",
            "build_harness", "run_harness", "check_harness", "op_counts",
@@ -201,7 +201,8 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
     for name, text in sources.items():
         write_atomic(folder / name, text)
     cmd = [cc, *CFLAGS, f"-DMODEL={model}", f"-DNDOF={ndof[1]}", f'-DMODEL_HEADER="{h_path.name}"',
-           *(["-DWITH_CASADI"] if casadi_c is not None else []), f"-I{folder}",
+           *(["-DWITH_CASADI"] if casadi_c is not None else []),
+           *(["-DWITH_DERIVATIVES"] if f"{model}_tau_derivatives(" in h_text else []), f"-I{folder}",
            *(str(folder / n) for n in sources if n.endswith(".c")), "-o", str(folder / "harness.tmp"), "-lm"]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
@@ -220,17 +221,22 @@ def run_harness(binary: Path, states: Path, ncalls: int, reps: int, functions=()
 
 
 def check_harness(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1e-9) -> float:
-    """Largest relative error of the harness outputs at state k against the reference;
-    a RuntimeError if above rtol (timing wrong code would be worthless)."""
+    """Largest relative error of the harness outputs at state k against the reference (the
+    derivatives' dtau/dq and dqdd/dq against central differences, to FD_RTOL); a RuntimeError
+    if above rtol (timing wrong code would be worthless)."""
     q, qd, qdd, tau = q[k], qd[k], qdd[k], tau[k]
-    expected = {"tau": ref.rne(robot, q, qd, qdd), "casadi_rnea": ref.rne(robot.nofriction(all=True), q, qd, qdd),
-                "M": ref.inertia(robot, q), "C": ref.coriolis(robot, q, qd), "G": ref.gravload(robot, q),
-                "Cqd": ref.coriolis(robot, q, qd) @ qd, "fdyn": ref.accel(robot, q, qd, tau)}
+    expected = {"tau": lambda: ref.rne(robot, q, qd, qdd),
+                "casadi_rnea": lambda: ref.rne(robot.nofriction(all=True), q, qd, qdd),
+                "M": lambda: ref.inertia(robot, q), "C": lambda: ref.coriolis(robot, q, qd),
+                "G": lambda: ref.gravload(robot, q), "Cqd": lambda: ref.coriolis(robot, q, qd) @ qd,
+                "fdyn": lambda: ref.accel(robot, q, qd, tau), "Minv": lambda: np.linalg.inv(ref.inertia(robot, q)),
+                "tau_derivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
+                "fdyn_derivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q)}
     worst = 0.0
     for name, got in checks.items():
-        want = np.ravel(expected[name])
+        want = np.ravel(expected[name]())
         err = float(np.abs(got - want).max() / max(1.0, np.abs(want).max()))
-        if not err <= rtol:
+        if not err <= (FD_RTOL if name.endswith("derivatives") else rtol):
             raise RuntimeError(f"C harness: {name} at state {k} differs from the reference by {err:.1e} (relative)")
         worst = max(worst, err)
     return worst
@@ -251,6 +257,11 @@ C_ROWS = (
     (C_PEER, "C", "bare", "C", "Pinocchio computeCoriolisMatrix", "computeCoriolisMatrix", 6),
     (C_PEER, "G", "bare", "G", "Pinocchio computeGeneralizedGravity", "computeGeneralizedGravity", None),
     (C_PEER, "Cqd", "bare", "Cqd", "Pinocchio nonLinearEffects (C q̇ + G)", "nonLinearEffects", None),
+    (C_PEER, "tau_derivatives (τ, ∂τ/∂q, ∂τ/∂q̇)", "bare", "tau_derivatives", "Pinocchio computeRNEADerivatives",
+     "computeRNEADerivatives", None),
+    (C_PEER, "fdyn_derivatives (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹)", "bare", "fdyn_derivatives",
+     "Pinocchio computeABADerivatives", "computeABADerivatives", None),
+    (C_PEER, "Minv", "bare", "Minv", "Pinocchio computeMinverse", "computeMinverse", None),
     (C_PEER, "tau +friction (shipped)", "shipped", "tau", "Pinocchio rnea (no friction)", "rnea", None),
     (C_PEER, "fdyn +friction (shipped)", "shipped", "fdyn", "Pinocchio aba (no friction)", "aba", None),
     (C_BASELINE, "tau", "bare", "tau", "plain RNEA, CasADi C codegen", "casadi_rnea", 1),

@@ -14,7 +14,9 @@
  * Prints "time NAME NS" per function, then "check NAME v..." with its
  * outputs at state 3 (compared with symdyn.reference by the caller).
  * With -DWITH_CASADI the function "casadi_rnea" (a CasADi-generated plain
- * RNEA, arg/res pointer-array calling convention) is timed as well.
+ * RNEA, arg/res pointer-array calling convention) is timed as well; with
+ * -DWITH_DERIVATIVES the model's tau_derivatives, fdyn_derivatives (checked
+ * by dtau/dq and dqdd/dq) and Minv.
  */
 #include <math.h>
 #include <stdio.h>
@@ -135,6 +137,14 @@ int main(int argc, char **argv)
     TIME("Cqd", NDOF, FN(Cqd)(Q, QD, out))
     TIME("G", NDOF, FN(G)(Q, out))
     TIME("fdyn", NDOF, FN(fdyn)(Q, QD, TAU, out))
+#ifdef WITH_DERIVATIVES
+    {
+        static double a[NDOF], b[NDOF * NDOF], c[NDOF * NDOF];
+        TIME("tau_derivatives", NDOF * NDOF, FN(tau_derivatives)(Q, QD, QDD, a, out, b))
+        TIME("fdyn_derivatives", NDOF * NDOF, FN(fdyn_derivatives)(Q, QD, TAU, a, out, b, c))
+        TIME("Minv", NDOF * NDOF, FN(Minv)(Q, out))
+    }
+#endif
 #ifdef WITH_CASADI
     {
         casadi_int sz_arg, sz_res, sz_iw, sz_w;

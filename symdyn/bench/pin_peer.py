@@ -33,7 +33,7 @@ import numpy as np
 from ..derivation.cache import cache_dir
 
 __all__ = ["SOURCE", "CXXFLAGS", "ALGORITHMS", "PeerUnavailable", "PeerJoint", "arm_joints", "write_arm",
-           "include_dirs", "cache_key", "peer_binary", "run_peer", "read_report", "check_peer"]
+           "include_dirs", "cache_key", "peer_binary", "run_peer", "read_report", "central_jacobian", "check_peer"]
 
 SOURCE = Path(__file__).with_name("pin_peer.cpp")
 #: The flags of symdyn's own harness (-O3 -march=native), so neither side is favoured; the Boost
@@ -230,27 +230,41 @@ def run_peer(binary: Path, arm: Path, states: Path, ncalls: int, reps: int, algo
     return read_report(run.stdout)
 
 
+def central_jacobian(f, x: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """∂f/∂x (rows: outputs of f, columns: entries of x) by central differences, error ~1e-9 relative:
+    the reference has no derivatives, so timed derivatives are checked against this."""
+    cols = [(np.asarray(f(x + h * e)) - np.asarray(f(x - h * e))) / (2 * h) for e in np.eye(len(x))]
+    return np.stack(cols, axis=-1)
+
+
+#: Tolerance of the outputs checked against central differences (the rest agree to rounding: 1e-9).
+FD_RTOL = 1e-6
+
+
 def check_peer(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1e-9) -> float:
     """Largest relative error of the peer's outputs at state k against symdyn's reference (frictionless
-    `robot`); a RuntimeError naming the algorithm if above rtol: a peer timed on a different arm or
-    computing something else would make the comparison worthless."""
+    `robot`); a RuntimeError naming the algorithm if above rtol (FD_RTOL for derivatives): a peer timed
+    on a different arm or computing something else would make the comparison worthless."""
     from ..numeric import reference as ref
 
     q, qd, qdd, tau = q[k], qd[k], qdd[k], tau[k]
     M, C, G = ref.inertia(robot, q), ref.coriolis(robot, q, qd), ref.gravload(robot, q)
     Minv, n = np.linalg.inv(M), robot.n
-    expected = {"rnea": ref.rne(robot, q, qd, qdd), "crba": M, "aba": ref.accel(robot, q, qd, tau),
-                "computeGeneralizedGravity": G, "nonLinearEffects": C @ qd + G,
-                "computeCoriolisMatrix": C @ qd,          # Pinocchio's C need not be the Christoffel one; C q̇ is
-                "crba_cholesky": ref.accel(robot, q, qd, tau),
-                "computeRNEADerivatives": M, "computeABADerivatives": Minv, "computeMinverse": Minv}
+    expected = {"rnea": lambda: ref.rne(robot, q, qd, qdd), "crba": lambda: M,
+                "aba": lambda: ref.accel(robot, q, qd, tau), "computeGeneralizedGravity": lambda: G,
+                "nonLinearEffects": lambda: C @ qd + G,
+                "computeCoriolisMatrix": lambda: C @ qd,   # Pinocchio's C need not be the Christoffel one; C q̇ is
+                "crba_cholesky": lambda: ref.accel(robot, q, qd, tau),
+                "computeRNEADerivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
+                "computeABADerivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q),
+                "computeMinverse": lambda: Minv}
     worst = 0.0
     for name, got in checks.items():
         if name == "computeCoriolisMatrix":
             got = got.reshape(n, n) @ qd
-        want = np.ravel(expected[name])
+        want = np.ravel(expected[name]())
         err = float(np.abs(np.ravel(got) - want).max() / max(1.0, np.abs(want).max()))
-        if not err <= rtol:
+        if not err <= (FD_RTOL if name.endswith("Derivatives") else rtol):
             raise RuntimeError(f"Pinocchio C++ peer: {name} at state {k} differs from symdyn's reference "
                                f"by {err:.1e} (relative): not the same arm")
         worst = max(worst, err)
