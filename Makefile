@@ -24,12 +24,13 @@ generate: $(STAMP)
 
 # The bench extra (Pinocchio's wheel with its C++ headers, Eigen's headers, the Robotics
 # Toolbox); `symdyn bench` builds the Pinocchio C++ peer once into the cache, then times.
+# Options through BENCH_ARGS, e.g. make bench BENCH_ARGS="--markdown bench.md".
 $(VENV)/.bench-installed: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[bench]'
 	touch $@
 
 bench: $(VENV)/.bench-installed
-	$(BIN)/symdyn bench
+	$(BIN)/symdyn bench $(BENCH_ARGS)
 
 clean:
 	rm -rf $(VENV) build *.egg-info
