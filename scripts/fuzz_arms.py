@@ -1,6 +1,6 @@
 """Long sweep of the random-arm differential check (issue 10).
 
-    python scripts/fuzz_arms.py --arms 300 --seed 1000 [--n-min 1 --n-max 7] [--out fuzz.tsv] [--tol 1e-10]
+    python scripts/fuzz_arms.py --arms 300 --seed 1000 [--n-min 1 --n-max 7] [--general 1] [--out fuzz.tsv] [--tol 1e-10]
 
 Draws arms with `symdyn.model.random_arms.random_arm(seed + k)`, runs every
 stage of `symdyn.bench.differential.check_arm` on each, writes one row per
@@ -28,6 +28,8 @@ def main(argv=None) -> int:
     p.add_argument("--n-max", type=int, default=7, help="most joints per arm (default 7)")
     p.add_argument("--tol", type=float, default=1e-10, help="largest relative error accepted (default 1e-10)")
     p.add_argument("--states", type=int, default=12, help="random states per arm (default 12)")
+    p.add_argument("--general", type=float, default=0.0,
+                   help="fraction of arms drawn in the general (URDF-like) convention (default 0: DH only)")
     p.add_argument("--out", help="write the table here too (tab-separated)")
     p.add_argument("--stages", default=",".join(STAGES), help=f"comma-separated subset of {','.join(STAGES)}")
     args = p.parse_args(argv)
@@ -39,7 +41,7 @@ def main(argv=None) -> int:
     print(header, flush=True)
     for k in range(args.arms):
         seed = args.seed + k
-        robot = random_arm(seed, ArmOptions(n_min=args.n_min, n_max=args.n_max))
+        robot = random_arm(seed, ArmOptions(n_min=args.n_min, n_max=args.n_max, general=args.general))
         joints = "".join(link.joint[0] for link in robot.links)
         findings = check_arm(robot, count=args.states, seed=seed, stages=stages)
         for stage in stages:
