@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
 
+import numpy as np
 import sympy as sp
 
 from .placement import exact, placement
@@ -128,8 +129,9 @@ class _Body:
 
     def __add__(self, other: "_Body") -> "_Body":
         m = self.m + other.m
-        if m == 0:
-            return _Body.empty()
+        if m == 0:   # no COM; an inertia without mass is the same about any point (Pinocchio keeps it too)
+            return _Body(m, (sp.S.Zero,) * 3, tuple(tuple(a + b for a, b in zip(p, q))
+                                                    for p, q in zip(self.I, other.I)))
         c = tuple((self.m * a + other.m * b) / m for a, b in zip(self.r, other.r))
 
         def about_c(body):
@@ -140,6 +142,19 @@ class _Body:
 
         a, b = about_c(self), about_c(other)
         return _Body(m, c, tuple(tuple(a[i][j] + b[i][j] for j in range(3)) for i in range(3)))
+
+
+def _check_inertia(source: str, tensor: _Element, link: _Element, I: tuple) -> None:
+    """Refuse a link's own inertia that is not positive semidefinite or violates the
+    triangle inequality (checked here, before a merge could hide it; the tolerances of
+    the `Link` checks)."""
+    eig = np.linalg.eigvalsh(np.array(I, dtype=float))
+    what = f"{_where(source, tensor)} of link {link.attrib.get('name')!r}"
+    if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
+        raise URDFError(f"{what} is not positive semidefinite: principal moments {eig.tolist()}")
+    if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+        raise URDFError(f"{what} is physically impossible: its principal moments {eig.tolist()} "
+                        "violate the triangle inequality (I1 + I2 >= I3)")
 
 
 def _body(source: str, link: _Element) -> _Body:
@@ -158,6 +173,7 @@ def _body(source: str, link: _Element) -> _Body:
         raise URDFError(f"{_where(source, inertial)} of link {link.attrib.get('name')!r} has no <inertia>")
     names = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
     xx, xy, xz, yy, yz, zz = (exact(_numbers(source, tensor, k, 1, (0,))[0]) for k in names)
+    _check_inertia(source, tensor, link, ((xx, xy, xz), (xy, yy, yz), (xz, yz, zz)))
     local = _Body(exact(m), (sp.S.Zero,) * 3, ((xx, xy, xz), (xy, yy, yz), (xz, yz, zz)))
     return local.moved(_origin(source, inertial))
 
@@ -189,6 +205,15 @@ def _chain(source: str, robot: _Element, base: str | None, tip: str | None):
     roots = [name for name in links if name not in joints]
     if len(roots) != 1:
         raise URDFError(f"{source}: expected one root link, found {roots or 'none (a cycle)'}")
+    reached, todo = set(), [roots[0]]
+    while todo:
+        name = todo.pop()
+        reached.add(name)
+        todo += children.get(name, [])
+    loop = [name for name in links if name not in reached]   # each has a parent, none reaches the root
+    if loop:
+        raise URDFError(f"{_where(source, joints[loop[0]])}: links {sorted(loop)} form a cycle "
+                        f"that does not reach the root {roots[0]!r}")
     for role, name in (("base_link", base), ("tip_link", tip)):
         if name is not None and name not in links:
             raise URDFError(f"{source}: {role} {name!r} is not a link of robot {robot.attrib.get('name')!r}; "
@@ -232,6 +257,7 @@ def _compose(A: tuple, B: tuple) -> tuple:
 def _number(x: sp.Expr):
     """A value for the Link: an int, or a float when its decimal is the exact value
     (as a derivation reads it back), else the exact Rational."""
+    x = sp.sympify(x)   # the identity's entries are plain ints
     if x.is_Integer:
         return int(x)
     return float(x) if exact(float(x)) == x else x
