@@ -161,6 +161,25 @@ def test_limits_effort_velocity_damping_friction_agree_with_pinocchio():
         assert [link.velocity_limit or np.inf for link in robot.links] == list(model.velocityLimit)
 
 
+def test_axes_that_are_not_unit_vectors_are_normalised_as_pinocchio_does(tmp_path):
+    text = (HERE / "rotated_origins.urdf").read_text()
+    text = text.replace('<axis xyz="0.48 0.6 0.64"/>', '<axis xyz="0.96 1.2 1.28"/>')
+    text = text.replace('<axis xyz="0 -1 0"/>', '<axis xyz="0 -2 0"/>')
+    path = tmp_path / "long_axes.urdf"
+    path.write_text(text)
+    robot = Robot.from_urdf(path)
+    assert robot.links[0].axis == (0, -1, 0) and robot.links[1].axis == (0.48, 0.6, 0.64)
+    _assert_agrees_with_pinocchio(robot, path, "l3")
+
+
+def test_a_mimic_joint_off_the_chain_does_not_stop_loading(tmp_path):
+    text = (HERE / "branches.urdf").read_text().replace(
+        '<limit lower="0" upper="0.8" effort="5" velocity="1"/>',
+        '<limit lower="0" upper="0.8" effort="5" velocity="1"/>\n    <mimic joint="j3"/>')
+    assert "<mimic" in text
+    assert Robot.from_urdf(text, tip_link="hand") == Robot.from_urdf(HERE / "branches.urdf", tip_link="hand")
+
+
 # --------------------------------------------------------------------------- parsed values by hand
 
 def _exact(values):
