@@ -231,39 +231,6 @@ def test_end_effector_wrench_matches_pinocchio_external_force(tooled):
     assert_close(actual, np.array(tau), what="tau with end-effector wrench")
 
 
-# --------------------------------------------------------------------------- the C++ peer's table
-
-def test_pin_dh_table_reproduces_the_shared_benchmark_table(tmp_path):
-    """The DH text table of shared/bench: the Puma's, built from the model, rebuilt as the C++ does."""
-    puma = _puma()
-    path = peers.pin_dh_table(puma, tmp_path / "puma.txt")
-    rows = [list(map(float, line.split())) for line in path.read_text().splitlines()]
-    assert rows[0] == [6, 0.0, 0.0, -9.81]
-    model = pin.Model()
-    parent, prev = 0, pin.SE3.Identity()
-    for i, (d, a, al, off, m, rx, ry, rz, ixx, ixy, ixz, iyy, iyz, izz, ia) in enumerate(rows[1:]):
-        j = model.addJoint(parent, pin.JointModelRZ(), prev, f"j{i}")
-        R = pin.utils.rotate("z", off) @ pin.utils.rotate("x", al)
-        body = pin.SE3(R, pin.utils.rotate("z", off) @ np.array([a, 0, d]))
-        inertia = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
-        model.appendBodyToJoint(j, body.act(pin.Inertia(m, np.array([rx, ry, rz]), inertia)), pin.SE3.Identity())
-        parent, prev = j, body
-    model.armature = np.array([r[-1] for r in rows[1:]])
-    model.gravity = pin.Motion(np.array(rows[0][1:]), np.zeros(3))
-    q, qd, qdd = random_states(puma, 20, seed=3)
-    peer = pinocchio_at(model, q, qd, qdd, np.zeros_like(q))
-    assert_close(ref.rne(puma.nofriction(all=True), q, qd, qdd), peer.tau, what="tau from the DH table")
-
-
-@pytest.mark.parametrize("robot, match", [
-    (lambda: models.load("puma560_mdh"), "standard DH only.*'modified'"),
-    (lambda: models.load("rrp"), "prismatic joint.*\\[3\\]"),
-])
-def test_pin_dh_table_refuses_what_the_benchmark_cannot_build(robot, match, tmp_path):
-    with pytest.raises(ValueError, match=match):
-        peers.pin_dh_table(robot(), tmp_path / "x.txt")
-
-
 def test_pinocchio_model_refuses_a_symbolic_robot():
     with pytest.raises(ValueError, match="numeric robot.*a1"):
         peers.pinocchio_model(models.load("twolink", symbolic=True))

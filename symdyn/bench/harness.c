@@ -1,6 +1,6 @@
 /*
  * symdyn C timing harness: ns per call of a generated model's functions, no
- * Python involved.  The C counterpart of shared/bench/pin_bench.cpp (same
+ * Python involved.  The C counterpart of pin_peer.cpp (same
  * loop: a pool of K states cycled, one volatile sink per call, median of
  * `reps` repetitions of `ncalls` calls).  symdyn.bench compiles it with the
  * generated model source as a separate translation unit (the functions are

@@ -1,9 +1,9 @@
 """The same arm in Pinocchio, the independent peer the reference is tested against.
 
 `pinocchio_model(robot)` builds a `pinocchio.Model` from a numeric robot
-(standard or modified DH, revolute or prismatic joints, offsets, rotor
-inertia G²·Jm as armature); `pin_dh_table(robot, path)` writes the DH text
-table read by the C++ peer benchmark (shared/bench/pin_bench.cpp).
+(standard or modified DH or general joints, revolute or prismatic, offsets,
+rotor inertia G²·Jm as armature); the C++ peer benchmark is fed the same
+model (`pin_peer.arm_joints`).
 Pinocchio's universe is the robot's frame {0}: gravity is rotated into it,
 so world poses are `robot.base · data.oMf[...]`.  Friction is not modelled
 (Pinocchio's `rnea` has none): compare with `robot.nofriction(all=True)`.
@@ -11,13 +11,11 @@ so world poses are `robot.base · data.oMf[...]`.  Friction is not modelled
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..model import Robot
 
-__all__ = ["pinocchio_model", "pin_dh_table"]
+__all__ = ["pinocchio_model"]
 
 
 def _pin():
@@ -101,30 +99,3 @@ def pinocchio_model(robot: Robot):
     model.armature = np.array([float(l.G) ** 2 * float(l.Jm) for l in robot.links])
     model.gravity = pin.Motion(_gravity0(robot), np.zeros(3))
     return model
-
-
-def pin_dh_table(robot: Robot, path: str | Path) -> Path:
-    """Write `robot` as the DH table of shared/bench/pin_bench.cpp; returns the path.
-
-    First line `n gx gy gz` (gravity itself in frame {0}), then per link
-    `d a alpha offset m rx ry rz Ixx Ixy Ixz Iyy Iyz Izz Ia` with Ia = G²·Jm.
-    The benchmark builds revolute joints from standard DH only.
-    """
-    robot.require_numeric("pin_dh_table")
-    if robot.convention != "standard":
-        raise ValueError(f"pin_dh_table writes standard DH only, but {robot.name!r} uses "
-                         f"{robot.convention!r} DH")
-    prismatic = [i + 1 for i, l in enumerate(robot.links) if not l.is_revolute]
-    if prismatic:
-        raise ValueError(f"pin_dh_table supports revolute joints only; {robot.name!r} has "
-                         f"prismatic joint(s) {prismatic}")
-    f = lambda x: repr(float(x))  # noqa: E731  (round-trip exact)
-    lines = [" ".join([str(robot.n), *map(f, _gravity0(robot) + 0.0)])]
-    for link in robot.links:
-        I = link.I
-        row = [link.d, link.a, link.alpha, link.offset, link.m, *link.r,
-               I[0][0], I[0][1], I[0][2], I[1][1], I[1][2], I[2][2], float(link.G) ** 2 * float(link.Jm)]
-        lines.append(" ".join(map(f, row)))
-    path = Path(path)
-    path.write_text("\n".join(lines) + "\n")
-    return path
