@@ -19,7 +19,6 @@ those line numbers; no URDF package is needed.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
