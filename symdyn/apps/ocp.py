@@ -49,6 +49,12 @@ class ArmFunctions:
     tau: ca.Function | None
     fdyn: ca.Function | None
     source: str = "custom"
+    compiled: bool = False
+
+    @property
+    def label(self) -> str:
+        """The source and how it is evaluated, e.g. "symdyn compiled", "plain SX"."""
+        return f"{self.source} {'compiled' if self.compiled else 'SX'}"
 
     def __post_init__(self) -> None:
         if self.tau is None and self.fdyn is None:
@@ -72,23 +78,33 @@ class ArmFunctions:
 
 
 @functools.lru_cache(maxsize=16)
-def dynamics(robot: Robot, source: str = "symdyn") -> ArmFunctions:
+def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> ArmFunctions:
     """The arm's inverse and forward dynamics as CasADi Functions, friction included
     (pass `robot.nofriction()` to drop the non-smooth Coulomb term).
 
     source="symdyn": symdyn's simplified generated functions
     (`symdyn.load(robot, target="casadi")`, derived and cached on first use for
     a robot that is not shipped); "plain": the unsimplified SX Newton–Euler of
-    `symdyn.numeric.casadi_rnea`.
+    `symdyn.numeric.casadi_rnea`.  compiled=True (the default): each function is
+    a `casadi.external` on compiled C, with its Jacobian and the Hessian of λᵀf
+    compiled beside it (`symdyn.codegen.emit.casadi.compiled`, built once into
+    the cache, ~15 s for the Puma's fdyn); compiled=False: CasADi's SX virtual
+    machine and its AD at every evaluation (no compiler needed).
     """
+    from ..codegen.emit.casadi import compiled as compile_function
+
     if source == "plain":
-        return ArmFunctions(casadi_rnea.rnea_function(robot), casadi_rnea.fdyn_function(robot), "plain")
-    if source == "symdyn":
+        tau, fdyn = casadi_rnea.rnea_function(robot), casadi_rnea.fdyn_function(robot)
+    elif source == "symdyn":
         from ..codegen import entry as codegen
 
         f = codegen.load(robot, "casadi")
-        return ArmFunctions(f.tau, f.fdyn, "symdyn")
-    raise ValueError(f"unknown dynamics source {source!r}: expected one of {SOURCES}")
+        tau, fdyn = f.functions["tau"], f.functions["fdyn"]
+    else:
+        raise ValueError(f"unknown dynamics source {source!r}: expected one of {SOURCES}")
+    if compiled:
+        tau, fdyn = compile_function(tau), compile_function(fdyn)
+    return ArmFunctions(tau, fdyn, source, compiled)
 
 
 # --------------------------------------------------------------------------- the problem
@@ -411,7 +427,7 @@ def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
     opti.minimize(J)
     opti.solver("ipopt", {"print_time": verbose, "record_time": True, "expand": expand},
                 {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter})
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     try:
         sol = opti.solve()
     except RuntimeError:
@@ -419,14 +435,15 @@ def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
         status, iters = st.get("return_status", "unknown"), st.get("iter_count", 0)
         raise OCPError(f"IPOPT found no {problem.method} solution: return status {status} after "
                        f"{iters} iterations{_hint(problem, arm)}", status, iters) from None
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     st = sol.stats()
     iters = int(st["iter_count"])
     evals = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
     stats = {"status": st["return_status"], "success": bool(st["success"]), "iterations": iters,
-             "solve_wall": wall, "ipopt_wall": float(st["t_wall_total"]), "eval_wall": float(evals),
+             "solve_wall": wall, "solve_cpu": cpu, "ipopt_wall": float(st["t_wall_total"]), "eval_wall": float(evals),
              "setup_wall": wall - float(st["t_wall_total"]),
-             "per_iteration": float(st["t_wall_total"]) / max(iters, 1), "source": arm.source}
+             "per_iteration": float(st["t_wall_total"]) / max(iters, 1), "source": arm.source,
+             "compiled": arm.compiled}
     v = lambda x: np.atleast_2d(np.array(sol.value(x), dtype=float))  # noqa: E731
     T = float(sol.value(handles["T"]))
     out = dict(method=problem.method, t=np.linspace(0, T, problem.N + 1), q=v(handles["Q"]).T,

@@ -277,17 +277,49 @@ def _import_module(path: Path, module: str):
     return mod
 
 
-def load(name_or_robot, target: str = "c", *, options=None, folder=None) -> GeneratedModel:
+#: The functions `load(..., "casadi", compiled=True)` compiles: those optimal control evaluates.
+COMPILED = ("tau", "fdyn")
+
+
+def load(name_or_robot, target: str = "c", *, options=None, folder=None, compiled=False) -> GeneratedModel:
     """The generated functions of a model for `target` ("c", "numpy" or "casadi").
 
     A shipped model's name loads generated/<name>/ (an error if stale); a
     Robot loads it too when it is that model, else its code is generated once
     into the cache.  `folder`: load the files `generate` wrote there instead
     (an error if they are missing, stale or edited).  `options`: a
-    `symdyn.codegen.emit.clib.CompileOptions` for C.
+    `symdyn.codegen.emit.clib.CompileOptions` for C.  `compiled` (CasADi
+    only): True for tau and fdyn (COMPILED), or a list of function names,
+    evaluated by compiled code — `casadi.external`s with their Jacobians and
+    the Hessians of λᵀf compiled too, built once into the cache
+    (`emit.casadi.compiled`) — for Opti and nlpsol; the other functions stay
+    CasADi's SX.
     """
     if target not in TARGETS:
         raise ValueError(f"unknown target {target!r}: load() takes one of {', '.join(TARGETS)}")
+    if compiled is not False and target != "casadi":
+        raise ValueError(f"compiled= is an option of the CasADi target, not of {target!r} "
+                         "(the C target is always compiled)")
+    model = _load(name_or_robot, target, options, folder)
+    if compiled is False:
+        return model
+    return _compile_casadi(model, COMPILED if compiled is True else tuple(compiled))
+
+
+def _compile_casadi(model: "CasadiModel", names: tuple) -> "CasadiModel":
+    """A copy of the CasADi model with the functions `names` on compiled code."""
+    from .emit.casadi import Numeric, compiled
+
+    unknown = [f for f in names if f not in model.functions]
+    if unknown:
+        raise ValueError(f"{model.name} has no function {', '.join(map(repr, unknown))} to compile: it has "
+                         f"{', '.join(model.functions)}")
+    numeric = {f: getattr(model, f) for f in model.functions}
+    numeric.update({f: Numeric(compiled(numeric[f].function), numeric[f].shapes) for f in names})
+    return CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
+
+
+def _load(name_or_robot, target: str, options, folder) -> GeneratedModel:
     robot = _robot(name_or_robot)
     name = identifier(robot.name)
     if folder is not None:

@@ -41,7 +41,7 @@ TWOLINK_HANG = (-np.pi / 2, 0.0)   # gravity acts along −y of frame {0}: q1 = 
 TWOLINK_UP = (np.pi / 2, 0.0)
 TWOLINK_SMOOTHING = 1e-3
 ACTIVE = 0.995                     # a limit is "active" where |x| ≥ 0.995 of it
-SOURCE = "symdyn"                  # the studies run on symdyn's generated CasADi functions
+SOURCE = "symdyn"                  # the studies run on symdyn's generated functions, compiled
 
 
 def puma() -> Robot:
@@ -80,9 +80,10 @@ def swing_up_problem(*, N: int = 50, method: str = "multiple-shooting") -> ocp.P
                        cost=ocp.Cost(effort=1.0, smoothness=TWOLINK_SMOOTHING))
 
 
-def solve_checked(robot: Robot, problem: ocp.Problem, src: str = "symdyn"):
-    """Solve on `src` dynamics and verify against the reference: (solution, check)."""
-    sol = ocp.solve(problem, ocp.dynamics(robot, src))
+def solve_checked(robot: Robot, problem: ocp.Problem, src: str = "symdyn", compiled: bool = True):
+    """Solve on `src` dynamics (compiled code unless compiled=False) and verify against the
+    reference: (solution, check)."""
+    sol = ocp.solve(problem, ocp.dynamics(robot, src, compiled=compiled))
     return sol, ocp.verify(robot, problem, sol)
 
 
@@ -133,7 +134,7 @@ def min_time(out_dir: Path, quick: bool = False) -> str:
     lim = puma_limits(robot)
     src = SOURCE
     N = 12 if quick else 40
-    lines = [f"Minimum-time Puma 560 motions (Hermite–Simpson collocation, N = {N}, dynamics: {src}; "
+    lines = [f"Minimum-time Puma 560 motions (Hermite–Simpson collocation, N = {N}, dynamics: {src}, compiled; "
              f"Coulomb friction off, viscous on)",
              f"  torque limits (motor {PUMA_MOTOR_TAU} N·m × |G|): {np.round(lim.tau, 1).tolist()} N·m",
              f"  speed limits: {list(PUMA_QD_MAX)} rad/s; joint limits of the model; "
@@ -181,7 +182,7 @@ def min_effort(out_dir: Path, quick: bool = False) -> str:
     m, p = PUMA_PAYLOAD
     arms = {"no payload": base, f"{m} kg payload": base.payload(m, p)}
     lines = [f"Minimum-effort Puma 560 qz → qr in {PUMA_EFFORT_T} s (min ∫Σ(τj/τmax,j)² dt; "
-             f"Hermite–Simpson, N = {N}, dynamics: {src}; same limits as ocp-mintime)",
+             f"Hermite–Simpson, N = {N}, dynamics: {src}, compiled; same limits as ocp-mintime)",
              f"  payload as the book's payload({m}, {list(p)}): link 6's mass becomes {m} kg at {list(p)} m "
              f"in frame {{6}} (its own 0.09 kg is replaced)"]
     sols = {}
@@ -241,7 +242,7 @@ def swing_up(out_dir: Path, quick: bool = False) -> str:
     rq = check.q
     lines = [f"Two-link arm swing-up, q = {[round(x, 4) for x in TWOLINK_HANG]} → "
              f"{[round(x, 4) for x in TWOLINK_UP]} in {TWOLINK_T} s (multiple shooting, N = {N}, RK4 × "
-             f"{problem.substeps} per interval, dynamics: {src})",
+             f"{problem.substeps} per interval, dynamics: {src}, compiled)",
              f"  hanging check: G(q_hang) = {np.round(G_hang, 12).tolist()} N·m, potential energy is a "
              f"local minimum there: {stable}",
              f"  limits |τ| ≤ {list(TWOLINK_TAU)} N·m (holding the arm horizontal takes 19.62 N·m at the "
@@ -287,27 +288,37 @@ def comparison_cases(quick: bool = False) -> list[tuple[str, Robot, ocp.Problem]
              min_time_problem(robot, robot.qz, robot.qr, N=n_ms, method="multiple-shooting"))]
 
 
-def _sizes(f) -> tuple[int, int]:
-    return f.n_instructions(), f.n_nodes()
+#: The variants `compare` measures by default: (source, compiled); the first is the
+#: reference of the ratios.
+VARIANTS = (("symdyn", True), ("symdyn", False), ("plain", True), ("plain", False))
 
 
-def compare(sources=("symdyn", "plain"), cases=None, *, quick: bool = False,
-            repeats: int = 1) -> list[dict]:
-    """Solve each case with each source's dynamics, in one run; rows of sizes and timings
-    (the fastest of `repeats` solves).
+def _instructions(robot: Robot, src: str) -> tuple[int, int]:
+    """Instructions of the source's SX tau and fdyn (what compiled code is generated from)."""
+    arm = ocp.dynamics(robot, src, compiled=False)
+    return arm.tau.n_instructions(), arm.fdyn.n_instructions()
 
-    Before timing, the sources' τ must agree at random states (else a ValueError)
+
+def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int = 1) -> list[dict]:
+    """Solve each case with each variant's dynamics — (source, compiled): symdyn's or the
+    plain Newton–Euler, on compiled code or CasADi's SX virtual machine — in one run;
+    rows of sizes and timings (the fastest of `repeats` solves by wall time; CPU time of
+    the process beside it, the fairer measure on a shared machine).
+
+    Before timing, the variants' τ must agree at random states (else a ValueError)
     and the optima must agree (same cost to 1e-6), so the ratios compare like with like.
+    Building a compiled variant the first time compiles it into the cache (the Puma's
+    fdyn ~15 s); `build` is the time to get the functions in this run.
     """
     cases = comparison_cases(quick) if cases is None else cases
     warm = ocp.Problem(np.zeros(2), np.full(2, 0.1), T=1.0, N=4)
-    ocp.solve(warm, ocp.dynamics(shipped.load("twolink"), "plain"))   # load IPOPT before timing
+    ocp.solve(warm, ocp.dynamics(shipped.load("twolink"), "plain", compiled=False))   # load IPOPT first
     rows = []
     for label, robot, problem in cases:
         arms, builds = [], []
-        for src in sources:
+        for src, comp in variants:
             start = time.perf_counter()
-            arms.append(ocp.dynamics.__wrapped__(robot, src))   # fresh: no shared derivative caches
+            arms.append(ocp.dynamics.__wrapped__(robot, src, compiled=comp))   # fresh: no shared caches
             builds.append(time.perf_counter() - start)
         _agree(robot, arms)
         costs = []
@@ -316,14 +327,15 @@ def compare(sources=("symdyn", "plain"), cases=None, *, quick: bool = False,
             sol = min(runs, key=lambda s: s.stats["solve_wall"])
             costs.append(sol.cost)
             st = sol.stats
-            rows.append(dict(case=label, source=arm.source, build=build,
-                             tau_instructions=_sizes(arm.tau)[0], tau_nodes=_sizes(arm.tau)[1],
-                             fdyn_instructions=_sizes(arm.fdyn)[0], fdyn_nodes=_sizes(arm.fdyn)[1],
+            tau_i, fdyn_i = _instructions(robot, arm.source)
+            rows.append(dict(case=label, source=arm.label, build=build,
+                             tau_instructions=tau_i, fdyn_instructions=fdyn_i,
                              iterations=st["iterations"], setup=st["setup_wall"], ipopt=st["ipopt_wall"],
-                             per_iteration=st["per_iteration"], total=st["solve_wall"], cost=sol.cost,
+                             per_iteration=st["per_iteration"], total=st["solve_wall"], cpu=st["solve_cpu"],
+                             cost=sol.cost, T=sol.T,
                              eval_per_iteration=st["eval_wall"] / max(st["iterations"], 1)))
         if max(costs) - min(costs) > 1e-6 * max(1.0, abs(max(costs))):
-            raise RuntimeError(f"{label}: the sources reach different optima {costs}; no fair comparison")
+            raise RuntimeError(f"{label}: the variants reach different optima {costs}; no fair comparison")
     return rows
 
 
@@ -335,40 +347,41 @@ def _agree(robot: Robot, arms: list, count: int = 20) -> None:
     taus = [np.array(a.tau.map(count)(q.T, qd.T, qdd.T)) for a in arms]
     for a, t in zip(arms[1:], taus[1:]):
         if np.abs(t - taus[0]).max() > 1e-9 * max(1.0, np.abs(taus[0]).max()):
-            raise ValueError(f"dynamics sources {arms[0].source!r} and {a.source!r} disagree on τ")
+            raise ValueError(f"dynamics {arms[0].label!r} and {a.label!r} disagree on τ")
 
 
-COLUMNS = (("tau_instructions", "τ instructions", "{:d}"), ("fdyn_instructions", "fdyn instructions", "{:d}"),
+COLUMNS = (("tau_instructions", "τ instructions (SX)", "{:d}"),
+           ("fdyn_instructions", "fdyn instructions (SX)", "{:d}"),
            ("build", "load/build functions (s)", "{:.2f}"), ("iterations", "IPOPT iterations", "{:d}"),
            ("setup", "NLP set-up (s)", "{:.2f}"), ("per_iteration", "time per iteration (ms)", "{:.1f}"),
            ("eval_per_iteration", "of which function evaluations (ms)", "{:.1f}"),
-           ("total", "total solve (s)", "{:.2f}"))
+           ("total", "total solve, wall (s)", "{:.2f}"), ("cpu", "total solve, CPU (s)", "{:.2f}"))
 
 
 def format_table(rows: list[dict]) -> str:
-    """A Markdown table per case: one column per source, and the ratio of the last
-    source to the first (e.g. plain/symdyn: > 1 means symdyn is smaller or faster)."""
+    """A Markdown table per case: one column per variant, and the ratio of each other
+    variant to the first (e.g. "symdyn SX / symdyn compiled" > 1: compiled is faster)."""
     out = []
     for case in dict.fromkeys(r["case"] for r in rows):
         sub = [r for r in rows if r["case"] == case]
         srcs = [r["source"] for r in sub]
-        out += [f"**{case}**", "", f"| | {' | '.join(srcs)} | {srcs[-1]}/{srcs[0]} |",
-                "|---|" + "---:|" * (len(srcs) + 1)]
+        out += [f"**{case}**", "",
+                f"| | {' | '.join(srcs)} | {' | '.join(f'{s} / {srcs[0]}' for s in srcs[1:])} |",
+                "|---|" + "---:|" * (2 * len(srcs) - 1)]
         for key, name, fmt in COLUMNS:
             vals = [r[key] * (1e3 if key.endswith("per_iteration") else 1) for r in sub]
-            ratio = vals[-1] / vals[0] if vals[0] else float("nan")
-            out.append(f"| {name} | {' | '.join(fmt.format(v) for v in vals)} | {ratio:.2f} |")
+            ratios = [f"{v / vals[0]:.2f}" if vals[0] else "–" for v in vals[1:]]
+            out.append(f"| {name} | {' | '.join(fmt.format(v) for v in vals)} | {' | '.join(ratios)} |")
         out.append("")
     return "\n".join(out)
 
 
 def comparison(out_dir: Path, quick: bool = False) -> str:
     """symdyn's CasADi functions against the plain SX Newton–Euler on the same OCPs."""
-    sources = ("symdyn", "plain")
-    rows = compare(sources, quick=quick)
-    lines = [f"Optimal-control solver comparison, sources {sources} "
-             "(IPOPT, exact Hessian, CasADi SX virtual machine, no JIT; one run, same machine)",
-             "", format_table(rows)]
+    rows = compare(VARIANTS, quick=quick)
+    lines = ["Optimal-control solver comparison: symdyn's and a plain Newton–Euler's functions, each on "
+             "compiled code (CasADi's code generation, -O1) and on CasADi's SX virtual machine "
+             "(IPOPT, exact Hessian; one run, same machine)", "", format_table(rows)]
     return finish(out_dir, lines)
 
 
@@ -376,5 +389,5 @@ STUDIES = {
     "ocp-mintime": ("Puma 560 minimum-time qz→qr and qr→qs under torque and speed limits", min_time),
     "ocp-effort": ("Puma 560 minimum-effort qz→qr in 1 s, with and without a 2.5 kg payload", min_effort),
     "ocp-swingup": ("two-link arm swing-up from hanging to upright, torque limited, minimum effort", swing_up),
-    "ocp-compare": ("OCP solve time: symdyn's CasADi functions vs a plain SX Newton–Euler", comparison),
+    "ocp-compare": ("OCP solve time: symdyn's functions vs a plain Newton–Euler, compiled and on SX", comparison),
 }

@@ -197,3 +197,47 @@ def generate_c(funcs: list[ca.Function], name: str, out_dir: Path) -> Path:
             src = Path(tmp, f"{name}_casadi{suffix}")
             write_atomic(out_dir / src.name, src.read_bytes())
     return out_dir / f"{name}_casadi.c"
+
+
+# --------------------------------------------------------------------------- compiled functions
+
+#: Flags of the compiled CasADi functions.  -O1: the second-derivative functions
+#: are long straight lines that -O2/-O3 take several times longer to compile for
+#: no measurable gain (docs/studies_ocp.md, "Compiled CasADi functions").
+COMPILE_FLAGS = ("-O1", "-fPIC", "-shared")
+
+
+def derivative_functions(f: ca.Function) -> list[ca.Function]:
+    """f with the derivative functions IPOPT's exact-Hessian solve asks of it, under
+    the names `casadi.external` looks up: `jac_f` (∂outputs/∂inputs, for the
+    constraint Jacobian), `adj1_f` (reverse mode, for gradients) and `jac_adj1_f`
+    (the Jacobian of the reverse mode: the Hessian of λᵀf, for the Hessian of
+    the Lagrangian).  CasADi derives each from f's SX by its own AD."""
+    adj = f.reverse(1)
+    return [f, f.jacobian(), adj, adj.jacobian()]
+
+
+def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS) -> ca.Function:
+    """f as a `casadi.external` on compiled code, with its Jacobian and the Hessian of
+    λᵀf compiled beside it (`derivative_functions`): same name, inputs and outputs.
+
+    CasADi's code generator writes the C; the library is built with the system C
+    compiler once into symdyn's cache, under a name keyed by the sha256 of the C
+    source, the compiler and the flags (any change of f is a new library), and is
+    reused when its sha256 matches the one recorded when it was built (a damaged
+    library is rebuilt, like the C target's, `emit.clib`).
+    """
+    from ...derivation.cache import cache_dir
+    from .clib import _digest, _library
+
+    name = f.name()
+    cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
+    for g in derivative_functions(f):
+        cg.add(g)
+    with tempfile.TemporaryDirectory() as tmp:
+        cg.generate(tmp + os.sep)
+        source = Path(tmp, f"{name}.c").read_text()
+    key = _digest(source, os.environ.get("CC", "cc"), " ".join(flags), FORMAT)[:16]
+    lib = _library(cache_dir() / "casadi" / f"{name}-{key}" / f"lib{name}.so", tuple(flags),
+                   {f"{name}.c": source}, [])
+    return ca.external(name, str(lib))
