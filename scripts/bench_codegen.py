@@ -1,7 +1,7 @@
 """Speed of the generated Puma 560 code against Pinocchio and the Robotics Toolbox (issue 4).
 
 Run: .venv/bin/python scripts/bench_codegen.py [--markdown docs/bench.md.part] [--help]
-The same as `symdyn bench`; see symdyn/bench.py.
+The same as `symdyn bench` (`make bench` installs its peers first); see symdyn/bench/compare.py.
 """
 
 import sys
