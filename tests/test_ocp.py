@@ -162,11 +162,13 @@ def test_torque_too_small_to_hold_the_arm_fails_with_status_and_hint(arm2):
 def test_comparison_harness_plain_against_itself_and_against_symdyn(arm2):
     problem = ocp.Problem(HANG, np.array([-1.0, 0.3]), T=1.0, N=6)
     case = [("two-link", arm2, problem)]
-    same = S.compare(("plain", "plain"), case)
-    assert [r["tau_instructions"] for r in same] == [ocp.dynamics(arm2, "plain").tau.n_instructions()] * 2
+    same = S.compare((("plain", False), ("plain", False)), case)
+    sx = ocp.dynamics(arm2, "plain", compiled=False)
+    assert [r["tau_instructions"] for r in same] == [sx.tau.n_instructions()] * 2
     assert same[0]["iterations"] == same[1]["iterations"]
     table = S.format_table(same)
-    assert "| IPOPT iterations |" in table and "plain/plain" in table
-    rows = S.compare(("symdyn", "plain"), case)
+    assert "| IPOPT iterations |" in table and "plain SX / plain SX" in table
+    rows = S.compare((("symdyn", True), ("plain", True)), case)
+    assert [r["source"] for r in rows] == ["symdyn compiled", "plain compiled"]
     assert rows[0]["tau_instructions"] < rows[1]["tau_instructions"]
     assert rows[0]["fdyn_instructions"] < rows[1]["fdyn_instructions"]

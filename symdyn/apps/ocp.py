@@ -23,7 +23,7 @@ from ..model import Robot
 from ..numeric import casadi_rnea, reference
 
 __all__ = ["METHODS", "SOURCES", "OCPError", "ArmFunctions", "Limits", "Cost", "Problem",
-           "Solution", "Check", "dynamics", "motor_torque_limits", "solve", "resimulate", "verify",
+           "Solution", "Check", "Tracker", "dynamics", "motor_torque_limits", "solve", "resimulate", "verify",
            "limit_violation"]
 
 METHODS = ("multiple-shooting", "trapezoidal", "hermite-simpson")
@@ -545,3 +545,89 @@ def verify(robot: Robot, problem: Problem, solution: Solution, *, tol_q: float =
                  path_q_error=float(np.abs(q - solution.q).max()),
                  limit_violation=limit_violation(problem, solution),
                  tol_q=tol_q, tol_qd=tol_qd, tol_limits=tol_limits, q=q, qd=qd)
+
+
+# --------------------------------------------------------------------------- receding horizon
+
+class Tracker:
+    """Nonlinear MPC for trajectory tracking: one IPOPT problem built once, solved
+    each sample period from the measured state, warm-started from the previous
+    solution shifted by one interval (primal and dual).
+
+    Direct multiple shooting over `horizon` intervals of the sample period `dt`
+    (s), τ held over each interval, one semi-implicit Euler step of fdyn per interval
+    (integrator="euler", the default: one fdyn evaluation) or one RK4 step ("rk4"); cost
+    Σₖ (q−q_ref)ᵀW_q(q−q_ref) + (q̇−q̇_ref)ᵀW_qd(q̇−q̇_ref) + r‖τ/τ_max‖² over the
+    horizon; |τ| ≤ limits.tau and |q̇| ≤ limits.qd (and the joint limits) as bounds
+    on the decision variables, the first state fixed to the measurement by its bounds.
+    """
+
+    def __init__(self, arm: ArmFunctions, limits: Limits, dt: float, horizon: int, *,
+                 w_q: float = 1e4, w_qd: float = 10.0, r: float = 1e-2, max_iter: int = 100,
+                 integrator: str = "euler", tol: float = 1e-4):
+        n = arm.n
+        if limits.tau is None or limits.qd is None:
+            raise ValueError("the tracker needs torque and speed limits (Limits.tau and Limits.qd)")
+        self.n, self.N, self.dt, self.limits = n, horizon, dt, limits
+        N = horizon
+        X, U, R = ca.MX.sym("X", 2 * n, N + 1), ca.MX.sym("U", n, N), ca.MX.sym("R", 2 * n, N + 1)
+        fdyn = arm.need("multiple-shooting")
+        if integrator == "rk4":
+            qn, qdn = _rk4_step(fdyn, n, 1).map(N)(X[:n, :N], X[n:, :N], U, dt)
+        elif integrator == "euler":   # semi-implicit: q̇⁺ = q̇ + h q̈, q⁺ = q + h q̇⁺ (one fdyn per interval)
+            qdn = X[n:, :N] + dt * fdyn.map(N)(X[:n, :N], X[n:, :N], U)
+            qn = X[:n, :N] + dt * qdn
+        else:
+            raise ValueError(f"unknown integrator {integrator!r}: expected 'euler' or 'rk4'")
+        e = X - R
+        W = ca.DM(np.r_[np.full(n, w_q), np.full(n, w_qd)])
+        J = ca.sum2(ca.sum1(W * e[:, 1:] ** 2)) + r * ca.sumsqr(U / ca.repmat(ca.DM(limits.tau), 1, N))
+        g = ca.vertcat(ca.vec(X[:n, 1:] - qn), ca.vec(X[n:, 1:] - qdn))
+        self._solver = ca.nlpsol("mpc", "ipopt", {"x": ca.vertcat(ca.vec(X), ca.vec(U)), "p": ca.vec(R),
+                                                  "f": J, "g": g},
+                                 {"print_time": False, "ipopt": {
+                                     "print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": tol,
+                                     "warm_start_init_point": "yes", "mu_init": 1e-3,
+                                     "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6}})
+        qlo, qhi = (np.full(n, -np.inf), np.full(n, np.inf)) if limits.q is None else limits.q.T
+        xlo = np.tile(np.r_[qlo, -limits.qd], N + 1)
+        self._lbx = np.r_[xlo, np.tile(-limits.tau, N)]
+        self._ubx = np.r_[np.tile(np.r_[qhi, limits.qd], N + 1), np.tile(limits.tau, N)]
+        self._nx = 2 * n * (N + 1)
+        self._warm = None
+
+    def control(self, x: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, dict]:
+        """τ (n,) to apply now, from the measured state x = (q, q̇) (2n,) and the reference
+        states over the horizon (N+1, 2n); and the solve's stats (wall and CPU time, s,
+        IPOPT iterations, status, success)."""
+        n, N = self.n, self.N
+        lbx, ubx = self._lbx.copy(), self._ubx.copy()
+        lbx[:2 * n] = ubx[:2 * n] = x
+        args = dict(lbx=lbx, ubx=ubx, lbg=0, ubg=0, p=np.asarray(reference).T.ravel(order="F"))
+        if self._warm is None:
+            args["x0"] = np.r_[np.tile(x, N + 1), np.zeros(n * N)]
+        else:
+            args.update(self._warm)
+        wall, cpu = time.perf_counter(), time.process_time()
+        sol = self._solver(**args)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+        st = self._solver.stats()
+        w, lam_x, lam_g = (np.array(sol[k]).ravel() for k in ("x", "lam_x", "lam_g"))
+        self._warm = dict(x0=self._shift(w), lam_x0=self._shift(lam_x), lam_g0=_shift_block(lam_g, n, N))
+        tau = w[self._nx:self._nx + n]
+        return tau, {"wall": wall, "cpu": cpu, "iterations": int(st["iter_count"]),
+                     "status": st["return_status"], "success": bool(st["success"])}
+
+    def _shift(self, w: np.ndarray) -> np.ndarray:
+        """The decision vector one interval later: states and torques moved one column
+        left, the last one repeated."""
+        n, N = self.n, self.N
+        X = w[:self._nx].reshape(N + 1, 2 * n)
+        U = w[self._nx:].reshape(N, n)
+        return np.r_[np.vstack([X[1:], X[-1:]]).ravel(), np.vstack([U[1:], U[-1:]]).ravel()]
+
+
+def _shift_block(lam_g: np.ndarray, n: int, N: int) -> np.ndarray:
+    """Constraint multipliers (q rows then q̇ rows, N columns each) shifted one interval."""
+    q, qd = lam_g[:n * N].reshape(N, n), lam_g[n * N:].reshape(N, n)
+    return np.r_[np.vstack([q[1:], q[-1:]]).ravel(), np.vstack([qd[1:], qd[-1:]]).ravel()]
