@@ -72,7 +72,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_print(args: argparse.Namespace) -> int:
     """Print the closed-form dynamics of a model, with op counts per stage."""
     from .derivation.entry import derive
-    from .derivation.printing import closed_form
+    from .derivation.printing import closed_form, plan
     from .derivation.simplify import op_counts
 
     robot = _load_model(args.model, args.numeric)
@@ -82,12 +82,17 @@ def _cmd_print(args: argparse.Namespace) -> int:
     if args.constants:
         return _print_constants(dyn, args)
     terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
-    print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits))
+    layouts = plan(dyn, terms, args.layout)
+    print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits, layouts=layouts))
     comment = "%" if args.format == "latex" else "#"
-    stages = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
+    closed = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
     print(f"{comment} {robot.name} by {dyn.method}; operations (mul + add) at each stage, full inertial "
-          f"parameters (not regrouped), {friction_variant(robot)}:")
-    for t in terms:
+          f"parameters (not regrouped), {friction_variant(robot)}"
+          + ("; terms in named intermediates: raw and cse only, folding is what they avoid:"
+             if any(lay.layout == "named" for lay in layouts) else ":"))
+    for lay in layouts:
+        t = lay.term
+        stages = closed if lay.layout == "closed" else ("raw", "cse")
         counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
         row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
         print(f"{comment}   {t:4s} {row}")
@@ -170,6 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .bench import compare
     from .codegen import entry
+    from .derivation.printing import CLOSED_LIMIT
     entry.configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
     compare.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
 
@@ -184,6 +190,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--form", default="book", choices=("book", "folded"),
                    help="book: products of sines/cosines of natural angles (S23*C4*S5); "
                         "folded: sines/cosines of angle sums")
+    p.add_argument("--layout", default="auto", choices=("auto", "closed", "named"),
+                   help="closed: every element in closed form; named: the derivation's named intermediates, "
+                        f"then the elements in them; auto (default): closed up to {CLOSED_LIMIT} terms, "
+                        "named beyond (a 7-joint arm's M, C, tau)")
     p.add_argument("--constants", action="store_true",
                    help="named-constant form (Armstrong, Khatib & Burdick 1986): M, b, c, G, F, tau in named "
                         "inertial constants with their definitions, values and units, and C2, S23 abbreviations")

@@ -224,3 +224,60 @@ def test_cli_reports_an_unknown_model_clearly(capsys):
     assert cli.main(["print", "nosuch"]) == 2
     err = capsys.readouterr().err
     assert "unknown model 'nosuch'" in err and "puma560" in err
+
+
+# --------------------------------------------------------------------------- 7-joint arms
+
+@pytest.fixture(scope="module")
+def panda():
+    return derive(models.load("panda"))
+
+
+def _printed(text: str) -> dict:
+    """{name: sympy expression} of printed text lines `name = …` (continuations indented)."""
+    out, name = {}, None
+    for line in text.splitlines():
+        if line.startswith("#"):
+            continue
+        if not line.startswith(" "):
+            name, _, rhs = line.partition(" = ")
+            out[name] = rhs
+        else:
+            out[name] += " " + line.strip()
+    return {k: sp.sympify(v) for k, v in out.items()}
+
+
+def test_pandas_printed_gravity_equals_the_reference_gravity_load(panda):
+    from symdyn.numeric import reference as ref
+    printed = _printed(closed_form(panda, ("G",), digits=17))
+    assert sorted(printed) == [f"G{i}" for i in range(1, 8)]
+    for q in np.random.default_rng(3).uniform(-2, 2, (3, 7)):
+        values = {sp.Symbol(str(s)): v for s, v in zip(panda.q, q)}    # printed text: plain symbols
+        got = [float(printed[f"G{i}"].xreplace(values)) for i in range(1, 8)]
+        np.testing.assert_allclose(got, ref.gravload(panda.robot, q), rtol=1e-12, atol=1e-12)
+
+
+def test_pandas_inertia_prints_in_named_intermediates_that_evaluate_to_the_reference(panda):
+    from symdyn.derivation.printing import plan
+    from symdyn.numeric import reference as ref
+    layouts = plan(panda, ("G", "M"))
+    assert [lay.layout for lay in layouts] == ["closed", "named"]
+    assert "M of panda has 20814 terms in closed form, more than 4000" in layouts[1].note
+    text = closed_form(panda, ("M",), digits=17, layouts=layouts[1:])
+    assert text.startswith("# M of panda has 20814 terms")
+    printed = _printed(text)
+    q = np.array([0.3, -0.5, 0.2, -1.9, 0.4, 1.6, -0.7])
+    values = {sp.Symbol(str(s)): v for s, v in zip(panda.q, q)}        # printed text: plain symbols
+    for name, expr in printed.items():     # definitions first, each before its first use
+        values[sp.Symbol(name)] = float(expr.xreplace(values))
+    M = ref.inertia(panda.robot, q)
+    for i in range(7):
+        for j in range(i, 7):
+            assert values[sp.Symbol(f"M{i + 1}{j + 1}")] == pytest.approx(M[i, j], rel=1e-12, abs=1e-12)
+
+
+def test_a_closed_form_too_large_to_print_is_refused_with_the_alternative(panda):
+    from symdyn.derivation.printing import plan
+    with pytest.raises(ValueError, match=r"M of panda has 20814 terms in closed form, more than 4000: .* "
+                                         r"--layout named"):
+        plan(panda, ("M",), "closed")

@@ -30,10 +30,11 @@ from fractions import Fraction
 import sympy as sp
 
 from .dynamics import Dynamics
-from .printing import DIGITS, _display, latex_document, latex_name, latex_number, number, wrap
+from .printing import CLOSED_LIMIT, DIGITS, FOLD_BUDGET, _display, latex_document, latex_name, latex_number, \
+    number, wrap
 from .program import make_program
 from .regressor import FRICTION, INERTIAL, base_parameters, regressor
-from .simplify import angle_products, group_parameters, natural_chains
+from .simplify import angle_products, closed_size, group_parameters, natural_chains
 from .symbols import joint_symbols
 from .trigpoly import TrigSpace
 
@@ -190,7 +191,18 @@ def _abbreviation(atom: sp.Expr) -> sp.Symbol:
 
 
 def constant_form(dyn: Dynamics) -> ConstantForm:
-    """M, b, c, G, F and τ of `dyn`'s arm in named constants and trig abbreviations (module docstring)."""
+    """M, b, c, G, F and τ of `dyn`'s arm in named constants and trig abbreviations (module docstring).
+
+    Refused (ValueError) for an arm whose τ has more than `printing.CLOSED_LIMIT`
+    terms as a trig polynomial (every 7-joint arm shipped): its form would
+    run to thousands of constants and take minutes; the check takes a second."""
+    size = closed_size(dyn, "tau", FOLD_BUDGET)
+    if size is None or size > CLOSED_LIMIT:
+        how_big = f"more than {FOLD_BUDGET} terms in its intermediates" if size is None else f"{size} terms"
+        raise ValueError(f"the named-constant form of {dyn.robot.name} is not offered: its tau has {how_big} "
+                         f"(the form is made for arms up to {CLOSED_LIMIT}); print "
+                         f"`symdyn print {dyn.robot.name} --term G` (closed form) or `symdyn print "
+                         f"{dyn.robot.name}` (named intermediates where a term is larger)")
     robot, n = dyn.robot, dyn.n
     space, torques, params, info = _torques(dyn)
     q, qd, qdd = dyn.q, dyn.qd, dyn.qdd

@@ -22,7 +22,7 @@ from sympy.printing.pretty.stringpict import prettyForm, stringPict
 from sympy.printing.str import StrPrinter
 
 from .dynamics import TERMS, Dynamics
-from .simplify import prune, tidy
+from .simplify import closed_size, prune, tidy, used_definitions
 
 FORMATS = ("text", "pretty", "latex")
 
@@ -31,6 +31,17 @@ FORMATS = ("text", "pretty", "latex")
 #: the article class's 345 pt text width.
 WIDTHS = {"text": 100, "pretty": 100, "latex": 66}
 DIGITS = 5
+
+LAYOUTS = ("auto", "closed", "named")
+
+#: The largest term printed in closed form, in terms of its exact trig
+#: polynomial (`simplify.closed_size`, M's upper triangle).  The Puma's C has
+#: 1,594 and prints in seconds, the iiwa's M 2,549; the Panda's M has 20,814
+#: and a 7-joint C or τ well over 10⁵: pages no one reads, minutes to write.
+CLOSED_LIMIT = 4000
+#: Folding a term's intermediates stops past this many terms in all: the
+#: term is then known to be far over CLOSED_LIMIT, in a second or two.
+FOLD_BUDGET = 25 * CLOSED_LIMIT
 
 
 def number(x: float, digits: int = DIGITS) -> str:
@@ -282,9 +293,11 @@ def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, form: 
 
 
 def latex_name(name: str) -> str:
-    """M11 → M_{11}, tau2 → \\tau_{2}, b1_23 → b_{1,23}, Cqd1 → (C\\dot q)_{1}."""
+    """M11 → M_{11}, tau2 → \\tau_{2}, b1_23 → b_{1,23}, Cqd1 → (C\\dot q)_{1}, w2_z → w_{2 z}."""
     stem = name.rstrip("0123456789_")
     index = name[len(stem):].replace("_", ",")
+    if not index:       # a derivation's intermediate: w2_z → w_{2 z}
+        return sp.latex(sp.Symbol(name))
     stem = {"tau": r"\tau", "Cqd": r"(C\dot q)"}.get(stem, stem)
     return f"{stem}_{{{index}}}"
 
@@ -310,11 +323,78 @@ def latex_document(body: str) -> str:
             "\\begin{document}\n\\small\n" + body + "\n\\end{document}\n")
 
 
-def closed_form(dyn: Dynamics, terms=("M", "C", "G", "F", "tau"), fmt: str = "text",
-                prune_tol: float | None = None, form: str = "book", *, digits: int = DIGITS) -> str:
-    """Every requested term of `dyn`, rendered and wrapped."""
+@dataclass(frozen=True)
+class Layout:
+    """How one term is printed: "closed" (every element as a closed form) or
+    "named" (the derivation's named intermediates, then the elements in
+    them), and, where the size decided it, why (a line for the reader)."""
+
+    term: str
+    layout: str
+    note: str = ""
+
+
+def plan(dyn: Dynamics, terms, layout: str = "auto", *, limit: int = CLOSED_LIMIT) -> list[Layout]:
+    """The layout of each term.  "auto": closed form up to `limit` terms of
+    its trig polynomial (`simplify.closed_size`), named intermediates beyond;
+    "named": named for every term; "closed": closed for every term, refused
+    (ValueError naming the size and the alternatives) beyond `limit`, since
+    writing it would take minutes and fill pages."""
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown layout {layout!r}: expected one of {', '.join(LAYOUTS)}")
     for t in terms:
         if t not in TERMS:
             raise ValueError(f"unknown term {t!r}: expected one of {', '.join(TERMS)} or all")
-    items = [item for t in terms for item in elements(dyn, t, prune_tol=prune_tol, form=form)]
-    return render(items, fmt, digits=digits)
+    if layout == "named":
+        return [Layout(t, "named") for t in terms]
+    out = []
+    budget = max(FOLD_BUDGET, 25 * limit)
+    for t in terms:
+        size = closed_size(dyn, t, budget)
+        if size is not None and size <= limit:
+            out.append(Layout(t, "closed"))
+            continue
+        how_big = (f"more than {limit} terms in closed form (its intermediates alone hold more than {budget})"
+                   if size is None else f"{size} terms in closed form, more than {limit}")
+        if layout == "closed":
+            raise ValueError(f"{t} of {dyn.robot.name} has {how_big}: writing it would take minutes and fill "
+                             f"pages; print it with --layout named (the {dyn.method} derivation's named "
+                             f"intermediates) or choose a smaller term")
+        out.append(Layout(t, "named", f"{t} of {dyn.robot.name} has {how_big}: printed in the {dyn.method} "
+                                      f"derivation's named intermediates, each defined once before its first use"))
+    return out
+
+
+def named_items(dyn: Dynamics, terms) -> list:
+    """[(name, expr)] of the named layout: the definitions the terms use, in
+    derivation order and each once, then the terms' elements written in them
+    (M's upper triangle).  A derivation without named intermediates gives
+    its plain elements."""
+    mats = {t: dyn.named[t] if t in dyn.named else dyn.term(t) for t in terms}
+    items = [(str(sym), _display(d)) for sym, d in used_definitions(dyn, [e for m in mats.values() for e in m])]
+    for t, mat in mats.items():
+        for i in range(mat.rows):
+            for j in range(mat.cols):
+                if not (t == "M" and j < i):
+                    items.append((f"{t}{i + 1}{j + 1}" if mat.cols > 1 else f"{t}{i + 1}", _display(mat[i, j])))
+    return items
+
+
+def closed_form(dyn: Dynamics, terms=("M", "C", "G", "F", "tau"), fmt: str = "text",
+                prune_tol: float | None = None, form: str = "book", *, digits: int = DIGITS,
+                layouts: list[Layout] | None = None) -> str:
+    """Every requested term of `dyn`, rendered and wrapped: in closed form, or
+    in named intermediates where `layouts` (default: `plan(dyn, terms)`) says
+    so, after a comment saying why."""
+    layouts = plan(dyn, terms) if layouts is None else layouts
+    items = [item for lay in layouts if lay.layout == "closed"
+             for item in elements(dyn, lay.term, prune_tol=prune_tol, form=form)]
+    named = [lay.term for lay in layouts if lay.layout == "named"]
+    if named:
+        items += named_items(dyn, named)
+    mark = "%" if fmt == "latex" else "#"
+    lines = [lay.note for lay in layouts if lay.note]
+    if named and prune_tol is not None:
+        lines.append(f"{', '.join(named)} not pruned: pruning applies to closed forms")
+    head = "".join(f"{mark} {line}\n" for line in lines)
+    return head + render(items, fmt, digits=digits)

@@ -90,18 +90,101 @@ def _decompose(k: tuple, chains: list) -> list[tuple[tuple[int, ...], int]]:
 def book_form(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
     """expr as a polynomial in sines and cosines of natural angles (qᵢ and the
     sums of parallel joints, e.g. q2 + q3), with sin² reduced to 1 − cos²:
-    the products a textbook prints (S23·C4·S5), exactly equal to expr."""
-    angles = _angles(dyn)
+    the products a textbook prints (S23·C4·S5), exactly equal to expr.
+
+    Each frequency term of expr's trig polynomial is expanded by
+    `angle_terms` in integer arithmetic and the coefficients of equal
+    products are summed as polynomials before anything becomes sympy: a
+    7-joint G has hundreds of frequency terms, and expanding each through
+    sympy's expand_trig took most of a minute."""
+    angles = tuple(_angles(dyn))
     expr = sp.sympify(expr)
     signs = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(sorted(expr.atoms(sp.sign), key=str))}
     space = trigpoly.space_for([expr.xreplace(signs)], angles)
-    poly = trigpoly.from_expr(expr.xreplace(signs), space)
-    chains = natural_chains(dyn)
-    out = []
-    for k, kind, coeff in poly.items():
-        out.append(coeff.as_expr() * angle_products(tuple(k), kind, chains, tuple(angles)))
+    terms = book_terms(trigpoly.from_expr(expr.xreplace(signs), space), natural_chains(dyn))
+    out = [coeff.as_expr() * _product_expr(mono, angles) for mono, coeff in terms.items()]
     back = {v: k for k, v in signs.items()}
     return sp.expand(sp.Add(*out)).xreplace(back)
+
+
+def term_polys(dyn: Dynamics, term: str, budget: int | None = None):
+    """[TrigPoly per element, row-major]: a term as exact trig polynomials in
+    the revolute angles, folded from the derivation's named intermediates
+    where it has them (each definition once, in order: the Panda's
+    33,585-term M in a third of a second, where expanding its sympy tree
+    first takes seconds and its C minutes), else from the plain matrix.
+    Friction's sign(q̇) is a coefficient (a ring generator).  None as soon as
+    the folded definitions hold more than `budget` terms in all: the cost of
+    folding grows with that sum, so this bounds the time a size check takes."""
+    named = dyn.named.get(term)
+    if named is None:
+        exprs, used = list(dyn.term(term)), []
+    else:
+        exprs, used = list(named), used_definitions(dyn, named)
+    found = {s for e in exprs for s in e.atoms(sp.sign)} | {s for _, d in used for s in d.atoms(sp.sign)}
+    signs = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(sorted(found, key=str))}
+    exprs = [e.xreplace(signs) for e in exprs]
+    used = [(sym, d.xreplace(signs)) for sym, d in used]
+    angles = _angles(dyn)
+    names = {sym for sym, _ in used}
+    gens = trigpoly.space_for(exprs + [d for _, d in used], angles).gens
+    space = trigpoly.TrigSpace(angles, [g for g in gens if g not in names])
+    memo: dict = {}
+    held = 0
+    for sym, definition in used:
+        memo[sym] = trigpoly.from_expr(definition, space, memo)
+        held += memo[sym].nterms
+        if budget is not None and held > budget:
+            return None
+    return [trigpoly.from_expr(e, space, memo) for e in exprs]
+
+
+def used_definitions(dyn: Dynamics, exprs) -> list:
+    """The derivation's definitions that `exprs` depend on, in derivation order."""
+    defs = dict(dyn.definitions)
+    needed: set = set()
+    stack = [s for e in exprs for s in e.free_symbols if s in defs]
+    while stack:
+        s = stack.pop()
+        if s not in needed:
+            needed.add(s)
+            stack.extend(t for t in defs[s].free_symbols if t in defs and t not in needed)
+    return [(s, d) for s, d in dyn.definitions if s in needed]
+
+
+def book_terms(poly: trigpoly.TrigPoly, chains: tuple) -> dict:
+    """{product key of `angle_terms`: coefficient in poly.space.ring}: a trig
+    polynomial as a polynomial in sines and cosines of natural angles (the
+    content of `book_form`, before any sympy).  The sums run over plain
+    (product key, coefficient monomial) → rational dicts: a ring element per
+    product made the Panda's M take half a minute."""
+    acc: dict = {}
+    for k, kind, coeff in poly.items():
+        monomials = list(coeff.items())
+        for c, mono in angle_terms(tuple(k), kind, chains):
+            for m, x in monomials:
+                key = (mono, m)
+                acc[key] = acc.get(key, 0) + c * x
+    ring = poly.space.ring
+    out: dict = {}
+    for (mono, m), x in acc.items():
+        if x:
+            out.setdefault(mono, {})[m] = x
+    return {mono: ring.from_dict(d) for mono, d in out.items()}
+
+
+def closed_size(dyn: Dynamics, term: str, budget: int | None = None) -> int | None:
+    """How many terms (coefficient monomial × sine or cosine of an angle sum)
+    the term's elements hold as exact trig polynomials, M's upper triangle
+    only; None when folding its intermediates exceeds `budget` terms
+    (`term_polys`).  The check that decides, in seconds, whether a term is
+    printed in closed form: a 7-joint arm's C has ~10⁵ terms."""
+    polys = term_polys(dyn, term, budget)
+    if polys is None:
+        return None
+    named = dyn.named.get(term)
+    cols = (dyn.term(term) if named is None else named).cols
+    return sum(p.nterms for index, p in enumerate(polys) if not (term == "M" and index % cols < index // cols))
 
 
 def natural_chains(dyn: Dynamics) -> tuple:
@@ -111,30 +194,88 @@ def natural_chains(dyn: Dynamics) -> tuple:
                  if all(dyn.q[i] in angles for i in c))
 
 
-@functools.lru_cache(maxsize=4096)
 def angle_products(k: tuple, kind: str, chains: tuple, angles: tuple) -> sp.Expr:
     """cos(k·θ) or sin(k·θ) as a polynomial in sines and cosines of natural
     angles (single angles and parallel-chain sums), sin² written 1 − cos²:
-    the one frequency term of `book_form`, exactly."""
-    atoms = _decompose(k, list(chains))
-    if not atoms:
-        return sp.S.One if kind == "cos" else sp.S.Zero
-    phis = [sp.Dummy(f"phi{a}") for a in range(len(atoms))]
-    arg = sp.Add(*(m * phi for (_, m), phi in zip(atoms, phis)))
-    e = sp.expand(sp.expand_trig(sp.cos(arg) if kind == "cos" else sp.sin(arg)))
-    S = [sp.sin(p) for p in phis]
-    C = [sp.cos(p) for p in phis]
-    poly = sp.Poly(e, *S, *C)
-    n = len(phis)
-    total = sp.S.Zero
-    for monom, c in poly.terms():
-        term = c
-        for a in range(n):
-            es, ec = monom[a], monom[n + a]
-            term *= S[a] ** (es % 2) * (1 - C[a] ** 2) ** (es // 2) * C[a] ** ec
-        total += term
-    real = {phi: sp.Add(*(angles[i] for i in run)) for (run, _), phi in zip(atoms, phis)}
-    return sp.expand(total).xreplace(real)
+    the one frequency term of `book_form`, exactly, as sympy."""
+    return sp.Add(*(c * _product_expr(mono, angles) for c, mono in angle_terms(k, kind, chains)))
+
+
+def _product_expr(mono: tuple, angles: tuple) -> sp.Expr:
+    """Π sin(φ)^es·cos(φ)^ec over a product key ((run, es, ec), …) of `angle_terms`,
+    φ the sum of the run's angles."""
+    factors = []
+    for run, es, ec in mono:
+        phi = sp.Add(*(angles[i] for i in run))
+        factors += [sp.sin(phi) ** es, sp.cos(phi) ** ec]
+    return sp.Mul(*factors)
+
+
+@functools.lru_cache(maxsize=1 << 14)
+def angle_terms(k: tuple, kind: str, chains: tuple) -> tuple:
+    """cos(k·θ) or sin(k·θ) as ((integer coefficient, product key), …): k·θ
+    written as a short sum Σ m·φ of natural angles (`_decompose`), expanded by
+    the angle-sum formulas, every power of sin φ above one reduced by
+    sin² = 1 − cos², which makes the expansion unique.  A product key is
+    ((run of angle indices, exponent of sin, exponent of cos), …) over the
+    natural angles that occur, in `_decompose`'s order."""
+    cos_acc: dict = {(): 1}
+    sin_acc: dict = {}
+    for run, m in _decompose(k, list(chains)):
+        cm, sm = _multiple_angle(m)
+        cos_acc, sin_acc = (
+            _combine((cos_acc, cm, 1), (sin_acc, sm, -1), run),
+            _combine((sin_acc, cm, 1), (cos_acc, sm, 1), run),
+        )
+    return tuple((c, mono) for mono, c in (cos_acc if kind == "cos" else sin_acc).items() if c)
+
+
+def _combine(first: tuple, second: tuple, run: tuple) -> dict:
+    """a·b ± c·d for the angle-sum formulas, where a, c are expansions over
+    earlier natural angles and b, d over the natural angle `run` alone
+    ({(es, ec): coeff}): the keys are concatenated, the angles being distinct."""
+    out: dict = {}
+    for left, right, sign in (first, second):
+        for mono, x in left.items():
+            for (es, ec), y in right.items():
+                key = mono + ((run, es, ec),)
+                out[key] = out.get(key, 0) + sign * x * y
+    return {key: v for key, v in out.items() if v}
+
+
+@functools.lru_cache(maxsize=64)
+def _multiple_angle(m: int) -> tuple[dict, dict]:
+    """cos(mφ) and sin(mφ) as {(exponent of sin φ ∈ {0, 1}, exponent of cos φ): integer}
+    (m of either sign), from cos((j+1)φ) = cos jφ·C − sin jφ·S, sin((j+1)φ) =
+    sin jφ·C + cos jφ·S and S² = 1 − C²."""
+    cos_j, sin_j = {(0, 0): 1}, {}
+    for _ in range(abs(m)):
+        nxt_cos: dict = {}
+        nxt_sin: dict = {}
+        for (es, ec), x in cos_j.items():
+            _add(nxt_cos, es, ec + 1, x)            # cos jφ · C
+            _add_times_sin(nxt_sin, es, ec, x)      # cos jφ · S
+        for (es, ec), x in sin_j.items():
+            _add_times_sin(nxt_cos, es, ec, -x)     # − sin jφ · S
+            _add(nxt_sin, es, ec + 1, x)            # sin jφ · C
+        cos_j = {key: v for key, v in nxt_cos.items() if v}
+        sin_j = {key: v for key, v in nxt_sin.items() if v}
+    if m < 0:
+        sin_j = {key: -v for key, v in sin_j.items()}
+    return cos_j, sin_j
+
+
+def _add(acc: dict, es: int, ec: int, x: int) -> None:
+    acc[(es, ec)] = acc.get((es, ec), 0) + x
+
+
+def _add_times_sin(acc: dict, es: int, ec: int, x: int) -> None:
+    """acc += x·S^es·C^ec·S, with S² = 1 − C²."""
+    if es == 0:
+        _add(acc, 1, ec, x)
+    else:
+        _add(acc, 0, ec, x)
+        _add(acc, 0, ec + 2, -x)
 
 
 def _angles(dyn: Dynamics) -> list:
@@ -168,7 +309,8 @@ def tidy(expr: sp.Expr, dyn: Dynamics, form: str = "book") -> sp.Expr:
     gravity = [s for v in dyn.robot.gravity for s in getattr(v, "free_symbols", ())]
     params = gravity + inertial_symbols(dyn)
     expanded = sp.expand(expr)
-    by_rate = sp.collect(expanded, rates, evaluate=False)
+    present = expanded.free_symbols     # collect substitutes for every product of rates: skip absent ones
+    by_rate = sp.collect(expanded, [r for r in rates if r.free_symbols <= present], evaluate=False)
     parts = []
     for rate in sorted(by_rate, key=lambda r: (r == 1, sp.default_sort_key(r))):
         coeff = by_rate[rate]
