@@ -117,3 +117,30 @@ def test_nmpc_tracker_reaches_a_goal_within_its_torque_limits():
         x = mpc._plant_step(arm2, x, tau, 0.02, 5)
     assert np.abs(np.array(taus)).max() <= 40.0 + 1e-6
     assert np.abs(x[:2] - goal[:2]).max() < 1e-2      # settled on the goal after 0.8 s
+
+
+def test_rti_iterated_converges_to_the_ipopt_tracker_solution_and_keeps_the_limits(arm2):
+    """The real-time iteration is one Gauss–Newton SQP step per call; iterated at a fixed
+    state and reference it converges to the NLP optimum the IPOPT tracker finds, with the
+    torque and speed limits active and held."""
+    lim = ocp.Limits(tau=np.array([30.0, 10.0]), qd=np.array([1.5, 1.5]))
+    arm = ocp.dynamics(arm2, "symdyn")
+    x = np.array([0.2, 0.1, 0.5, -0.3])
+    ref = np.tile([0.8, -0.4, 0.0, 0.0], (9, 1))
+    ipopt = ocp.Tracker(arm, lim, 0.02, 8, tol=1e-12)
+    tau_ip, st = ipopt.control(x, ref)
+    assert st["success"]
+    rti = ocp.RTITracker(arm, lim, 0.02, 8)
+    steps = []
+    for _ in range(8):
+        rti.prepare(ref)
+        tau, st = rti.feedback(x)
+        assert st["success"]
+        steps.append(np.abs(tau - tau_ip).max())
+    assert steps[0] > 1e-3                      # the first QP is not yet the optimum
+    assert steps[-1] < 1e-6 * np.abs(tau_ip).max()
+    X, U = rti.prediction
+    assert np.abs(U / lim.tau).max() <= 1 + 1e-9 and np.abs(U / lim.tau).max() > 0.999    # torque limit active
+    assert np.abs(X[:, 2:] / lim.qd).max() <= 1 + 1e-6 and np.abs(X[:, 2:] / lim.qd).max() > 0.999
+    _, st = rti.control(x, ref)
+    assert st["wall"] == pytest.approx(st["prepare"] + st["feedback"]) and st["iterations"] == 1

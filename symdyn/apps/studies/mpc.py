@@ -1,7 +1,9 @@
 """Study: nonlinear MPC of the Puma 560 tracking a fast trajectory on compiled code.
 
-`ocp.Tracker` (multiple shooting, semi-implicit Euler on symdyn's compiled fdyn, IPOPT, warm
-started) closes the loop every sample period on a plant simulated with the
+`ocp.RTITracker` (the real-time iteration: one Gauss–Newton QP per step on the
+linearised multiple-shooting problem, semi-implicit Euler on symdyn's compiled fdyn;
+`ocp.Tracker`, a full warm-started IPOPT solve per step, as the comparison)
+closes the loop every sample period on a plant simulated with the
 numeric reference (`symdyn.numeric.reference`, RK4 substeps, torque held): once
 with the model the controller uses, once with every link's mass and inertia
 perturbed by ±10 %.  It reports the per-step solve time against the sample
@@ -63,21 +65,34 @@ def _plant_step(robot: Robot, x: np.ndarray, tau: np.ndarray, dt: float, substep
     return x
 
 
-def run(plant: Robot, model: Robot, duration: float = DURATION, *, compiled: bool = True) -> dict:
-    """Closed loop: the tracker (semi-implicit Euler prediction) on `model`'s compiled symdyn dynamics, the plant `plant`
-    simulated with the reference; starts at rest at q_ref(0).  Arrays over the steps:
-    t, q, qd, tau, q_ref, qd_ref, and per-step solve wall/CPU time (s), iterations."""
+SCHEMES = ("rti", "ipopt")
+
+
+def run(plant: Robot, model: Robot, duration: float = DURATION, *, compiled: bool = True,
+        scheme: str = "rti") -> dict:
+    """Closed loop: the tracker (semi-implicit Euler prediction) on `model`'s compiled symdyn
+    dynamics — scheme "rti" (`ocp.RTITracker`, one QP per step) or "ipopt" (`ocp.Tracker`,
+    a converged NLP per step) — the plant `plant` simulated with the reference; starts at
+    rest at q_ref(0).  Arrays over the steps: t, q, qd, tau, q_ref, qd_ref, and per-step
+    solve wall/CPU time (s; for RTI also its preparation and feedback phases), iterations."""
     limits = puma_limits(model)
-    tracker = ocp.Tracker(ocp.dynamics(model, "symdyn", compiled=compiled), limits, DT, HORIZON)
+    arm = ocp.dynamics(model, "symdyn", compiled=compiled)
+    if scheme == "rti":
+        tracker = ocp.RTITracker(arm, limits, DT, HORIZON)
+    elif scheme == "ipopt":
+        tracker = ocp.Tracker(arm, limits, DT, HORIZON)
+    else:
+        raise ValueError(f"unknown MPC scheme {scheme!r}: expected one of {SCHEMES}")
     steps = int(round(duration / DT))
     x = np.r_[reference(0.0)[0][0], np.zeros(model.n)]
-    rows = {k: [] for k in ("t", "x", "tau", "wall", "cpu", "iterations", "success")}
+    rows = {k: [] for k in ("t", "x", "tau", "wall", "cpu", "iterations", "success", "prepare", "feedback")}
     for k in range(steps):
         t = k * DT
         rq, rqd = reference(t + DT * np.arange(HORIZON + 1))
         tau, st = tracker.control(x, np.hstack([rq, rqd]))
         for key, v in (("t", t), ("x", x), ("tau", tau), ("wall", st["wall"]), ("cpu", st["cpu"]),
-                       ("iterations", st["iterations"]), ("success", st["success"])):
+                       ("iterations", st["iterations"]), ("success", st["success"]),
+                       ("prepare", st.get("prepare", np.nan)), ("feedback", st.get("feedback", st["wall"]))):
             rows[key].append(v)
         x = _plant_step(plant, x, tau, DT, PLANT_SUBSTEPS)
     out = {k: np.array(v) for k, v in rows.items()}
@@ -85,6 +100,7 @@ def run(plant: Robot, model: Robot, duration: float = DURATION, *, compiled: boo
     out["q"], out["qd"] = out["x"][:, :n], out["x"][:, n:]
     out["q_ref"], out["qd_ref"] = reference(out["t"])
     out["limits"] = limits
+    out["scheme"] = scheme
     return out
 
 
@@ -95,6 +111,8 @@ def metrics(r: dict, settle: float = 0.2) -> dict:
     err = np.abs(r["q"] - r["q_ref"])[after]
     return dict(median=1e3 * np.median(r["wall"]), p95=1e3 * np.percentile(r["wall"], 95),
                 max=1e3 * r["wall"].max(), cpu_median=1e3 * np.median(r["cpu"]),
+                prepare=1e3 * np.median(r["prepare"]), feedback=1e3 * np.median(r["feedback"]),
+                feedback_p95=1e3 * np.percentile(r["feedback"], 95),
                 iterations=float(np.median(r["iterations"])), failures=int((~r["success"]).sum()),
                 rms=float(np.sqrt((err ** 2).mean())), worst=float(err.max()),
                 tau_use=float((np.abs(r["tau"]) / lim.tau).max()),
@@ -105,10 +123,14 @@ def metrics(r: dict, settle: float = 0.2) -> dict:
 def _plot(out_dir: Path, runs: dict) -> None:
     plt = pyplot()
     fig, axes = plt.subplots(4, 1, figsize=(10, 10), sharex=True)
-    for (label, r), ls in zip(runs.items(), ("-", "--")):
+    for (label, r), ls in zip(runs.items(), ("-", "--", ":")):
         lim = r["limits"]
         t = r["t"]
-        axes[0].plot(t, 1e3 * r["wall"], ls=ls, label=f"{label}: solve time")
+        if r["scheme"] == "rti":
+            axes[0].plot(t, 1e3 * r["wall"], ls=ls, label=f"{label}: preparation + feedback")
+            axes[0].plot(t, 1e3 * r["feedback"], ls=ls, lw=0.8, label=f"{label}: feedback (QP)")
+        else:
+            axes[0].plot(t, 1e3 * r["wall"], ls=ls, label=f"{label}: IPOPT solve")
         for j in (1, 2):
             axes[1].plot(t, r["q"][:, j] - r["q_ref"][:, j], f"C{j}", ls=ls, label=f"q{j + 1} error, {label}")
             axes[2].plot(t, r["qd"][:, j] / lim.qd[j], f"C{j}", ls=ls, label=f"q̇{j + 1}/limit, {label}")
@@ -124,21 +146,27 @@ def _plot(out_dir: Path, runs: dict) -> None:
     axes[2].set_ylabel("q̇ / q̇_max"); axes[3].set_ylabel("τ / τ_max"); axes[3].set_xlabel("time (s)")
     for ax in axes:
         ax.grid(True); ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    axes[0].set_title(f"Puma 560 NMPC, sample period {1e3 * DT:.0f} ms, horizon {HORIZON} (joints 2, 3)")
+    axes[0].set_title(f"Puma 560 NMPC (real-time iteration), sample period {1e3 * DT:.0f} ms, "
+                      f"horizon {HORIZON} (joints 2, 3)")
     save(fig, out_dir, "mpc_puma")
 
 
 def mpc_puma(out_dir: Path, quick: bool = False) -> str:
-    """NMPC tracking of a fast Puma trajectory under torque and speed limits, plant =
-    the reference, then a ±10 % perturbed reference."""
+    """NMPC tracking of a fast Puma trajectory under torque and speed limits by the
+    real-time iteration: plant = the reference, then a ±10 % perturbed reference; and
+    the full-IPOPT tracker on the nominal plant as the comparison."""
     model = puma()
     duration = 0.6 if quick else DURATION
-    runs = {"nominal plant": run(model, model, duration),
-            f"±{100 * PERTURBATION:.0f} % plant": run(perturbed(model), model, duration)}
+    runs = {"RTI, nominal plant": run(model, model, duration),
+            f"RTI, ±{100 * PERTURBATION:.0f} % plant": run(perturbed(model), model, duration),
+            "IPOPT, nominal plant": run(model, model, duration, scheme="ipopt")}
     lim = puma_limits(model)
     lines = [f"Puma 560 NMPC tracking (Coulomb friction off, viscous on): sample period {1e3 * DT:.0f} ms, "
              f"horizon {HORIZON} intervals ({HORIZON * DT:.2f} s), multiple shooting with one semi-implicit "
-             f"Euler step per interval on symdyn's compiled fdyn, IPOPT exact Hessian, warm-started; {duration} s",
+             f"Euler step per interval on symdyn's compiled fdyn; {duration} s",
+             "  RTI: one Gauss–Newton QP per step (condensed to the n·N = 60 torques, qpOASES), "
+             "linearised around the shifted previous solution; IPOPT: the same NLP solved to tol 1e-4 "
+             "each step, exact Hessian, warm-started",
              f"  reference q_c + A sin(2πft): A = {list(AMPLITUDE)} rad, f = {list(FREQUENCY)} Hz; "
              f"limits |τ| ≤ {np.round(lim.tau, 1).tolist()} N·m, |q̇| ≤ {lim.qd.tolist()} rad/s",
              "  plant: symdyn.numeric.reference, RK4 × "
@@ -146,10 +174,13 @@ def mpc_puma(out_dir: Path, quick: bool = False) -> str:
     for label, r in runs.items():
         m = metrics(r)
         ok = m["median"] * 5 <= 1e3 * DT
-        lines += [f"{label}: solve time median {m['median']:.2f} ms, 95th percentile {m['p95']:.2f} ms, "
+        phases = (f"; preparation median {m['prepare']:.2f} ms, feedback (QP) median {m['feedback']:.2f} ms, "
+                  f"95th percentile {m['feedback_p95']:.2f} ms" if r["scheme"] == "rti" else
+                  f"; median {m['iterations']:.0f} IPOPT iterations")
+        lines += [f"{label}: solve time per step median {m['median']:.2f} ms, 95th percentile {m['p95']:.2f} ms, "
                   f"max {m['max']:.2f} ms (wall; CPU median {m['cpu_median']:.2f} ms) against the "
-                  f"{1e3 * DT:.0f} ms period: median ≤ period/5 {'yes' if ok else 'NO'}; median "
-                  f"{m['iterations']:.0f} IPOPT iterations, {m['failures']} unsuccessful solves",
+                  f"{1e3 * DT:.0f} ms period: median ≤ period/5 {'yes' if ok else 'NO'}{phases}; "
+                  f"{m['failures']} unsuccessful solves",
                   f"  tracking error after 0.2 s: RMS {m['rms']:.4f} rad, worst {m['worst']:.4f} rad; "
                   f"peak |τ|/τ_max {m['tau_use']:.3f}, peak |q̇|/q̇_max {m['qd_use']:.3f} "
                   f"(the reference asks for {m['ref_qd_use']:.2f}): torque limits "
