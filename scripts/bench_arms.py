@@ -56,21 +56,18 @@ def run(name: str) -> list:
 
 def main(argv) -> int:
     names = argv or ["panda", "iiwa14", "ur5", "generic7"]
-    rows = []
+    print(f"{'model':10s} {'step':50s} {'seconds':>8s}", flush=True)
     for name in names:   # one process per model keeps the caches cold
         result = subprocess.run([sys.executable, __file__, "--one", name], capture_output=True, text=True)
         if result.returncode:
             print(result.stderr, file=sys.stderr)
             return 1
-        rows += [line.split("\t") for line in result.stdout.splitlines()]
-    print(f"{'model':10s} {'step':50s} {'seconds':>8s}")
-    total: dict = {}
-    for model, label, seconds in rows:
-        print(f"{model:10s} {label:50s} {float(seconds):8.2f}")
-        if not label.startswith("  its"):
-            total[model] = total.get(model, 0.0) + float(seconds)
-    for model, seconds in total.items():
-        print(f"{model:10s} {'end to end (derive both ways, generate, compile)':50s} {seconds:8.2f}")
+        total = 0.0
+        for line in result.stdout.splitlines():
+            model, label, seconds = line.split("\t")
+            print(f"{model:10s} {label:50s} {float(seconds):8.2f}", flush=True)
+            total += 0.0 if label.startswith("  its") else float(seconds)
+        print(f"{name:10s} {'end to end (derive both ways, generate, compile)':50s} {total:8.2f}", flush=True)
     return 0
 
 
