@@ -413,19 +413,23 @@ def _hint(problem: Problem, arm: ArmFunctions) -> str:
 
 
 def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
-          max_iter: int = 3000, expand: bool = False) -> Solution:
+          max_iter: int = 3000, expand: bool = False, simple_bounds: bool = True) -> Solution:
     """Pose `problem` on the CasADi dynamics `arm` and solve it with IPOPT.
 
     expand=True expands the whole NLP into SX: faster iterations, much longer
-    set-up.  Raises OCPError (with IPOPT's return status) when no solution is
-    found.
+    set-up.  simple_bounds=True (the default) hands the limits on decision variables
+    to IPOPT as variable bounds (nlpsol's `detect_simple_bounds`) instead of general
+    inequality rows with slacks: a KKT system about half the size, ~1.3× faster
+    collocation iterations on compiled dynamics (docs/studies_ocp.md).  Raises
+    OCPError (with IPOPT's return status) when no solution is found.
     """
     if arm.n != problem.n:
         raise ValueError(f"the dynamics are for {arm.n} joints but the problem has {problem.n}")
     opti = ca.Opti()
     handles, J = _pose(problem, arm, opti)
     opti.minimize(J)
-    opti.solver("ipopt", {"print_time": verbose, "record_time": True, "expand": expand},
+    opti.solver("ipopt", {"print_time": verbose, "record_time": True, "expand": expand,
+                          "detect_simple_bounds": simple_bounds},
                 {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter})
     start, cpu = time.perf_counter(), time.process_time()
     try:
