@@ -141,6 +141,28 @@ def test_every_c_row_compares_with_pinocchio_or_is_titled_a_baseline():
     assert "Pinocchio C++" in bench.C_PEER and "same run" in bench.C_PEER
 
 
+def test_model_option_defaults_to_the_puma_and_keeps_its_report():
+    assert bench.model_names(None) == ["puma560"]
+    assert bench.model_names(["panda", "iiwa14", "panda"]) == ["panda", "iiwa14"]
+    assert bench._title(bench.C_PEER, "puma560") == bench.C_PEER
+    assert bench._title(bench.C_PEER, "panda") == f"panda: {bench.C_PEER}"
+
+
+def test_model_option_with_an_unknown_name_names_the_known_models(capsys):
+    with pytest.raises(ValueError, match=r"unknown model 'kuka': known models are .*panda, iiwa14, ur5"):
+        bench.main(["--model", "panda", "kuka", "--no-pin"])
+    from symdyn import cli
+
+    assert cli.main(["bench", "--model", "kuka"]) == 2
+    assert "known models are" in capsys.readouterr().err
+
+
+def test_arm_targets_are_issue_15s():
+    for arm in ("panda", "iiwa14"):
+        assert bench.TARGETS[arm] == {"rnea": 4, "crba": 4, "aba": 4, "computeCoriolisMatrix": 2, "pin.rnea": 3}
+    assert set(bench.TARGETS[arm]) - {"pin.rnea"} <= set(pin_peer.ALGORITHMS)
+
+
 # --------------------------------------------------------------------------- the C++ peer's arm file
 
 def _read_arm(path):
@@ -208,11 +230,13 @@ def _modified_prismatic_arm():
     return Robot("mdh3", tuple(links), convention="modified")
 
 
-@pytest.mark.parametrize("arm", ["puma560", "mdh3"])
+@pytest.mark.parametrize("arm", ["puma560", "mdh3", "panda"])
 def test_arm_file_round_trip_gives_the_reference_dynamics(arm, puma, tmp_path):
     """The arm written for the C++ peer, read back and built as the C++ builds it, has the
-    dynamics of symdyn's reference: the peer is timed on the very arm symdyn is."""
-    robot = (puma if arm == "puma560" else _modified_prismatic_arm()).nofriction(all=True)
+    dynamics of symdyn's reference: the peer is timed on the very arm symdyn is (the Panda:
+    a general-joint URDF arm, as `symdyn bench --model panda` feeds it)."""
+    robot = {"puma560": puma, "mdh3": _modified_prismatic_arm()}.get(arm) or models.load(arm)
+    robot = robot.nofriction(all=True)
     from symdyn.bench.peers import pinocchio_model
 
     joints, gravity = pin_peer.arm_joints(pinocchio_model(robot))

@@ -1,8 +1,9 @@
-"""`symdyn bench`: the generated Puma 560 code against Pinocchio and the Robotics Toolbox.
+"""`symdyn bench`: the generated code of a shipped arm against Pinocchio and the Robotics Toolbox.
 
 One run, one set of random states (q, q̇, q̈ uniform in [−3, 3]; τ by the
-reference RNEA) and the frictionless Puma 560 (Pinocchio has no friction),
-compared like with like:
+reference RNEA) and the frictionless arm (Pinocchio has no friction) — the
+Puma 560 unless `--model` names others (panda, iiwa14, ur5, …) — compared
+like with like:
 
 - C level, no Python: `harness.c` compiled with the generated C and
   `pin_peer.cpp` (Pinocchio C++, built once into the cache by `pin_peer`)
@@ -13,7 +14,10 @@ compared like with like:
   the C target vs `pin.rneaInParallel` (one thread), the NumPy target vs the
   Robotics Toolbox's batched `rne`.
 
-Speed-up = peer time / symdyn time; the targets are issue 4's.  Every timed
+Speed-up = peer time / symdyn time; the targets are issue 4's for the Puma,
+issue 15's for the Panda and the iiwa (`TARGETS`).  For any arm but the Puma
+the report is the C level and the one call from Python (the Toolbox's `rne`
+takes DH arms only; the with-friction rows are the Puma's).  Every timed
 output, symdyn's and the peers', is first checked against `symdyn.reference`.
 A peer that is not installed makes no row: the report says what to install
 (`make bench` installs them all).
@@ -46,10 +50,14 @@ from . import pin_peer
 from .pin_peer import FD_RTOL, PeerUnavailable, central_jacobian, read_report
 
 __all__ = ["Row", "main", "configure_parser", "frictionless_sources", "random_states", "write_states",
-           "build_harness", "run_harness", "check_harness", "op_counts",
+           "build_harness", "run_harness", "check_harness", "op_counts", "casadi_op_count", "TARGETS",
            "format_table", "markdown_table"]
 
 MODEL = "puma560"
+#: Issue 15's targets for the 7-joint arms (speed-up ≥, keyed by the peer algorithm; "pin.rnea": the one
+#: call from Python).  The Puma's (issue 4's) are in the row tables; an arm not listed here has none.
+TARGETS = {arm: {"rnea": 4, "crba": 4, "aba": 4, "computeCoriolisMatrix": 2, "pin.rnea": 3}
+           for arm in ("panda", "iiwa14")}
 POOL = 1024                      # states cycled by the C harnesses (a power of two, as pin_bench.cpp)
 HARNESS = Path(__file__).with_name("harness.c")
 CFLAGS = ("-O3", "-march=native")
@@ -177,6 +185,19 @@ def casadi_rnea_c(robot, folder: Path) -> Path:
     return Path(cg.generate(str(folder) + os.sep))
 
 
+def casadi_op_count(robot) -> int:
+    """Operations of the plain SX RNEA (symdyn.numeric.casadi_rnea, no friction) counted as symdyn counts
+    its own (`op_counts`): every arithmetic or function instruction of CasADi's algorithm, negation free,
+    inputs, outputs and constants not counted."""
+    import casadi as ca
+
+    from ..numeric.casadi_rnea import rnea_function
+
+    f = rnea_function(robot.nofriction(all=True), friction=False)
+    free = {ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST, ca.OP_PARAMETER, ca.OP_ASSIGN, ca.OP_NEG}
+    return sum(f.instruction_id(k) not in free for k in range(f.n_instructions()))
+
+
 def _compiler() -> str:
     from ..codegen.emit.clib import compiler
     return compiler()
@@ -268,10 +289,17 @@ C_ROWS = (
 )
 
 
-def c_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
-    """Rows of the C-level comparison (src: frictionless_sources): symdyn's harnesses and the
-    Pinocchio C++ peer on one states file, in alternating rounds; a peer that cannot be had
-    is added to `missing` with what to install."""
+def _title(group: str, name: str) -> str:
+    """A row group's title: the Puma's as it always was, any other arm's named first."""
+    return group if name == MODEL else f"{name}: {group}"
+
+
+def c_level(robot, src: dict, states, args, log, missing: list, name: str = MODEL) -> list[Row]:
+    """Rows of the C-level comparison (src: frictionless_sources) for the shipped arm `name`:
+    symdyn's harnesses and the Pinocchio C++ peer on one states file, in alternating rounds; a
+    peer that cannot be had is added to `missing` with what to install.  The Puma's rows keep
+    issue 4's targets and its with-friction rows; another arm gets `TARGETS[name]` (if any) and
+    the CasADi baseline's own op count beside symdyn's."""
     from ..codegen.entry import GENERATED
     from .peers import pinocchio_model
 
@@ -284,7 +312,9 @@ def c_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
         casadi_c = casadi_rnea_c(robot, work / f"casadi-{_digest(bare.fingerprint())}")
     harnesses = {"bare": (build_harness(src["c"], src["h"], casadi_c), (), bare)}
     shipped = GENERATED / MODEL
-    if (shipped / f"{MODEL}.c").exists():
+    if name != MODEL:
+        pass                                     # the with-friction rows are the Puma's
+    elif (shipped / f"{MODEL}.c").exists():
         harnesses["shipped"] = (build_harness(shipped / f"{MODEL}.c", shipped / f"{MODEL}.h"), ("tau", "fdyn"), robot)
     else:
         log(f"no {shipped}: the with-friction rows are left out")
@@ -320,7 +350,7 @@ def c_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
                 times[key].append(t)
             if peer is not None and not r % 2:
                 time_peer()
-            log(f"C level: round {r + 1}/{args.rounds} done")
+            log(f"{name}: C level: round {r + 1}/{args.rounds} done")
     finally:
         states_file.unlink(missing_ok=True)
         if arm is not None:
@@ -331,7 +361,12 @@ def c_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
     for group, label, key, fn, peer_label, algo, target in C_ROWS:
         peer_ns = samples(times["bare"] if algo == "casadi_rnea" else peer_times, algo)
         if key in harnesses and peer_ns:
-            rows.append(Row(group, label, samples(times[key], fn), peer_label, peer_ns, ops[key].get(fn), target))
+            if name != MODEL:
+                target = TARGETS.get(name, {}).get(algo)
+                if algo == "casadi_rnea":
+                    peer_label = f"{peer_label} ({casadi_op_count(robot)} ops)"
+            rows.append(Row(_title(group, name), label, samples(times[key], fn), peer_label, peer_ns,
+                            ops[key].get(fn), target))
     return rows
 
 
@@ -382,9 +417,10 @@ def _shipped_model():
     return load(MODEL, "c")
 
 
-def python_level(robot, src: dict, states, args, log, missing: list) -> list[Row]:
+def python_level(robot, src: dict, states, args, log, missing: list, name: str = MODEL) -> list[Row]:
     """Rows of the comparison from Python (src: frictionless_sources): single calls, batches;
-    a peer that is not installed is added to `missing` with what to install."""
+    a peer that is not installed is added to `missing` with what to install.  An arm other
+    than the Puma gets the one call of the C target vs `pin.rnea` only."""
     from ..codegen.emit.clib import load_library
     from ..codegen.entry import GENERATED
 
@@ -400,6 +436,9 @@ def python_level(robot, src: dict, states, args, log, missing: list) -> list[Row
     _agree("C target tau", fast_tau(q, qd, qdd), want)
     _agree("NumPy target tau", npmod.tau(q, qd, qdd), want)
     rows = []
+    if name != MODEL and importlib.util.find_spec("pinocchio") is None:
+        missing.append(f"Pinocchio (Python): not installed (pin): {pin_peer.HOW_TO_INSTALL}")
+        return rows
     try:
         import pinocchio as pin
 
@@ -414,6 +453,9 @@ def python_level(robot, src: dict, states, args, log, missing: list) -> list[Row
         _agree("pin.rneaInParallel", pin.rneaInParallel(1, pool, Q, V, A).T, want)
         one = lambda: pin.rnea(model, data, q1, qd1, qdd1)  # noqa: E731
         ours, peer = _paired_ns(lambda: fast_tau(q1, qd1, qdd1), one, 20000, 7)
+        if name != MODEL:
+            return [Row(_title(PY_ONE, name), "tau (C target)", ours, "pin.rnea", peer, ops,
+                        TARGETS.get(name, {}).get("pin.rnea"))]
         rows.append(Row(PY_ONE, "tau (C target)", ours, "pin.rnea", peer, ops, 3))
         shipped = _shipped_model()
         if shipped is not None:
@@ -444,6 +486,11 @@ RIGHT = {1, 3, 4, 5, 6}
 OPS_NOTE = ("ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
             "after one joint CSE; Newton–Euler on regrouped base parameters, C by Lagrange), without friction "
             "unless the function says +friction")
+#: The same for an arm beyond six joints' reach of Lagrange, and the CasADi baseline's count beside it.
+OPS_NOTE_ARM = ("ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
+                "after one joint CSE; Newton–Euler on regrouped base parameters, C = ∂(C q̇)/∂q̇ / 2 of it, as the "
+                "generated file's header says), without friction; the CasADi baseline's ops: the arithmetic and "
+                "sin/cos instructions of its SX algorithm, negation free")
 
 
 def _cells(row: Row) -> list[str]:
@@ -461,7 +508,7 @@ def _groups(rows: list[Row]) -> list[tuple[str, list[Row]]]:
     return list(groups.items())
 
 
-def format_table(rows: list[Row], missing: list[str] = ()) -> str:
+def format_table(rows: list[Row], missing: list[str] = (), note: str = OPS_NOTE) -> str:
     """Plain-text tables, one per group of rows under its title, the ops legend, then one line
     per peer that was not measured (what to install)."""
     out = []
@@ -472,18 +519,18 @@ def format_table(rows: list[Row], missing: list[str] = ()) -> str:
                  for line in cells]
         lines.insert(1, "  ".join("-" * w for w in widths))
         out += ["", title, *(line.rstrip() for line in lines)]
-    out += ["", OPS_NOTE, *missing]
+    out += ["", note, *missing]
     return "\n".join(out).strip("\n")
 
 
-def markdown_table(rows: list[Row], missing: list[str] = ()) -> str:
+def markdown_table(rows: list[Row], missing: list[str] = (), note: str = OPS_NOTE) -> str:
     """The same tables in Markdown: the title of each in bold above it."""
     out = []
     for title, group in _groups(rows):
         out += ["", f"**{title}**", "", "| " + " | ".join(COLUMNS) + " |",
                 "|" + "|".join("---:" if i in RIGHT else "---" for i in range(len(COLUMNS))) + "|"]
         out += ["| " + " | ".join(_cells(r)) + " |" for r in group]
-    out += ["", OPS_NOTE + ".", *(f"\n{m}" for m in missing)]
+    out += ["", note + ".", *(f"\n{m}" for m in missing)]
     return "\n".join(out).strip("\n")
 
 
@@ -510,6 +557,8 @@ def machine() -> str:
 
 def configure_parser(p: argparse.ArgumentParser) -> None:
     """Arguments of `symdyn bench`."""
+    p.add_argument("--model", nargs="+", metavar="NAME", default=None,
+                   help=f"shipped arms to compare, one report each (default {MODEL}; known: {', '.join(arms.NAMES)})")
     p.add_argument("--calls", type=int, default=1_000_000, help="C-level calls per repetition (default 10^6)")
     p.add_argument("--pin-calls", type=int, default=100_000,
                    help="Pinocchio C++ calls per repetition (default 10^5: its calls are ~10x slower, "
@@ -526,6 +575,17 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     p.set_defaults(func=main)
 
 
+def model_names(names) -> list[str]:
+    """The arms `--model` names (default: the Puma 560), each once, in order; a ValueError naming
+    the known models for any other name."""
+    names = list(dict.fromkeys(names or [MODEL]))
+    unknown = [n for n in names if n not in arms.NAMES]
+    if unknown:
+        raise ValueError(f"symdyn bench --model: unknown model{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(map(repr, unknown))}: known models are {', '.join(arms.NAMES)}")
+    return names
+
+
 def main(args=None) -> int:
     """`symdyn bench`: args is an argparse.Namespace from configure_parser, or argv strings."""
     if not isinstance(args, argparse.Namespace):
@@ -534,22 +594,27 @@ def main(args=None) -> int:
         args = parser.parse_args(args)
     if args.batch < POOL or min(args.calls, args.pin_calls, args.reps, args.rounds) < 1:
         raise ValueError(f"--batch must be at least {POOL} and --calls, --pin-calls, --reps, --rounds positive")
+    names = model_names(getattr(args, "model", None))
     log = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
-    robot = arms.load(MODEL)
-    states = random_states(robot.nofriction(all=True), args.batch, args.seed)
-    src = frictionless_sources(robot)
-    missing: list[str] = []
-    rows = c_level(robot, src, states, args, log, missing)
-    if not args.no_python:
-        rows += python_level(robot, src, states, args, log, missing)
-    print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
-          f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions")
-    print(format_table(rows, missing))
+    tables: list[str] = []
+    for name in names:
+        robot = arms.load(name)
+        states = random_states(robot.nofriction(all=True), args.batch, args.seed)
+        src = frictionless_sources(robot)
+        found: list[str] = []
+        these = c_level(robot, src, states, args, log, found, name)
+        if not args.no_python:
+            these += python_level(robot, src, states, args, log, found, name)
+        print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
+              f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions")
+        note = OPS_NOTE if name == MODEL else OPS_NOTE_ARM
+        print(format_table(these, found, note), flush=True)
+        tables.append(markdown_table(these, found, note))
     print(f"machine: {machine()}")
     if args.markdown:
         prog = "symdyn" if Path(sys.argv[0]).name == "symdyn" else f"python {sys.argv[0]}"
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
         text = (f"Measured with `{' '.join([prog, *sys.argv[1:]])}` on {machine()}; load average "
-                f"{load:.1f} at the end of the run.\n\n{markdown_table(rows, missing)}\n")
+                f"{load:.1f} at the end of the run.\n\n" + "\n\n".join(tables) + "\n")
         Path(args.markdown).write_text(text)
     return 0
