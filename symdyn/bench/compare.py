@@ -312,11 +312,9 @@ def c_level(robot, src: dict, states, args, log, missing: list, name: str = MODE
         casadi_c = casadi_rnea_c(robot, work / f"casadi-{_digest(bare.fingerprint())}")
     harnesses = {"bare": (build_harness(src["c"], src["h"], casadi_c), (), bare)}
     shipped = GENERATED / MODEL
-    if name != MODEL:
-        pass                                     # the with-friction rows are the Puma's
-    elif (shipped / f"{MODEL}.c").exists():
+    if name == MODEL and (shipped / f"{MODEL}.c").exists():     # the with-friction rows are the Puma's
         harnesses["shipped"] = (build_harness(shipped / f"{MODEL}.c", shipped / f"{MODEL}.h"), ("tau", "fdyn"), robot)
-    else:
+    elif name == MODEL:
         log(f"no {shipped}: the with-friction rows are left out")
     peer, arm = None, None
     if args.no_pin:
