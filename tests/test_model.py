@@ -177,3 +177,29 @@ def test_subs_on_the_symbolic_twolink_gives_the_numeric_twolinks_dynamics(twolin
                  (ref.fkine(robot, q), ref.fkine(twolink, q))):
         assert np.abs(a - b).max() <= 1e-13 * np.abs(b).max()
     assert np.abs(ref.gravload(twolink, q)).max() > 1.0
+
+
+# --------------------------------------------------------------------------- general joints
+
+def test_a_generic_float_rotation_becomes_an_exactly_orthogonal_rational_one():
+    from symdyn.model.placement import rational_rotation
+    from symdyn.model.random_arms import _rotation
+    import random
+
+    rng = random.Random(3)
+    for R in [_rotation(rng) for _ in range(20)] + [np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])]:
+        E = sp.Matrix(rational_rotation(R))
+        assert E * E.T == sp.eye(3) and E.det() == 1
+        np.testing.assert_allclose(np.array(E, dtype=float), R, atol=2e-15)
+
+
+def test_generic_turns_decide_whether_code_generation_regroups():
+    """Base parameters are exact linear algebra whose digits grow with each generic constant
+    rotation: the shipped arms (quarter turns only) regroup, a generically placed arm does not."""
+    from symdyn.derivation.regressor import GENERIC_TURNS_MAX, generic_turns
+    from symdyn.model import placement
+
+    assert generic_turns(models.load("puma560")) == 0 and generic_turns(models.load("panda")) == 0
+    links = tuple(Link(origin=placement((0.1, 0, 0.2), (0.3 * k + 0.1, -0.2, 0.7)), axis=(0.6, 0, 0.8), m=1.0,
+                       I=0.01 * np.eye(3)) for k in range(5))
+    assert generic_turns(Robot("g5", links, convention="general")) == 5 > GENERIC_TURNS_MAX

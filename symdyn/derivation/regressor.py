@@ -30,7 +30,7 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from .dynamics import rotor_inertia
 from .kinematics import link_frames
-from ..model import Robot
+from ..model import Robot, exact_cos_sin
 from .newton_euler import LinkInertia, backward, body_force, forward, gravity_in_base, link_inertias
 from .progress import Progress
 from .symbols import exact, joint_symbols
@@ -177,6 +177,22 @@ class BaseParameters:
     expressions: tuple
     values: tuple
     regrouped: tuple
+
+
+#: Base parameters are exact rational linear algebra on the regressor at sample points; each
+#: generic constant rotation (not a multiple of π/2) multiplies the digits of those numbers, so
+#: beyond this many such links the analysis takes minutes (a generic 7-joint arm: ~10 min).
+GENERIC_TURNS_MAX = 3
+
+
+def generic_turns(robot: Robot) -> int:
+    """How many links of the robot's recursion frames turn by a generic constant rotation."""
+    mdh = robot.to_modified()
+    if mdh.convention == "general":
+        return sum(any(not sp.sympify(x).is_Integer for row in link.origin[:3] for x in row[:3])
+                   for link in mdh.links)
+    return sum(isinstance(exact_cos_sin(link.alpha)[0], float) for link in mdh.links
+               if not isinstance(link.alpha, sp.Basic))
 
 
 def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int | None = None,

@@ -16,7 +16,7 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-__all__ = ["exact_cos_sin", "exact", "exact_cos_sin_of", "rpy_rotation", "placement", "axis_rotation", "exact_rotation"]
+__all__ = ["exact_cos_sin", "exact", "exact_cos_sin_of", "rpy_rotation", "placement", "axis_rotation", "exact_rotation", "rational_rotation"]
 
 
 def exact_cos_sin(angle) -> tuple:
@@ -108,17 +108,39 @@ def axis_rotation(axis: Sequence) -> list:
     return _mul(_axis_rot("z", phi), _axis_rot("y", theta))
 
 
+def rational_rotation(R) -> list:
+    """The exactly orthogonal rational rotation nearest a float one (within ~1e-16):
+    its unit quaternion scaled by 2⁵² and rounded to integers (w, x, y, z) gives
+    entries over the one denominator w² + x² + y² + z² — one rotation's worth of
+    digits, where a product of generic exact rotations has several."""
+    M = np.array([[float(x) for x in row] for row in R])
+    # Shepperd: the largest component from the diagonal, the others from off-diagonal sums
+    t = (M[0, 0] + M[1, 1] + M[2, 2], M[0, 0], M[1, 1], M[2, 2])
+    k = int(np.argmax(t))
+    if k == 0:
+        w = math.sqrt(1 + t[0]) / 2
+        q = (w, (M[2, 1] - M[1, 2]) / (4 * w), (M[0, 2] - M[2, 0]) / (4 * w), (M[1, 0] - M[0, 1]) / (4 * w))
+    elif k == 1:
+        x = math.sqrt(1 + 2 * M[0, 0] - t[0]) / 2
+        q = ((M[2, 1] - M[1, 2]) / (4 * x), x, (M[0, 1] + M[1, 0]) / (4 * x), (M[0, 2] + M[2, 0]) / (4 * x))
+    elif k == 2:
+        y = math.sqrt(1 + 2 * M[1, 1] - t[0]) / 2
+        q = ((M[0, 2] - M[2, 0]) / (4 * y), (M[0, 1] + M[1, 0]) / (4 * y), y, (M[1, 2] + M[2, 1]) / (4 * y))
+    else:
+        z = math.sqrt(1 + 2 * M[2, 2] - t[0]) / 2
+        q = ((M[1, 0] - M[0, 1]) / (4 * z), (M[0, 2] + M[2, 0]) / (4 * z), (M[1, 2] + M[2, 1]) / (4 * z), z)
+    W, X, Y, Z = (int(round(v * 2 ** 52)) for v in q)
+    N = sp.Integer(W * W + X * X + Y * Y + Z * Z)
+    return [[(W * W + X * X - Y * Y - Z * Z) / N, 2 * (X * Y - W * Z) / N, 2 * (X * Z + W * Y) / N],
+            [2 * (X * Y + W * Z) / N, (W * W - X * X + Y * Y - Z * Z) / N, 2 * (Y * Z - W * X) / N],
+            [2 * (X * Z - W * Y) / N, 2 * (Y * Z + W * X) / N, (W * W - X * X - Y * Y + Z * Z) / N]]
+
+
 def exact_rotation(R: Sequence) -> list:
     """A constant rotation as exact, exactly orthogonal numbers: exact entries
-    are kept; a float matrix is rebuilt from its roll, pitch and yaw."""
+    are kept; a float matrix becomes the nearest rational rotation."""
     if all(isinstance(x, (int, sp.Rational)) for row in R for x in row):
         E = [[exact(x) for x in row] for row in R]
         if sp.Matrix(E) * sp.Matrix(E).T == sp.eye(3):
             return E
-    M = np.array([[float(x) for x in row] for row in R])
-    pitch = math.asin(max(-1.0, min(1.0, -M[2, 0])))
-    if abs(abs(M[2, 0]) - 1) < 1e-12:   # gimbal lock: roll folded into yaw
-        roll, yaw = 0.0, math.atan2(-M[0, 1], M[1, 1])
-    else:
-        roll, yaw = math.atan2(M[2, 1], M[2, 2]), math.atan2(M[1, 0], M[0, 0])
-    return rpy_rotation((roll, pitch, yaw))
+    return rational_rotation(R)

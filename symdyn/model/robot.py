@@ -19,7 +19,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from .placement import axis_rotation, exact, exact_cos_sin, exact_rotation
+from .placement import axis_rotation, exact, exact_cos_sin, exact_rotation, rational_rotation
 
 CONVENTIONS = ("standard", "modified", "general")
 JOINT_TYPES = ("revolute", "prismatic")
@@ -442,12 +442,23 @@ class Robot:
             Ra = axis_rotation(link.axis)
             T = link.origin or IDENTITY
             R0 = exact_rotation([row[:3] for row in T[:3]])
-            R = [[sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3))
-                  for j in range(3)] for i in range(3)]
-            p = [sum(prev[k][i] * exact(T[k][3]) for k in range(3)) for i in range(3)]
-            r = tuple(sum(Ra[k][i] * exact(link.r[k]) for k in range(3)) for i in range(3))
-            upper = {(i, j): sum(Ra[k][i] * exact(link.I[k][l]) * Ra[l][j] for k in range(3) for l in range(3))
-                     for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
+            turns = (prev, R0, Ra)
+            if all(isinstance(x, int) or x.is_Integer for M in turns for row in M for x in row) \
+                    or any(_is_symbolic(x) for x in (*_walk(T), *link.r, *_walk(link.I))):
+                R = [[sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3))
+                      for j in range(3)] for i in range(3)]
+                p = [sum(prev[k][i] * exact(T[k][3]) for k in range(3)) for i in range(3)]
+                r = tuple(sum(Ra[k][i] * exact(link.r[k]) for k in range(3)) for i in range(3))
+                upper = {(i, j): sum(Ra[k][i] * exact(link.I[k][l]) * Ra[l][j] for k in range(3) for l in range(3))
+                         for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
+            else:   # generic turns: products of exact rotations grow to hundreds of digits, so the
+                # composed rotation is made exact once, and vectors and inertias are read as decimals
+                P, Q, A = (np.array(M, dtype=float) for M in turns)
+                R = rational_rotation(P.T @ Q @ A)
+                p = [exact(x) for x in P.T @ np.array([float(T[k][3]) for k in range(3)])]
+                r = tuple(exact(x) for x in A.T @ np.array(link.r, dtype=float))
+                Ic = A.T @ np.array(link.I, dtype=float) @ A
+                upper = {(i, j): exact(Ic[i, j]) for i in range(3) for j in range(i, 3)}
             I = tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))
             origin = tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
             links.append(dataclasses.replace(link, origin=origin, axis=(0, 0, 1), r=r, I=I))
