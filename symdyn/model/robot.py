@@ -443,15 +443,15 @@ class Robot:
             T = link.origin or IDENTITY
             R0 = exact_rotation([row[:3] for row in T[:3]])
             turns = (prev, R0, Ra)
-            if all(isinstance(x, int) or x.is_Integer for M in turns for row in M for x in row) \
-                    or any(_is_symbolic(x) for x in (*_walk(T), *link.r, *_walk(link.I))):
+            generic = sum(not all(isinstance(x, int) or x.is_Integer for row in M for x in row) for M in turns)
+            if generic <= 1 or any(_is_symbolic(x) for x in (*_walk(T), *link.r, *_walk(link.I))):
                 R = [[sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3))
                       for j in range(3)] for i in range(3)]
                 p = [sum(prev[k][i] * exact(T[k][3]) for k in range(3)) for i in range(3)]
                 r = tuple(sum(Ra[k][i] * exact(link.r[k]) for k in range(3)) for i in range(3))
                 upper = {(i, j): sum(Ra[k][i] * exact(link.I[k][l]) * Ra[l][j] for k in range(3) for l in range(3))
                          for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
-            else:   # generic turns: products of exact rotations grow to hundreds of digits, so the
+            else:   # several generic turns: their exact product grows to hundreds of digits, so the
                 # composed rotation is made exact once, and vectors and inertias are read as decimals
                 P, Q, A = (np.array(M, dtype=float) for M in turns)
                 R = rational_rotation(P.T @ Q @ A)
