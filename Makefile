@@ -17,7 +17,7 @@ run: $(STAMP)
 	$(BIN)/symdyn run
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2
 
 generate: $(STAMP)
 	$(BIN)/symdyn generate --all

@@ -21,8 +21,9 @@ from symdyn.model.random_arms import ArmOptions, degenerate_arm, random_arm, rob
 
 TOL = 1e-10
 SMALL = ArmOptions(n_max=4)
-#: Seeds of the fast sample: 1 to 4 joints, between them every feature of the generator.
-SAMPLE = tuple(range(100, 112))
+#: Seeds of the fast sample: 1 to 4 joints, between them every feature of the generator
+#: (103 and 110, two more 4-joint arms, left to the sweeps: 13 s each of compiling).
+SAMPLE = (100, 101, 102, 104, 105, 106, 107, 108, 109, 111)
 
 
 def _assert_agrees(robot, findings):
