@@ -197,16 +197,20 @@ class Program:
 
     def op_count(self) -> dict[str, int]:
         """Primitive operations of the emitted code ({"mul", "add", "div", "neg",
-        "fun", "total"}); a − b counts one add, negation is free in "total"."""
-        counter = OpCounter()
-        for _, expr in self.assignments:
-            lower(expr, counter)
-        for _, mat in self.outputs:
-            for expr in mat:
+        "fun", "total"}); a − b counts one add, negation is free in "total".
+        Counted once per program (a walk of every expression; headers, the
+        choice of derivation and the reports all ask)."""
+        if "_op_count" not in self.__dict__:
+            counter = OpCounter()
+            for _, expr in self.assignments:
                 lower(expr, counter)
-        counts = dict(counter.counts)
-        counts["total"] = sum(v for k, v in counts.items() if k != "neg")
-        return counts
+            for _, mat in self.outputs:
+                for expr in mat:
+                    lower(expr, counter)
+            counts = dict(counter.counts)
+            counts["total"] = sum(v for k, v in counts.items() if k != "neg")
+            object.__setattr__(self, "_op_count", counts)   # frozen: a cache, not a field
+        return dict(self.__dict__["_op_count"])
 
     def used_inputs(self) -> set:
         """Input symbols the program actually reads."""
