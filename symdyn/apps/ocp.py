@@ -264,16 +264,20 @@ class Solution:
 def _rk4_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
     """(q, qd, tau, h) -> (q⁺, qd⁺): `substeps` RK4 steps of q̈ = fdyn(q, q̇, τ), τ held."""
     q, qd, tau, h = ca.MX.sym("q", n), ca.MX.sym("qd", n), ca.MX.sym("tau", n), ca.MX.sym("h")
+    x = rk4_steps(lambda x: ca.vertcat(x[n:], fdyn(x[:n], x[n:], tau)), ca.vertcat(q, qd), h, substeps)
+    return ca.Function("rk4", [q, qd, tau, h], [x[:n], x[n:]])
+
+
+def rk4_steps(f, x, h, substeps: int):
+    """x after `substeps` classical RK4 steps of ẋ = f(x) over the time h (NumPy or CasADi alike)."""
     dt = h / substeps
-    x = ca.vertcat(q, qd)
-    f = lambda x: ca.vertcat(x[n:], fdyn(x[:n], x[n:], tau))  # noqa: E731
     for _ in range(substeps):
         k1 = f(x)
         k2 = f(x + dt / 2 * k1)
         k3 = f(x + dt / 2 * k2)
         k4 = f(x + dt * k3)
         x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return ca.Function("rk4", [q, qd, tau, h], [x[:n], x[n:]])
+    return x
 
 
 def _quadratic_smoothness(a, b, c, h):

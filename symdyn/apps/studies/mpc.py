@@ -54,15 +54,8 @@ def perturbed(robot: Robot, scale: float = PERTURBATION) -> Robot:
 
 def _plant_step(robot: Robot, x: np.ndarray, tau: np.ndarray, dt: float, substeps: int) -> np.ndarray:
     """The state after dt under constant τ: RK4 on the reference forward dynamics."""
-    n, h = robot.n, dt / substeps
-    f = lambda x: np.concatenate([x[n:], ref.accel(robot, x[:n], x[n:], tau)])  # noqa: E731
-    for _ in range(substeps):
-        k1 = f(x)
-        k2 = f(x + h / 2 * k1)
-        k3 = f(x + h / 2 * k2)
-        k4 = f(x + h * k3)
-        x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return x
+    n = robot.n
+    return ocp.rk4_steps(lambda x: np.concatenate([x[n:], ref.accel(robot, x[:n], x[n:], tau)]), x, dt, substeps)
 
 
 SCHEMES = ("rti", "ipopt")
