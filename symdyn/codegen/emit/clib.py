@@ -277,19 +277,75 @@ def _digest(*parts: str) -> str:
     return h.hexdigest()
 
 
-def _compile(cc: str, flags: tuple, sources: list[Path], includes: list[str], target: Path) -> None:
-    """cc flags sources -o target, atomically; a RuntimeError with the compiler's message on failure."""
-    fd, tmp = tempfile.mkstemp(suffix=target.suffix, prefix=f".{target.stem}.", dir=target.parent)
-    os.close(fd)
-    extra = ["-undefined", "dynamic_lookup"] if sys.platform == "darwin" else []
-    cmd = [cc, *flags, *extra, *(f"-I{i}" for i in includes), *map(str, sources), "-o", tmp, "-lm"]
+#: A model source longer than this is compiled in parts, in parallel: -O3 on a seven-joint
+#: arm's 0.5 MB of C takes ~6 s in one piece, ~4 s in two on two cores.
+SPLIT_BYTES = 100_000
+
+
+def _jobs() -> int:
+    """How many compilers to run at once: the cores this process may use."""
     try:
-        run = subprocess.run(cmd, capture_output=True, text=True)
-        if run.returncode != 0:
-            raise RuntimeError(f"compiling {sources[0].name} failed ({' '.join(cmd)}):\n{run.stderr[-2000:]}")
-        os.replace(tmp, target)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
+        return len(os.sched_getaffinity(0))
+    except AttributeError:   # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def split_source(text: str, parts: int) -> list[str]:
+    """A generated model's C as up to `parts` translation units of whole functions,
+    each with the file's preamble (includes, static helpers), balanced by length;
+    [text] when it is short or not laid out as preamble-then-functions (every
+    function a `void` definition at column 0, nothing static after the first)."""
+    lines = text.splitlines(keepends=True)
+    starts = [i for i, line in enumerate(lines) if line.startswith("void ")]
+    if parts < 2 or len(text) < SPLIT_BYTES or len(starts) < 2 \
+            or any(line.startswith(("static", "#")) for line in lines[starts[0]:]):
+        return [text]
+    head = "".join(lines[:starts[0]])
+    chunks = ["".join(lines[a:b]) for a, b in zip(starts, starts[1:] + [len(lines)])]
+    bins: list[list[str]] = [[] for _ in range(min(parts, len(chunks)))]
+    for chunk in sorted(chunks, key=len, reverse=True):   # longest first, into the lightest part
+        min(bins, key=lambda b: sum(map(len, b))).append(chunk)
+    return [head + "".join(b) for b in bins]
+
+
+def _compile(cc: str, flags: tuple, sources: list[Path], includes: list[str], target: Path) -> None:
+    """cc flags sources -o target, atomically; a RuntimeError with the compiler's message on
+    failure.  Long sources are split (`split_source`) and every unit is compiled to an
+    object at once, `_jobs()` compilers in parallel, then linked."""
+    extra = ["-undefined", "dynamic_lookup"] if sys.platform == "darwin" else []
+    inc = [f"-I{i}" for i in includes]
+    with tempfile.TemporaryDirectory(prefix=f".{target.stem}.", dir=target.parent) as tmp:
+        units = []
+        for src in sources:
+            pieces = split_source(src.read_text(), _jobs())
+            if len(pieces) == 1:
+                units.append(src)
+                continue
+            for k, text in enumerate(pieces):
+                units.append(Path(tmp, f"{src.stem}.part{k}.c"))
+                units[-1].write_text(text)
+        objects = [Path(tmp, f"{k}.{u.stem}.o") for k, u in enumerate(units)]
+        cmds = [[cc, *flags, *inc, "-c", str(u), "-o", str(o)] for u, o in zip(units, objects)]
+        _run_all(cmds, units)
+        linked = Path(tmp, target.name)
+        _run_all([[cc, *flags, *extra, *map(str, objects), "-o", str(linked), "-lm"]], [target])
+        os.replace(linked, target)
+
+
+def _run_all(cmds: list[list[str]], names: list[Path]) -> None:
+    """Run the commands, `_jobs()` at a time; a RuntimeError with the first failure's message."""
+    pending, running, failures = list(zip(cmds, names)), [], []
+    while pending or running:
+        while pending and len(running) < _jobs():
+            cmd, name = pending.pop(0)
+            running.append((subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True),
+                            cmd, name))
+        proc, cmd, name = running.pop(0)
+        _, err = proc.communicate()
+        if proc.returncode != 0:
+            failures.append(f"compiling {name.name} failed ({' '.join(cmd)}):\n{err[-2000:]}")
+    if failures:
+        raise RuntimeError(failures[0])
 
 
 def _build(flags: tuple, files: dict, includes: list[str], target: Path) -> Path:
