@@ -7,6 +7,7 @@ import pytest
 
 from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit import c as c_emit
+from symdyn.codegen.emit import clib
 from symdyn.codegen.emit.clib import CompileOptions, load_library
 from tests.codegen_cases import MODELS, assert_close, cases
 
@@ -111,3 +112,38 @@ def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
         assert np.mean(ulps <= 1.0) > 0.9999, f"{ref_fn.__name__}: {np.sum(ulps > 1)} values beyond 1 ulp"
     with pytest.raises(ValueError, match="contains NaN or infinity"):
         sc(np.array([[np.nan], [np.inf]]))
+
+
+def test_a_long_source_is_split_into_whole_functions_each_with_the_preamble():
+    text = (codegen.GENERATED / "puma560" / "puma560.c").read_text()
+    head = text[:text.index("\nvoid ") + 1]
+    functions = [f"void{chunk}" for chunk in text[len(head):].split("void")[1:]]
+    parts = clib.split_source(text, 3)
+    assert len(text) > clib.SPLIT_BYTES and len(parts) == 3
+    assert all(p.startswith(head) for p in parts)
+    bodies = sorted(chunk for p in parts for chunk in (f"void{c}" for c in p[len(head):].split("void")[1:]))
+    assert bodies == sorted(functions)
+    sizes = [len(p) for p in parts]
+    assert max(sizes) - min(sizes) <= max(len(f) for f in functions)   # longest first into the lightest part
+
+
+def test_short_or_unusual_sources_compile_in_one_piece():
+    text = (codegen.GENERATED / "puma560" / "puma560.c").read_text()
+    assert clib.split_source(text, 1) == [text]
+    twolink = (codegen.GENERATED / "twolink" / "twolink.c").read_text()
+    assert clib.split_source(twolink, 4) == [twolink]
+    static_after = text + "\nstatic double helper(double x) { return x; }\n"
+    assert clib.split_source(static_after, 4) == [static_after]
+
+
+def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(clib, "_jobs", lambda: 2)
+    c_path, h_path = _copy_model(tmp_path, "puma560")
+    lib = load_library(c_path, h_path, CompileOptions(binding="ctypes"))
+    for function, (args, expected) in cases("puma560").items():
+        assert_close(lib.functions[function](*args), expected, f"split {function}")
+    text = c_path.read_text()
+    c_path.write_text(text.replace("void puma560_Minv(", "void puma560_Minv(undeclared_type x, "))
+    with pytest.raises(RuntimeError, match=r"compiling puma560\.part\d\.c failed"):
+        load_library(c_path, h_path, CompileOptions(binding="ctypes"))

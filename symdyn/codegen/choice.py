@@ -12,7 +12,7 @@ from typing import Sequence
 
 from ..derivation.dynamics import Dynamics
 from ..derivation.program import Program, dag_size
-from .derivatives import christoffel_spec, fdyn_derivatives_spec, minv_spec, tau_derivatives_spec
+from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .functions import FunctionSpec, candidates, fdyn_spec, regressor_spec
 
 __all__ = ["programs"]
@@ -53,10 +53,10 @@ def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | 
         extra = [christoffel_spec(c["Cqd"]) for c in cands] if term == "C" else []
         chosen[term] = _cheapest([c[term] for c in cands] + extra)
     out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
-    out.append(fdyn_spec(chosen["M"][0], chosen["bias"][0]).program())
+    fdyn = fdyn_spec(chosen["M"][0], chosen["bias"][0]).program()
+    out.append(fdyn)
     if regressor is not None:
         out.append(regressor_spec(regressor, dyns[0]).program())
-    out.append(tau_derivatives_spec(chosen["tau"][0]).program())
-    out.append(fdyn_derivatives_spec(chosen["M"][0], chosen["bias"][0], chosen["tau"][0]).program())
-    out.append(minv_spec(chosen["M"][0]).program())
-    return out
+    tau_derivatives = tau_derivatives_spec(chosen["tau"][0]).program()
+    minv = minv_spec(chosen["M"][0]).program()
+    return out + [tau_derivatives, fdyn_derivatives_program(fdyn, tau_derivatives, minv), minv]
