@@ -139,7 +139,7 @@ def test_singular_inertia_is_a_clear_error_naming_the_joint():
 
 def test_the_batch_evaluator_matches_sympy():
     x, y, d = sp.symbols("x y d", real=True)
-    expr = sp.cos(x) * d**2 - sp.sign(y) * sp.Abs(x) / 3 + sp.sin(x + y)
+    expr = sp.cos(x) * d**2 - sp.sign(y) * sp.Abs(x) / 3 + sp.sin(x + y + sp.pi / 7)   # pi, as in the RRP arm's offsets
     values = {x: np.array([0.3, -1.2]), y: np.array([0.0, 2.0])}
     got = evaluate([expr], [(d, x * y + 1)], values)[0]
     expected = [float(expr.subs(d, x * y + 1).subs({x: a, y: b})) for a, b in zip(*values.values())]

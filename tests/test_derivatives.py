@@ -5,7 +5,7 @@ generated τ and fdyn, on the shipped arms and random ones, in every target."""
 import numpy as np
 import pytest
 
-from symdyn.bench.differential import states
+from symdyn.bench.differential import pinocchio_derivatives, states
 from symdyn.bench.peers import pinocchio_model
 from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit.clib import CompileOptions
@@ -28,38 +28,7 @@ def arm(request):
     robot = ARMS[request.param]()
     f = codegen.load(robot, "c")
     q, qd, qdd, tau = states(robot, STATES, seed=5)
-    return robot, f, (q, qd, qdd, tau), _pinocchio(robot, q, qd, qdd, tau)
-
-
-def _viscous(robot):
-    """∂F/∂q̇ (diagonal): G²·B; Coulomb friction's derivative is taken as 0, also at rest."""
-    return np.diag([float(link.G) ** 2 * float(link.B) for link in robot.links])
-
-
-def _friction(robot, qd):
-    G = np.array([float(link.G) for link in robot.links])
-    tp, tn = np.array([[float(x) for x in link.Tc] for link in robot.links]).T
-    return qd @ _viscous(robot) + np.abs(G) * np.where(qd > 0, tp, np.where(qd < 0, tn, 0.0))
-
-
-def _pinocchio(robot, q, qd, qdd, tau):
-    """Pinocchio's derivatives of the frictionless arm, friction added by its law."""
-    model = pinocchio_model(robot)
-    data = model.createData()
-    B = _viscous(robot)
-    out = {k: [] for k in ("dtau_dq", "dtau_dqd", "qdd", "dqdd_dq", "dqdd_dqd", "Minv")}
-    for x, v, a, t in zip(q, qd, qdd, tau):
-        pin.computeRNEADerivatives(model, data, x, v, a)
-        out["dtau_dq"].append(data.dtau_dq.copy())
-        out["dtau_dqd"].append(data.dtau_dv.copy() + B)
-        pin.computeABADerivatives(model, data, x, v, t - _friction(robot, v))
-        out["qdd"].append(data.ddq.copy())
-        out["dqdd_dq"].append(data.ddq_dq.copy())
-        Minv = pin.computeMinverse(model, data, x)
-        Minv = np.triu(Minv) + np.triu(Minv, 1).T
-        out["dqdd_dqd"].append(data.ddq_dv.copy() - Minv @ B)
-        out["Minv"].append(Minv)
-    return {k: np.array(v) for k, v in out.items()}
+    return robot, f, (q, qd, qdd, tau), pinocchio_derivatives(pinocchio_model(robot), robot, q, qd, qdd, tau)
 
 
 def _close(got, expected, what, rtol=RTOL):

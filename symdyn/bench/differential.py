@@ -27,7 +27,7 @@ import sympy as sp
 from ..numeric import reference as ref
 from ..model import Robot
 
-__all__ = ["Finding", "STAGES", "check_arm", "disagreements", "evaluate", "friction_law", "pinocchio_at", "relative_error", "states"]
+__all__ = ["Finding", "STAGES", "check_arm", "disagreements", "evaluate", "friction_law", "pinocchio_at", "pinocchio_derivatives", "relative_error", "states"]
 
 STAGES = ("pinocchio", "derive", "exact", "targets", "identities")
 TARGETS = ("numpy", "c", "casadi")
@@ -105,6 +105,29 @@ def pinocchio_at(model, q, qd, qdd, tau) -> dict:
     return {k: np.array(v) for k, v in out.items()}
 
 
+def pinocchio_derivatives(model, robot: Robot, q, qd, qdd, tau) -> dict:
+    """Pinocchio's ∂τ/∂(q, q̇) at (q, q̇, q̈) and ∂q̈/∂(q, q̇), q̈ and M⁻¹ at (q, q̇, τ), each
+    state; Pinocchio has no friction, so its law is added: ∂F/∂q̇ = G²·B (Coulomb's
+    derivative taken as 0, also at rest) and q̈ is solved at τ − F(q̇)."""
+    import pinocchio as pin
+
+    data = model.createData()
+    B = np.diag([float(link.G) ** 2 * float(link.B) for link in robot.links])
+    out = {k: [] for k in ("dtau_dq", "dtau_dqd", "qdd", "dqdd_dq", "dqdd_dqd", "Minv")}
+    for x, v, a, t in zip(q, qd, qdd, tau):
+        pin.computeRNEADerivatives(model, data, x, v, a)
+        out["dtau_dq"].append(data.dtau_dq.copy())
+        out["dtau_dqd"].append(data.dtau_dv.copy() + B)
+        pin.computeABADerivatives(model, data, x, v, t - friction_law(robot, v))
+        out["qdd"].append(data.ddq.copy())
+        out["dqdd_dq"].append(data.ddq_dq.copy())
+        Minv = pin.computeMinverse(model, data, x)
+        Minv = np.triu(Minv) + np.triu(Minv, 1).T
+        out["dqdd_dqd"].append(data.ddq_dv.copy() - Minv @ B)
+        out["Minv"].append(Minv)
+    return {k: np.array(v) for k, v in out.items()}
+
+
 # --------------------------------------------------------------------------- stages
 
 def _pinocchio(robot: Robot, q, qd, qdd, tau, floor: float) -> Iterable[tuple[str, float]]:
@@ -166,7 +189,7 @@ def evaluate(exprs, definitions, values: dict) -> list:
             args = [memo[a] for a in deps]
             if e.is_Symbol:
                 memo[e] = args[0]
-            elif e.is_Number:
+            elif e.is_Number or e.is_NumberSymbol:   # 3, 1/2, pi
                 memo[e] = float(e)
             elif e.is_Add:
                 memo[e] = sum(args[1:], args[0])
