@@ -50,6 +50,15 @@ class ArmFunctions:
     fdyn: ca.Function | None
     source: str = "custom"
     compiled: bool = False
+    fdyn_sx: ca.Function | None = None   # the SX fdyn compiled ones come from: the shooting step's
+
+    def shooting_step(self, substeps: int) -> ca.Function:
+        """(q, q̇, τ, h) → (q⁺, q̇⁺), `substeps` RK4 steps: compiled with explicit Jacobian and
+        Hessian (`ocp_step.rk4_step`, built once into the cache) when these dynamics are
+        compiled from SX, else CasADi's AD through the RK4 stages."""
+        if self.compiled and self.fdyn_sx is not None:
+            return _compiled_step(self.fdyn_sx, self.n, substeps)
+        return _rk4_step(self.need("multiple-shooting"), self.n, substeps)
 
     @property
     def label(self) -> str:
@@ -88,8 +97,10 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     `symdyn.numeric.casadi_rnea`.  compiled=True (the default): each function is
     a `casadi.external` on compiled C, with its Jacobian and the Hessian of λᵀf
     compiled beside it (`symdyn.codegen.emit.casadi.compiled`, built once into
-    the cache, ~15 s for the Puma's fdyn); compiled=False: CasADi's SX virtual
-    machine and its AD at every evaluation (no compiler needed).
+    the cache, ~15 s for the Puma's fdyn), and multiple shooting's whole interval
+    is compiled with explicit derivatives (`ArmFunctions.shooting_step`);
+    compiled=False: CasADi's SX virtual machine and its AD at every evaluation
+    (no compiler needed).
     """
     from ..codegen.emit.casadi import compiled as compile_function
 
@@ -103,8 +114,15 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     else:
         raise ValueError(f"unknown dynamics source {source!r}: expected one of {SOURCES}")
     if compiled:
-        tau, fdyn = compile_function(tau), compile_function(fdyn)
-    return ArmFunctions(tau, fdyn, source, compiled)
+        return ArmFunctions(compile_function(tau), compile_function(fdyn), source, True, fdyn)
+    return ArmFunctions(tau, fdyn, source, False)
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
+    from .ocp_step import rk4_step
+
+    return rk4_step(fdyn, n, substeps)
 
 
 # --------------------------------------------------------------------------- the problem
@@ -356,7 +374,7 @@ def _multiple_shooting(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handl
     U = handles["U"] = opti.variable(n, N)
     opti.set_initial(U, guess[3][1::2].T)
     _bound_torque(opti, problem.limits, U)
-    step = _rk4_step(arm.need(problem.method), n, problem.substeps).map(N)
+    step = arm.shooting_step(problem.substeps).map(N)
     qn, qdn = step(Q[:, :N], QD[:, :N], U, h)
     opti.subject_to([Q[:, 1:] == qn, QD[:, 1:] == qdn])
     w = _weighted(problem)

@@ -308,7 +308,8 @@ def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int 
     Before timing, the variants' τ must agree at random states (else a ValueError)
     and the optima must agree (same cost to 1e-6), so the ratios compare like with like.
     Building a compiled variant the first time compiles it into the cache (the Puma's
-    fdyn ~15 s); `build` is the time to get the functions in this run.
+    fdyn ~15 s, its multiple-shooting interval ~15 s more); `build` is the time to get
+    the functions in this run.
     """
     cases = comparison_cases(quick) if cases is None else cases
     warm = ocp.Problem(np.zeros(2), np.full(2, 0.1), T=1.0, N=4)
@@ -319,6 +320,8 @@ def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int 
         for src, comp in variants:
             start = time.perf_counter()
             arms.append(ocp.dynamics.__wrapped__(robot, src, compiled=comp))   # fresh: no shared caches
+            if problem.method == "multiple-shooting":
+                arms[-1].shooting_step(problem.substeps)   # a compiled interval is built (or read) here
             builds.append(time.perf_counter() - start)
         _agree(robot, arms)
         costs = []

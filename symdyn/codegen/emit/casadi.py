@@ -217,9 +217,10 @@ def derivative_functions(f: ca.Function) -> list[ca.Function]:
     return [f, f.jacobian(), adj, adj.jacobian()]
 
 
-def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS) -> ca.Function:
+def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS, derivatives=None) -> ca.Function:
     """f as a `casadi.external` on compiled code, with its Jacobian and the Hessian of
-    λᵀf compiled beside it (`derivative_functions`): same name, inputs and outputs.
+    λᵀf compiled beside it (`derivatives`, default `derivative_functions(f)` minus f:
+    functions under the names `casadi.external` looks up): same name, inputs and outputs.
 
     CasADi's code generator writes the C; the library is built with the system C
     compiler once into symdyn's cache, under a name keyed by the sha256 of the C
@@ -232,7 +233,7 @@ def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS) -> ca.Function:
 
     name = f.name()
     cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
-    for g in derivative_functions(f):
+    for g in [f, *derivatives] if derivatives is not None else derivative_functions(f):
         cg.add(g)
     with tempfile.TemporaryDirectory() as tmp:
         cg.generate(tmp + os.sep)
