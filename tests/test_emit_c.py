@@ -139,11 +139,12 @@ def test_short_or_unusual_sources_compile_in_one_piece():
 def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, monkeypatch):
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(clib, "_jobs", lambda: 2)
-    c_path, h_path = _copy_model(tmp_path, "puma560")
+    monkeypatch.setattr(clib, "SPLIT_BYTES", 0)   # the two-link arm's short file, in parts too
+    c_path, h_path = _copy_model(tmp_path)
     lib = load_library(c_path, h_path, CompileOptions(binding="ctypes"))
-    for function, (args, expected) in cases("puma560").items():
+    for function, (args, expected) in cases("twolink").items():
         assert_close(lib.functions[function](*args), expected, f"split {function}")
     text = c_path.read_text()
-    c_path.write_text(text.replace("void puma560_Minv(", "void puma560_Minv(undeclared_type x, "))
-    with pytest.raises(RuntimeError, match=r"compiling puma560\.part\d\.c failed"):
+    c_path.write_text(text.replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, "))
+    with pytest.raises(RuntimeError, match=r"compiling twolink\.part\d\.c failed"):
         load_library(c_path, h_path, CompileOptions(binding="ctypes"))
