@@ -27,9 +27,11 @@ def test_run_exits_nonzero_when_the_code_it_wrote_is_wrong(tmp_path, capsys, mon
     """Fault injection: the written code is sealed and current but computes the wrong gravity."""
     right = codegen.bundle
 
-    def wrong(robot):
-        moon = dataclasses.replace(robot, gravity=(0, 0, 1.62))
-        return dataclasses.replace(right(moon), fingerprint=robot.fingerprint())
+    def wrong(robot):   # G 1 % too large; a fault in the programs needs no second derivation
+        b = right(robot)
+        return dataclasses.replace(b, programs=tuple(
+            dataclasses.replace(p, outputs=tuple((o, m * 1.01) for o, m in p.outputs)) if p.name == "G" else p
+            for p in b.programs))
     monkeypatch.setattr(codegen, "bundle", wrong)
     assert cli.main(["run", "--out", str(tmp_path / "puma")]) == 1
     assert "disagrees with the reference" in capsys.readouterr().err
