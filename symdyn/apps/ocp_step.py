@@ -48,7 +48,7 @@ def step_functions(fdyn: ca.Function, n: int, substeps: int) -> list[ca.Function
     E_tau = ca.horzcat(ca.DM(n, 2 * n), ca.DM.eye(n), ca.DM(n, 1))
     x = ca.vertcat(i0, i1)
     Dx = ca.MX(ca.horzcat(ca.DM.eye(2 * n), ca.DM(2 * n, n + 1)))
-    tape = []                                       # per substep: (x, Dx, stages [(y, Dy, k, Dk, A)])
+    tape = []                                       # per substep: (stages [(y, Dy, k, Dk, A)], K, DK)
     for _ in range(substeps):
         stages = []
         for j in range(4):
@@ -62,9 +62,9 @@ def step_functions(fdyn: ca.Function, n: int, substeps: int) -> list[ca.Function
             k = ca.vertcat(y[n:], qdd)
             Dk = ca.vertcat(Dy[n:, :], ca.mtimes(A, ca.vertcat(Dy, E_tau)))
             stages.append((y, Dy, k, Dk, A))
-        tape.append((x, Dx, stages))
         K = sum(w * s[2] for w, s in zip(_W, stages))
         DK = sum(w * s[3] for w, s in zip(_W, stages))
+        tape.append((stages, K, DK))
         x, Dx = x + dt / 6 * K, Dx + dt / 6 * DK + ca.mtimes(K, e_h) / (6 * substeps)
 
     outs = [x[:n], x[n:]]
@@ -103,9 +103,7 @@ def _hessian(tape, lam, tau, hess, n: int, m: int, dt, substeps: int, e_h, E_tau
     differentiated along all m directions of z at once (forward over reverse)."""
     xb, Dxb = lam, ca.MX(2 * n, m)                  # adjoint of x and its derivative along z
     Dtaub, Dhb = ca.MX(n, m), ca.MX(1, m)
-    for _, _, stages in reversed(tape):
-        K = sum(w * s[2] for w, s in zip(_W, stages))
-        DK = sum(w * s[3] for w, s in zip(_W, stages))
+    for stages, K, DK in reversed(tape):   # the forward pass's K = Σ W_j k_j and its derivative
         Dhb += (ca.mtimes(K.T, Dxb) + ca.mtimes(xb.T, DK)) / (6 * substeps)
         kb = [dt / 6 * w * xb for w in _W]
         Dkb = [w / 6 * (dt * Dxb + ca.mtimes(xb, e_h) / substeps) for w in _W]
