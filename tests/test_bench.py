@@ -354,3 +354,20 @@ def test_failed_build_names_the_command(fake_compiler, monkeypatch, tmp_path):
     monkeypatch.setenv("CXX", str(broken))
     with pytest.raises(pin_peer.PeerUnavailable, match=r"(?s)compiling the Pinocchio C\+\+ peer failed.*error: nope"):
         pin_peer.peer_binary(lambda msg: None)
+
+
+def test_an_unwritable_cache_folder_does_not_stop_the_harness(tmp_path, monkeypatch, capsys):
+    """The cache is an optimisation: with a cache folder that cannot be created (under a
+    regular file, which stops root too) the harness is built in a temporary folder, runs,
+    and its τ is the reference's; one warning names the folder."""
+    (tmp_path / "afile").write_text("not a folder")
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "afile" / "cache"))
+    twolink = GENERATED / "twolink"
+    binary = bench.build_harness(twolink / "twolink.c", twolink / "twolink.h")
+    assert not str(binary).startswith(str(tmp_path))
+    robot = models.load("twolink")
+    states = bench.random_states(robot, bench.POOL, seed=2)
+    _, checks = bench.run_harness(binary, bench.write_states(tmp_path / "states.bin", *states), 10, 1, ("tau",))
+    q, qd, qdd, _ = (s[3] for s in states)
+    assert np.abs(checks["tau"] - reference.rne(robot, q, qd, qdd)).max() < 1e-12
+    assert "afile/cache is not writable" in capsys.readouterr().err

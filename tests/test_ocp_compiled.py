@@ -119,18 +119,24 @@ def test_nmpc_tracker_reaches_a_goal_within_its_torque_limits():
     assert np.abs(x[:2] - goal[:2]).max() < 1e-2      # settled on the goal after 0.8 s
 
 
-def test_rti_iterated_converges_to_the_ipopt_tracker_solution_and_keeps_the_limits(arm2):
+@pytest.mark.parametrize("integrator", ["euler", "rk4"])
+def test_rti_iterated_converges_to_the_ipopt_tracker_solution_and_keeps_the_limits(arm2, integrator):
     """The real-time iteration is one Gauss–Newton SQP step per call; iterated at a fixed
     state and reference it converges to the NLP optimum the IPOPT tracker finds, with the
-    torque and speed limits active and held."""
+    torque and speed limits active and held.  With RK4 both run on the compiled interval,
+    and the IPOPT tracker's optimum is the one it finds on the SX path."""
     lim = ocp.Limits(tau=np.array([30.0, 10.0]), qd=np.array([1.5, 1.5]))
     arm = ocp.dynamics(arm2, "symdyn")
     x = np.array([0.2, 0.1, 0.5, -0.3])
     ref = np.tile([0.8, -0.4, 0.0, 0.0], (9, 1))
-    ipopt = ocp.Tracker(arm, lim, 0.02, 8, tol=1e-12)
+    ipopt = ocp.Tracker(arm, lim, 0.02, 8, tol=1e-12, integrator=integrator)
     tau_ip, st = ipopt.control(x, ref)
     assert st["success"]
-    rti = ocp.RTITracker(arm, lim, 0.02, 8)
+    if integrator == "rk4":
+        tau_sx, _ = ocp.Tracker(ocp.dynamics(arm2, "symdyn", compiled=False), lim, 0.02, 8, tol=1e-12,
+                                integrator=integrator).control(x, ref)
+        assert np.abs(tau_sx - tau_ip).max() < 1e-8 * np.abs(tau_ip).max()
+    rti = ocp.RTITracker(arm, lim, 0.02, 8, integrator=integrator)
     steps = []
     for _ in range(8):
         rti.prepare(ref)

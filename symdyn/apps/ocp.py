@@ -598,8 +598,8 @@ class Tracker:
         N = horizon
         X, U, R = ca.MX.sym("X", 2 * n, N + 1), ca.MX.sym("U", n, N), ca.MX.sym("R", 2 * n, N + 1)
         fdyn = arm.need("multiple-shooting")
-        if integrator == "rk4":
-            qn, qdn = _rk4_step(fdyn, n, 1).map(N)(X[:n, :N], X[n:, :N], U, dt)
+        if integrator == "rk4":   # the compiled interval when the dynamics are compiled
+            qn, qdn = arm.shooting_step(1).map(N)(X[:n, :N], X[n:, :N], U, dt)
         elif integrator == "euler":   # semi-implicit: q̇⁺ = q̇ + h q̈, q⁺ = q + h q̇⁺ (one fdyn per interval)
             qdn = X[n:, :N] + dt * fdyn.map(N)(X[:n, :N], X[n:, :N], U)
             qn = X[:n, :N] + dt * qdn
@@ -661,7 +661,8 @@ def _shift_block(lam_g: np.ndarray, n: int, N: int) -> np.ndarray:
 
 def _tracking_step(arm: ArmFunctions, dt: float, integrator: str) -> ca.Function:
     """x⁺ = F(x, τ) (2n,) of the tracker's prediction: one semi-implicit Euler step of fdyn
-    (q̇⁺ = q̇ + dt·q̈, q⁺ = q + dt·q̇⁺; one fdyn evaluation) or one RK4 step ("rk4")."""
+    (q̇⁺ = q̇ + dt·q̈, q⁺ = q + dt·q̇⁺; one fdyn evaluation) or one RK4 step ("rk4", the
+    compiled interval of `ArmFunctions.shooting_step` when the dynamics are compiled)."""
     n = arm.n
     fdyn = arm.need("multiple-shooting")
     x, u = ca.MX.sym("x", 2 * n), ca.MX.sym("tau", n)
@@ -669,7 +670,7 @@ def _tracking_step(arm: ArmFunctions, dt: float, integrator: str) -> ca.Function
         qd = x[n:] + dt * fdyn(x[:n], x[n:], u)
         xn = ca.vertcat(x[:n] + dt * qd, qd)
     elif integrator == "rk4":
-        xn = ca.vertcat(*_rk4_step(fdyn, n, 1)(x[:n], x[n:], u, dt))
+        xn = ca.vertcat(*arm.shooting_step(1)(x[:n], x[n:], u, dt))
     else:
         raise ValueError(f"unknown integrator {integrator!r}: expected 'euler' or 'rk4'")
     return ca.Function("step", [x, u], [xn], ["x", "tau"], ["x_next"])

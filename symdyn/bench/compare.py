@@ -43,7 +43,7 @@ import numpy as np
 
 from .. import __version__
 from ..codegen.emit import write_atomic
-from ..derivation.cache import cache_dir
+from ..derivation.cache import cache_dir, writable
 from ..model import arms
 from ..numeric import reference as ref
 from . import pin_peer
@@ -134,7 +134,8 @@ def frictionless_sources(robot, shipped: Path | None = None) -> dict[str, Path]:
     name = identifier(bare.name)
     shipped = Path(shipped) if shipped is not None else GENERATED / name
     texts = [p.read_bytes() for p in sorted(shipped.glob(f"{name}.*"))] if shipped.is_dir() else []
-    folder = cache_dir() / "bench" / f"{name}-nofriction-{_digest(__version__, bare.fingerprint(), *texts)}"
+    key = _digest(__version__, bare.fingerprint(), *texts)
+    folder = writable(cache_dir() / "bench" / f"{name}-nofriction-{key}")
     paths = {"c": folder / f"{name}.c", "h": folder / f"{name}.h", "py": folder / f"{name}.py"}
     if not all(p.exists() for p in paths.values()):
         print(f"generating the frictionless {name} into {folder} (once per generated code)", file=sys.stderr)
@@ -215,7 +216,7 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
     if casadi_c is not None:
         sources.update({p.name: p.read_text() for p in (casadi_c, casadi_c.with_suffix(".h"))})
     key = _digest(cc, *CFLAGS, platform.node(), *(f"{k}\n{v}" for k, v in sorted(sources.items())))
-    folder = cache_dir() / "bench" / f"harness-{model}-{key}"
+    folder = writable(cache_dir() / "bench" / f"harness-{model}-{key}")
     binary = folder / "harness"
     if binary.exists():
         return binary
@@ -305,7 +306,7 @@ def c_level(robot, src: dict, states, args, log, missing: list, name: str = MODE
 
     q, qd, qdd, tau = states
     bare = robot.nofriction(all=True)
-    work = cache_dir() / "bench"
+    work = writable(cache_dir() / "bench")
     states_file = write_states(work / f"states-{os.getpid()}.bin", q, qd, qdd, tau)
     casadi_c = None
     if not args.no_casadi:

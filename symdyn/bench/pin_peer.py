@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..derivation.cache import cache_dir
+from ..derivation.cache import cache_dir, writable
 
 __all__ = ["SOURCE", "CXXFLAGS", "ALGORITHMS", "PeerUnavailable", "PeerJoint", "arm_joints", "write_arm",
            "include_dirs", "cache_key", "peer_binary", "run_peer", "read_report", "central_jacobian", "check_peer"]
@@ -180,14 +180,13 @@ def peer_binary(log=lambda msg: print(msg, file=sys.stderr, flush=True)) -> Path
     includes = include_dirs()
     cxx = _compiler()
     source = SOURCE.read_text()
-    folder = cache_dir() / "bench" / f"pin-peer-{cache_key(source, cxx, CXXFLAGS, includes)}"
+    folder = writable(cache_dir() / "bench" / f"pin-peer-{cache_key(source, cxx, CXXFLAGS, includes)}")
     binary, recorded = folder / "pin_peer", folder / "pin_peer.sha256"
     try:
         if recorded.read_text() == _sha256(binary):
             return binary
     except OSError:
         pass
-    folder.mkdir(parents=True, exist_ok=True)
     cmd = [cxx, *CXXFLAGS, *(f"-I{d}" for d in includes), str(SOURCE)]
     log(f"building the Pinocchio C++ peer into {folder} (once; several minutes on 2 cores) ...")
     start = time.monotonic()

@@ -52,17 +52,23 @@ def package_fingerprint() -> str:
     return digest.hexdigest()
 
 
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write bytes so that readers see the old file or the whole new one."""
+def write_atomic(path: Path, data: str | bytes) -> Path:
+    """Write a file (text as UTF-8) so that readers see the old content or the whole
+    new one, never a half-written file: a temp file in the same folder, then os.replace.
+    Used for the cache and for generated code (hence 0644, not mkstemp's 0600)."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    raw = data.encode() if isinstance(data, str) else data
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            fh.write(raw)
+        os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
-        os.unlink(tmp)
+        Path(tmp).unlink(missing_ok=True)
         raise
+    return path
 
 
 #: Cache folders already warned about (one line per process, not one per write).

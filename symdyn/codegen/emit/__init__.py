@@ -5,18 +5,18 @@ prints `symdyn.derivation.program.Program`s (via `symdyn.derivation.program.lowe
 re-derives or re-simplifies.  This module holds what the text emitters
 share: the bundle of programs of one model, the infix printing algebra, the
 provenance header (symdyn version, model fingerprint, op counts, the sha256
-of the content that detects an edited file) and atomic file writes.
+of the content that detects an edited file); `write_atomic` is the cache's,
+re-exported for the emitters.
 """
 
 from __future__ import annotations
 
 import hashlib
-import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...derivation.cache import write_atomic
 from ...derivation.program import Program, format_ops
 
 __all__ = ["Bundle", "Infix", "header_lines", "read_header", "DIGEST_FIELD", "seal", "is_intact", "write_atomic", "identifier"]
@@ -158,21 +158,3 @@ _FIELD = re.compile(r"^\W*(symdyn-version|model-fingerprint): (\S+)", re.M)
 def read_header(text: str) -> dict[str, str]:
     """{"symdyn-version": …, "model-fingerprint": …} from a generated file's head."""
     return dict(_FIELD.findall(text[:4000]))
-
-
-def write_atomic(path: Path, data: str | bytes) -> Path:
-    """Write a file so that readers see the old or the new content, never a
-    half-written one: temp file in the same folder, then os.replace."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode() if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(raw)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
