@@ -303,7 +303,8 @@ def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int 
     """Solve each case with each variant's dynamics — (source, compiled): symdyn's or the
     plain Newton–Euler, on compiled code or CasADi's SX virtual machine — in one run;
     rows of sizes and timings (the fastest of `repeats` solves by wall time; CPU time of
-    the process beside it, the fairer measure on a shared machine).
+    the process beside it, the fairer measure on a shared machine).  The repeats go round
+    the variants in turn, so a slow spell of a shared machine falls on all of them alike.
 
     Before timing, the variants' τ must agree at random states (else a ValueError)
     and the optima must agree (same cost to 1e-6), so the ratios compare like with like.
@@ -324,10 +325,13 @@ def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int 
                 arms[-1].shooting_step(problem.substeps)   # a compiled interval is built (or read) here
             builds.append(time.perf_counter() - start)
         _agree(robot, arms)
+        runs = [[] for _ in arms]
+        for _ in range(repeats):
+            for arm, done in zip(arms, runs):
+                done.append(ocp.solve(problem, arm))
         costs = []
-        for arm, build in zip(arms, builds):
-            runs = [ocp.solve(problem, arm) for _ in range(repeats)]
-            sol = min(runs, key=lambda s: s.stats["solve_wall"])
+        for arm, build, done in zip(arms, builds, runs):
+            sol = min(done, key=lambda s: s.stats["solve_wall"])
             costs.append(sol.cost)
             st = sol.stats
             tau_i, fdyn_i = _instructions(robot, arm.source)
