@@ -1,10 +1,13 @@
 """Derivatives of the dynamics as function specs: ∂τ/∂(q, q̇), ∂q̈/∂(q, q̇), M⁻¹.
 
-Between derive and program, beside `functions`.  The chosen τ's named
-definitions are differentiated forward, once per definition and direction
-(q_k, q̇_k), each nonzero derivative a new named definition that reuses the
-earlier ones — a straight-line program again, which `make_program` CSEs like
-any other.  Coulomb friction's sign(q̇) is held constant: its derivative is
+Between derive and program, beside `functions`.  A Jacobian of a program's
+named definitions is accumulated on its graph of local partial derivatives by
+eliminating the intermediate vertices in the order that costs fewer products:
+first to last (forward mode, each nonzero ∂s/∂x_k a named definition) or last to
+first (reverse accumulation, each ∂out/∂s a named definition) — a straight-line
+program again, which `make_program` CSEs like any other.  ∂τ/∂(q, q̇), 2n inputs
+and n outputs, goes in reverse (the Panda: 4695 operations with τ, not 6357);
+the Christoffel C, n inputs, forward.  Coulomb friction's sign(q̇) is held constant: its derivative is
 taken as zero everywhere, also at q̇ = 0 where it does not exist.  Forward
 dynamics: ∂q̈/∂x = −M⁻¹ ∂τ/∂x at (q, q̇, q̈), spliced from the finished
 programs of fdyn, tau_derivatives and M⁻¹ = L⁻ᵀD⁻¹L⁻¹.  Matrices have row i = output i (Pinocchio's layout).
@@ -19,7 +22,8 @@ import sympy as sp
 from ..derivation.program import Program
 from .functions import FunctionSpec, ldlt_factor, ldlt_inverse
 
-__all__ = ["forward", "tau_derivatives_spec", "fdyn_derivatives_program", "minv_spec", "christoffel_spec"]
+__all__ = ["forward", "reverse", "jacobian", "tau_derivatives_spec", "fdyn_derivatives_program", "minv_spec",
+           "christoffel_spec"]
 
 _DOCS = {
     "tau_derivatives": "Inverse dynamics and its derivatives (tau, dtau_dq, dtau_dqd): ({n},), ({n}, {n}), "
@@ -98,6 +102,96 @@ def forward(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str =
     return new, rows
 
 
+def _graph(definitions: Sequence, outputs: Sequence, wrt: Sequence) -> tuple[list, dict]:
+    """The active part of a program's graph: [(definition, expr)] that depend on wrt, in
+    evaluation order, and {node: [active operands]} for them and for the outputs
+    (as the nodes ("out", i))."""
+    active, nodes = set(wrt), []
+    for s, e in _reachable(dict(definitions), outputs):
+        e = sp.sympify(e)
+        if any(u in active for u in e.free_symbols):
+            active.add(s)
+            nodes.append((s, e))
+    operands = {s: sorted((u for u in e.free_symbols if u in active), key=str) for s, e in nodes}
+    for i, o in enumerate(outputs):
+        operands[("out", i)] = sorted((u for u in sp.sympify(o).free_symbols if u in active), key=str)
+    return nodes, operands
+
+
+def _elimination_products(operands: dict, order: Sequence) -> int:
+    """Products vertex elimination takes to reduce the graph to inputs → outputs when it
+    removes the vertices in `order` (|predecessors| × |successors| each)."""
+    pred = {s: set(us) for s, us in operands.items()}
+    succ: dict = {}
+    for s, us in pred.items():
+        for u in us:
+            succ.setdefault(u, set()).add(s)
+    total = 0
+    for v in order:
+        P, S = pred.pop(v), succ.pop(v, set())
+        total += len(P) * len(S)
+        for u in P:
+            succ[u].discard(v)
+            succ[u].update(S)
+        for t in S:
+            pred[t].discard(v)
+            pred[t].update(P)
+    return total
+
+
+def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "d") -> tuple[list, list]:
+    """Reverse accumulation of a straight-line program's Jacobian: the intermediate
+    vertices of its graph of local partials eliminated last to first, so each output's
+    sensitivity to a definition s is summed once, named {stem}o{i}_{s}, and reused
+    by every input s depends on.  Same arguments and result as `forward`."""
+    nodes, operands = _graph(definitions, outputs, wrt)
+    taken = {str(s) for s, _ in definitions} | {x.name for x in wrt}
+    new: list = []
+
+    def name(expr, label: str):
+        if expr.is_Atom or (expr.is_Mul and len(expr.args) == 2 and expr.args[0] == -1 and expr.args[1].is_Atom):
+            return expr
+        unique, k = label, 1
+        while unique in taken:
+            unique, k = f"{label}_{k}", k + 1
+        taken.add(unique)
+        sym = sp.Symbol(unique, real=True)
+        new.append((sym, expr))
+        return sym
+
+    # sens[v][o]: ∂(output o)/∂v over the vertices eliminated so far
+    sens: dict = {}
+    for i, o in enumerate(outputs):
+        o = sp.sympify(o)
+        for u in operands[("out", i)]:
+            sens.setdefault(u, {})[i] = _partial(o, u)
+    for s, e in reversed(nodes):
+        out = {i: name(w, f"{stem}o{i + 1}_{s.name}") for i, w in sorted(sens.pop(s, {}).items()) if w != 0}
+        for u in operands[s] if out else ():
+            pe = _partial(e, u)
+            if pe == 0:
+                continue
+            pe = name(pe, f"{stem}{s.name}_{u.name}")
+            acc = sens.setdefault(u, {})
+            for i, w in out.items():
+                acc[i] = acc.get(i, sp.S.Zero) + pe * w
+    rows = [[sp.S.Zero] * len(wrt) for _ in outputs]
+    for k, x in enumerate(wrt):
+        for i, w in sens.get(x, {}).items():
+            rows[i][k] = w
+    return new, rows
+
+
+def jacobian(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "D") -> tuple[list, list]:
+    """The Jacobian of a straight-line program by `forward` or `reverse`, whichever
+    vertex elimination order takes fewer products on its graph (forward on ties)."""
+    nodes, operands = _graph(definitions, outputs, wrt)
+    order = [s for s, _ in nodes]
+    if _elimination_products(operands, order[::-1]) < _elimination_products(operands, order):
+        return reverse(definitions, outputs, wrt, stem="d" + stem)
+    return forward(definitions, outputs, wrt, stem=stem)
+
+
 def _params(spec) -> list:
     """The parameter input of a symbolic model's spec or program ([] for a numeric one)."""
     return [a for a in spec.inputs if a[0] == "p"][:1]
@@ -108,10 +202,10 @@ def _doc(name: str, n: int, params: list) -> str:
 
 
 def _jacobians(tau: FunctionSpec) -> tuple[list, sp.ImmutableMatrix, sp.ImmutableMatrix]:
-    """(derivative definitions, ∂τ/∂q, ∂τ/∂q̇) of a τ spec, n × n each."""
+    """(derivative definitions, ∂τ/∂q, ∂τ/∂q̇) of a τ spec, n × n each, by `jacobian`."""
     q, qd = tau.inputs[0][1], tau.inputs[1][1]
     n = len(q)
-    defs, rows = forward(tau.definitions, list(tau.outputs[0][1]), list(q) + list(qd))
+    defs, rows = jacobian(tau.definitions, list(tau.outputs[0][1]), list(q) + list(qd))
     dq = sp.ImmutableMatrix(n, n, lambda i, k: rows[i][k])
     dqd = sp.ImmutableMatrix(n, n, lambda i, k: rows[i][n + k])
     return defs, dq, dqd
@@ -134,7 +228,7 @@ def christoffel_spec(cqd: FunctionSpec) -> FunctionSpec:
     operations, not 8939)."""
     qd = cqd.inputs[1][1]
     out = list(cqd.outputs[0][1])
-    defs, rows = forward(cqd.definitions, out, list(qd), stem="DC")
+    defs, rows = jacobian(cqd.definitions, out, list(qd), stem="DC")
     C = sp.ImmutableMatrix(len(out), len(qd), lambda i, j: rows[i][j] / 2)
     return FunctionSpec("C", cqd.inputs, (("C", C),), tuple(cqd.definitions) + tuple(defs),
                         f"Christoffel Coriolis/centripetal matrix C(q, qd), ({len(qd)}, {len(qd)}) row-major, "
