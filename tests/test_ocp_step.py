@@ -29,12 +29,15 @@ def _agree(got, expected, what):
 
 
 @pytest.mark.parametrize("name", list(ARMS))
-@pytest.mark.parametrize("substeps", [1, 3])
-def test_explicit_derivatives_equal_casadis_ad_through_the_stages(name, substeps):
+@pytest.mark.parametrize("substeps, generated", [(1, False), (3, False), (1, True)])
+def test_explicit_derivatives_equal_casadis_ad_through_the_stages(name, substeps, generated):
+    """generated: fdyn's Jacobian per call from symdyn's fdyn_derivatives (what
+    `ocp.dynamics(robot, "symdyn")` uses), else CasADi's AD of fdyn."""
     robot = ARMS[name]()
     fdyn = ocp.dynamics(robot, "symdyn", compiled=False).fdyn
     n = robot.n
-    mine = ocp_step.step_functions(fdyn, n, substeps)
+    derivatives = symdyn.load(robot, "casadi").functions["fdyn_derivatives"] if generated else None
+    mine = ocp_step.step_functions(fdyn, n, substeps, derivatives)
     ref = ocp._rk4_step(fdyn, n, substeps)
     ref_fns = (ref, ref.jacobian(), ref.reverse(1), ref.reverse(1).jacobian())
     rng = np.random.default_rng(substeps)

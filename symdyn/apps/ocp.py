@@ -51,13 +51,16 @@ class ArmFunctions:
     source: str = "custom"
     compiled: bool = False
     fdyn_sx: ca.Function | None = None   # the SX fdyn compiled ones come from: the shooting step's
+    #: (q, q̇, τ) → (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹) on SX when the source generates it (symdyn's
+    #: `fdyn_derivatives`); else the shooting step takes CasADi's AD of fdyn_sx.
+    fdyn_derivatives_sx: ca.Function | None = None
 
     def shooting_step(self, substeps: int) -> ca.Function:
         """(q, q̇, τ, h) → (q⁺, q̇⁺), `substeps` RK4 steps: compiled with explicit Jacobian and
         Hessian (`ocp_step.rk4_step`, built once into the cache) when these dynamics are
         compiled from SX, else CasADi's AD through the RK4 stages."""
         if self.compiled and self.fdyn_sx is not None:
-            return _compiled_step(self.fdyn_sx, self.n, substeps)
+            return _compiled_step(self.fdyn_sx, self.n, substeps, self.fdyn_derivatives_sx)
         return _rk4_step(self.need("multiple-shooting"), self.n, substeps)
 
     @property
@@ -104,25 +107,26 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     """
     from ..codegen.emit.casadi import compiled as compile_function
 
+    derivatives = None
     if source == "plain":
         tau, fdyn = casadi_rnea.rnea_function(robot), casadi_rnea.fdyn_function(robot)
     elif source == "symdyn":
         from ..codegen import entry as codegen
 
         f = codegen.load(robot, "casadi")
-        tau, fdyn = f.functions["tau"], f.functions["fdyn"]
+        tau, fdyn, derivatives = (f.functions[k] for k in ("tau", "fdyn", "fdyn_derivatives"))
     else:
         raise ValueError(f"unknown dynamics source {source!r}: expected one of {SOURCES}")
     if compiled:
-        return ArmFunctions(compile_function(tau), compile_function(fdyn), source, True, fdyn)
+        return ArmFunctions(compile_function(tau), compile_function(fdyn), source, True, fdyn, derivatives)
     return ArmFunctions(tau, fdyn, source, False)
 
 
 @functools.lru_cache(maxsize=16)
-def _compiled_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
+def _compiled_step(fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None) -> ca.Function:
     from .ocp_step import rk4_step
 
-    return rk4_step(fdyn, n, substeps)
+    return rk4_step(fdyn, n, substeps, derivatives)
 
 
 # --------------------------------------------------------------------------- the problem

@@ -26,12 +26,15 @@ _A = (0.0, 0.5, 0.5, 1.0)
 _W = (1.0, 2.0, 2.0, 1.0)
 
 
-def _call_kernels(fdyn: ca.Function, n: int, m: int) -> tuple[ca.Function, ca.Function]:
+def _call_kernels(fdyn: ca.Function, n: int, m: int, derivatives: ca.Function | None = None
+                  ) -> tuple[ca.Function, ca.Function]:
     """What one fdyn call adds to the sweeps, as SX functions (straight-line code once
     compiled: the products with the m-column derivative blocks are unrolled, not the
     sparse loops of MX's matrix product, which cost more than fdyn's own derivatives).
 
-    forward (q, q̇, τ, Dy) → (q̈, A = ∂q̈/∂(q, q̇, τ), Dq̈ = A·[Dy; E_τ]);
+    forward (q, q̇, τ, Dy) → (q̈, A = ∂q̈/∂(q, q̇, τ), Dq̈ = A·[Dy; E_τ]), A from
+    `derivatives` (q, q̇, τ) → (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹) when given (symdyn's generated
+    fdyn_derivatives: about half the operations of CasADi's AD of fdyn), else by AD;
     reverse (q, q̇, τ, μ, A, Dy, Dμ) → (Aₓᵀμ, AₓᵀDμ + (H·W)ₓ, A_τᵀDμ + (H·W)_τ), with
     H = ∂²(μᵀq̈)/∂(q, q̇, τ)² (CasADi's SX AD of the one call), W = [Dy; E_τ], and
     Aₓ, A_τ the (q, q̇) and τ columns of A.  Dy: 2n × m, E_τ picks τ out of z.
@@ -41,8 +44,12 @@ def _call_kernels(fdyn: ca.Function, n: int, m: int) -> tuple[ca.Function, ca.Fu
     z = ca.vertcat(q, qd, tau)
     qdd = fdyn(q, qd, tau)
     W = ca.vertcat(Dy, ca.horzcat(ca.SX(n, 2 * n), ca.SX.eye(n), ca.SX(n, m - 3 * n)))
-    dqdd = ca.jacobian(qdd, z)
-    forward = ca.Function("fdyn_forward", [q, qd, tau, Dy], [qdd, dqdd, ca.mtimes(dqdd, W)])
+    if derivatives is None:
+        qdd_f, dqdd = qdd, ca.jacobian(qdd, z)
+    else:
+        qdd_f, *blocks = derivatives(q, qd, tau)
+        dqdd = ca.horzcat(*blocks)
+    forward = ca.Function("fdyn_forward", [q, qd, tau, Dy], [qdd_f, dqdd, ca.mtimes(dqdd, W)])
     HW = ca.mtimes(ca.hessian(ca.dot(mu, qdd), z)[0], W)
     Ax, At = A[:, :2 * n], A[:, 2 * n:]
     reverse = ca.Function("fdyn_reverse", [q, qd, tau, mu, A, Dy, Dmu],
@@ -51,12 +58,14 @@ def _call_kernels(fdyn: ca.Function, n: int, m: int) -> tuple[ca.Function, ca.Fu
     return forward, reverse
 
 
-def step_functions(fdyn: ca.Function, n: int, substeps: int) -> list[ca.Function]:
+def step_functions(fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None = None
+                   ) -> list[ca.Function]:
     """The step and, under the names `casadi.external` looks up, its Jacobian
     (`jac_rk4`), reverse mode (`adj1_rk4`) and the Jacobian of that (`jac_adj1_rk4`),
-    as MX functions calling fdyn's SX derivatives."""
+    as MX functions calling fdyn's SX derivatives (fdyn's Jacobian from `derivatives`,
+    (q, q̇, τ) → (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹), when given)."""
     m = 3 * n + 1                                   # z = (q, q̇, τ, h)
-    forward, reverse = _call_kernels(fdyn, n, m)
+    forward, reverse = _call_kernels(fdyn, n, m, derivatives)
     i0, i1, i2, i3 = ca.MX.sym("i0", n), ca.MX.sym("i1", n), ca.MX.sym("i2", n), ca.MX.sym("i3")
     tau, h = i2, i3
     dt = h / substeps
@@ -138,10 +147,10 @@ def _hessian(tape, lam, tau, reverse, n: int, m: int, dt, substeps: int, e_h):
     return ca.vertcat(Dxb, Dtaub, Dhb)
 
 
-def rk4_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
+def rk4_step(fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None = None) -> ca.Function:
     """The interval (q, q̇, τ, h) → (q⁺, q̇⁺) as a `casadi.external` on compiled code with
     its explicit derivatives (`step_functions`), built once into the cache."""
     from ..codegen.emit.casadi import compiled
 
-    step, *derivatives = step_functions(fdyn, n, substeps)
-    return compiled(step, derivatives=derivatives, flags=FLAGS)
+    step, *functions = step_functions(fdyn, n, substeps, derivatives)
+    return compiled(step, derivatives=functions, flags=FLAGS)
