@@ -6,11 +6,12 @@ eliminating the intermediate vertices in the order that costs fewer products:
 first to last (forward mode, each nonzero ∂s/∂x_k a named definition) or last to
 first (reverse accumulation, each ∂out/∂s a named definition) — a straight-line
 program again, which `make_program` CSEs like any other.  ∂τ/∂(q, q̇), 2n inputs
-and n outputs, goes in reverse (the Panda: 4695 operations with τ, not 6357);
-the Christoffel C, n inputs, forward.  Coulomb friction's sign(q̇) is held constant: its derivative is
-taken as zero everywhere, also at q̇ = 0 where it does not exist.  Forward
-dynamics: ∂q̈/∂x = −M⁻¹ ∂τ/∂x at (q, q̇, q̈), spliced from the finished
-programs of fdyn, tau_derivatives and M⁻¹ = L⁻ᵀD⁻¹L⁻¹.  Matrices have row i = output i (Pinocchio's layout).
+and n outputs, goes in reverse (the Panda: 4694 operations with τ, not 6357);
+the Christoffel C, n inputs, forward.  Coulomb friction's sign(q̇) is held
+constant: its derivative is taken as zero everywhere, also at q̇ = 0 where it
+does not exist.  Forward dynamics: ∂q̈/∂x = −M⁻¹ ∂τ/∂x at (q, q̇, q̈), spliced
+from the finished programs of fdyn, tau_derivatives and M⁻¹ = L⁻ᵀD⁻¹L⁻¹.
+Matrices have row i = output i (Pinocchio's layout).
 """
 
 from __future__ import annotations
