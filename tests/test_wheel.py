@@ -3,6 +3,7 @@ README's examples run from another directory, the shipped models' code comes
 from the cache, and nothing is ever written beside the installed package."""
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +18,13 @@ def installed(tmp_path_factory):
     """symdyn built as a wheel and installed (without dependencies: those of this
     environment serve) into a folder of its own; returns (site, environment)."""
     tmp = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(tmp / "dist"), str(ROOT)],
+    # Built from a copy of what the wheel is made of: setuptools builds in the source tree
+    # (build/, *.egg-info), and two xdist workers building from the checkout at once collide.
+    src = tmp / "src"
+    shutil.copytree(ROOT / "symdyn", src / "symdyn", ignore=shutil.ignore_patterns("__pycache__"))
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(ROOT / name, src / name)
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(tmp / "dist"), str(src)],
                    check=True, capture_output=True, timeout=600)
     wheel = next((tmp / "dist").glob("symdyn-*.whl"))
     site = tmp / "site"
