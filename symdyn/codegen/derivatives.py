@@ -140,12 +140,14 @@ def _elimination_products(operands: dict, order: Sequence) -> int:
     return total
 
 
-def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "d") -> tuple[list, list]:
+def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "d", graph=None
+            ) -> tuple[list, list]:
     """Reverse accumulation of a straight-line program's Jacobian: the intermediate
     vertices of its graph of local partials eliminated last to first, so each output's
     sensitivity to a definition s is summed once, named {stem}o{i}_{s}, and reused
-    by every input s depends on.  Same arguments and result as `forward`."""
-    nodes, operands = _graph(definitions, outputs, wrt)
+    by every input s depends on.  Same arguments and result as `forward`; `graph`:
+    the program's `_graph`, when the caller has it already."""
+    nodes, operands = graph or _graph(definitions, outputs, wrt)
     taken = {str(s) for s, _ in definitions} | {x.name for x in wrt}
     new: list = []
 
@@ -186,10 +188,10 @@ def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str =
 def jacobian(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "D") -> tuple[list, list]:
     """The Jacobian of a straight-line program by `forward` or `reverse`, whichever
     vertex elimination order takes fewer products on its graph (forward on ties)."""
-    nodes, operands = _graph(definitions, outputs, wrt)
-    order = [s for s, _ in nodes]
-    if _elimination_products(operands, order[::-1]) < _elimination_products(operands, order):
-        return reverse(definitions, outputs, wrt, stem="d" + stem)
+    graph = _graph(definitions, outputs, wrt)
+    order = [s for s, _ in graph[0]]
+    if _elimination_products(graph[1], order[::-1]) < _elimination_products(graph[1], order):
+        return reverse(definitions, outputs, wrt, stem="d" + stem, graph=graph)
     return forward(definitions, outputs, wrt, stem=stem)
 
 
