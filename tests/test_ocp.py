@@ -32,6 +32,66 @@ def test_motor_torque_limits_are_motor_limits_times_gear_ratio(puma):
         ocp.motor_torque_limits(puma, [1, 2])
 
 
+def test_urdf_effort_and_velocity_limits_are_the_default_limits():
+    panda = models.load("panda")
+    lim = ocp.Limits.for_robot(panda)
+    assert lim.tau.tolist() == [87, 87, 87, 87, 12, 12, 12]            # <limit effort> of panda.urdf
+    assert lim.qd.tolist() == [2.175] * 4 + [2.61] * 3                  # <limit velocity>
+    assert np.array_equal(lim.q, panda.qlim)
+    assert ocp.Limits.for_robot(panda.nofriction()).tau.tolist() == lim.tau.tolist()
+    # explicit limits still win, each on its own
+    mine = ocp.Limits.for_robot(panda, tau=np.full(7, 5.0))
+    assert mine.tau.tolist() == [5.0] * 7 and mine.qd.tolist() == lim.qd.tolist()
+    assert ocp.Limits.for_robot(panda, qd=np.ones(7)).qd.tolist() == [1.0] * 7
+    motor = ocp.Limits.for_robot(panda, motor_tau=np.full(7, 2.0))
+    assert np.allclose(motor.tau, 2.0 * np.abs([float(link.G) for link in panda.links]))
+
+
+def test_a_dh_model_without_effort_or_velocity_limits_keeps_them_unbounded(puma):
+    lim = ocp.Limits.for_robot(puma)
+    assert lim.tau is None and lim.qd is None and np.array_equal(lim.q, puma.qlim)
+    assert S.puma_limits(S.puma()).tau == pytest.approx(
+        np.array(S.PUMA_MOTOR_TAU) * np.abs([float(link.G) for link in puma.links]), rel=1e-12)
+
+
+def test_joints_without_a_urdf_limit_are_unbounded_where_others_have_one(arm2):
+    import dataclasses
+
+    links = (dataclasses.replace(arm2.links[0], effort_limit=30.0), arm2.links[1])
+    lim = ocp.Limits.for_robot(dataclasses.replace(arm2, links=links))
+    assert lim.tau.tolist() == [30.0, np.inf] and lim.qd is None
+
+
+@pytest.mark.parametrize("method", ocp.METHODS)
+def test_an_infinite_limit_leaves_that_joint_unbounded(arm2, method):
+    bounded = ocp.Limits(tau=np.array([30.0, 10.0]), qd=np.array([3.0, 3.0]))
+    open_tau = ocp.Limits(tau=np.array([30.0, np.inf]), qd=np.array([3.0, 3.0]))
+    arm = ocp.dynamics(arm2, "plain", compiled=False)
+    T = {}
+    for name, lim in (("bounded", bounded), ("open", open_tau)):
+        problem = ocp.Problem(HANG, np.array([0.0, 0.5]), N=20, method=method, limits=lim,
+                              cost=ocp.Cost(time=1.0, smoothness=1e-6))
+        sol = ocp.solve(problem, arm)
+        tol = dict(tol_q=0.1, tol_qd=0.2) if method == "trapezoidal" else {}
+        check = ocp.verify(arm2, problem, sol, **tol)
+        assert check.ok, (name, check.describe())           # the dynamics still hold on the free joint
+        T[name] = sol.T
+    assert np.abs(sol.tau[:, 1]).max() > 10.0                # the elbow uses more than the old limit
+    assert T["open"] < T["bounded"]
+
+
+def test_minimum_time_without_torque_or_speed_limits_is_refused(arm2):
+    q0, qf = HANG, np.array([0.0, 0.5])
+    min_time = ocp.Cost(time=1.0)
+    for lim in (ocp.Limits(), ocp.Limits.for_robot(arm2), ocp.Limits(q=arm2.qlim),
+                ocp.Limits(tau=np.full(2, np.inf), qd=np.full(2, np.inf))):
+        with pytest.raises(ValueError, match=r"minimum-time problem has no torque or speed limit.*"
+                                             r"Limits\(tau=.*Limits\.for_robot\(robot, tau=.*effort"):
+            ocp.Problem(q0, qf, T=None, cost=min_time, limits=lim)
+    ocp.Problem(q0, qf, T=None, cost=min_time, limits=ocp.Limits(qd=np.array([3.0, np.inf])))
+    ocp.Problem(q0, qf, T=1.0, cost=ocp.Cost(effort=1.0))   # a fixed time needs no limit
+
+
 def test_bad_problems_are_refused_by_name():
     q = np.zeros(2)
     with pytest.raises(ValueError, match="unknown transcription 'euler'"):

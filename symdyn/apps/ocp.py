@@ -142,7 +142,8 @@ def motor_torque_limits(robot: Robot, motor_tau_max) -> np.ndarray:
 @dataclass(frozen=True)
 class Limits:
     """Box limits at every grid point: q (n, 2) [lower, upper] rad or m; |q̇| ≤ qd (n,);
-    |τ| ≤ tau (n,) N·m.  None leaves a quantity unbounded."""
+    |τ| ≤ tau (n,) N·m (N for a prismatic joint).  None leaves a quantity unbounded;
+    an infinite entry leaves that joint's quantity unbounded (no constraint is posed)."""
 
     q: np.ndarray | None = None
     qd: np.ndarray | None = None
@@ -150,14 +151,39 @@ class Limits:
 
     @classmethod
     def for_robot(cls, robot: Robot, *, qd=None, tau=None, motor_tau=None) -> "Limits":
-        """The robot's joint limits, with velocity limits qd and torque limits either
-        explicit (tau) or from the motors (motor_tau·|G|)."""
+        """The robot's limits: its joint limits (`robot.qlim`); speed limits qd (n,) as
+        given, else the links' `velocity_limit`; torque limits tau (n,) as given, or from
+        the motors (motor_tau·|G|), else the links' `effort_limit` — for a URDF arm the
+        file's `<limit velocity=… effort=…>`.  Where only some links have a limit, the
+        others get inf (that joint unbounded); where none has one (the DH models), None."""
         if tau is not None and motor_tau is not None:
             raise ValueError("give torque limits either as tau (joint side) or motor_tau, not both")
         if motor_tau is not None:
             tau = motor_torque_limits(robot, motor_tau)
-        return cls(q=robot.qlim, qd=None if qd is None else np.asarray(qd, dtype=float),
-                   tau=None if tau is None else np.asarray(tau, dtype=float))
+        qd = _link_limits(robot, "velocity_limit") if qd is None else np.asarray(qd, dtype=float)
+        tau = _link_limits(robot, "effort_limit") if tau is None else np.asarray(tau, dtype=float)
+        return cls(q=robot.qlim, qd=qd, tau=tau)
+
+    def bounds_any(self) -> bool:
+        """Whether a finite torque or speed limit bounds at least one joint (what keeps a
+        minimum-time problem from collapsing to T → 0)."""
+        return any(v is not None and bool(np.isfinite(v).any()) for v in (self.tau, self.qd))
+
+
+def _link_limits(robot: Robot, name: str) -> np.ndarray | None:
+    """The links' `name` limits (n,), inf where a link has none; None where no link has one."""
+    values = [getattr(link, name) for link in robot.links]
+    if all(v is None for v in values):
+        return None
+    return np.array([np.inf if v is None else float(v) for v in values])
+
+
+def _finite_or_one(limit: np.ndarray | None, n: int) -> np.ndarray:
+    """A scale per joint (n,): its limit where finite, else 1."""
+    if limit is None:
+        return np.ones(n)
+    limit = np.asarray(limit, dtype=float)
+    return np.where(np.isfinite(limit), limit, 1.0)
 
 
 @dataclass(frozen=True)
@@ -218,6 +244,13 @@ class Problem:
             v = getattr(lim, name)
             if v is not None and (np.shape(v) != (n,) or np.any(np.asarray(v) <= 0)):
                 raise ValueError(f"{name} limits must be {n} positive numbers, got {v!r}")
+        if self.T is None and not lim.bounds_any():
+            raise ValueError(
+                "this minimum-time problem has no torque or speed limit on any joint (limits.tau and "
+                "limits.qd are None or infinite), so nothing bounds how fast the arm moves and T would "
+                f"collapse to T_bounds[0] = {lo:g} s; give limits: Limits(tau=..., qd=...), "
+                "Limits.for_robot(robot, tau=..., qd=...) or motor_tau=..., or read a URDF whose joints "
+                "have <limit effort=... velocity=...> (Robot.from_urdf; Limits.for_robot takes them)")
 
     @property
     def n(self) -> int:
@@ -325,20 +358,30 @@ def _guess(problem: Problem, arm: ArmFunctions, T: float):
     return q, qd, qdd, tau
 
 
+def _bound(opti: ca.Opti, lo, X, hi) -> None:
+    """lo ≤ X ≤ hi in every column of X (n, K), lo and hi (n,); a row with no finite
+    bound gets no constraint (an infinite limit: that joint unbounded)."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    rows = np.flatnonzero(np.isfinite(lo) | np.isfinite(hi))
+    if rows.size == 0:
+        return
+    if rows.size < X.shape[0]:
+        lo, hi, X = lo[rows], hi[rows], X[rows.tolist(), :]
+    cols = X.shape[1]
+    opti.subject_to(opti.bounded(np.repeat(lo[:, None], cols, 1), X, np.repeat(hi[:, None], cols, 1)))
+
+
 def _bound_states(opti: ca.Opti, limits: Limits, Q, QD) -> None:
-    cols = Q.shape[1]
     if limits.q is not None:
-        lo, hi = (np.repeat(np.asarray(limits.q, dtype=float)[:, i:i + 1], cols, 1) for i in (0, 1))
-        opti.subject_to(opti.bounded(lo, Q, hi))
+        q = np.asarray(limits.q, dtype=float)
+        _bound(opti, q[:, 0], Q, q[:, 1])
     if limits.qd is not None:
-        v = np.repeat(limits.qd[:, None], cols, 1)
-        opti.subject_to(opti.bounded(-v, QD, v))
+        _bound(opti, -limits.qd, QD, limits.qd)
 
 
 def _bound_torque(opti: ca.Opti, limits: Limits, U) -> None:
     if limits.tau is not None:
-        v = np.repeat(limits.tau[:, None], U.shape[1], 1)
-        opti.subject_to(opti.bounded(-v, U, v))
+        _bound(opti, -limits.tau, U, limits.tau)
 
 
 def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
@@ -397,7 +440,7 @@ def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: di
     opti.set_initial(U, gtau[::2].T)
     _bound_torque(opti, lim, U)
     ID = arm.need(problem.method)
-    scale = ca.DM(np.ones(n) if lim.tau is None else lim.tau)
+    scale = ca.DM(_finite_or_one(lim.tau, n))
     opti.subject_to((ID.map(N + 1)(Q, QD, QDD) - U) / ca.repmat(scale, 1, N + 1) == 0)
     a, b = slice(0, N), slice(1, N + 1)
     handles.update(QDD=QDD, U=U)
@@ -588,7 +631,8 @@ class Tracker:
     (s), τ held over each interval, one semi-implicit Euler step of fdyn per interval
     (integrator="euler", the default: one fdyn evaluation) or one RK4 step ("rk4"); cost
     Σₖ (q−q_ref)ᵀW_q(q−q_ref) + (q̇−q̇_ref)ᵀW_qd(q̇−q̇_ref) + r‖τ/τ_max‖² over the
-    horizon; |τ| ≤ limits.tau and |q̇| ≤ limits.qd (and the joint limits) as bounds
+    horizon (τ_max = 1 N·m for a joint whose limit is inf);
+    |τ| ≤ limits.tau and |q̇| ≤ limits.qd (and the joint limits) as bounds
     on the decision variables, the first state fixed to the measurement by its bounds.
     """
 
@@ -611,7 +655,8 @@ class Tracker:
             raise ValueError(f"unknown integrator {integrator!r}: expected 'euler' or 'rk4'")
         e = X - R
         W = ca.DM(np.r_[np.full(n, w_q), np.full(n, w_qd)])
-        J = ca.sum2(ca.sum1(W * e[:, 1:] ** 2)) + r * ca.sumsqr(U / ca.repmat(ca.DM(limits.tau), 1, N))
+        scale = ca.repmat(ca.DM(_finite_or_one(limits.tau, n)), 1, N)   # an unbounded joint: plain τ
+        J = ca.sum2(ca.sum1(W * e[:, 1:] ** 2)) + r * ca.sumsqr(U / scale)
         g = ca.vertcat(ca.vec(X[:n, 1:] - qn), ca.vec(X[n:, 1:] - qdn))
         self._solver = ca.nlpsol("mpc", "ipopt", {"x": ca.vertcat(ca.vec(X), ca.vec(U)), "p": ca.vec(R),
                                                   "f": J, "g": g},
@@ -720,7 +765,7 @@ class RTITracker:
         lin = ca.Function("lin", [x, u], [xn, ca.jacobian(xn, x), ca.jacobian(xn, u)])
         self._lin = lin.map(N)                      # (nx, N), (nx, N) → F, [A₀ … ], [B₀ … ]
         self._W = np.tile(np.r_[np.full(n, w_q), np.full(n, w_qd)], N)            # (N·nx,)
-        self._R = np.tile(r / np.asarray(limits.tau, float) ** 2, N)              # (N·n,)
+        self._R = np.tile(r / _finite_or_one(limits.tau, n) ** 2, N)              # (N·n,)
         qlo, qhi = (np.full(n, -np.inf), np.full(n, np.inf)) if limits.q is None else np.asarray(limits.q, float).T
         xlo, xhi = np.tile(np.r_[qlo, -limits.qd], N), np.tile(np.r_[qhi, limits.qd], N)
         self._rows = np.flatnonzero(np.isfinite(xlo) | np.isfinite(xhi))           # bounded state rows

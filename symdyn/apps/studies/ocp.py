@@ -71,12 +71,14 @@ def min_effort_problem(robot: Robot, *, N: int = 40, method: str = "hermite-simp
                        cost=ocp.Cost(effort=1.0, weights=tuple(limits.tau ** -2.0)))
 
 
-def swing_up_problem(*, N: int = 50, method: str = "multiple-shooting") -> ocp.Problem:
-    """The two-link arm from hanging to upright in TWOLINK_T, minimum effort, torque
-    and speed limited (multiple shooting: its piecewise-constant torque re-simulates
-    faithfully on this fast, unstable motion)."""
+def swing_up_problem(robot: Robot | None = None, *, N: int = 50, method: str = "multiple-shooting") -> ocp.Problem:
+    """The two-link arm (`robot`, the shipped one by default) from hanging to upright in
+    TWOLINK_T, minimum effort, torque and speed limited, within its joint limits (multiple
+    shooting: its piecewise-constant torque re-simulates faithfully on this fast,
+    unstable motion)."""
+    robot = shipped.load("twolink") if robot is None else robot
     return ocp.Problem(np.array(TWOLINK_HANG), np.array(TWOLINK_UP), T=TWOLINK_T, N=N, method=method,
-                       limits=ocp.Limits(tau=np.array(TWOLINK_TAU), qd=np.array(TWOLINK_QD_MAX)),
+                       limits=ocp.Limits.for_robot(robot, tau=TWOLINK_TAU, qd=TWOLINK_QD_MAX),
                        cost=ocp.Cost(effort=1.0, smoothness=TWOLINK_SMOOTHING))
 
 
@@ -237,7 +239,7 @@ def swing_up(out_dir: Path, quick: bool = False) -> str:
     src = SOURCE
     N = 30 if quick else 60
     G_hang, stable = hanging_check(robot)
-    problem = swing_up_problem(N=N)
+    problem = swing_up_problem(robot, N=N)
     sol, check = solve_checked(robot, problem, src)
     rq = check.q
     lines = [f"Two-link arm swing-up, q = {[round(x, 4) for x in TWOLINK_HANG]} → "
