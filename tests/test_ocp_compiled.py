@@ -3,12 +3,16 @@ and their derivatives equal the SX ones, OCP optima on the compiled path equal t
 the SX path to the solver tolerance, and the NMPC tracker holds its limits.  Two-link
 arm: compiles in about a second."""
 
+import re
+import time
+
 import casadi as ca
 import numpy as np
 import pytest
 
 import symdyn
 from symdyn.apps import ocp
+from symdyn.derivation import progress
 from symdyn.apps.studies import mpc
 from symdyn.codegen.emit.casadi import compiled
 
@@ -75,6 +79,33 @@ def test_the_library_is_cached_by_source_and_rebuilt_when_damaged(arm2, tmp_path
     assert lib.stat().st_size > 1000
     assert np.allclose(np.array(g([0.1, 0.2], [0.3, 0.4], [0.5, 0.6])),
                        np.array(f([0.1, 0.2], [0.3, 0.4], [0.5, 0.6])), rtol=1e-13)
+
+
+def test_a_long_step_reports_what_it_builds_and_how_long_a_quick_one_says_nothing(capsys):
+    with progress.reported("building X", after=0.05):
+        time.sleep(0.3)
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].strip() == "building X ..."
+    assert re.fullmatch(r"building X: done in 0\.[3-9] s", err[-1].strip()), err
+    with progress.reported("building Y"):          # the default threshold, REPORT_AFTER_S = 2 s
+        pass
+    assert capsys.readouterr().err == ""
+
+
+def test_the_compiled_build_shows_progress_and_a_cached_one_is_silent(arm2, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)   # the two-link arm builds in about a second
+    arm = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)   # not the in-process lru_cache
+    ocp._compiled_step.__wrapped__(arm.fdyn_sx, 2, 1, arm.fdyn_derivatives_sx, arm.name)
+    err = capsys.readouterr().err
+    for what in ("compiling tau (symdyn) with its Jacobian and Hessian", "compiling fdyn (symdyn)",
+                 "compiling the multiple-shooting interval (1 RK4 step,"):
+        assert f"ocp {arm2.name}: {what}" in err, err
+    assert len(re.findall(r": done in \d+\.\d s", err)) >= 3, err
+    monkeypatch.setattr(progress, "REPORT_AFTER_S", 2.0)   # as shipped: a read from the cache is far quicker
+    again = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)
+    ocp._compiled_step.__wrapped__(again.fdyn_sx, 2, 1, again.fdyn_derivatives_sx, again.name)
+    assert capsys.readouterr().err == ""
 
 
 def test_load_compiled_gives_externals_that_follow_the_contract(arm2):

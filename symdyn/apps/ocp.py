@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..derivation.progress import reported
 from ..model import Robot
 from ..numeric import casadi_rnea, reference
 
@@ -54,13 +55,14 @@ class ArmFunctions:
     #: (q, q̇, τ) → (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹) on SX when the source generates it (symdyn's
     #: `fdyn_derivatives`); else the shooting step takes CasADi's AD of fdyn_sx.
     fdyn_derivatives_sx: ca.Function | None = None
+    name: str = ""   # the arm's, for progress lines
 
     def shooting_step(self, substeps: int) -> ca.Function:
         """(q, q̇, τ, h) → (q⁺, q̇⁺), `substeps` RK4 steps: compiled with explicit Jacobian and
         Hessian (`ocp_step.rk4_step`, built once into the cache) when these dynamics are
         compiled from SX, else CasADi's AD through the RK4 stages."""
         if self.compiled and self.fdyn_sx is not None:
-            return _compiled_step(self.fdyn_sx, self.n, substeps, self.fdyn_derivatives_sx)
+            return _compiled_step(self.fdyn_sx, self.n, substeps, self.fdyn_derivatives_sx, self.name)
         return _rk4_step(self.need("multiple-shooting"), self.n, substeps)
 
     @property
@@ -103,7 +105,9 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     the cache, ~15 s for the Puma's fdyn), and multiple shooting's whole interval
     is compiled with explicit derivatives (`ArmFunctions.shooting_step`);
     compiled=False: CasADi's SX virtual machine and its AD at every evaluation
-    (no compiler needed).
+    (no compiler needed).  A step that takes over `progress.REPORT_AFTER_S` (a
+    first build; not a read from the cache) says what it builds on stderr, and
+    how long it took (`symdyn.derivation.progress.reported`).
     """
     from ..codegen.emit.casadi import compiled as compile_function
 
@@ -113,20 +117,29 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     elif source == "symdyn":
         from ..codegen import entry as codegen
 
-        f = codegen.load(robot, "casadi")
+        with reported(f"ocp {robot.name}: symdyn's CasADi functions (derived and generated once, into the cache)"):
+            f = codegen.load(robot, "casadi")
         tau, fdyn, derivatives = (f.functions[k] for k in ("tau", "fdyn", "fdyn_derivatives"))
     else:
         raise ValueError(f"unknown dynamics source {source!r}: expected one of {SOURCES}")
     if compiled:
-        return ArmFunctions(compile_function(tau), compile_function(fdyn), source, True, fdyn, derivatives)
-    return ArmFunctions(tau, fdyn, source, False)
+        built = []
+        for name, f in (("tau", tau), ("fdyn", fdyn)):
+            with reported(f"ocp {robot.name}: compiling {name} ({source}) with its Jacobian and Hessian "
+                          "(once, into the cache)"):
+                built.append(compile_function(f))
+        return ArmFunctions(*built, source, True, fdyn, derivatives, robot.name)
+    return ArmFunctions(tau, fdyn, source, False, name=robot.name)
 
 
 @functools.lru_cache(maxsize=16)
-def _compiled_step(fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None) -> ca.Function:
+def _compiled_step(fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None,
+                   name: str = "") -> ca.Function:
     from .ocp_step import rk4_step
 
-    return rk4_step(fdyn, n, substeps, derivatives)
+    with reported(f"ocp {name or f'{n}-joint arm'}: compiling the multiple-shooting interval "
+                  f"({substeps} RK4 step{'s' * (substeps != 1)}, explicit derivatives; once, into the cache)"):
+        return rk4_step(fdyn, n, substeps, derivatives)
 
 
 # --------------------------------------------------------------------------- the problem

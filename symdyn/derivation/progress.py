@@ -1,9 +1,16 @@
-"""Progress lines on stderr for long derivations and simulations."""
+"""Progress lines on stderr for long derivations, simulations and builds."""
 
 from __future__ import annotations
 
+import contextlib
 import sys
+import threading
 import time
+from typing import Iterator
+
+#: A step wrapped in `reported` says something only once it has run this long (s):
+#: a result read back from the cache comes well within it and stays silent.
+REPORT_AFTER_S = 2.0
 
 
 class Progress:
@@ -37,3 +44,37 @@ class Progress:
 
 def silent(label: str = "", total: int = 0) -> Progress:
     return Progress(label, total, enabled=False)
+
+
+@contextlib.contextmanager
+def reported(what: str, after: float | None = None) -> Iterator[None]:
+    """Report one long, indivisible step (a C compile, a derivation) on stderr.
+
+    Silent for a step that ends within `after` s (default REPORT_AFTER_S, read at
+    the call); after that, the line "`what` ..." (on a terminal rewritten every
+    second with the elapsed time) and, at the end, "`what`: done in 12.3 s".
+    """
+    after = REPORT_AFTER_S if after is None else after
+    start = time.perf_counter()
+    finished, shown = threading.Event(), threading.Event()
+
+    def watch() -> None:
+        if finished.wait(after):
+            return
+        shown.set()
+        tty = sys.stderr.isatty()
+        print(f"{what} ...".ljust(60 if tty else 0), end="\r" if tty else "\n", file=sys.stderr, flush=True)
+        while tty and not finished.wait(1.0):
+            print(f"{what} ... {time.perf_counter() - start:.0f} s".ljust(60), end="\r", file=sys.stderr,
+                  flush=True)
+
+    watcher = threading.Thread(target=watch, name="symdyn-progress", daemon=True)
+    watcher.start()
+    try:
+        yield
+    finally:
+        finished.set()
+        watcher.join()
+        if shown.is_set():
+            line = f"{what}: done in {time.perf_counter() - start:.1f} s"
+            print(line.ljust(60 if sys.stderr.isatty() else 0), file=sys.stderr, flush=True)
