@@ -282,12 +282,26 @@ class _Splice:
                                     else prefix + sym.name)
         return [m.xreplace(rename) for _, m in program.outputs]
 
+    def live(self, outputs) -> tuple:
+        """The assignments the outputs (matrices) read, in order: a spliced program's
+        outputs left unused (tau_derivatives' τ) leave dead assignments behind, which
+        compilers warn about (-Wunused-variable) and every target would evaluate."""
+        needed = set().union(*(m.free_symbols for m in outputs))
+        kept = []
+        for sym, expr in reversed(self.assignments):
+            if sym in needed:
+                needed |= expr.free_symbols
+                kept.append((sym, expr))
+        return tuple(reversed(kept))
+
 
 def fdyn_derivatives_program(fdyn: Program, tau_derivatives: Program, minv: Program) -> Program:
     """(q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹)(q, q̇, τ) from the finished programs of fdyn,
     tau_derivatives and Minv: q̈ = fdyn(q, q̇, τ), then ∂q̈/∂x = −M⁻¹ ∂τ/∂x with ∂τ/∂x
     of tau_derivatives at (q, q̇, q̈) — spliced, not re-CSE'd: a 7-joint arm's
-    joint CSE of the whole took ~2.7 s for ~3 % fewer operations."""
+    joint CSE of the whole took ~2.7 s for ~3 % fewer operations.  τ, which
+    tau_derivatives computes beside its Jacobians, is not an output: its
+    assignments are dropped."""
     q, qd = fdyn.inputs[0][1], fdyn.inputs[1][1]   # then tau (and p, a symbolic model's parameters)
     inputs = {s.name for _, syms in fdyn.inputs for s in syms} | {a for a, _ in fdyn.inputs}
     splice = _Splice(inputs | {"qdd", "dqdd_dq", "dqdd_dqd", "Minv", "fdyn_derivatives"})
@@ -305,6 +319,6 @@ def fdyn_derivatives_program(fdyn: Program, tau_derivatives: Program, minv: Prog
     inv, dq, dqd = named("Minv", inv), named("dtau_dq", dq), named("dtau_dqd", dqd)
     outputs = (("qdd", sp.ImmutableMatrix(qdd)), ("dqdd_dq", -(inv * dq)), ("dqdd_dqd", -(inv * dqd)),
                ("Minv", inv))
-    return Program("fdyn_derivatives", fdyn.inputs, tuple(splice.assignments), outputs,
+    return Program("fdyn_derivatives", fdyn.inputs, splice.live([m for _, m in outputs]), outputs,
                    _doc("fdyn_derivatives", n, _params(fdyn)), fdyn.origin,
                    frozenset(("dqdd_dq", "dqdd_dqd", "Minv")))

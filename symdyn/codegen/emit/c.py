@@ -166,7 +166,8 @@ def function_source(model: str, p: Program) -> str:
     used = p.used_inputs()
     body = []
     for a, syms in p.inputs:
-        body += [f"    const double {s.name} = {a}[{k}];" for k, s in enumerate(syms) if s in used]
+        read = [f"    const double {s.name} = {a}[{k}];" for k, s in enumerate(syms) if s in used]
+        body += read or [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"]
     body += _assignments(p.assignments)
     for o, mat in p.outputs:
         body += [f"    {o}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
