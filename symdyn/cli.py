@@ -74,8 +74,9 @@ def _cmd_print(args: argparse.Namespace) -> int:
     from .derivation.entry import derive
     from .derivation.printing import closed_form, plan
     from .derivation.simplify import op_counts
+    from .model import command_line
 
-    robot = _load_model(args.model, args.numeric)
+    robot = command_line.from_args(args, symbolic=not args.numeric)   # a shipped model or a URDF file
     if not 1 <= args.digits <= 17:
         raise ValueError(f"--digits must be between 1 and 17, got {args.digits}")
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
@@ -96,6 +97,9 @@ def _cmd_print(args: argparse.Namespace) -> int:
         counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
         row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
         print(f"{comment}   {t:4s} {row}")
+    record = getattr(robot, "urdf", None)   # a URDF file's chain: what was locked, excluded, snapped
+    for line in record.lines() if record is not None and command_line.is_urdf(args.model) else ():
+        print(f"{comment} {line}")
     return 0
 
 
@@ -132,15 +136,10 @@ def friction_variant(robot) -> str:
 
 
 def _load_model(name: str, numeric: bool):
-    """A shipped model: its symbolic variant where it has one, unless numeric."""
-    from .model import arms
+    """A shipped model: its symbolic variant where it has one, unless numeric (scripts/print_docs.py)."""
+    from .model import command_line
 
-    if not numeric:
-        try:
-            return arms.load(name, symbolic=True)
-        except ValueError:
-            pass
-    return arms.load(name)
+    return command_line.load(name, symbolic=not numeric)
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
@@ -163,7 +162,7 @@ DESCRIPTION = ("symdyn: symbolic rigid-body dynamics of robot arms, by Lagrange'
 
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
-    from .model import arms
+    from .model import command_line
 
     parser = argparse.ArgumentParser(prog="symdyn", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"symdyn {__version__}")
@@ -180,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
     compare.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
 
     p = sub.add_parser("print", help="print closed-form M, C, G, F, tau of a model")
-    p.add_argument("model", help=f"a shipped model: {', '.join(arms.NAMES)}")
+    command_line.add_arguments(p)
     p.add_argument("--term", default="all", choices=("M", "C", "Cqd", "G", "F", "tau", "all"),
                    help="which term to print (default: all)")
     p.add_argument("--method", default="newton-euler", choices=("newton-euler", "lagrange"),

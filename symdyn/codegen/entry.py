@@ -17,6 +17,8 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import os
+import re
+import shlex
 import shutil
 import sys
 import tempfile
@@ -77,9 +79,32 @@ def bundle(robot: Robot) -> Bundle:
     except ValueError as exc:
         raise ValueError(f"cannot generate code for {robot.name!r}: {exc}") from None
     used = sorted({p.origin for p in progs}, key=str)
+    source, notes, command = _provenance_lines(robot)
     return Bundle(name=identifier(robot.name), n=robot.n, version=__version__,
                   fingerprint=robot.fingerprint(), programs=tuple(progs),
-                  derivation="; ".join(used), source=robot.source)
+                  derivation="; ".join(used), source=source, notes=notes, command=command)
+
+
+def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
+    """(model source, further lines, regenerate arguments) of the files' headers.  A robot read
+    from a URDF file (`robot.urdf`, not a shipped arm) names the file and its sha256 — never its
+    folder, which is the reader's, not the model's —, lists what was locked, excluded and snapped,
+    and rebuilds by `symdyn generate FILE.urdf --tip … [--name NAME]`, run beside the file."""
+    record = getattr(robot, "urdf", None)
+    if record is None or _is_shipped(robot):
+        return robot.source, (), ""
+    lines = list(record.lines())
+    command = record.command_args()
+    if command.split(" ", 1)[0] != shlex.quote(record.file):
+        command = f"{shlex.quote(record.file)} {command}"
+    if identifier(robot.name) != identifier(Path(record.file).stem):
+        command += f" --name {shlex.quote(robot.name)}"
+    in_folder = re.compile(r"[^\s'\"(\[]*[/\\]" + re.escape(record.file))
+
+    def local(line: str) -> str:   # a warning that quotes the file by its path names it alone
+        return in_folder.sub(lambda _: record.file, line)
+
+    return local(lines[0]), tuple(local(line) for line in lines[1:]), command
 
 
 def in_checkout() -> bool:
@@ -349,11 +374,14 @@ def _load(name_or_robot, target: str, options, folder) -> GeneratedModel:
 # --------------------------------------------------------------------------- command line
 
 def configure_parser(p: argparse.ArgumentParser) -> None:
-    """Arguments of `symdyn generate MODEL --target T [--out DIR]` / `symdyn generate --all`."""
-    p.add_argument("model", nargs="?", help=f"model name ({', '.join(arms.NAMES)})")
+    """Arguments of `symdyn generate MODEL --target T [--out DIR]` / `symdyn generate --all`; MODEL
+    is a shipped model's name or a URDF file with its options (`symdyn.model.command_line`)."""
+    from ..model import command_line
+
+    command_line.add_arguments(p, nargs="?")
     p.add_argument("--target", default="all", choices=(*TARGETS, "all"), help="default: all")
     p.add_argument("--out", help="output folder (default: generated/MODEL for the shipped models, "
-                                 "else out/MODEL)")
+                                 "out/MODEL for the others, out/STEM for a URDF file STEM.urdf)")
     p.add_argument("--all", action="store_true", help=f"regenerate generated/ ({', '.join(SHIPPED)})")
     p.add_argument("--casadi-c", action="store_true", help="also write CasADi's own C code")
     p.set_defaults(func=run_cli)
@@ -363,11 +391,14 @@ def run_cli(args: argparse.Namespace) -> int:
     """`symdyn generate`: write the files and list them."""
     if args.all == bool(args.model):
         raise ValueError("give a model name or --all (not both)")
+    from ..model import command_line
+
     if args.all:
         paths = generate_all(args.out)
     else:
-        out = args.out or (None if args.model in SHIPPED else Path("out") / args.model)
-        paths = generate(args.model, args.target, out, casadi_c=args.casadi_c)
+        robot = command_line.from_args(args)
+        out = args.out or (None if args.model in SHIPPED else Path("out") / identifier(robot.name))
+        paths = generate(robot, args.target, out, casadi_c=args.casadi_c)
     for p in paths:
         print(p)
     print(f"{len(paths)} files written", file=sys.stderr)

@@ -25,7 +25,10 @@ __all__ = ["Bundle", "Infix", "header_lines", "read_header", "DIGEST_FIELD", "se
 @dataclass(frozen=True)
 class Bundle:
     """Everything emitted for one model: its name (a C identifier), joint
-    count, provenance and the programs of its functions, in order."""
+    count, provenance and the programs of its functions, in order.  `notes`:
+    more provenance lines after the source (a URDF robot's locked joints,
+    exclusions and snaps); `command`: the `symdyn generate` arguments that
+    rebuild the model (default: its name)."""
 
     name: str
     n: int
@@ -34,6 +37,8 @@ class Bundle:
     programs: tuple[Program, ...]
     derivation: str = ""
     source: str = ""
+    notes: tuple[str, ...] = ()
+    command: str = ""
 
     def program(self, name: str) -> Program:
         for p in self.programs:
@@ -109,6 +114,13 @@ def _friction(bundle: Bundle) -> str:
     return "without friction" if zero else "with the model's friction"
 
 
+def _comment_safe(text: str) -> str:
+    """Text from a model file (names of links and joints) safe inside every target's comment:
+    one line, no end of a C comment, no end of or escape in a Python docstring."""
+    text = " ".join(str(text).splitlines())
+    return text.replace("*/", "* /").replace('"""', "'''").replace("\\", "/")
+
+
 def header_lines(bundle: Bundle, target: str) -> list[str]:
     """Provenance lines every generated file starts with (no dates: reproducible)."""
     width = max(len(p.name) for p in bundle.programs)
@@ -121,8 +133,9 @@ def header_lines(bundle: Bundle, target: str) -> list[str]:
     if bundle.derivation:
         lines.append(f"derivation: {bundle.derivation}")
     if bundle.source:
-        lines.append(f"model source: {bundle.source}")
-    lines += [f"regenerate: symdyn generate {bundle.name} --target {target}",
+        lines.append(f"model source: {_comment_safe(bundle.source)}")
+    lines += [_comment_safe(note) for note in bundle.notes]
+    lines += [f"regenerate: symdyn generate {_comment_safe(bundle.command or bundle.name)} --target {target}",
               f"operation counts after one joint CSE, {_friction(bundle)}, [derivation] (fun: sin/cos/sign "
               "calls; a - b counts as one add, negation is free):"]
     lines += [f"  {p.name:<{width}}  {format_ops(p.op_count())}" + (f"  [{p.origin}]" if p.origin else "")

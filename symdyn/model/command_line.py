@@ -1,0 +1,107 @@
+"""How the command line names a model: a shipped arm's name, or a URDF file and its chain.
+
+Part of the model stage, for `symdyn generate` and `symdyn print` (and any
+command that takes a MODEL): `add_arguments` declares MODEL with the URDF
+options (--tip, --base, --lock JOINT=VALUE, --exclude LINK, --no-snap,
+--name), `load` turns them into a `Robot` through `arms.load` or
+`Robot.from_urdf`.  A URDF robot is named after its file's stem (not the
+URDF's <robot name=…>), so `symdyn generate arm.urdf` writes arm.c, arm.py, …
+beside the other outputs named after their files; --name overrides it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from . import arms
+from .robot import Robot
+
+__all__ = ["add_arguments", "load", "from_args", "is_urdf", "parse_locks", "URDF_OPTIONS"]
+
+#: The options that only a URDF file takes (argparse dest → option).
+URDF_OPTIONS = {"tip": "--tip", "base": "--base", "lock": "--lock", "exclude": "--exclude", "no_snap": "--no-snap",
+                "name": "--name"}
+
+
+def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> None:
+    """MODEL (a shipped name or a .urdf file) and the URDF options."""
+    p.add_argument("model", nargs=nargs, metavar="MODEL",
+                   help=f"a shipped model ({', '.join(arms.NAMES)}) or a URDF file (a path ending in .urdf)")
+    urdf = p.add_argument_group("URDF files", "how a URDF MODEL becomes a chain (a shipped model takes none "
+                                "of these)")
+    urdf.add_argument("--tip", metavar="LINK", help="the chain's last link (default: the tree's only leaf)")
+    urdf.add_argument("--base", metavar="LINK", help="the chain's first link, fixed (default: the root)")
+    urdf.add_argument("--lock", metavar="JOINT=VALUE", action="append", default=[],
+                      help="hold an off-chain or chain joint at VALUE (rad or m), its subtree merged into the "
+                           "link it rides on; repeatable (default: 0, or the limit nearest 0)")
+    urdf.add_argument("--exclude", metavar="LINK", action="append", default=[],
+                      help="leave LINK and its subtree out (a gripper, a camera); repeatable")
+    urdf.add_argument("--no-snap", action="store_true",
+                      help="keep the file's numbers as written (default: snap 1.5708 to pi/2 and the like)")
+    urdf.add_argument("--name", help="the model's name, which names the generated files "
+                                     "(default: the file's stem)")
+
+
+def is_urdf(model: str) -> bool:
+    """Whether MODEL names a URDF file: it ends in .urdf, or it is a file that exists."""
+    return model.lower().endswith(".urdf") or Path(model).is_file()
+
+
+def parse_locks(items) -> dict:
+    """{"joint": value} from ["joint=value", …]; a ValueError naming the item that is not JOINT=VALUE."""
+    locks = {}
+    for item in items:
+        joint, eq, text = item.partition("=")
+        joint, text = joint.strip(), text.strip()
+        try:
+            value = float(text) if eq and joint else None
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value):
+            raise ValueError(f"--lock {item}: expected JOINT=VALUE with VALUE a finite number in rad or m, "
+                             f"e.g. --lock {joint or 'finger_joint'}=0.02")
+        if joint in locks and locks[joint] != value:
+            raise ValueError(f"--lock {item}: joint {joint!r} is already locked at {locks[joint]!r}")
+        locks[joint] = value
+    return locks
+
+
+def load(model: str, *, symbolic: bool = False, tip: str | None = None, base: str | None = None, lock=(),
+         exclude=(), no_snap: bool = False, name: str | None = None) -> Robot:
+    """The robot MODEL names: a shipped arm (its symbolic variant where it has one and `symbolic`),
+    or the chain of a URDF file read by `Robot.from_urdf` with the URDF options."""
+    given = {opt for dest, opt in URDF_OPTIONS.items()
+             if {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}[dest]}
+    locks = parse_locks(lock)
+    if not is_urdf(model):
+        if model not in arms.NAMES:
+            raise ValueError(f"unknown model {model!r}: it is neither a shipped model ({', '.join(arms.NAMES)}) "
+                             "nor a URDF file (a path ending in .urdf)")
+        if given:
+            raise ValueError(f"{', '.join(sorted(given))} apply to a URDF file, not to the shipped model {model!r}")
+        if symbolic:
+            try:
+                return arms.load(model, symbolic=True)
+            except ValueError:   # numeric only (read from its URDF)
+                pass
+        return arms.load(model)
+    path = Path(model)
+    if not path.is_file():
+        raise ValueError(f"no URDF file {model}" + (": it is a folder" if path.is_dir() else
+                                                    f" (looked in {path.resolve().parent})"))
+    options = {"base_link": base, "tip_link": tip}
+    # only what was asked for, so that a reader without an option still reads the plain chain
+    if locks:
+        options["locked"] = locks
+    if exclude:
+        options["exclude"] = list(exclude)
+    if no_snap:
+        options["snap"] = False
+    return Robot.from_urdf(path, name=name or path.stem, **options)
+
+
+def from_args(args: argparse.Namespace, *, symbolic: bool = False) -> Robot:
+    """`load` with the MODEL and URDF options `add_arguments` declared."""
+    return load(args.model, symbolic=symbolic, **{dest: getattr(args, dest) for dest in URDF_OPTIONS})
