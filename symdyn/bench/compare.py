@@ -1,9 +1,10 @@
-"""`symdyn bench`: the generated code of a shipped arm against Pinocchio and the Robotics Toolbox.
+"""`symdyn bench`: the generated code of an arm against Pinocchio and the Robotics Toolbox.
 
 One run, one set of random states (q, q̇, q̈ uniform in [−3, 3]; τ by the
 reference RNEA) and the frictionless arm (Pinocchio has no friction) — the
-Puma 560 unless `--model` names others (panda, iiwa14, ur5, …) — compared
-like with like:
+Puma 560 unless `--model` names others (panda, iiwa14, ur5, …, or URDF files
+read with the URDF options; the peers are built from the same Robot) —
+compared like with like:
 
 - C level, no Python: `harness.c` compiled with the generated C and
   `pin_peer.cpp` (Pinocchio C++, built once into the cache by `pin_peer`)
@@ -556,8 +557,11 @@ def machine() -> str:
 
 def configure_parser(p: argparse.ArgumentParser) -> None:
     """Arguments of `symdyn bench`."""
+    from ..model import command_line
+
     p.add_argument("--model", nargs="+", metavar="NAME", default=None,
-                   help=f"shipped arms to compare, one report each (default {MODEL}; known: {', '.join(arms.NAMES)})")
+                   help=f"arms to compare, one report each: shipped ({', '.join(arms.NAMES)}; default {MODEL}) "
+                        "or URDF files (the URDF options below apply to each)")
     p.add_argument("--calls", type=int, default=1_000_000, help="C-level calls per repetition (default 10^6)")
     p.add_argument("--pin-calls", type=int, default=100_000,
                    help="Pinocchio C++ calls per repetition (default 10^5: its calls are ~10x slower, "
@@ -571,17 +575,21 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-casadi", action="store_true", help="skip the plain CasADi RNEA in C")
     p.add_argument("--no-python", action="store_true", help="skip the comparisons from Python")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown to FILE")
+    command_line.add_urdf_options(p)
     p.set_defaults(func=main)
 
 
 def model_names(names) -> list[str]:
     """The arms `--model` names (default: the Puma 560), each once, in order; a ValueError naming
     the known models for any other name."""
+    from ..model.command_line import is_urdf
+
     names = list(dict.fromkeys(names or [MODEL]))
-    unknown = [n for n in names if n not in arms.NAMES]
+    unknown = [n for n in names if n not in arms.NAMES and not is_urdf(n)]
     if unknown:
         raise ValueError(f"symdyn bench --model: unknown model{'s' if len(unknown) > 1 else ''} "
-                         f"{', '.join(map(repr, unknown))}: known models are {', '.join(arms.NAMES)}")
+                         f"{', '.join(map(repr, unknown))}: known models are {', '.join(arms.NAMES)}, "
+                         "or give a URDF file (a path ending in .urdf)")
     return names
 
 
@@ -593,11 +601,14 @@ def main(args=None) -> int:
         args = parser.parse_args(args)
     if args.batch < POOL or min(args.calls, args.pin_calls, args.reps, args.rounds) < 1:
         raise ValueError(f"--batch must be at least {POOL} and --calls, --pin-calls, --reps, --rounds positive")
+    from ..model import command_line
+
     names = model_names(getattr(args, "model", None))
     log = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
     tables: list[str] = []
-    for name in names:
-        robot = arms.load(name)
+    for name in names:   # a URDF file's arm is titled by its path; the peers build it from the same Robot
+        robot = command_line.load(name, **command_line.urdf_options(args)) if command_line.is_urdf(name) \
+            else arms.load(name)
         states = random_states(robot.nofriction(all=True), args.batch, args.seed)
         src = frictionless_sources(robot)
         found: list[str] = []

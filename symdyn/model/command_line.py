@@ -18,7 +18,8 @@ from pathlib import Path
 from . import arms
 from .robot import Robot
 
-__all__ = ["add_arguments", "load", "from_args", "is_urdf", "parse_locks", "URDF_OPTIONS"]
+__all__ = ["add_arguments", "add_urdf_options", "load", "from_args", "urdf_options", "is_urdf", "parse_locks",
+           "URDF_OPTIONS"]
 
 #: The options that only a URDF file takes (argparse dest → option).
 URDF_OPTIONS = {"tip": "--tip", "base": "--base", "lock": "--lock", "exclude": "--exclude", "no_snap": "--no-snap",
@@ -29,6 +30,11 @@ def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> No
     """MODEL (a shipped name or a .urdf file) and the URDF options."""
     p.add_argument("model", nargs=nargs, metavar="MODEL",
                    help=f"a shipped model ({', '.join(arms.NAMES)}) or a URDF file (a path ending in .urdf)")
+    add_urdf_options(p)
+
+
+def add_urdf_options(p: argparse.ArgumentParser) -> None:
+    """--tip, --base, --lock, --exclude, --no-snap, --name: how a URDF file becomes a chain."""
     urdf = p.add_argument_group("URDF files", "how a URDF MODEL becomes a chain (a shipped model takes none "
                                 "of these)")
     urdf.add_argument("--tip", metavar="LINK", help="the chain's last link (default: the tree's only leaf)")
@@ -102,6 +108,12 @@ def load(model: str, *, symbolic: bool = False, tip: str | None = None, base: st
     return Robot.from_urdf(path, name=name or path.stem, **options)
 
 
+def urdf_options(args: argparse.Namespace) -> dict:
+    """The URDF options `add_urdf_options` declared, as `load`'s keywords."""
+    defaults = {"lock": (), "exclude": (), "no_snap": False}
+    return {dest: getattr(args, dest, None) or defaults.get(dest) for dest in URDF_OPTIONS}
+
+
 def from_args(args: argparse.Namespace, *, symbolic: bool = False) -> Robot:
     """`load` with the MODEL and URDF options `add_arguments` declared."""
-    return load(args.model, symbolic=symbolic, **{dest: getattr(args, dest) for dest in URDF_OPTIONS})
+    return load(args.model, symbolic=symbolic, **urdf_options(args))
