@@ -4,10 +4,10 @@ and general (URDF-like) joints (`robot`, `placement`); URDF input (`urdf`, also
 
 from .placement import placement
 from .robot import CONVENTIONS, IDENTITY, JOINT_TYPES, Link, Robot, exact_cos_sin, rotx, roty, rotz, transl
-from .urdf import URDFError, from_urdf
+from .urdf import URDFError, URDFWarning, from_urdf
 
-#: `Robot.from_urdf(path_or_xml, base_link=…, tip_link=…)`: defined in `urdf`, which builds on `robot`.
+#: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: defined in `urdf`, which builds on `robot`.
 Robot.from_urdf = staticmethod(from_urdf)
 
 __all__ = ["Link", "Robot", "CONVENTIONS", "JOINT_TYPES", "IDENTITY", "exact_cos_sin", "rotx", "roty", "rotz",
-           "transl", "placement", "from_urdf", "URDFError"]
+           "transl", "placement", "from_urdf", "URDFError", "URDFWarning"]

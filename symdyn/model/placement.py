@@ -22,16 +22,19 @@ __all__ = ["exact_cos_sin", "exact", "exact_cos_sin_of", "rpy_rotation", "placem
 def exact_cos_sin(angle) -> tuple:
     """cos and sin of a constant angle, exact for multiples of π/2.
 
-    A float within 1e-12 of k·π/2 gives exact integers (cos(π/2) is 0, never
-    6.1e-17); a sympy expression gives sympy's cos/sin; any other float gives
-    floats.  Both derivations and the reference use this one function.
+    The double nearest k·π/2 (within 4 ulp: math.pi/2, -math.pi, 3*math.pi/2 …)
+    gives exact integers (cos(π/2) is 0, never 6.1e-17); a sympy expression
+    gives sympy's cos/sin; any other float gives floats — a number near k·π/2
+    is taken as written (`symdyn.model.snapping` is the rule that snaps what
+    files write, and reports it).  Derivations and the reference use this one
+    function.
     """
     if isinstance(angle, sp.Basic) and not angle.is_Number:
         return sp.cos(angle), sp.sin(angle)
     value = float(angle)
     quarter = value / (math.pi / 2)
     k = round(quarter)
-    if abs(quarter - k) < 1e-12:
+    if abs(quarter - k) <= 4 * 2.0 ** -52 * max(1, abs(k)):
         return ((1, 0), (0, 1), (-1, 0), (0, -1))[k % 4]
     return math.cos(value), math.sin(value)
 

@@ -278,6 +278,7 @@ class Robot:
     tool: tuple = IDENTITY
     poses: Mapping[str, tuple] = field(default_factory=dict, compare=False, hash=False)
     source: str = field(default="", compare=False, hash=False)
+    urdf: Any = field(default=None, compare=False, hash=False)
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
@@ -299,6 +300,14 @@ class Robot:
         for k, v in dict(self.poses).items():
             poses[k] = _vector(v, len(links), f"pose {k}")
         set_("poses", poses)
+
+    def __str__(self) -> str:
+        """A summary a person reads: joints, convention, source and, for a URDF robot,
+        what was locked, excluded and snapped (`robot.urdf`)."""
+        kinds = "".join("R" if link.is_revolute else "P" for link in self.links)
+        lines = [f"Robot {self.name!r}: {self.n} joints ({kinds}), {self.convention} convention"
+                 + (f", {self.source}" if self.source else "")]
+        return "\n".join(lines + (self.urdf.lines() if self.urdf is not None else []))
 
     # ---- basic facts
     @property

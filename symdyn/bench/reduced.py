@@ -1,0 +1,130 @@
+"""Pinocchio's reduced model of a URDF robot: the yardstick for locked branches.
+
+`from_urdf` locks every joint off the chain and merges the bodies it carries;
+Pinocchio reads the whole file (`buildModelFromUrdf`, mimic joints as plain
+joints) and `buildReducedModel` locks the same joints at the same values
+(`robot.urdf.locked`), independently.  `compare` evaluates both on random
+states within the limits: symdyn's reference (τ, M, G, C·q̇, Christoffel
+symbols, forward dynamics, tool pose) and, given generated functions, their
+derivatives — each as a relative error.  Excluded subtrees are cut from the
+file Pinocchio reads; the base must be the file's root (Pinocchio's world).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from ..model import Robot
+from ..numeric import reference as ref
+from .differential import friction_law, pinocchio_at, pinocchio_derivatives, relative_error, states
+
+__all__ = ["reduced_model", "pin_configuration", "compare"]
+
+
+def _without(path: Path, links: tuple, folder: Path) -> Path:
+    """The URDF at `path` with the subtrees of `links` cut out, written into `folder`."""
+    tree = ET.parse(path)
+    root = tree.getroot()
+    joints = root.findall("joint")
+    below = {j.find("parent").get("link"): [] for j in joints}
+    for j in joints:
+        below[j.find("parent").get("link")].append(j.find("child").get("link"))
+    gone, todo = set(), list(links)
+    while todo:
+        name = todo.pop()
+        gone.add(name)
+        todo += below.get(name, [])
+    for element in list(root):
+        if (element.tag == "link" and element.get("name") in gone) or (
+                element.tag == "joint" and element.find("child").get("link") in gone):
+            root.remove(element)
+    out = folder / Path(path).name
+    tree.write(out)
+    return out
+
+
+def reduced_model(path, robot: Robot):
+    """Pinocchio's model of the URDF at `path` with every joint that `robot` does not move
+    locked where `robot.urdf` says (joints it does not record at their neutral value)."""
+    import pinocchio as pin
+
+    record = robot.urdf
+    if record is None:
+        raise ValueError(f"robot {robot.name!r} was not read from a URDF: it has no record of what was locked")
+    with tempfile.TemporaryDirectory() as folder:
+        file = _without(Path(path), record.excluded, Path(folder)) if record.excluded else Path(path)
+        full = pin.buildModelFromUrdf(str(file))
+    if record.base_link != full.frames[full.getFrameId(record.base_link)].name or \
+            full.frames[full.getFrameId(record.base_link)].parentJoint != 0:
+        raise ValueError(f"base_link {record.base_link!r} is not fixed to Pinocchio's world")
+    q0 = pin.neutral(full)
+    values = {lock.joint: lock.value for lock in record.locked}
+    lock = []
+    for jid in range(1, full.njoints):
+        name, joint = full.names[jid], full.joints[jid]
+        if name in record.joints:
+            continue
+        lock.append(jid)
+        value = values.get(name, 0.0)
+        if joint.nq == 2:
+            q0[joint.idx_q:joint.idx_q + 2] = np.cos(value), np.sin(value)
+        elif joint.nq == 1:
+            q0[joint.idx_q] = value
+    reduced = pin.buildReducedModel(full, lock, q0)
+    names = [reduced.names[j] for j in range(1, reduced.njoints)]
+    if names != list(record.joints):
+        raise AssertionError(f"Pinocchio's reduced model moves {names}, symdyn {list(record.joints)}")
+    return reduced
+
+
+def pin_configuration(model, q: np.ndarray) -> np.ndarray:
+    """Pinocchio's configurations (count, nq) of joint values q (count, nv): (cos, sin) for continuous joints."""
+    columns = []
+    for k, joint in enumerate(model.joints[1:]):
+        columns += [np.cos(q[:, k]), np.sin(q[:, k])] if joint.nq == 2 else [q[:, k]]
+    return np.stack(columns, axis=1)
+
+
+def compare(robot: Robot, path, *, count: int = 200, seed: int = 0, functions=None) -> dict:
+    """Relative errors of symdyn against Pinocchio's reduced model at `count` states:
+    the reference's τ, M, G, C·q̇, Christoffel symbols, forward dynamics and tool pose,
+    and with `functions` (a loaded generated model) its τ, M, fdyn and derivatives."""
+    import pinocchio as pin
+
+    model = reduced_model(path, robot)
+    q, qd, qdd, tau = states(robot, count, seed)
+    x = pin_configuration(model, q)
+    peer = pinocchio_at(model, x, qd, qdd, tau)
+    bare = robot.nofriction(all=True)
+    scale = max(np.abs(peer["M"]).max(), np.abs(peer["tau"]).max(), 1e-6)
+    errors = {
+        "tau": relative_error(ref.rne(robot, q, qd, qdd), peer["tau"] + friction_law(robot, qd), scale),
+        "M": relative_error(ref.inertia(robot, q), peer["M"], scale),
+        "G": relative_error(ref.gravload(robot, q), peer["G"], scale),
+        "C qd": relative_error(np.einsum("skj,sj->sk", ref.coriolis(robot, q, qd), qd), peer["Cqd"], scale),
+        "Christoffel": relative_error(ref.christoffel(robot, q), peer["Gamma"], scale),
+        "fdyn": relative_error(ref.accel(bare, q, qd, tau), peer["ddq"]),
+    }
+    data, frame = model.createData(), model.getFrameId(robot.urdf.tip_link)
+    poses = []
+    for xi in x:
+        pin.framesForwardKinematics(model, data, xi)
+        poses.append(data.oMf[frame].homogeneous.copy())
+    errors["tool pose"] = relative_error(ref.fkine(robot, q), np.array(poses), 1.0)
+    if functions is not None:
+        d = pinocchio_derivatives(model, robot, x, qd, qdd, tau)
+        t, dq, dqd = functions.tau_derivatives(q, qd, qdd)
+        errors["generated tau"] = relative_error(t, peer["tau"] + friction_law(robot, qd), scale)
+        errors["generated M"] = relative_error(functions.M(q), peer["M"], scale)
+        errors["generated dtau/dq"] = relative_error(dq, d["dtau_dq"], scale)
+        errors["generated dtau/dqd"] = relative_error(dqd, d["dtau_dqd"], scale)
+        a, aq, aqd, Minv = functions.fdyn_derivatives(q, qd, tau)
+        errors["generated fdyn"] = relative_error(a, d["qdd"])
+        errors["generated dqdd/dq"] = relative_error(aq, d["dqdd_dq"], max(1.0, np.abs(d["dqdd_dq"]).max()))
+        errors["generated dqdd/dqd"] = relative_error(aqd, d["dqdd_dqd"], max(1.0, np.abs(d["dqdd_dqd"]).max()))
+        errors["generated Minv"] = relative_error(Minv, d["Minv"], max(1.0, np.abs(d["Minv"]).max()))
+    return errors

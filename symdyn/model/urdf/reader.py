@@ -1,0 +1,241 @@
+"""`from_urdf`: the chain from `base_link` to `tip_link` of a URDF as a general-convention `Robot`.
+
+Revolute, continuous and prismatic chain joints become links placed by their
+`<origin>` about their `<axis>`.  Everything else below the base is kept,
+never dropped: fixed joints are folded into the next joint's origin, and
+every body that rides on a moving link — through fixed joints or through
+*locked* joints off the chain (fingers, a head, another arm) — is merged into
+it, mass, centre of mass and inertia combined exactly; after the last moving
+joint they form the tool.  `exclude=[links]` drops subtrees on purpose.
+Angles and axes near exact values are snapped by one documented rule
+(`symdyn.model.snapping`).  Strict where it matters, tolerant where it
+cannot: a defect of a body that enters the dynamics is an error naming the
+element and line; the same defect on a body resting on the fixed base is a
+warning.  What was chosen, locked, excluded and snapped is `robot.urdf`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+import sympy as sp
+
+from ..placement import exact, placement, rational_rotation, rpy_rotation
+from ..robot import IDENTITY, Link, Robot
+from ..snapping import snap_angle, snap_axis
+from .bodies import Body, read_body, strict
+from .record import Locked, Snap, UrdfRecord
+from .tree import MOVING, MULTI, Tree
+from .xml import Element, URDFError, URDFWarning, numbers, parse, read, where
+
+__all__ = ["from_urdf"]
+
+
+def _compose(A: tuple, B: tuple) -> tuple:
+    return tuple(tuple(sum(A[i][k] * B[k][j] for k in range(4)) for j in range(4)) for i in range(4))
+
+
+def _number(x: sp.Expr):
+    """A value for the Link: an int, or a float when its decimal is the exact value
+    (as a derivation reads it back), else the exact Rational."""
+    x = sp.sympify(x)   # the identity's entries are plain ints
+    if x.is_Integer:
+        return int(x)
+    return float(x) if exact(float(x)) == x else x
+
+
+def _motion(kind: str, axis: tuple, value: float) -> tuple:
+    """The 4×4 transform of a joint along its unit `axis` at `value` (exact numbers)."""
+    if value == 0:
+        return IDENTITY
+    if kind == "prismatic":
+        p = [exact(a) * exact(value) for a in axis]
+        return tuple(tuple(int(i == j) for j in range(3)) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
+    unit = [k for k in range(3) if axis[k] != 0]
+    if len(unit) == 1:   # ±x, ±y, ±z: an exact rotation by the signed angle
+        rpy = [0, 0, 0]
+        rpy[unit[0]] = float(value) * float(np.sign(axis[unit[0]]))
+        R = rpy_rotation(rpy)
+    else:   # Rodrigues, then the nearest exactly orthogonal rational rotation
+        u = np.array([float(a) for a in axis])
+        K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+        R = rational_rotation(np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K)
+    return tuple(tuple(R[i]) + (sp.S.Zero,) for i in range(3)) + ((0, 0, 0, 1),)
+
+
+class _Reader:
+    """One reading of one file: its tree, the snapping rule, the locks, what was noted."""
+
+    def __init__(self, tree: Tree, file: str, snap: bool):
+        self.tree, self.source, self.file, self.snap = tree, tree.source, file, snap
+        self.snaps: list[Snap] = []
+        self.warnings: list[str] = []
+        self.locked: list[Locked] = []
+        self.values: dict = {}
+
+    # ---- numbers, snapped by the one rule
+    def _angle(self, value: float, what: str) -> float:
+        snapped = snap_angle(value) if self.snap else None
+        if snapped is None:
+            return value
+        self.snaps.append(Snap(what, repr(value), snapped.label, snapped.change))
+        return snapped.value
+
+    def origin(self, element: Element | None, what: str) -> tuple:
+        """The exact 4×4 transform of an `<origin xyz rpy>` child (identity when absent)."""
+        origin = element.find("origin") if element is not None else None
+        if origin is None:
+            return IDENTITY
+        xyz = numbers(self.source, origin, "xyz", 3, (0, 0, 0))
+        rpy = numbers(self.source, origin, "rpy", 3, (0, 0, 0))
+        place = f"{self.file}:{origin.line} {what} rpy"
+        rpy = [self._angle(x, f"{place}[{i}]") for i, x in enumerate(rpy)]
+        return placement(xyz, rpy)
+
+    def axis(self, joint: Element) -> tuple:
+        """The joint's unit axis (normalised as Pinocchio does; snapped to ±x, ±y, ±z by the rule)."""
+        axis = numbers(self.source, joint.find("axis"), "xyz", 3, (1, 0, 0))
+        norm = sum(a * a for a in axis) ** 0.5
+        if norm == 0:
+            raise URDFError(f"{where(self.source, joint)}: the axis is zero")
+        axis = tuple(a / norm if abs(norm - 1) > 1e-12 else a for a in axis)
+        snapped = snap_axis(axis) if self.snap else None
+        if snapped is None:
+            return axis
+        line = joint.find("axis").line if joint.find("axis") is not None else joint.line
+        self.snaps.append(Snap(f"{self.file}:{line} joint {joint.name!r} axis",
+                               " ".join(map(repr, axis)), snapped.label, snapped.change))
+        return snapped.value
+
+    # ---- bodies
+    def _complain(self, moves: bool):
+        if moves:
+            return strict
+
+        def warn(message: str) -> None:   # issued by from_urdf, to its caller
+            self.warnings.append(message + "; accepted: it rests on the fixed base and cannot affect "
+                                 "the dynamics (it is left out)")
+        return warn
+
+    def subtree(self, name: str, skip: set, into: str, moves: bool) -> Body:
+        """Link `name` with everything hanging off it except the links in `skip` (the chain,
+        excluded subtrees), in its frame; locked joints are recorded as merged into `into`."""
+        link = self.tree.links[name]
+        body = read_body(self.source, link, lambda e: self.origin(e, f"link {name!r} inertial origin"),
+                         self._complain(moves))
+        for child in self.tree.children.get(name, []):
+            if child in skip:
+                continue
+            joint = self.tree.joints[child]
+            kind = joint.attrib.get("type")
+            T = self.origin(joint, f"joint {joint.name!r} origin")
+            if kind in MOVING:
+                value, why = self.values[joint.name]
+                self.locked.append(Locked(joint.name, value, into, why, moves))
+                T = _compose(T, _motion(MOVING[kind], self.axis(joint), value))
+            elif kind in MULTI:
+                self.locked.append(Locked(joint.name, 0.0, into, "default", moves))
+            elif kind != "fixed":
+                raise URDFError(f"{where(self.source, joint)}: unknown joint type {kind!r}")
+            body = body + self.subtree(child, skip, into, moves).moved(T)
+        return body
+
+    # ---- the chain's links
+    def link(self, joint: Element, origin: tuple, body: Body) -> Link:
+        kind = MOVING[joint.attrib["type"]]
+        limit, dynamics = joint.find("limit"), joint.find("dynamics")
+        qlim = self.tree.limits(joint)
+        effort = numbers(self.source, limit, "effort", 1, (0,))[0] if limit is not None else 0
+        velocity = numbers(self.source, limit, "velocity", 1, (0,))[0] if limit is not None else 0
+        damping = numbers(self.source, dynamics, "damping", 1, (0,))[0] if dynamics is not None else 0
+        friction = numbers(self.source, dynamics, "friction", 1, (0,))[0] if dynamics is not None else 0
+        try:
+            return Link(joint=kind, origin=tuple(tuple(_number(x) for x in row) for row in origin),
+                        axis=self.axis(joint), qlim=qlim, m=_number(body.m), r=tuple(_number(x) for x in body.r),
+                        I=tuple(tuple(_number(x) for x in row) for row in body.I),
+                        B=damping, Tc=(friction, -friction), effort_limit=effort or None,
+                        velocity_limit=velocity or None)
+        except ValueError as exc:
+            raise URDFError(f"{where(self.source, joint)}: {exc}") from None
+
+
+def _excluded(tree: Tree, exclude, on_chain: set, below_base: set) -> tuple:
+    if isinstance(exclude, str):
+        exclude = [exclude]
+    for name in exclude:
+        if name not in tree.links:
+            raise URDFError(f"{tree.source}: excluded link {name!r} is not a link of robot {tree.robot.name!r}")
+        if name in on_chain:
+            raise URDFError(f"{tree.source}: excluded link {name!r} is on the chain from base to tip; "
+                            "choose another base_link or tip_link instead")
+        if name not in below_base:
+            raise URDFError(f"{tree.source}: excluded link {name!r} is not below base_link: it is out already")
+    return tuple(exclude)
+
+
+def from_urdf(path_or_xml, *, base_link: str | None = None, tip_link: str | None = None,
+              locked: dict | None = None, exclude=(), snap: bool = True, name: str | None = None) -> Robot:
+    """A `Robot` (general convention) of the chain from `base_link` (default: the
+    root) to `tip_link` (default: the only leaf) of a URDF file or its text.
+
+    locked: {joint: value} for joints off the chain (default: 0, or the limit
+    nearest 0 when 0 is outside the limits; mimic joints follow their leader)
+    or on it (made fixed at that value).  exclude: links dropped with their
+    subtrees.  snap: angles and axes near exact values become exact
+    (`symdyn.model.snapping`); False keeps the file's numbers.  The robot's
+    `urdf` records all of it.  Raises URDFError naming the element and line.
+    """
+    text = read(path_or_xml)
+    tree = Tree.of(text.source, parse(text.text, text.source))
+    base, tip, path = tree.chain(base_link, tip_link)
+    on_chain = {base} | {j.find("child").attrib["link"] for j in path}
+    below_base = tree.below(base)
+    excluded = _excluded(tree, exclude, on_chain, below_base)
+    given = dict(locked or {})
+    moving = {j.name for j in path if j.attrib.get("type") in MOVING and j.name not in given}
+    reader = _Reader(tree, text.file, snap)
+    reader.values = tree.values(tree.below(base, set(excluded)) - {base}, moving, given)
+    skip = on_chain | set(excluded)
+
+    for joint in path:
+        kind = joint.attrib.get("type")
+        if kind in MULTI or (kind not in MOVING and kind != "fixed"):
+            raise URDFError(f"{where(text.source, joint)}: joint type {kind!r} in the chain is not supported "
+                            "(revolute, continuous, prismatic and fixed are)")
+        if joint.find("mimic") is not None and joint.name in moving:
+            raise URDFError(f"{where(text.source, joint)}: mimic joints in the chain are not supported: "
+                            "end the chain before it (tip_link=…)")
+
+    reader.subtree(base, skip, base, False)   # what rests on the base: checked, recorded, left out
+    pending, carrier, body, out = IDENTITY, None, Body.empty(), []
+    for joint in path:   # pending: from the moving body's frame (or the base) to the joint reached
+        child = joint.find("child").attrib["link"]
+        into = carrier[0].find("child").attrib["link"] if carrier else base
+        T = _compose(pending, reader.origin(joint, f"joint {joint.name!r} origin"))
+        if joint.name not in moving:   # fixed, or a chain joint locked at a value
+            if joint.attrib.get("type") in MOVING:
+                value, why = reader.values[joint.name]
+                reader.locked.append(Locked(joint.name, value, into, why, carrier is not None, on_chain=True))
+                T = _compose(T, _motion(MOVING[joint.attrib["type"]], reader.axis(joint), value))
+            sub = reader.subtree(child, skip, into, carrier is not None)
+            pending = T
+            body = body + sub.moved(T) if carrier else body   # ahead of the first joint: part of the base
+            continue
+        if carrier:
+            out.append(reader.link(*carrier, body))
+        carrier, pending = (joint, T), IDENTITY
+        body = reader.subtree(child, skip, child, True)
+    if carrier is None:
+        raise URDFError(f"{text.source}: the chain from {base!r} to {tip!r} has no moving joint")
+    out.append(reader.link(carrier[0], carrier[1], body))
+    tool = tuple(tuple(_number(x) for x in row) for row in pending)
+    record = UrdfRecord(text.file, text.sha256, base, tip, tuple(j.name for j in path if j.name in moving),
+                        tuple(reader.locked), excluded, tuple(reader.snaps), snap, tuple(reader.warnings))
+    robot = Robot(name or tree.robot.name or "urdf", tuple(out), convention="general", tool=tool,
+                  source=f"URDF {text.file} (sha256 {text.sha256[:16]}…)")
+    for message in record.warnings:
+        warnings.warn(message, URDFWarning, stacklevel=2)
+    return dataclasses.replace(robot, urdf=record)
