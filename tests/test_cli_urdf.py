@@ -8,23 +8,18 @@ which does so byte for byte.
 """
 
 import hashlib
-import inspect
 import shlex
 from pathlib import Path
 
 import pytest
 
 from symdyn import cli
-from symdyn.model import Robot, arms, command_line
+from symdyn.model import arms, command_line
 
 URDF = Path(__file__).parent / "urdf" / "branches.urdf"
-#: branches.urdf's main chain, the finger held half-closed and the camera left out.
-OPTIONS = ["--tip", "hand", "--lock", "finger_joint=0.25", "--exclude", "camera"]
-
-#: The tests of what `Robot.from_urdf(…, locked=, exclude=, snap=)` records in `robot.urdf` (its
-#: provenance in the headers, the regenerate line) wait for that reader; the rest runs on any.
-needs_record = pytest.mark.skipif("locked" not in inspect.signature(Robot.from_urdf).parameters,
-                                  reason="Robot.from_urdf takes no locked=/exclude=/snap= yet (issue 22)")
+#: branches.urdf's main chain with its last joint held at 0.5 rad (three joints move), the finger and the
+#: camera left out (the finger's inertia is physically impossible: it must not enter).
+OPTIONS = ["--tip", "hand", "--lock", "j4=0.5", "--exclude", "finger", "--exclude", "camera"]
 
 
 def _header(path: Path) -> list[str]:
@@ -44,12 +39,10 @@ def generated(tmp_path_factory):
     return out
 
 
-@needs_record
 def test_generate_writes_the_files_named_after_the_urdf_file(generated):
     assert sorted(p.name for p in generated.iterdir()) == ["branches.c", "branches.h"]
 
 
-@needs_record
 @pytest.mark.parametrize("suffix", [".c", ".h"])
 def test_header_names_the_file_by_name_and_sha256_and_no_folder(generated, suffix):
     text = (generated / f"branches{suffix}").read_text()
@@ -59,14 +52,12 @@ def test_header_names_the_file_by_name_and_sha256_and_no_folder(generated, suffi
     assert "branches.urdf" in source and hashlib.sha256(URDF.read_bytes()).hexdigest() in source
 
 
-@needs_record
 def test_header_lists_what_was_locked_and_excluded(generated):
     head = "\n".join(_header(generated / "branches.c"))
-    assert "finger_joint = 0.25" in head and "l3" in head
-    assert "excluded" in head and "camera" in head
+    assert "j4 = 0.5 -> l3" in head
+    assert "excluded" in head and "finger" in head and "camera" in head
 
 
-@needs_record
 def test_regenerate_line_rebuilds_the_files_byte_for_byte(generated, tmp_path, monkeypatch):
     command = shlex.split(_field(_header(generated / "branches.c"), "regenerate"))
     assert command[:3] == ["symdyn", "generate", "branches.urdf"], command
@@ -78,17 +69,18 @@ def test_regenerate_line_rebuilds_the_files_byte_for_byte(generated, tmp_path, m
 
 def test_generate_without_out_writes_out_and_the_file_stem(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["generate", str(URDF), "--tip", "hand", "--target", "numpy"]) == 0
-    assert (tmp_path / "out" / "branches" / "branches.py").is_file()
+    assert cli.main(["generate", str(URDF), "--tip", "hand", "--exclude", "finger", "--no-snap",
+                     "--target", "numpy"]) == 0
+    head = _header(tmp_path / "out" / "branches" / "branches.py")
+    assert "--no-snap" in _field(head, "regenerate") and any("snap=False" in line for line in head)
 
 
-@needs_record
 def test_print_reads_a_urdf_file(capsys):
     assert cli.main(["print", str(URDF), *OPTIONS, "--term", "G"]) == 0
     out = capsys.readouterr().out
-    assert "G1 = " in out and "G4 = " in out and "G5" not in out
+    assert "G1 = " in out and "G3 = " in out and "G4" not in out
     assert "# branches by newton-euler" in out
-    assert "finger_joint = 0.25" in out   # what was locked, as in the generated headers
+    assert "j4 = 0.5 -> l3" in out   # what was locked, as in the generated headers
 
 
 @pytest.mark.parametrize("argv, culprit", [
@@ -117,7 +109,6 @@ def test_lock_values_are_numbers_per_joint():
         command_line.parse_locks(["a=0.5", "a=0.6"])
 
 
-@needs_record
 def test_bench_takes_a_urdf_file(capsys):
     """The peers are built from the same Robot; the smallest run (no C++ peer, no CasADi baseline)."""
     argv = ["bench", "--model", str(URDF), *OPTIONS, "--calls", "1000", "--pin-calls", "100", "--reps", "1",
