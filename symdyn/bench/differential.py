@@ -89,7 +89,7 @@ def pinocchio_at(model, q, qd, qdd, tau) -> dict:
     import pinocchio as pin
 
     data = model.createData()
-    n = q.shape[1]
+    n = model.nv
     out = {k: [] for k in ("tau", "M", "G", "Cqd", "Gamma", "ddq")}
     for x, v, a, t in zip(q, qd, qdd, tau):
         out["tau"].append(pin.rnea(model, data, x, v, a).copy())
