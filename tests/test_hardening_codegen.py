@@ -148,3 +148,18 @@ def test_leftovers_of_a_killed_generate_are_cleaned_up_or_restored(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["twolink"]
     after = _snapshot(out)
     assert after["twolink.py"] == before["twolink.py"] and {"twolink.c", "twolink.h"} <= set(after)
+
+
+def test_generating_and_compiling_into_the_cache_report_progress(tmp_path, monkeypatch, capsys):
+    """Steps over REPORT_AFTER_S say what they do on stderr (issue 22 item 6); here the
+    threshold is 0 so that a small arm's steps report."""
+    from symdyn.derivation import progress
+    from symdyn.model.random_arms import ArmOptions, random_arm
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)
+    robot = random_arm(4242, ArmOptions(n_min=2, n_max=2, symbolic=0))
+    codegen.load(robot, "c")
+    err = capsys.readouterr().err
+    assert f"symdyn: generating the c code of {robot.name}: done in" in err, err
+    assert f"symdyn: loading {robot.name}'s C code (compiled once into the cache): done in" in err, err

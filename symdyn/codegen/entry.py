@@ -25,6 +25,7 @@ import tempfile
 from pathlib import Path
 
 from .. import __version__
+from ..derivation import progress
 from ..derivation.cache import cache_dir, package_fingerprint, writable
 from ..model import Robot, arms
 from .emit import Bundle, identifier, is_intact, read_header, write_atomic
@@ -289,7 +290,8 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options) ->
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
     if target == "c":
         from .emit.clib import CompileOptions, load_library
-        lib = load_library(paths[0], paths[1], options or CompileOptions())
+        with progress.reported(f"symdyn: loading {name}'s C code (compiled once into the cache)"):
+            lib = load_library(paths[0], paths[1], options or CompileOptions())
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
     from .emit.casadi import deserialize
     funcs = {f.name(): f for f in deserialize(paths[0])[1]}
@@ -367,7 +369,8 @@ def _load(name_or_robot, target: str, options, folder) -> GeneratedModel:
             print(f"symdyn: generating the code of {name} ({target}) into the cache, once: an installed "
                   "symdyn carries no generated/", file=sys.stderr)
         folder = writable(folder)
-        generate(robot, target, folder)
+        with progress.reported(f"symdyn: generating the {target} code of {name}"):
+            generate(robot, target, folder)
     return _load_folder(folder, name, target, robot, options)
 
 
