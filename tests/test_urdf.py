@@ -4,9 +4,10 @@ Each small file in tests/urdf/ exercises one feature (its header comment says
 which); each is read by `Robot.from_urdf` and by `pin.buildModelFromUrdf`,
 and symdyn's numeric reference must agree with Pinocchio on τ, M, G, C and
 forward dynamics at 200 random states within the limits, to 1e-10 — and on
-the tool pose.  Where a chain leaves part of the tree out (moving side
-branches, a sub-chain chosen by base_link/tip_link), Pinocchio reads the
-same file with only that chain's links kept.  Parsed values are checked by
+the tool pose.  Where a chain leaves part of the tree out (subtrees excluded
+on purpose, a sub-chain chosen by base_link/tip_link), Pinocchio reads the
+same file with only that chain's links kept; locked branches are compared
+with Pinocchio's reduced model in test_urdf_trees.py.  Parsed values are checked by
 hand where that is easy, every refusal must name the element and its line,
 and two files go through every derivation stage and generated target.
 """
