@@ -229,3 +229,16 @@ def test_a_nearly_axis_aligned_axis_is_snapped_and_reported(tmp_path):
         robot = Robot.from_urdf(text, tip_link="tcp")
     assert any(s.snapped == "axis +x" and "slider" in s.where for s in robot.urdf.snaps)
     assert robot == _tree()
+
+
+def test_a_robot_changed_after_reading_no_longer_claims_its_file_rebuilds_it():
+    from symdyn.codegen.entry import _provenance_lines
+
+    robot = _tree(locked={"finger_left": 0.3})
+    source, notes, command = _provenance_lines(robot)
+    assert command.startswith("tree.urdf ") and "--lock=finger_left=0.3" in command
+    assert robot.urdf.describes(robot)
+    heavier = robot.payload(0.5, (0, 0, 0.1), additive=True)
+    assert heavier.urdf is robot.urdf and not heavier.urdf.describes(heavier)
+    source, notes, command = _provenance_lines(heavier)
+    assert command == "" and "changed after reading" in source

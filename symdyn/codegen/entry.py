@@ -92,8 +92,13 @@ def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
     folder, which is the reader's, not the model's —, lists what was locked, excluded and snapped,
     and rebuilds by `symdyn generate FILE.urdf --tip … [--name NAME]`, run beside the file."""
     record = getattr(robot, "urdf", None)
-    if record is None or _is_shipped(robot):
+    if _is_shipped(robot):
+        return robot.source, (), robot.name
+    if record is None:   # built in Python: no name or file the command line knows rebuilds it
         return robot.source, (), ""
+    if not record.describes(robot):   # changed after reading (a payload, new parameters): no command rebuilds it
+        return (f"{robot.source}, changed after reading (the file alone does not rebuild it)",
+                tuple(record.lines()[1:]), "")
     lines = list(record.lines())
     command = record.command_args()
     if command.split(" ", 1)[0] != shlex.quote(record.file):

@@ -12,8 +12,6 @@ beside the other outputs named after their files; --name overrides it.
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import inspect
 import math
 from pathlib import Path
 
@@ -107,8 +105,6 @@ def load(model: str, *, symbolic: bool = False, tip: str | None = None, base: st
         options["exclude"] = list(exclude)
     if no_snap:
         options["snap"] = False
-    if "name" not in inspect.signature(Robot.from_urdf).parameters:   # a reader that names by <robot name=…>
-        return dataclasses.replace(Robot.from_urdf(path, **options), name=name or path.stem)
     return Robot.from_urdf(path, name=name or path.stem, **options)
 
 

@@ -28,7 +28,7 @@ class Bundle:
     count, provenance and the programs of its functions, in order.  `notes`:
     more provenance lines after the source (a URDF robot's locked joints,
     exclusions and snaps); `command`: the `symdyn generate` arguments that
-    rebuild the model (default: its name)."""
+    rebuild the model ("": none does — it was built in Python)."""
 
     name: str
     n: int
@@ -135,7 +135,9 @@ def header_lines(bundle: Bundle, target: str) -> list[str]:
     if bundle.source:
         lines.append(f"model source: {_comment_safe(bundle.source)}")
     lines += [_comment_safe(note) for note in bundle.notes]
-    lines += [f"regenerate: symdyn generate {_comment_safe(bundle.command or bundle.name)} --target {target}",
+    lines += [f"regenerate: symdyn generate {_comment_safe(bundle.command)} --target {target}" if bundle.command
+              else f"regenerate: from Python, symdyn.generate(robot, {target!r}, folder) (no shipped name or "
+                   "file rebuilds this model)",
               f"operation counts after one joint CSE, {_friction(bundle)}, [derivation] (fun: sin/cos/sign "
               "calls; a - b counts as one add, negation is free):"]
     lines += [f"  {p.name:<{width}}  {format_ops(p.op_count())}" + (f"  [{p.origin}]" if p.origin else "")

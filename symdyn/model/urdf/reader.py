@@ -232,10 +232,11 @@ def from_urdf(path_or_xml, *, base_link: str | None = None, tip_link: str | None
         raise URDFError(f"{text.source}: the chain from {base!r} to {tip!r} has no moving joint")
     out.append(reader.link(carrier[0], carrier[1], body))
     tool = tuple(tuple(_number(x) for x in row) for row in pending)
-    record = UrdfRecord(text.file, text.sha256, base, tip, tuple(j.name for j in path if j.name in moving),
-                        tuple(reader.locked), excluded, tuple(reader.snaps), snap, tuple(reader.warnings))
     robot = Robot(name or tree.robot.name or "urdf", tuple(out), convention="general", tool=tool,
                   source=f"URDF {text.file} (sha256 {text.sha256[:16]}…)")
+    record = UrdfRecord(text.file, text.sha256, base, tip, tuple(j.name for j in path if j.name in moving),
+                        tuple(reader.locked), excluded, tuple(reader.snaps), snap, tuple(reader.warnings),
+                        robot.fingerprint())
     for message in record.warnings:
         warnings.warn(message, URDFWarning, stacklevel=2)
     return dataclasses.replace(robot, urdf=record)

@@ -54,6 +54,11 @@ class UrdfRecord:
     snaps: tuple = ()
     snap: bool = True
     warnings: tuple = ()
+    fingerprint: str = ""
+
+    def describes(self, robot) -> bool:
+        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
+        return robot.fingerprint() == self.fingerprint
 
     @property
     def max_snap(self) -> float:
