@@ -1,9 +1,18 @@
 """C target: a .c/.h pair per model with plain C entry points.
 
-For every function a single-state and a batched entry point, e.g.
+For every function a single-state and two batched entry points, e.g.
 `void puma560_tau(const double q[6], const double qd[6], const double qdd[6],
-double tau[6])` and `void puma560_tau_batch(int n, const double *q, …)`;
-matrices are row-major (`double M[36]`).  The header lists each function's
+double tau[6])`, `void puma560_tau_batch(int n, const double *q, …)` (the
+scalar function state after state) and `void puma560_tau_simd(int n, int
+threads, const double *q, …)`: SYMDYN_W states at a time across SIMD lanes
+(structure-of-arrays blocks gathered from and scattered to the row-major
+(n, size) arrays; W = 8 with AVX-512, 4 with AVX, 2 with SSE2/NEON, else 1),
+the blocks split over `threads` POSIX threads.  Every lane computes exactly
+the scalar function's arithmetic (sin/cos by the same reduction and
+polynomials, sign by a branch-free select); a state with a sin/cos argument
+outside |x| < 1e5 (or NaN) is recomputed by the scalar function, so the
+kernel's results are the scalar function's whatever n and the thread count.
+Matrices are row-major (`double M[36]`).  The header lists each function's
 signature in a machine-readable comment (`function: M(q: 6) -> M: 6x6`), which
 `symdyn.codegen.emit.clib` reads to bind the compiled library to Python.
 """
@@ -19,6 +28,10 @@ from ...derivation.program import Program, lower
 from . import Bundle, Infix, header_lines, seal
 
 __all__ = ["c_source", "h_source", "Signature", "read_signatures"]
+
+#: The SIMD kernels' spelling: sin/cos/sign without branches, so that a loop over lanes vectorizes.
+VECTOR_ALGEBRA = Infix({"sin": "sinv_", "cos": "cosv_", "tan": "tan", "sqrt": "sqrt", "sign": "signv_",
+                        "abs": "fabs"}, power="pow")
 
 ALGEBRA = Infix({"sin": "sin_", "cos": "cos_", "tan": "tan", "sqrt": "sqrt", "sign": "sign_",
                  "abs": "fabs"}, power="pow")
@@ -58,6 +71,135 @@ static inline void sincos_(double x, double *s, double *c)
 
 static inline double sin_(double x) { double s, c; sincos_(x, &s, &c); return s; }
 static inline double cos_(double x) { double s, c; sincos_(x, &s, &c); return c; }
+"""
+
+_SIMD_HELPERS = r"""
+/* ---- batched kernels: SYMDYN_W states per SIMD instruction, blocks over threads ---- */
+#ifndef SYMDYN_W
+#if defined(__AVX512F__)
+#define SYMDYN_W 8
+#elif defined(__AVX__)
+#define SYMDYN_W 4
+#elif defined(__SSE2__) || defined(__ARM_NEON) || defined(__aarch64__) || defined(_M_X64)
+#define SYMDYN_W 2
+#else
+#define SYMDYN_W 1
+#endif
+#endif
+/* Build with -fopenmp-simd -DSYMDYN_OPENMP_SIMD (or -fopenmp) to vectorize each
+   lane loop for certain; without it, -O3 usually vectorizes it anyway. */
+#if defined(_OPENMP) || defined(SYMDYN_OPENMP_SIMD)
+#define SYMDYN_SIMD _Pragma("omp simd")
+#else
+#define SYMDYN_SIMD
+#endif
+#if !defined(SYMDYN_NO_THREADS) && (defined(__unix__) || defined(__APPLE__))
+#define SYMDYN_THREADS 1
+#include <pthread.h>
+#endif
+#define SYMDYN_MAX_THREADS 256
+/* Fewest blocks of SYMDYN_W states worth a thread of their own (starting one costs ~10 us). */
+#define SYMDYN_MIN_BLOCKS 512
+
+/* sign(x) as sign_, as a select. */
+static inline double signv_(double x) { return (x > 0.0 ? 1.0 : 0.0) - (x < 0.0 ? 1.0 : 0.0); }
+
+/* 1 when x is outside sincos_'s inline range (|x| < 1e5) or NaN: that lane's
+   state is then recomputed by the scalar function (libm). */
+static inline double outside_(double x) { return fabs(x) < 1e5 ? 0.0 : 1.0; }
+
+/* sincos_'s arithmetic (same reduction, same polynomials, same quadrant choice:
+   the same bits for |x| < 1e5) without its libm branch and without integers,
+   so that it vectorizes; the quadrant n mod 4 in floating point.  Accurate
+   (the 33-bit pi/2 head makes k * head exact) up to |x| ~ 1.6e6. */
+static inline void sincosv_(double x, double *s, double *c)
+{
+    const double shift = 6755399441055744.0;
+    const double k = (x * 0.63661977236758134308 + shift) - shift;
+    const double r = (x - k * 1.57079632673412561417e+00) - k * 6.07710050650619224932e-11;
+    const double k4 = ((k * 0.25 - 0.375) + shift) - shift;  /* floor(k / 4) */
+    const double m = k - 4.0 * k4;                             /* n mod 4: 0, 1, 2, 3 */
+    const double hi = m >= 2.0 ? 1.0 : 0.0;                    /* (n & 2) / 2 */
+    const double odd = m - 2.0 * hi, even = 1.0 - odd;         /* n & 1 */
+    const double hc = (m == 1.0 || m == 2.0) ? 1.0 : 0.0;      /* ((n + 1) & 2) / 2 */
+    const double z = r * r;
+    const double sr = r + r * z * (-1.66666666666666324348e-01 + z * (8.33333333332248946124e-03
+        + z * (-1.98412698298579493134e-04 + z * (2.75573137070700676789e-06
+        + z * (-2.50507602534068634195e-08 + z * 1.58969099521155010221e-10)))));
+    const double hz = 0.5 * z, w = 1.0 - hz;
+    const double cr = w + (((1.0 - w) - hz) + z * z * (4.16666666666666019037e-02
+        + z * (-1.38888888888741095749e-03 + z * (2.48015872894767294178e-05
+        + z * (-2.75573143513906633035e-07 + z * (2.08757232129817482790e-09
+        + z * -1.13596475577881948265e-11))))));
+    *s = (1.0 - 2.0 * hi) * (sr * even + cr * odd);
+    *c = (1.0 - 2.0 * hc) * (cr * even + sr * odd);
+}
+
+static inline double sinv_(double x) { double s, c; sincosv_(x, &s, &c); return s; }
+static inline double cosv_(double x) { double s, c; sincosv_(x, &s, &c); return c; }
+
+/* A kernel over the states [i0, i1) of its arrays (in: inputs, out: outputs). */
+typedef void (*symdyn_range_)(const double *const *in, double *const *out, long i0, long i1);
+typedef struct {
+    symdyn_range_ f;
+    const double *const *in;
+    double *const *out;
+    long i0, i1;
+} symdyn_job_;
+
+static void *symdyn_run_(void *p)
+{
+    const symdyn_job_ *j = (const symdyn_job_ *)p;
+    j->f(j->in, j->out, j->i0, j->i1);
+    return NULL;
+}
+
+/* f over n states in `threads` contiguous runs of whole blocks (fewer for a small n;
+   threads < 1 means 1).  Every state is computed by the same lane code whatever
+   the split, so the results do not depend on the thread count. */
+static void symdyn_parallel_(symdyn_range_ f, const double *const *in, double *const *out, long n, int threads)
+{
+    const long blocks = (n + SYMDYN_W - 1) / SYMDYN_W;
+    long b0 = 0, most = blocks / SYMDYN_MIN_BLOCKS;
+    symdyn_job_ job[SYMDYN_MAX_THREADS];
+    int t;
+    if (threads > SYMDYN_MAX_THREADS)
+        threads = SYMDYN_MAX_THREADS;
+    if (threads > most)
+        threads = (int)most;
+    if (threads <= 1) {
+        if (n > 0)
+            f(in, out, 0, n);
+        return;
+    }
+    for (t = 0; t < threads; ++t) {
+        const long b1 = blocks * (t + 1) / threads;
+        job[t].f = f;
+        job[t].in = in;
+        job[t].out = out;
+        job[t].i0 = b0 * SYMDYN_W;
+        job[t].i1 = b1 * SYMDYN_W < n ? b1 * SYMDYN_W : n;
+        b0 = b1;
+    }
+#ifdef SYMDYN_THREADS
+    {
+        pthread_t tid[SYMDYN_MAX_THREADS];
+        int started[SYMDYN_MAX_THREADS];
+        for (t = 1; t < threads; ++t)
+            started[t] = pthread_create(&tid[t], NULL, symdyn_run_, &job[t]) == 0;
+        symdyn_run_(&job[0]);
+        for (t = 1; t < threads; ++t) {
+            if (started[t])
+                pthread_join(tid[t], NULL);
+            else
+                symdyn_run_(&job[t]);
+        }
+    }
+#else
+    for (t = 0; t < threads; ++t)
+        symdyn_run_(&job[t]);
+#endif
+}
 """
 
 
@@ -106,8 +248,14 @@ def _prototypes(model: str, sig: Signature) -> tuple[str, str]:
     ins = [f"const double {a}[{k}]" for a, k in sig.inputs]
     outs = [f"double {o}[{_size(s)}]" for o, s in sig.outputs]
     single = f"void {model}_{sig.name}({', '.join(ins + outs)})"
-    batch_args = ["int n"] + [f"const double *{a}" for a, _ in sig.inputs] + [f"double *{o}" for o, _ in sig.outputs]
-    return single, f"void {model}_{sig.name}_batch({', '.join(batch_args)})"
+    arrays = [f"const double *{a}" for a, _ in sig.inputs] + [f"double *{o}" for o, _ in sig.outputs]
+    return single, f"void {model}_{sig.name}_batch({', '.join(['int n'] + arrays)})"
+
+
+def _simd_prototype(model: str, sig: Signature) -> str:
+    """The SIMD kernel's prototype: n states on `threads` threads."""
+    arrays = [f"const double *{a}" for a, _ in sig.inputs] + [f"double *{o}" for o, _ in sig.outputs]
+    return f"void {model}_{sig.name}_simd({', '.join(['int n', 'int threads'] + arrays)})"
 
 
 def _comment(lines: list[str]) -> str:
@@ -118,7 +266,9 @@ def h_source(bundle: Bundle) -> str:
     """The header: provenance, signatures, and the prototypes."""
     guard = f"SYMDYN_{bundle.name.upper()}_H"
     sigs = [signature(p) for p in bundle.programs]
-    lines = header_lines(bundle, "c") + ["", "Matrices are row-major; *_batch loops over n states stored contiguously.",
+    lines = header_lines(bundle, "c") + ["", "Matrices are row-major; *_batch loops over n states stored contiguously;",
+                                         "*_simd runs SYMDYN_W states per SIMD instruction on `threads` threads,",
+                                         "with the results of the scalar function.",
                                          "signatures:"] + [f"  {s.line()}" for s in sigs]
     parts = [_comment(lines), f"#ifndef {guard}\n#define {guard}\n",
              '#ifdef __cplusplus\nextern "C" {\n#endif\n',
@@ -129,7 +279,7 @@ def h_source(bundle: Bundle) -> str:
         single, batch = _prototypes(bundle.name, sig)
         if p.doc:
             parts.append(f"/* {p.doc} */")
-        parts.append(f"{single};\n{batch};\n")
+        parts.append(f"{single};\n{batch};\n{_simd_prototype(bundle.name, sig)};\n")
     parts.append("#ifdef __cplusplus\n}\n#endif\n#endif")
     return seal("\n".join(parts) + "\n")
 
@@ -159,6 +309,86 @@ def _assignments(assignments) -> list[str]:
     return lines
 
 
+def _vector_text(expr) -> str:
+    return lower(expr, VECTOR_ALGEBRA)[0]
+
+
+def _vector_assignments(assignments) -> list[str]:
+    """The lane loop's statements: as `_assignments`, with the vector sin/cos/sign,
+    and `bad += outside_(x)` for every sin/cos argument x."""
+    trig = {}
+    for s, e in assignments:
+        if isinstance(e, (sp.sin, sp.cos)):
+            trig.setdefault(e.args[0], {})[e.func] = s
+    lines, done = [], set()
+    for s, e in assignments:
+        pair = trig.get(e.args[0], {}) if isinstance(e, (sp.sin, sp.cos)) else {}
+        if len(pair) == 2:
+            if s not in done:
+                sin_s, cos_s = pair[sp.sin], pair[sp.cos]
+                x = _vector_text(e.args[0])
+                lines.append(f"        double {sin_s.name}, {cos_s.name};")
+                lines.append(f"        bad += outside_({x});")
+                lines.append(f"        sincosv_({x}, &{sin_s.name}, &{cos_s.name});")
+                done |= {sin_s, cos_s}
+            continue
+        for t in sorted({a.args[0] for a in e.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key):
+            lines.append(f"        bad += outside_({_vector_text(t)});")
+        lines.append(f"        const double {s.name} = {_vector_text(e)};")
+    return lines
+
+
+def simd_source(model: str, p: Program) -> str:
+    """The SIMD kernel of one program: a block of SYMDYN_W states gathered into
+    structure-of-arrays, the program once per lane in a loop the compiler
+    vectorizes, scattered back (a short last block repeats its last state);
+    then the range and threaded entry points."""
+    sig = signature(p)
+    used = p.used_inputs()
+    f = f"{model}_{p.name}"
+    ins = [(a, syms) for a, syms in p.inputs]
+    read = [(a, syms) for a, syms in ins if any(s in used for s in syms)]
+    body = [f"static void {f}_lanes(long i0, int m, "
+            + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs]) + ")",
+            "{"]
+    body += [f"    double {a}_[{len(syms)}][SYMDYN_W];" for a, syms in read]
+    body += [f"    double {o}_[{_size(sh)}][SYMDYN_W];" for o, sh in sig.outputs]
+    body += ["    double bad_[SYMDYN_W];", "    int k, j;"]
+    body += [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"
+             for a, _ in ins if (a, _) not in read]
+    if read:
+        body += ["    for (k = 0; k < SYMDYN_W; ++k) {", "        const long i = i0 + (k < m ? k : m - 1);"]
+        for a, syms in read:
+            body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            {a}_[j][k] = {a}[i * {len(syms)} + j];"]
+        body += ["    }"]
+    body += ["    SYMDYN_SIMD", "    for (k = 0; k < SYMDYN_W; ++k) {", "        double bad = 0.0;"]
+    for a, syms in read:
+        body += [f"        const double {s.name} = {a}_[{k}][k];" for k, s in enumerate(syms) if s in used]
+    body += _vector_assignments(p.assignments)
+    for o, mat in p.outputs:
+        body += [f"        {o}_[{k}][k] = {_vector_text(e)};" for k, e in enumerate(mat)]
+    body += ["        bad_[k] = bad;", "    }"]
+    args = [f"{a} + i * {len(syms)}" for a, syms in ins] + [f"{o} + i * {_size(sh)}" for o, sh in sig.outputs]
+    body += ["    for (k = 0; k < m; ++k) {", "        const long i = i0 + k;",
+             "        if (bad_[k] != 0.0) {",
+             f"            {f}({', '.join(args)});",
+             "            continue;", "        }"]
+    for o, sh in sig.outputs:
+        body += [f"        for (j = 0; j < {_size(sh)}; ++j)", f"            {o}[i * {_size(sh)} + j] = {o}_[j][k];"]
+    body += ["    }", "}", ""]
+    nin = len(ins)
+    lanes_args = [f"in[{i}]" for i in range(nin)] + [f"out[{j}]" for j in range(len(sig.outputs))]
+    body += [f"static void {f}_range(const double *const *in, double *const *out, long i0, long i1)", "{",
+             "    long i;", "    for (i = i0; i < i1; i += SYMDYN_W)",
+             f"        {f}_lanes(i, (int)(i1 - i < SYMDYN_W ? i1 - i : SYMDYN_W), {', '.join(lanes_args)});",
+             "}", ""]
+    body += [_simd_prototype(model, sig), "{",
+             f"    const double *const in[{nin}] = {{{', '.join(a for a, _ in ins)}}};",
+             f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
+             f"    symdyn_parallel_({f}_range, in, out, n, threads);", "}", ""]
+    return "\n".join(body)
+
+
 def function_source(model: str, p: Program) -> str:
     """The single-state and batched C functions of one program."""
     sig = signature(p)
@@ -175,12 +405,12 @@ def function_source(model: str, p: Program) -> str:
     calls = [f"{a} + {k}*k" for a, k in sig.inputs] + [f"{o} + {_size(s)}*k" for o, s in sig.outputs]
     loop = (f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n"
             f"        {model}_{p.name}({', '.join(calls)});\n}}\n")
-    return f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop
+    return f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop + "\n" + simd_source(model, p)
 
 
 def c_source(bundle: Bundle) -> str:
     """The whole .c file of one model."""
     parts = [_comment(header_lines(bundle, "c")), "#include <math.h>",
-             f'#include "{bundle.name}.h"\n', _HELPERS]
+             f'#include "{bundle.name}.h"\n', _HELPERS + _SIMD_HELPERS]
     parts += [function_source(bundle.name, p) for p in bundle.programs]
     return seal("\n".join(parts))

@@ -39,7 +39,7 @@ from .c import Signature, read_signatures
 __all__ = ["CompileOptions", "CLibrary", "load_library", "compiler"]
 
 #: -march=native: the library is built for this machine (the cache key includes the host name).
-DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared")
+DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared", "-pthread", "-fopenmp-simd", "-DSYMDYN_OPENMP_SIMD")
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,11 @@ _GLUE_HEAD = r'''#define PY_SSIZE_T_CLEAN
 
 #define MAXARGS 8
 typedef void (*one_fn)(const double *const *in, double *const *out);
-typedef void (*many_fn)(int n, const double *const *in, double *const *out);
+typedef void (*many_fn)(int n, int threads, const double *const *in, double *const *out);
+
+/* threads= when the call gives none: set by symdyn (the cores this process may use). */
+static int default_threads = 1;
+#define MAXTHREADS 256
 typedef struct {
     const char *name;
     const char *const *in_names;
@@ -173,19 +177,105 @@ done:
     return result;
 }
 
-/* One output array per output, shaped leading + its own shape; single or batched call. */
+/* The keywords out= and threads= taken out of a call: the other keywords' names
+   in *kw (a new tuple, or NULL when none is left), the arguments' values in vals
+   (positional, then those keywords'); 0, or -1 with an exception set. */
+static int extras(const char *name, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames,
+                  PyObject **vals, PyObject **kw, PyObject **outarg, int *threads)
+{
+    Py_ssize_t i, nkw = kwnames ? PyTuple_GET_SIZE(kwnames) : 0, kept = 0;
+    *kw = NULL;
+    *outarg = NULL;
+    *threads = default_threads;
+    if (nargs + nkw > 2 * MAXARGS) {
+        PyErr_Format(PyExc_TypeError, "%%s(): too many arguments", name);
+        return -1;
+    }
+    for (i = 0; i < nargs; ++i)
+        vals[i] = args[i];
+    for (i = 0; i < nkw; ++i) {
+        PyObject *key = PyTuple_GET_ITEM(kwnames, i), *v = args[nargs + i];
+        if (PyUnicode_CompareWithASCIIString(key, "out") == 0) {
+            *outarg = v == Py_None ? NULL : v;
+        } else if (PyUnicode_CompareWithASCIIString(key, "threads") == 0) {
+            long t;
+            if (v == Py_None)
+                continue;
+            t = PyLong_AsLong(v);
+            if (t == -1 && PyErr_Occurred())
+                return -1;
+            if (t < 1) {
+                PyErr_Format(PyExc_ValueError, "%%s(): threads must be at least 1, got %%ld", name, t);
+                return -1;
+            }
+            *threads = t > MAXTHREADS ? MAXTHREADS : (int)t;
+        } else {
+            vals[nargs + kept++] = v;
+        }
+    }
+    if (kept == 0)
+        return 0;
+    *kw = PyTuple_New(kept);
+    if (!*kw)
+        return -1;
+    for (i = 0, kept = 0; i < nkw; ++i) {
+        PyObject *key = PyTuple_GET_ITEM(kwnames, i);
+        if (PyUnicode_CompareWithASCIIString(key, "out") && PyUnicode_CompareWithASCIIString(key, "threads")) {
+            Py_INCREF(key);
+            PyTuple_SET_ITEM(*kw, kept++, key);
+        }
+    }
+    return 0;
+}
+
+/* The caller's array for output j (new reference), or NULL with a ValueError:
+   exactly an ndarray, float64, C-contiguous, aligned and writeable, of the output's shape. */
+static PyObject *given_out(const spec_t *s, PyObject *outarg, int j, int nd, const npy_intp *dims)
+{
+    PyObject *o = outarg;
+    PyArrayObject *a;
+    if (s->nout > 1) {
+        if (!PyTuple_Check(outarg) || PyTuple_GET_SIZE(outarg) != s->nout) {
+            PyErr_Format(PyExc_ValueError, "%%s(): out must be a tuple of %%d arrays, one per output", s->name, s->nout);
+            return NULL;
+        }
+        o = PyTuple_GET_ITEM(outarg, j);
+    }
+    a = (PyArrayObject *)o;
+    if (!PyArray_Check(o) || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISCARRAY(a) || PyArray_NDIM(a) != nd
+        || memcmp(PyArray_DIMS(a), dims, nd * sizeof(npy_intp))) {
+        PyErr_Format(PyExc_ValueError, "%%s(): out%%s must be a C-contiguous writeable float64 array of the "
+                     "output's shape (leading dimensions of the inputs, then the output's own)",
+                     s->name, s->nout > 1 ? "[k]" : "");
+        return NULL;
+    }
+    Py_INCREF(o);
+    return o;
+}
+
+/* One output array per output, shaped leading + its own shape (or the caller's out=);
+   single or batched call (threads= threads, default: the cores this process may use). */
 static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames)
 {
     PyObject *out[MAXARGS] = {0};
-    PyObject *normal = NULL, *result = NULL;
+    PyObject *normal = NULL, *result = NULL, *vals[2 * MAXARGS], *kw = NULL, *outarg = NULL;
     const double *pin[MAXARGS];
     double *pout[MAXARGS];
     npy_intp dims[NPY_MAXDIMS], count = 1;
-    int lead_nd, out_nd = 0, i, j;
+    int lead_nd, out_nd = 0, i, j, threads;
     for (j = 0; j < s->nout; ++j)   /* an output has lead_nd + out_nd dimensions: they must fit dims */
         out_nd = s->out_nd[j] > out_nd ? s->out_nd[j] : out_nd;
+    if (kwnames && PyTuple_GET_SIZE(kwnames)) {
+        if (extras(s->name, args, nargs, kwnames, vals, &kw, &outarg, &threads) < 0)
+            return NULL;
+        args = vals;
+        kwnames = kw;
+    } else {
+        threads = default_threads;
+    }
     if (!plain(s, args, nargs, kwnames, out_nd)) {
         normal = checked(s, args, nargs, kwnames, out_nd);
+        Py_CLEAR(kw);
         if (!normal)
             return NULL;
         args = &PyTuple_GET_ITEM(PyTuple_GET_ITEM(normal, 0), 0);
@@ -202,7 +292,8 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, 
     }
     for (j = 0; j < s->nout; ++j) {
         memcpy(dims + lead_nd, s->out_dims[j], s->out_nd[j] * sizeof(npy_intp));
-        out[j] = PyArray_SimpleNew(lead_nd + s->out_nd[j], dims, NPY_DOUBLE);
+        out[j] = outarg ? given_out(s, outarg, j, lead_nd + s->out_nd[j], dims)
+                        : PyArray_SimpleNew(lead_nd + s->out_nd[j], dims, NPY_DOUBLE);
         if (!out[j])
             goto done;
         pout[j] = (double *)PyArray_DATA((PyArrayObject *)out[j]);
@@ -211,7 +302,7 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, 
         s->one(pin, pout);
     } else if (count > 0) {
         Py_BEGIN_ALLOW_THREADS
-        s->many((int)count, pin, pout);
+        s->many((int)count, threads, pin, pout);
         Py_END_ALLOW_THREADS
     }
     if (s->nout == 1) {
@@ -228,7 +319,18 @@ done:
     for (j = 0; j < MAXARGS; ++j)
         Py_XDECREF(out[j]);
     Py_XDECREF(normal);
+    Py_XDECREF(kw);
     return result;
+}
+
+static PyObject *py_set_threads(PyObject *self, PyObject *arg)
+{
+    long t = PyLong_AsLong(arg);
+    (void)self;
+    if (t == -1 && PyErr_Occurred())
+        return NULL;
+    default_threads = t < 1 ? 1 : t > MAXTHREADS ? MAXTHREADS : (int)t;
+    Py_RETURN_NONE;
 }
 '''
 
@@ -246,8 +348,8 @@ def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
         parts.append(
             f"static void {f}_one(const double *const *in, double *const *out) "
             f"{{ {model}_{f}({ins}, {outs}); }}\n"
-            f"static void {f}_many(int n, const double *const *in, double *const *out) "
-            f"{{ {model}_{f}_batch(n, {ins}, {outs}); }}\n"
+            f"static void {f}_many(int n, int threads, const double *const *in, double *const *out) "
+            f"{{ {model}_{f}_simd(n, threads, {ins}, {outs}); }}\n"
             f"static const char *const {f}_names[] = {{{names}}};\n"
             f"static const npy_intp {f}_in[] = {{{', '.join(str(k) for _, k in sig.inputs)}}};\n"
             f"static const int {f}_out_nd[] = {{{', '.join(str(len(s)) for _, s in sig.outputs)}}};\n"
@@ -256,9 +358,11 @@ def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
             f"{f}_out_dims, {f}_one, {f}_many}};\n"
             f"static PyObject *py_{f}(PyObject *self, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames) "
             f"{{ return call(&{f}_spec, args, nargs, kwnames); }}\n")
-        doc = (f"{f}($module, {', '.join(a for a, _ in sig.inputs)})\\n--\\n\\n"
-               f"{sig.line()[len('function: '):]}; batched over leading axes")
+        doc = (f"{f}($module, {', '.join(a for a, _ in sig.inputs)}, *, out=None, threads=None)\\n--\\n\\n"
+               f"{sig.line()[len('function: '):]}; batched over leading axes (SIMD across states, "
+               f"on `threads` threads), into out= if given")
         methods.append(f'    {{"{f}", (PyCFunction)(void (*)(void))py_{f}, METH_FASTCALL | METH_KEYWORDS, "{doc}"}},')
+    methods.append('    {"_set_threads", py_set_threads, METH_O, "default number of threads of a batched call"},')
     parts.append("static PyMethodDef methods[] = {\n" + "\n".join(methods) + "\n    {NULL, NULL, 0, NULL}\n};\n")
     parts.append(
         f'static struct PyModuleDef moduledef = {{PyModuleDef_HEAD_INIT, "{module}", NULL, -1, methods}};\n'
@@ -298,8 +402,14 @@ def split_source(text: str, parts: int) -> list[str]:
     lines = text.splitlines(keepends=True)
     starts = [i for i, line in enumerate(lines) if line.startswith("void ")]
     if parts < 2 or len(text) < SPLIT_BYTES or len(starts) < 2 \
-            or any(line.startswith(("static", "#")) for line in lines[starts[0]:]):
+            or any(line.startswith("#") or line.startswith("static") and not line.startswith("static void ")
+                   for line in lines[starts[0]:]):
         return [text]
+    # a static function (a SIMD kernel's lanes and range) belongs with the next
+    # `void` function after it (its entry point): a chunk starts at the first
+    # static function before a `void` line, if any
+    starts = [next((j for j in range(prev + 1, i) if lines[j].startswith("static void ")), i)
+              for prev, i in zip([starts[0] - 1] + starts, starts)]
     head = "".join(lines[:starts[0]])
     chunks = ["".join(lines[a:b]) for a, b in zip(starts, starts[1:] + [len(lines)])]
     bins: list[list[str]] = [[] for _ in range(min(parts, len(chunks)))]
@@ -418,6 +528,7 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
     lib = _library(folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}", options.flags, files,
                    list(headers))
     ext = _import_extension(module, lib)
+    ext._set_threads(_jobs())
     return CLibrary(model, sigs, lib, {s.name: getattr(ext, s.name) for s in sigs}, kind)
 
 
@@ -434,26 +545,50 @@ def _import_extension(module: str, path: Path):
 
 # --------------------------------------------------------------------------- ctypes binding
 
+def check_out(function: str, out, shapes: list) -> list:
+    """The caller's out= as a list of arrays, one per output, each exactly a
+    C-contiguous writeable float64 ndarray of its shape; else a ValueError."""
+    arrays = [out] if len(shapes) == 1 else out
+    if len(shapes) > 1 and (not isinstance(out, tuple) or len(out) != len(shapes)):
+        raise ValueError(f"{function}(): out must be a tuple of {len(shapes)} arrays, one per output")
+    for a, shape in zip(arrays, shapes):
+        if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous
+                and a.flags.writeable and a.flags.aligned and a.shape == shape):
+            raise ValueError(f"{function}(): out{'[k]' if len(shapes) > 1 else ''} must be a C-contiguous "
+                             f"writeable float64 array of shape {shape}")
+    return list(arrays)
+
+
 class _CtypesFunction:
-    """One generated function over ctypes: validates, allocates, calls single or batched."""
+    """One generated function over ctypes: validates, allocates (or writes into
+    out=), calls single or batched (the SIMD kernel on `threads` threads;
+    ctypes releases the GIL)."""
 
     def __init__(self, lib: ctypes.CDLL, model: str, sig: Signature) -> None:
         self.sig = sig
         nargs = len(sig.inputs) + len(sig.outputs)
         self._one = getattr(lib, f"{model}_{sig.name}")
         self._one.argtypes, self._one.restype = [ctypes.c_void_p] * nargs, None
-        self._many = getattr(lib, f"{model}_{sig.name}_batch")
-        self._many.argtypes, self._many.restype = [ctypes.c_int] + [ctypes.c_void_p] * nargs, None
+        self._many = getattr(lib, f"{model}_{sig.name}_simd")
+        self._many.argtypes, self._many.restype = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * nargs, None
         self.__name__ = sig.name
         self.__doc__ = f"{sig.line()[len('function: '):]}; batched over leading axes"
         self._lead_max = contract.MAXDIMS - max(len(shape) for _, shape in sig.outputs)
 
-    def __call__(self, *args, **kwargs):
+    def __call__(self, *args, out=None, threads=None, **kwargs):
         arrays, lead = contract.arguments(self.sig.name, self.sig.inputs, args, kwargs, self._lead_max)
-        outs = [np.empty(lead + shape) for _, shape in self.sig.outputs]
+        shapes = [lead + shape for _, shape in self.sig.outputs]
+        outs = [np.empty(s) for s in shapes] if out is None else check_out(self.sig.name, out, shapes)
+        if threads is None:
+            threads = _jobs()
+        elif int(threads) < 1:
+            raise ValueError(f"{self.sig.name}(): threads must be at least 1, got {threads}")
         pointers = [a.ctypes.data for a in (*arrays, *outs)]
         if lead:
-            self._many(int(np.prod(lead)), *pointers)
+            count = int(np.prod(lead))
+            if count > 2**31 - 1:
+                raise ValueError(f"{self.sig.name}(): {count} states, at most {2**31 - 1} per call")
+            self._many(count, min(int(threads), 256), *pointers)
         else:
             self._one(*pointers)
         return outs[0] if len(outs) == 1 else tuple(outs)
