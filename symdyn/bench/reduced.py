@@ -7,7 +7,8 @@ joints) and `buildReducedModel` locks the same joints at the same values
 states within the limits: symdyn's reference (τ, M, G, C·q̇, Christoffel
 symbols, forward dynamics, tool pose) and, given generated functions, their
 derivatives — each as a relative error.  Excluded subtrees are cut from the
-file Pinocchio reads; the base must be the file's root (Pinocchio's world).
+file Pinocchio reads and, where symdyn snapped numbers, Pinocchio reads them
+snapped by the same rule; the base must be the file's root (Pinocchio's world).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model import Robot
+from ..model.snapping import snap_angle, snap_axis
 from ..numeric import reference as ref
 from .differential import friction_law, pinocchio_at, pinocchio_derivatives, relative_error, states
 
@@ -47,6 +49,26 @@ def _without(path: Path, links: tuple, folder: Path) -> Path:
     return out
 
 
+def _snapped(path: Path, folder: Path) -> Path:
+    """The URDF at `path` with every origin rpy and joint axis snapped by symdyn's rule, so that
+    Pinocchio reads the model symdyn builds (its numbers differ from the file's by ≤ 1e-9: in forward
+    dynamics enough to hide a real disagreement of 1e-10 or to fake one)."""
+    tree = ET.parse(path)
+    for element in tree.getroot().iter():
+        if element.tag == "origin" and element.get("rpy"):
+            rpy = [float(x) for x in element.get("rpy").split()]
+            element.set("rpy", " ".join(repr(s.value if (s := snap_angle(a)) else a) for a in rpy))
+        elif element.tag == "axis" and element.get("xyz"):
+            axis = np.array([float(x) for x in element.get("xyz").split()])
+            unit = axis / np.linalg.norm(axis) if np.linalg.norm(axis) else axis
+            snapped = snap_axis(unit)
+            if snapped:
+                element.set("xyz", " ".join(str(x) for x in snapped.value))
+    out = folder / f"snapped_{Path(path).name}"
+    tree.write(out)
+    return out
+
+
 def reduced_model(path, robot: Robot):
     """Pinocchio's model of the URDF at `path` with every joint that `robot` does not move
     locked where `robot.urdf` says (joints it does not record at their neutral value)."""
@@ -57,6 +79,7 @@ def reduced_model(path, robot: Robot):
         raise ValueError(f"robot {robot.name!r} was not read from a URDF: it has no record of what was locked")
     with tempfile.TemporaryDirectory() as folder:
         file = _without(Path(path), record.excluded, Path(folder)) if record.excluded else Path(path)
+        file = _snapped(file, Path(folder)) if record.snaps else file
         full = pin.buildModelFromUrdf(str(file))
     if record.base_link != full.frames[full.getFrameId(record.base_link)].name or \
             full.frames[full.getFrameId(record.base_link)].parentJoint != 0:
