@@ -279,10 +279,10 @@ def markdown(results: list, command: str, cold: bool) -> str:
              "The first `symdyn.load(robot, \"c\")` derives, generates and compiles unless the cache holds "
              "the robot's code (then marked *cache*); the cached load is the same call in a new process "
              "(– where that process found the cache outdated: symdyn's source changed in between).", "",
-             "Errors of order 1e-11 where angles were snapped are the snaps themselves: Pinocchio reads the "
-             "file's numbers (π/2 written 1.57079632679, 4.9e-12 rad off), symdyn the exact values; "
-             "with `snap=False` the reference's errors drop to about 1e-15 and the generated code's below "
-             "1e-12 (the `kinova_unsnapped` row).",
+             "Where symdyn snapped the file's angles and axes (π/2 written 1.57079632679, 4.9e-12 rad off), "
+             "Pinocchio reads a copy snapped by the same rule, so the errors measure the dynamics, not "
+             "the snap (against the file as written they were up to 4e-11, TIAGo's forward dynamics); "
+             "the `kinova_unsnapped` row reads the file's numbers on both sides (`snap=False`).",
              "",
              "| robot | chain base → tip | n | locked (non-zero) | snaps (largest change) | max error vs "
              "Pinocchio reduced | τ / M / G / fdyn ops | read | first load | cached load |",
