@@ -516,7 +516,8 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
                            "or use binding='ctypes'")
     kind = "extension" if headers else "ctypes"
     host = platform.node() if "-march=native" in options.flags else ""
-    key = _digest(c_text, h_text, os.environ.get("CC", "cc"), " ".join(options.flags), kind, host,
+    glue = _glue_source(model, "_symdyn_MODULE", sigs) if kind == "extension" else ""   # a new binding rebuilds
+    key = _digest(c_text, h_text, glue, os.environ.get("CC", "cc"), " ".join(options.flags), kind, host,
                   sys.version, np.__version__)[:16]
     folder = cache_dir() / "c" / f"{model}-{key}"
     files = {c_path.name: c_text, h_path.name: h_text}
