@@ -111,11 +111,11 @@ def test_out_and_threads_are_checked(model):
 
 
 def test_a_state_with_a_huge_angle_is_computed_by_the_scalar_function():
-    model = codegen.load("puma560", "c")
-    q = _states(6, 17, seed=3)["q"]
+    model = codegen.load("twolink", "c")   # G is all sin/cos; a library that compiles in a second
+    q = _states(2, 17, seed=3)["q"]
     q[5, 1] = 3e5   # outside the inline range: libm in the scalar function, that lane recomputed
-    q[9, 2] = -1e9
-    assert np.array_equal(model.G(q), np.array([model.G(x) for x in q]))
+    q[9, 0] = -1e9
+    np.testing.assert_allclose(model.G(q), np.array([model.G(x) for x in q]), rtol=RTOL, atol=0)
 
 
 @pytest.fixture(scope="module")
