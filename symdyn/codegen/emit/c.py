@@ -288,24 +288,32 @@ def _text(expr) -> str:
     return lower(expr, ALGEBRA)[0]
 
 
-def _assignments(assignments) -> list[str]:
-    """C statements of the assignments; s = sin(x) and c = cos(x) of the same x
-    become one sincos_ call where the first of them stood."""
+def _paired(assignments):
+    """The assignments with s = sin(x) and c = cos(x) of the same x joined where the first
+    of them stood: yields (None, s, e) for a plain one, (x, sin_s, cos_s) for a pair."""
     trig = {}
     for s, e in assignments:
         if isinstance(e, (sp.sin, sp.cos)):
             trig.setdefault(e.args[0], {})[e.func] = s
-    lines, done = [], set()
+    done = set()
     for s, e in assignments:
         pair = trig.get(e.args[0], {}) if isinstance(e, (sp.sin, sp.cos)) else {}
-        if len(pair) == 2:
-            if s not in done:
-                sin_s, cos_s = pair[sp.sin], pair[sp.cos]
-                lines.append(f"    double {sin_s.name}, {cos_s.name};")
-                lines.append(f"    sincos_({_text(e.args[0])}, &{sin_s.name}, &{cos_s.name});")
-                done |= {sin_s, cos_s}
-            continue
-        lines.append(f"    const double {s.name} = {_text(e)};")
+        if len(pair) != 2:
+            yield None, s, e
+        elif s not in done:
+            done |= {pair[sp.sin], pair[sp.cos]}
+            yield e.args[0], pair[sp.sin], pair[sp.cos]
+
+
+def _assignments(assignments) -> list[str]:
+    """C statements of the assignments; a sin/cos pair of one argument is one sincos_ call."""
+    lines = []
+    for x, a, b in _paired(assignments):
+        if x is None:
+            lines.append(f"    const double {a.name} = {_text(b)};")
+        else:
+            lines.append(f"    double {a.name}, {b.name};")
+            lines.append(f"    sincos_({_text(x)}, &{a.name}, &{b.name});")
     return lines
 
 
@@ -316,25 +324,17 @@ def _vector_text(expr) -> str:
 def _vector_assignments(assignments) -> list[str]:
     """The lane loop's statements: as `_assignments`, with the vector sin/cos/sign,
     and `bad += outside_(x)` for every sin/cos argument x."""
-    trig = {}
-    for s, e in assignments:
-        if isinstance(e, (sp.sin, sp.cos)):
-            trig.setdefault(e.args[0], {})[e.func] = s
-    lines, done = [], set()
-    for s, e in assignments:
-        pair = trig.get(e.args[0], {}) if isinstance(e, (sp.sin, sp.cos)) else {}
-        if len(pair) == 2:
-            if s not in done:
-                sin_s, cos_s = pair[sp.sin], pair[sp.cos]
-                x = _vector_text(e.args[0])
-                lines.append(f"        double {sin_s.name}, {cos_s.name};")
-                lines.append(f"        bad += outside_({x});")
-                lines.append(f"        sincosv_({x}, &{sin_s.name}, &{cos_s.name});")
-                done |= {sin_s, cos_s}
-            continue
-        for t in sorted({a.args[0] for a in e.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key):
-            lines.append(f"        bad += outside_({_vector_text(t)});")
-        lines.append(f"        const double {s.name} = {_vector_text(e)};")
+    lines = []
+    for x, a, b in _paired(assignments):
+        if x is None:
+            for t in sorted({u.args[0] for u in b.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key):
+                lines.append(f"        bad += outside_({_vector_text(t)});")
+            lines.append(f"        const double {a.name} = {_vector_text(b)};")
+        else:
+            x = _vector_text(x)
+            lines.append(f"        double {a.name}, {b.name};")
+            lines.append(f"        bad += outside_({x});")
+            lines.append(f"        sincosv_({x}, &{a.name}, &{b.name});")
     return lines
 
 
