@@ -8,11 +8,16 @@ from symdyn import models
 
 @pytest.fixture(scope="session", autouse=True)
 def _private_cache(tmp_path_factory):
-    """Every test session derives into its own fresh cache directory."""
+    """Every test session derives into its own fresh cache directory, which the
+    session's xdist workers share (as processes on one machine share a user's
+    cache): a model's library is compiled once, not once per worker."""
     import os
 
+    base = tmp_path_factory.getbasetemp()
+    folder = base.parent / "symdyn-cache" if os.environ.get("PYTEST_XDIST_WORKER") else base / "symdyn-cache"
+    folder.mkdir(exist_ok=True)
     old = os.environ.get("SYMDYN_CACHE_DIR")
-    os.environ["SYMDYN_CACHE_DIR"] = str(tmp_path_factory.mktemp("symdyn-cache"))
+    os.environ["SYMDYN_CACHE_DIR"] = str(folder)
     yield
     if old is None:
         os.environ.pop("SYMDYN_CACHE_DIR", None)

@@ -118,7 +118,7 @@ def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
 def test_a_long_source_is_split_into_whole_functions_each_with_the_preamble():
     text = (codegen.GENERATED / "puma560" / "puma560.c").read_text()
     head = text[:text.index("\nvoid ") + 1]
-    definitions = re.compile(r"(?m)^(?=void |static void )")   # a SIMD kernel's static lanes and range too
+    definitions = re.compile(r"(?m)^(?=(static )?(void|int) \w+\()")   # a SIMD kernel's static lanes and range too
     functions = [f for f in definitions.split(text[len(head):]) if f]
     parts = clib.split_source(text, 3)
     assert len(text) > clib.SPLIT_BYTES and len(parts) == 3

@@ -7,7 +7,8 @@ scalar function state after state) and `void puma560_tau_simd(int n, int
 threads, const double *q, …)`: SYMDYN_W states at a time across SIMD lanes
 (structure-of-arrays blocks gathered from and scattered to the row-major
 (n, size) arrays; W = 8 with AVX-512, 4 with AVX, 2 with SSE2/NEON, else 1),
-the blocks split over `threads` POSIX threads.  Every lane computes exactly
+the blocks split over `threads` POSIX threads; it returns nonzero when an
+input is NaN or infinite, tested as the blocks are gathered.  Every lane computes exactly
 the scalar function's arithmetic (sin/cos by the same reduction and
 polynomials, sign by a branch-free select); a state with a sin/cos argument
 outside |x| < 1e5 (or NaN) is recomputed by the scalar function, so the
@@ -138,40 +139,40 @@ static inline void sincosv_(double x, double *s, double *c)
 static inline double sinv_(double x) { double s, c; sincosv_(x, &s, &c); return s; }
 static inline double cosv_(double x) { double s, c; sincosv_(x, &s, &c); return c; }
 
-/* A kernel over the states [i0, i1) of its arrays (in: inputs, out: outputs). */
-typedef void (*symdyn_range_)(const double *const *in, double *const *out, long i0, long i1);
+/* A kernel over the states [i0, i1) of its arrays (in: inputs, out: outputs); nonzero
+   when an input there is NaN or infinite. */
+typedef int (*symdyn_range_)(const double *const *in, double *const *out, long i0, long i1);
 typedef struct {
     symdyn_range_ f;
     const double *const *in;
     double *const *out;
     long i0, i1;
+    int nonfinite;
 } symdyn_job_;
 
 static void *symdyn_run_(void *p)
 {
-    const symdyn_job_ *j = (const symdyn_job_ *)p;
-    j->f(j->in, j->out, j->i0, j->i1);
+    symdyn_job_ *j = (symdyn_job_ *)p;
+    j->nonfinite = j->f(j->in, j->out, j->i0, j->i1);
     return NULL;
 }
 
 /* f over n states in `threads` contiguous runs of whole blocks (fewer for a small n;
    threads < 1 means 1).  Every state is computed by the same lane code whatever
-   the split, so the results do not depend on the thread count. */
-static void symdyn_parallel_(symdyn_range_ f, const double *const *in, double *const *out, long n, int threads)
+   the split, so the results do not depend on the thread count.  Nonzero when an
+   input is NaN or infinite (then the outputs are unspecified). */
+static int symdyn_parallel_(symdyn_range_ f, const double *const *in, double *const *out, long n, int threads)
 {
     const long blocks = (n + SYMDYN_W - 1) / SYMDYN_W;
     long b0 = 0, most = blocks / SYMDYN_MIN_BLOCKS;
     symdyn_job_ job[SYMDYN_MAX_THREADS];
-    int t;
+    int t, nonfinite = 0;
     if (threads > SYMDYN_MAX_THREADS)
         threads = SYMDYN_MAX_THREADS;
     if (threads > most)
         threads = (int)most;
-    if (threads <= 1) {
-        if (n > 0)
-            f(in, out, 0, n);
-        return;
-    }
+    if (threads <= 1)
+        return n > 0 ? f(in, out, 0, n) : 0;
     for (t = 0; t < threads; ++t) {
         const long b1 = blocks * (t + 1) / threads;
         job[t].f = f;
@@ -199,6 +200,9 @@ static void symdyn_parallel_(symdyn_range_ f, const double *const *in, double *c
     for (t = 0; t < threads; ++t)
         symdyn_run_(&job[t]);
 #endif
+    for (t = 0; t < threads; ++t)
+        nonfinite |= job[t].nonfinite;
+    return nonfinite;
 }
 """
 
@@ -253,9 +257,10 @@ def _prototypes(model: str, sig: Signature) -> tuple[str, str]:
 
 
 def _simd_prototype(model: str, sig: Signature) -> str:
-    """The SIMD kernel's prototype: n states on `threads` threads."""
+    """The SIMD kernel's prototype: n states on `threads` threads; it returns nonzero
+    when an input is NaN or infinite (the outputs are then unspecified)."""
     arrays = [f"const double *{a}" for a, _ in sig.inputs] + [f"double *{o}" for o, _ in sig.outputs]
-    return f"void {model}_{sig.name}_simd({', '.join(['int n', 'int threads'] + arrays)})"
+    return f"int {model}_{sig.name}_simd({', '.join(['int n', 'int threads'] + arrays)})"
 
 
 def _comment(lines: list[str]) -> str:
@@ -268,7 +273,8 @@ def h_source(bundle: Bundle) -> str:
     sigs = [signature(p) for p in bundle.programs]
     lines = header_lines(bundle, "c") + ["", "Matrices are row-major; *_batch loops over n states stored contiguously;",
                                          "*_simd runs SYMDYN_W states per SIMD instruction on `threads` threads,",
-                                         "with the results of the scalar function.",
+                                         "with the results of the scalar function, and returns nonzero when an",
+                                         "input is NaN or infinite (the outputs are then unspecified).",
                                          "signatures:"] + [f"  {s.line()}" for s in sigs]
     parts = [_comment(lines), f"#ifndef {guard}\n#define {guard}\n",
              '#ifdef __cplusplus\nextern "C" {\n#endif\n',
@@ -342,25 +348,30 @@ def simd_source(model: str, p: Program) -> str:
     """The SIMD kernel of one program: a block of SYMDYN_W states gathered into
     structure-of-arrays, the program once per lane in a loop the compiler
     vectorizes, scattered back (a short last block repeats its last state);
-    then the range and threaded entry points."""
+    then the range and threaded entry points.  The gather also tests every
+    input value (x·0 is 0 unless x is NaN or infinite), so that the contract's
+    check costs no pass of its own over the inputs."""
     sig = signature(p)
     used = p.used_inputs()
     f = f"{model}_{p.name}"
     ins = [(a, syms) for a, syms in p.inputs]
     read = [(a, syms) for a, syms in ins if any(s in used for s in syms)]
-    body = [f"static void {f}_lanes(long i0, int m, "
+    body = [f"static int {f}_lanes(long i0, int m, "
             + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs]) + ")",
             "{"]
     body += [f"    double {a}_[{len(syms)}][SYMDYN_W];" for a, syms in read]
     body += [f"    double {o}_[{_size(sh)}][SYMDYN_W];" for o, sh in sig.outputs]
-    body += ["    double bad_[SYMDYN_W];", "    int k, j;"]
-    body += [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"
-             for a, _ in ins if (a, _) not in read]
+    body += ["    double bad_[SYMDYN_W], finite = 0.0;", "    int k, j;"]
+    body += ["    for (k = 0; k < m; ++k) {", "        const long i = i0 + k;"]
+    for a, syms in ins:
+        body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            finite += {a}[i * {len(syms)} + j] * 0.0;"]
+    body += ["    }"]
     if read:
         body += ["    for (k = 0; k < SYMDYN_W; ++k) {", "        const long i = i0 + (k < m ? k : m - 1);"]
         for a, syms in read:
             body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            {a}_[j][k] = {a}[i * {len(syms)} + j];"]
         body += ["    }"]
+    body += ["    if (finite != 0.0)", "        return 1;"]
     body += ["    SYMDYN_SIMD", "    for (k = 0; k < SYMDYN_W; ++k) {", "        double bad = 0.0;"]
     for a, syms in read:
         body += [f"        const double {s.name} = {a}_[{k}][k];" for k, s in enumerate(syms) if s in used]
@@ -375,17 +386,18 @@ def simd_source(model: str, p: Program) -> str:
              "            continue;", "        }"]
     for o, sh in sig.outputs:
         body += [f"        for (j = 0; j < {_size(sh)}; ++j)", f"            {o}[i * {_size(sh)} + j] = {o}_[j][k];"]
-    body += ["    }", "}", ""]
+    body += ["    }", "    return 0;", "}", ""]
     nin = len(ins)
     lanes_args = [f"in[{i}]" for i in range(nin)] + [f"out[{j}]" for j in range(len(sig.outputs))]
-    body += [f"static void {f}_range(const double *const *in, double *const *out, long i0, long i1)", "{",
-             "    long i;", "    for (i = i0; i < i1; i += SYMDYN_W)",
-             f"        {f}_lanes(i, (int)(i1 - i < SYMDYN_W ? i1 - i : SYMDYN_W), {', '.join(lanes_args)});",
-             "}", ""]
+    body += [f"static int {f}_range(const double *const *in, double *const *out, long i0, long i1)", "{",
+             "    long i;", "    int nonfinite = 0;", "    for (i = i0; i < i1 && !nonfinite; i += SYMDYN_W)",
+             f"        nonfinite = {f}_lanes(i, (int)(i1 - i < SYMDYN_W ? i1 - i : SYMDYN_W), "
+             f"{', '.join(lanes_args)});",
+             "    return nonfinite;", "}", ""]
     body += [_simd_prototype(model, sig), "{",
              f"    const double *const in[{nin}] = {{{', '.join(a for a, _ in ins)}}};",
              f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
-             f"    symdyn_parallel_({f}_range, in, out, n, threads);", "}", ""]
+             f"    return symdyn_parallel_({f}_range, in, out, n, threads);", "}", ""]
     return "\n".join(body)
 
 

@@ -15,12 +15,14 @@ broadcasting, keyword arguments, bad input) and return new arrays.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import hashlib
 import importlib.machinery
 import importlib.util
 import os
 import platform
+import re
 import shutil
 import subprocess
 import sys
@@ -88,7 +90,7 @@ _GLUE_HEAD = r'''#define PY_SSIZE_T_CLEAN
 
 #define MAXARGS 8
 typedef void (*one_fn)(const double *const *in, double *const *out);
-typedef void (*many_fn)(int n, int threads, const double *const *in, double *const *out);
+typedef int (*many_fn)(int n, int threads, const double *const *in, double *const *out);
 
 /* threads= when the call gives none: set by symdyn (the cores this process may use). */
 static int default_threads = 1;
@@ -104,8 +106,9 @@ typedef struct {
     many_fn many;
 } spec_t;
 
-/* Whether the call is the common one: positional C-contiguous finite double
-   arrays (..., size) of one leading shape with room for the outputs' dimensions. */
+/* Whether the call is the common one: positional C-contiguous double arrays
+   (..., size) of one leading shape with room for the outputs' dimensions, finite
+   when they hold one state (a batch's kernel tests its inputs as it gathers them). */
 static int plain(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames, int out_nd)
 {
     int i, nd = 0;
@@ -126,6 +129,8 @@ static int plain(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObj
             return 0;
         if (PyArray_DIMS(a)[nd - 1] != s->in_size[i])
             return 0;
+        if (nd > 1)
+            continue;
         size = PyArray_SIZE(a);
         x = (const double *)PyArray_DATA(a);
         for (k = 0; k < size; ++k)
@@ -301,9 +306,17 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, 
     if (lead_nd == 0) {
         s->one(pin, pout);
     } else if (count > 0) {
+        int nonfinite;
         Py_BEGIN_ALLOW_THREADS
-        s->many((int)count, threads, pin, pout);
+        nonfinite = s->many((int)count, threads, pin, pout);
         Py_END_ALLOW_THREADS
+        if (nonfinite) {   /* the contract's check names the argument (a checked call is finite) */
+            PyObject *why = normal ? NULL : checked(s, args, nargs, kwnames, out_nd);
+            if (!PyErr_Occurred())
+                PyErr_Format(PyExc_ValueError, "%%s(): an input contains NaN or infinity", s->name);
+            Py_XDECREF(why);
+            goto done;
+        }
     }
     if (s->nout == 1) {
         result = out[0];
@@ -348,8 +361,8 @@ def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
         parts.append(
             f"static void {f}_one(const double *const *in, double *const *out) "
             f"{{ {model}_{f}({ins}, {outs}); }}\n"
-            f"static void {f}_many(int n, int threads, const double *const *in, double *const *out) "
-            f"{{ {model}_{f}_simd(n, threads, {ins}, {outs}); }}\n"
+            f"static int {f}_many(int n, int threads, const double *const *in, double *const *out) "
+            f"{{ return {model}_{f}_simd(n, threads, {ins}, {outs}); }}\n"
             f"static const char *const {f}_names[] = {{{names}}};\n"
             f"static const npy_intp {f}_in[] = {{{', '.join(str(k) for _, k in sig.inputs)}}};\n"
             f"static const int {f}_out_nd[] = {{{', '.join(str(len(s)) for _, s in sig.outputs)}}};\n"
@@ -394,21 +407,26 @@ def _jobs() -> int:
         return os.cpu_count() or 1
 
 
+#: A function definition at column 0 of a generated C file: `void f(`, `int f(`, static or not.
+_DEFINITION = re.compile(r"(static )?(void|int) \w+\(")
+
+
 def split_source(text: str, parts: int) -> list[str]:
     """A generated model's C as up to `parts` translation units of whole functions,
     each with the file's preamble (includes, static helpers), balanced by length;
     [text] when it is short or not laid out as preamble-then-functions (every
-    function a `void` definition at column 0, nothing static after the first)."""
+    function a `void`/`int` definition at column 0, nothing else static or
+    preprocessed after the first public one)."""
     lines = text.splitlines(keepends=True)
-    starts = [i for i, line in enumerate(lines) if line.startswith("void ")]
+    starts = [i for i, line in enumerate(lines) if _DEFINITION.match(line) and not line.startswith("static ")]
     if parts < 2 or len(text) < SPLIT_BYTES or len(starts) < 2 \
-            or any(line.startswith("#") or line.startswith("static") and not line.startswith("static void ")
+            or any(line.startswith("#") or line.startswith("static") and not _DEFINITION.match(line)
                    for line in lines[starts[0]:]):
         return [text]
     # a static function (a SIMD kernel's lanes and range) belongs with the next
-    # `void` function after it (its entry point): a chunk starts at the first
-    # static function before a `void` line, if any
-    starts = [next((j for j in range(prev + 1, i) if lines[j].startswith("static void ")), i)
+    # public function after it (its entry point): a chunk starts at the first
+    # static function before a public one, if any
+    starts = [next((j for j in range(prev + 1, i) if _DEFINITION.match(lines[j])), i)
               for prev, i in zip([starts[0] - 1] + starts, starts)]
     head = "".join(lines[:starts[0]])
     chunks = ["".join(lines[a:b]) for a, b in zip(starts, starts[1:] + [len(lines)])]
@@ -492,13 +510,38 @@ def _library(path: Path, flags: tuple, files: dict, includes: list[str]) -> Path
     """The library at `path` when it is intact, else built (see `_build`).
     Intact: its sha256 is the one recorded when it was built.  A truncated or
     altered library would crash the process that loads it (SIGBUS, SIGSEGV)
-    rather than raise, so a missing or different hash means rebuild."""
+    rather than raise, so a missing or different hash means rebuild.  Processes
+    that want the same library (test workers, a cluster's workers on one
+    machine) build it once: the others wait on a lock file beside it."""
+    def intact() -> bool:
+        try:
+            return _recorded(path).read_text() == _sha256(path)
+        except OSError:
+            return False
+
+    if intact():
+        return path
+    with _build_lock(path):
+        return path if intact() else _build(flags, files, includes, path)
+
+
+@contextlib.contextmanager
+def _build_lock(path: Path):
+    """An exclusive lock on `path`.lock while one process builds `path`; no lock where
+    there is none to take (no fcntl, a read-only cache): the cache is an optimisation."""
     try:
-        if _recorded(path).read_text() == _sha256(path):
-            return path
-    except OSError:
-        pass
-    return _build(flags, files, includes, path)
+        import fcntl
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(path.with_name(path.name + ".lock"), "a")
+    except (ImportError, OSError):
+        yield
+        return
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except OSError:
+            pass
+        yield
 
 
 def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOptions()) -> "CLibrary":
@@ -571,7 +614,7 @@ class _CtypesFunction:
         self._one = getattr(lib, f"{model}_{sig.name}")
         self._one.argtypes, self._one.restype = [ctypes.c_void_p] * nargs, None
         self._many = getattr(lib, f"{model}_{sig.name}_simd")
-        self._many.argtypes, self._many.restype = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * nargs, None
+        self._many.argtypes, self._many.restype = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * nargs, ctypes.c_int
         self.__name__ = sig.name
         self.__doc__ = f"{sig.line()[len('function: '):]}; batched over leading axes"
         self._lead_max = contract.MAXDIMS - max(len(shape) for _, shape in sig.outputs)
