@@ -1,0 +1,445 @@
+"""Estimation: base parameters by least squares on the exact base regressor, and their report.
+
+The estimate step of identify (excitation → data → base regressor →
+**estimate** → consistent → validate).  The generated regressor Y (C target,
+batched, in chunks into one buffer) gives the columns of the exact base
+parameters (`parameters.base_map`): τ = Y_b(q, q̇, q̈)·β.  Each joint's rows
+are reduced chunk by chunk to the R factor of a QR decomposition of
+[Y_b,j  τ_j] (no normal equations, so noise-free data give β to rounding),
+from which ordinary least squares, each joint's residual variance σ_j² and
+the weighted least squares of Gautier & Khalil (rows of joint j divided by
+σ_j) follow without touching the samples again:
+
+    β̂ = argmin Σ_j ‖Y_b,j β − τ_j‖² / σ_j²,   cov β̂ = s² (Y_wᵀ Y_w)⁻¹,
+    s² = Σ_j ‖Y_b,j β̂ − τ_j‖²/σ_j² / (nN − b).
+
+`fit` returns an `Identification`: the estimates with σ and relative σ %,
+the condition number, the residual RMS per joint, a `Robot` that reproduces
+the estimate (physically consistent through `consistent.physical`, or the
+prior moved least), `predict`, `validate` and `write` (summary, JSON,
+URDF, figures).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..model import Robot
+from .data import Data, parallel_decimate
+from .parameters import BaseMap, base_map, standard_names, standard_vector, with_standard
+
+__all__ = ["fit", "Identification", "BaseEstimate", "Validation", "regressor_rows", "METHODS"]
+
+METHODS = ("wls", "ols")
+#: States per call of the generated Y (its buffer stays in cache-friendly size; ~2 MB for 7 joints).
+CHUNK = 2048
+#: Columns whose scaled singular value falls below this fraction of the largest are not excited.
+RANK_TOL = 1e-10
+
+
+@dataclass(frozen=True)
+class BaseEstimate:
+    """Base parameters: names (each its pivot standard parameter, e.g. ZZ1), values, standard
+    deviations std, relative σ in % (100·std/|value|), their covariance, and the regrouping
+    each stands for (`expressions`, in the standard parameters)."""
+
+    names: tuple
+    values: np.ndarray
+    std: np.ndarray
+    relative: np.ndarray
+    covariance: np.ndarray
+    expressions: tuple
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def table(self) -> str:
+        lines = [f"{'parameter':>10} {'value':>14} {'σ':>11} {'σ %':>9}  stands for"]
+        for k, name in enumerate(self.names):
+            lines.append(f"{name:>10} {self.values[k]:>14.6g} {self.std[k]:>11.3g} {self.relative[k]:>9.3g}  "
+                         f"{self.expressions[k]}")
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class Validation:
+    """Predicted against measured torque on one trajectory: rms (n,) of the error per joint,
+    relative (n,) = rms error / rms measured torque, and the time series."""
+
+    source: str
+    t: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+    rms: np.ndarray
+    relative: np.ndarray
+
+    def lines(self) -> list[str]:
+        return [f"validation on {self.source} ({len(self.t)} samples):",
+                "  rms error per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
+                "  relative error per joint (rms error / rms torque): "
+                + ", ".join(f"{100 * x:.2f} %" for x in self.relative)]
+
+
+class _Regressor:
+    """The base regressor Y_b(q, q̇, q̈) of a robot's geometry, evaluated in chunks by generated code."""
+
+    def __init__(self, robot: Robot, bmap: BaseMap, target: str):
+        from ..codegen.entry import load
+
+        self.model = load(_geometry(robot), target)
+        self.target = target
+        self.columns = np.asarray(bmap.columns)
+        self.n, self.p = robot.n, 14 * robot.n
+
+    def chunks(self, q, qd, qdd, chunk: int = CHUNK):
+        """(start, Y_b (m, n, b)) for consecutive chunks of the states (N, n)."""
+        N = len(q)
+        q, qd, qdd = (np.ascontiguousarray(x, dtype=float) for x in (q, qd, qdd))
+        buffer = np.empty((min(chunk, N), self.n, self.p)) if self.target == "c" else None
+        for s in range(0, N, chunk):
+            e = min(s + chunk, N)
+            if buffer is not None:
+                Y = self.model.Y(q[s:e], qd[s:e], qdd[s:e], out=buffer[:e - s])
+            else:
+                Y = np.asarray(self.model.Y(q[s:e], qd[s:e], qdd[s:e]), dtype=float)
+            yield s, Y[:, :, self.columns]
+
+    def full(self, q, qd, qdd) -> np.ndarray:
+        out = np.empty((len(q), self.n, len(self.columns)))
+        for s, Yb in self.chunks(q, qd, qdd):
+            out[s:s + len(Yb)] = Yb
+        return out
+
+    def predict(self, beta, q, qd, qdd) -> np.ndarray:
+        out = np.empty((len(q), self.n))
+        for s, Yb in self.chunks(q, qd, qdd):
+            out[s:s + len(Yb)] = Yb @ beta
+        return out
+
+
+def _geometry(robot: Robot) -> Robot:
+    """The robot whose generated code serves Y: Y depends on the geometry alone, so a shipped
+    model's name where the robot is that model (its checked-in code), else the robot."""
+    from ..codegen.entry import SHIPPED
+    from ..model import arms
+
+    if robot.name in SHIPPED and robot.fingerprint() == arms.load(robot.name).fingerprint():
+        return robot.name
+    return robot
+
+
+def regressor_rows(robot: Robot, q, qd, qdd, *, target: str = "c") -> np.ndarray:
+    """The base regressor Y_b (N, n, b) of `robot` at the states (N, n) (`base_map(robot).names`)."""
+    return _Regressor(robot, base_map(robot), target).full(*(np.atleast_2d(x) for x in (q, qd, qdd)))
+
+
+def _reduce(blocks, n: int, b: int, R=None) -> np.ndarray:
+    """Per joint, the (b+1)² R factor of the rows [Y_b,j τ_j] of all blocks (m, n, b+1): QR on the
+    stack of the previous R and each block (tall-skinny QR, batched over the joints)."""
+    for A in blocks:
+        A = np.swapaxes(A, 0, 1)                        # (n, m, b+1)
+        stack = A if R is None else np.concatenate([R, A], axis=1)
+        R = np.linalg.qr(stack, mode="r")
+        if R.shape[1] < b + 1:   # fewer rows than columns so far: pad to square
+            R = np.concatenate([R, np.zeros((n, b + 1 - R.shape[1], b + 1))], axis=1)
+    return R
+
+
+def _solve(R: np.ndarray, w: np.ndarray, names, what: str):
+    """β minimising Σ_j ‖(R_j [β; −1]) / w_j‖², with (R_w, column scales) for the covariance; a
+    ValueError naming the base parameters the data do not excite."""
+    b = R.shape[2] - 1
+    A = np.concatenate(R / w[:, None, None], axis=0)        # (n(b+1), b+1)
+    M, y = A[:, :b], A[:, b]
+    scale = np.linalg.norm(M, axis=0)
+    if np.any(scale == 0):
+        dead = [names[k] for k in np.flatnonzero(scale == 0)]
+        raise ValueError(f"the data do not excite the base parameter(s) {', '.join(dead)}: their regressor "
+                         f"columns are zero along the whole {what} (does every joint move, both ways?)")
+    Ms = M / scale
+    U, S, Vt = np.linalg.svd(Ms, full_matrices=False)
+    if S[-1] < RANK_TOL * S[0]:
+        v = Vt[-1]
+        worst = [names[k] for k in np.argsort(-np.abs(v))[:4] if abs(v[k]) > 0.1]
+        raise ValueError(f"the data do not separate the base parameters {', '.join(worst)} (scaled condition "
+                         f"number {S[0] / S[-1]:.3g}): a richer motion is needed (does every joint move, "
+                         "both ways, with varied speed?)")
+    beta = (Vt.T @ ((U.T @ y) / S)) / scale
+    inv = (Vt.T / S) @ (Vt / S[:, None]) / np.outer(scale, scale)   # (MᵀM)⁻¹
+    return beta, inv, S
+
+
+def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, *, target: str = "c",
+        consistent_options: dict | None = None) -> "Identification":
+    """Identify the base parameters of `robot`'s geometry from `data` (see the module docstring).
+
+    method: "wls" (weighted by each joint's residual variance, Gautier & Khalil) or "ols".
+    consistent: also find physically consistent standard parameters (`consistent.physical`,
+    regularised towards `robot`'s values); False: `.robot` is `robot` moved least to reproduce
+    the estimate.  target: the generated code that evaluates Y ("c", "numpy", "casadi").
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
+    if not isinstance(robot, Robot):
+        raise ValueError(f"expected a symdyn Robot, got {type(robot).__name__}")
+    robot.require_numeric("identification")
+    if not isinstance(data, Data):
+        raise ValueError(f"expected identify.Data (load_data, simulate), got {type(data).__name__}")
+    data.check_joints(robot)
+    physical = None
+    if consistent:
+        physical = _consistent_module()
+    start = time.perf_counter()
+    bmap = base_map(robot)
+    reg = _Regressor(robot, bmap, target)
+    n, b = robot.n, len(bmap.names)
+    if data.decimate > 1:
+        Yb, tau, t = parallel_decimate(reg.full(data.q, data.qd, data.qdd), data.tau, data.decimate, data.t)
+        blocks = (np.concatenate([Yb[s:s + CHUNK], tau[s:s + CHUNK, :, None]], axis=2)
+                  for s in range(0, len(tau), CHUNK))
+        N = len(tau)
+    else:
+        tau = data.tau
+        blocks = (np.concatenate([Yb, tau[s:s + len(Yb), :, None]], axis=2)
+                  for s, Yb in reg.chunks(data.q, data.qd, data.qdd))
+        N = data.N
+    if N * n <= b:
+        raise ValueError(f"{N} samples of {n} joints give {N * n} equations for {b} base parameters; "
+                         "record a longer motion")
+    R = _reduce(blocks, n, b)
+    names = bmap.names
+    ones = np.ones(n)
+    beta, inv, S = _solve(R, ones, names, "trajectory")
+    rss = _rss(R, beta)
+    sigma = np.sqrt(rss / max(N - b / n, 1))
+    if method == "wls":
+        floor = 1e-12 * max(np.sqrt(np.mean(tau ** 2, axis=0)).max(), 1e-300)
+        w = np.maximum(sigma, floor)
+        beta, inv, S = _solve(R, w, names, "trajectory")
+    else:
+        w = ones
+    rss = _rss(R, beta)
+    s2 = float(np.sum(rss / w ** 2) / max(N * n - b, 1))
+    cov = s2 * inv
+    std = np.sqrt(np.diag(cov))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative = np.where(beta != 0, 100 * std / np.abs(beta), np.inf)
+    Mw = np.concatenate(R[:, :, :b] / w[:, None, None], axis=0)
+    sv = np.linalg.svd(Mw, compute_uv=False)
+    estimate = BaseEstimate(names=names, values=beta, std=std, relative=relative, covariance=cov,
+                            expressions=bmap.expressions)
+    seconds = time.perf_counter() - start
+    result = Identification(prior=robot, base=estimate, condition=float(sv[0] / sv[-1]),
+                            scaled_condition=float(S[0] / S[-1]), rms=np.sqrt(rss / N), sigma=w if method == "wls"
+                            else sigma, method=method, samples=N, data=data, seconds=seconds, target=target,
+                            map=bmap)
+    if physical is not None:
+        options = dict(consistent_options or {})
+        started = time.perf_counter()
+        found = physical.physical(robot, names, beta, cov, prior=robot, base=bmap.exact, **options)
+        object.__setattr__(result, "consistent", found)
+        object.__setattr__(result, "consistent_seconds", time.perf_counter() - started)
+    return result
+
+
+def _rss(R: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """‖Y_b,j β − τ_j‖² per joint, from the R factors."""
+    return np.sum((R @ np.append(beta, -1.0)) ** 2, axis=1)
+
+
+def _consistent_module():
+    try:
+        from . import consistent
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__package__}.consistent":
+            raise
+        raise RuntimeError("consistent=True needs symdyn.identify.consistent (physically consistent "
+                           "parameters), which this installation lacks; fit(..., consistent=False) gives the "
+                           "least-squares estimate alone") from None
+    return consistent
+
+
+@dataclass
+class Identification:
+    """The result of `fit`: `.base` (names, values, std, relative σ %), `.condition` (of the
+    weighted base regressor; `.scaled_condition` with its columns scaled to unit length), `.rms`
+    (n,) residual per joint, `.sigma` (n,) each joint's noise level (the WLS weights are 1/σ_j),
+    `.robot`, `.predict`, `.validate`, `.write`."""
+
+    prior: Robot
+    base: BaseEstimate
+    condition: float
+    scaled_condition: float
+    rms: np.ndarray
+    sigma: np.ndarray
+    method: str
+    samples: int
+    data: Data
+    seconds: float
+    target: str
+    map: BaseMap
+    consistent: object = None
+    consistent_seconds: float = 0.0
+    _regressor: object = field(default=None, repr=False)
+
+    # ---- the model that reproduces the estimate
+    @property
+    def robot(self) -> Robot:
+        """A Robot whose joint-space dynamics reproduce the estimate: the physically consistent one
+        (`consistent.physical`) when fit with consistent=True, else the prior's standard parameters
+        moved least (minimum norm) so that P·π = β̂ — a ValueError where that is no physical body."""
+        if self.consistent is not None:
+            return self.consistent.robot
+        pi = self.standard()
+        try:
+            return with_standard(self.prior, pi, name=f"{self.prior.name}_identified")
+        except ValueError as exc:
+            raise ValueError(f"the least-squares estimate is no physical robot ({exc}); fit with consistent=True "
+                             "for physically consistent parameters") from None
+
+    def standard(self) -> np.ndarray:
+        """Standard parameters π (14n,) reproducing β̂: the consistent ones, else the prior's
+        moved by the minimum-norm correction π₀ + P⁺(β̂ − P·π₀)."""
+        if self.consistent is not None:
+            names = standard_names(self.prior.n)
+            return np.array([self.consistent.standard[k] for k in names])
+        pi0 = standard_vector(self.prior)
+        P = self.map.P
+        return pi0 + np.linalg.lstsq(P, self.base.values - P @ pi0, rcond=None)[0]
+
+    # ---- predictions
+    def _reg(self) -> _Regressor:
+        if self._regressor is None:
+            self._regressor = _Regressor(self.prior, self.map, self.target)
+        return self._regressor
+
+    def predict(self, q, qd, qdd) -> np.ndarray:
+        """Joint torques Y_b(q, q̇, q̈)·β̂, (N, n) for states (N, n) ((n,) for one state)."""
+        single = np.ndim(q) == 1
+        q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
+        for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
+            if x.shape[-1] != self.prior.n or not np.all(np.isfinite(x)):
+                raise ValueError(f"predict(): {name} must be finite with shape (N, {self.prior.n}), got {x.shape}")
+        out = self._reg().predict(self.base.values, q, qd, qdd)
+        return out[0] if single else out
+
+    def validate(self, data: Data) -> Validation:
+        """Predicted against measured torque on (held-out) data."""
+        data.check_joints(self.prior)
+        predicted = self.predict(data.q, data.qd, data.qdd)
+        rms = np.sqrt(np.mean((predicted - data.tau) ** 2, axis=0))
+        scale = np.sqrt(np.mean(data.tau ** 2, axis=0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            relative = np.where(scale > 0, rms / scale, np.inf)
+        return Validation(source=data.source, t=data.t, measured=data.tau, predicted=predicted, rms=rms,
+                          relative=relative)
+
+    # ---- report
+    def summary(self, validation: Validation | None = None) -> str:
+        d = self.data
+        lines = [f"identification of {self.prior.name} ({self.prior.n} joints) by {self.method.upper()}",
+                 *(f"  {note}" for note in d.notes),
+                 f"{self.samples} samples × {self.prior.n} joints, {len(self.base)} base parameters, "
+                 f"least squares in {self.seconds:.3f} s",
+                 f"condition number of the {'weighted ' if self.method == 'wls' else ''}base regressor: "
+                 f"{self.condition:.4g} ({self.scaled_condition:.4g} with unit columns)",
+                 "residual rms per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
+                 ("noise σ per joint (WLS weights 1/σ): " if self.method == "wls" else "noise σ per joint: ")
+                 + ", ".join(f"{x:.4g}" for x in self.sigma), "", "base parameters (σ from the estimate's covariance):",
+                 self.base.table()]
+        if self.consistent is not None:
+            c = self.consistent
+            lines += ["", f"physically consistent standard parameters ({getattr(c, 'method', '?')}, "
+                      f"{self.consistent_seconds:.2f} s): the base parameters moved by {c.moved:.3g} (relative)"
+                      + (f", {c.sigmas:.3g} σ" if getattr(c, "sigmas", None) is not None else ""),
+                      "smallest eigenvalue of each link's pseudo-inertia: "
+                      + ", ".join(f"{x:.3g}" for x in c.margins)]
+            if hasattr(c, "table"):
+                lines.append(c.table())
+        if validation is not None:
+            lines += [""] + validation.lines()
+        return "\n".join(lines)
+
+    def parameters(self) -> dict:
+        """What parameters.json holds: base parameters with σ, standard parameters, fit facts."""
+        out = {"model": self.prior.name, "method": self.method, "samples": self.samples,
+               "condition": self.condition, "scaled_condition": self.scaled_condition,
+               "rms": self.rms.tolist(), "sigma": self.sigma.tolist(),
+               "base": [{"name": k, "value": float(v), "std": float(s), "relative_std_percent": float(r),
+                         "stands_for": e}
+                        for k, v, s, r, e in zip(self.base.names, self.base.values, self.base.std,
+                                                 self.base.relative, self.base.expressions)]}
+        names = standard_names(self.prior.n)
+        prior = standard_vector(self.prior)
+        try:
+            standard = self.standard()
+        except ValueError:
+            standard = None
+        out["standard"] = [{"name": k, "prior": float(p), **({"value": float(v)} if standard is not None else {})}
+                           for k, p, v in zip(names, prior, standard if standard is not None else prior)]
+        out["standard_frames"] = "the regressor's link frames (modified DH / joint axis along z)"
+        if self.consistent is not None:
+            out["consistent"] = {"margins": [float(x) for x in self.consistent.margins],
+                                 "moved": float(self.consistent.moved)}
+        return out
+
+    def write(self, out_dir, validation: Validation | Data | None = None, *, figures: bool = True) -> list[Path]:
+        """Write summary.txt, parameters.json, identified.urdf (a model read from a URDF, when
+        `Robot.to_urdf` is there) and the figures (fit.png, validation.png, parameters.png; with
+        matplotlib) into out_dir; returns the paths."""
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        if isinstance(validation, Data):
+            validation = self.validate(validation)
+        paths = [out / "summary.txt", out / "parameters.json"]
+        paths[0].write_text(self.summary(validation) + "\n")
+        paths[1].write_text(json.dumps(self.parameters(), indent=1) + "\n")
+        if getattr(self.prior, "urdf", None) is not None and hasattr(Robot, "to_urdf"):
+            urdf = self.robot.to_urdf()
+            path = out / "identified.urdf"
+            if isinstance(urdf, (str, bytes)):
+                path.write_text(urdf if isinstance(urdf, str) else urdf.decode())
+            paths.append(path)
+        if figures:
+            paths += self.figures(out, validation)
+        return paths
+
+    def figures(self, out: Path, validation: Validation | None = None) -> list[Path]:
+        from ..apps.studies._plot import pyplot, save
+
+        plt = pyplot()
+        paths = []
+        d = self.data
+        fit_view = Validation(source=d.source, t=d.t, measured=d.tau, predicted=self.predict(d.q, d.qd, d.qdd),
+                              rms=self.rms, relative=self.rms)
+        for name, v in (("fit", fit_view), ("validation", validation)):
+            if v is None:
+                continue
+            n = self.prior.n
+            fig, axes = plt.subplots(n, 1, figsize=(8, 1.6 * n + 0.6), sharex=True, squeeze=False)
+            for j, ax in enumerate(axes[:, 0]):
+                ax.plot(v.t, v.measured[:, j], lw=0.6, color="0.6", label="measured")
+                ax.plot(v.t, v.predicted[:, j], lw=0.9, color="C0", label="predicted")
+                ax.set_ylabel(f"τ{j + 1}")
+                if name == "validation":
+                    ax.set_title(f"joint {j + 1}: rms error {v.rms[j]:.3g} ({100 * v.relative[j]:.1f} %)",
+                                 fontsize=8)
+            axes[0, 0].legend(fontsize=7, loc="upper right")
+            axes[-1, 0].set_xlabel("t (s)")
+            fig.suptitle(f"{self.prior.name}: {name} ({v.source})", fontsize=9)
+            paths.append(save(fig, out, name))
+        fig, ax = plt.subplots(figsize=(max(6, 0.12 * len(self.base)), 3))
+        rel = np.where(np.isfinite(self.base.relative), self.base.relative, np.nan)
+        ax.bar(range(len(self.base)), rel, color="C0")
+        ax.set_yscale("log")
+        ax.set_xticks(range(len(self.base)), self.base.names, rotation=90, fontsize=6)
+        ax.set_ylabel("relative σ (%)")
+        ax.set_title(f"{self.prior.name}: base parameters' relative standard deviation "
+                     f"(condition {self.condition:.3g})", fontsize=9)
+        paths.append(save(fig, out, "parameters"))
+        return paths

@@ -1,0 +1,181 @@
+"""A simulated bench: measurement-like data from a model whose parameters are perturbed.
+
+The data step of identify without an arm at hand: `simulate(robot,
+trajectory, perturb=0.2, noise=…, quantisation=…, seed=…)` draws a "true"
+arm — every inertial and friction parameter of `robot` off by up to
+±perturb (seeded, always a physical body) —, computes its joint torques
+along the trajectory with the independent recursive reference
+(`numeric.reference.rne`, not the regressor being identified), and adds what
+a real bench adds: encoder quantisation of q and Gaussian torque noise.
+`fourier` gives a fixed finite-Fourier-series trajectory (Swevers et al.
+1997) for tests and for when no optimised excitation is at hand.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..model import Robot
+from .data import Data, from_arrays, write_csv
+
+__all__ = ["simulate", "perturbed", "fourier", "Trajectory", "read_trajectory", "write", "write_truth"]
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A motion: t (N,) in s, q, qd, qdd (N, n)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+
+
+def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
+    """`robot` with every inertial and friction parameter scaled by its own factor 1 + u,
+    u uniform in [−perturb, perturb] (seeded): mass, each COM coordinate, the mass distribution's
+    second moments (Σ = ½tr(I)·1 − I scaled as D·Σ·D, D diagonal, so the inertia stays
+    physical), rotor inertia, viscous and each Coulomb friction.  Zeros stay zeros."""
+    robot.require_numeric("simulate")
+    if not 0 <= perturb < 1:
+        raise ValueError(f"perturb must lie in [0, 1), got {perturb}")
+    rng = np.random.default_rng(seed)
+    links = []
+    for link in robot.links:
+        u = lambda k=None: 1 + rng.uniform(-perturb, perturb, k)  # noqa: E731
+        I = np.array(link.I, dtype=float)
+        S = 0.5 * np.trace(I) * np.eye(3) - I
+        D = np.diag(u(3))
+        S = D @ S @ D
+        I_new = np.trace(S) * np.eye(3) - S
+        links.append(dataclasses.replace(
+            link, m=float(link.m) * u(), r=tuple(float(x) * f for x, f in zip(link.r, u(3))),
+            I=tuple(tuple(float(x) for x in row) for row in (I_new + I_new.T) / 2),
+            Jm=float(link.Jm) * u(), B=float(link.B) * u(), Tc=tuple(float(x) * f for x, f in zip(link.Tc, u(2)))))
+    return dataclasses.replace(robot, links=tuple(links), name=f"{robot.name}_perturbed")
+
+
+def _trajectory(trajectory, n: int) -> Trajectory:
+    if isinstance(trajectory, (str, Path)):
+        trajectory = read_trajectory(trajectory)
+    try:
+        t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
+    except AttributeError:
+        raise ValueError("a trajectory has t, q, qd and qdd (a Trajectory, Data or CSV file), got "
+                         f"{type(trajectory).__name__}") from None
+    for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
+        if x.ndim != 2 or x.shape != (len(t), n):
+            raise ValueError(f"trajectory {name} must have shape ({len(t)}, {n}), got {x.shape}")
+    return Trajectory(t, q, qd, qdd)
+
+
+def simulate(robot: Robot, trajectory, *, perturb: float = 0.2, noise=0.0, quantisation=0.0, seed: int = 0,
+             truth: Robot | None = None) -> Data:
+    """Measurement-like data along `trajectory` (a Trajectory, Data, or a CSV/NPZ file with t, q, qd,
+    qdd) from `robot` perturbed by `perturbed(robot, perturb, seed)` (or the given `truth`).
+
+    noise: σ of Gaussian torque noise, N·m (N), one number or one per joint.  quantisation: the
+    encoder's resolution, rad (m), one number or one per joint: q is rounded to it (q̇ and q̈ stay the
+    trajectory's, as from a good estimator; write the CSV without them to have `load_data`
+    differentiate q instead).  The returned Data carries the true arm as `data.truth`.
+    """
+    robot.require_numeric("simulate")
+    from ..numeric.reference import rne
+
+    n = robot.n
+    traj = _trajectory(trajectory, n)
+    truth = truth if truth is not None else perturbed(robot, perturb, seed)
+    rng = np.random.default_rng([seed, 1])
+    tau = rne(truth, traj.q, traj.qd, traj.qdd)
+    noise = _per_joint(noise, n, "noise")
+    res = _per_joint(quantisation, n, "quantisation")
+    tau = tau + rng.standard_normal(tau.shape) * noise
+    q = np.where(res > 0, np.round(traj.q / np.where(res > 0, res, 1)) * res, traj.q)
+    data = from_arrays(traj.t, q, tau, qd=traj.qd, qdd=traj.qdd, joints=robot,
+                       source=f"simulated {truth.name} (perturb ±{perturb:g}, seed {seed})")
+    notes = data.notes + (f"torque noise σ {noise.tolist()}, encoder resolution {res.tolist()}",)
+    return dataclasses.replace(data, notes=notes, truth=truth)
+
+
+def _per_joint(x, n: int, what: str) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    a = np.broadcast_to(a, (n,)).copy() if a.ndim == 0 else a
+    if a.shape != (n,) or np.any(a < 0) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{what}: expected one non-negative number or {n} (one per joint), got {x!r}")
+    return a
+
+
+def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: float = 100.0, seed: int = 0,
+            fill: float = 0.6, periods: int = 1) -> Trajectory:
+    """A random finite Fourier series per joint (Swevers et al. 1997), seeded:
+    q_j(t) = c_j + Σ_k a_jk/(kω) sin(kωt) − b_jk/(kω) cos(kωt), ω = 2π/period, scaled so that q_j
+    spans `fill` of its joint range around the range's middle; sampled at `rate` Hz over `periods`."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(round(period * periods * rate))) / rate
+    w = 2 * np.pi / period
+    k = np.arange(1, harmonics + 1)
+    lo, hi = robot.qlim.T
+    q = np.empty((len(t), robot.n))
+    qd, qdd = np.empty_like(q), np.empty_like(q)
+    for j in range(robot.n):
+        a, b = rng.standard_normal(harmonics) / k, rng.standard_normal(harmonics) / k
+        s, c = np.sin(np.outer(t, k * w)), np.cos(np.outer(t, k * w))
+        x = s @ (a / (k * w)) - c @ (b / (k * w))
+        xd = c @ a + s @ b
+        xdd = (-s @ (a * k * w)) + c @ (b * k * w)
+        x0 = x - x.mean()
+        g = fill * (hi[j] - lo[j]) / 2 / np.abs(x0).max()
+        q[:, j] = (lo[j] + hi[j]) / 2 + g * x0
+        qd[:, j], qdd[:, j] = g * xd, g * xdd
+    return Trajectory(t, q, qd, qdd)
+
+
+def read_trajectory(path) -> Trajectory:
+    """t, q1…qn and qd, qdd columns (q̇, q̈ by filtered differences where missing) of a CSV/NPZ file;
+    torque columns, if any, are ignored."""
+    from .data import _joint_columns, _read_csv, _read_npz
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no trajectory file {path}")
+    names, values = (_read_npz if path.suffix.lower() == ".npz" else _read_csv)(path)
+    cols = dict(zip(names, values.T))
+    qs = _joint_columns(names, "q")
+    cols = {k: v for k, v in cols.items() if not k.startswith(("tau", "i"))}
+    zeros = np.zeros(len(values))
+    cols.update((f"tau{j + 1}", zeros) for j in range(len(qs)))
+    from .data import _from_columns
+
+    data = _from_columns(cols, source=str(path), joints=None, torque_constant=None, cutoff=None, order=4,
+                         decimate=1, first_line=1 if path.suffix.lower() != ".npz" else None)
+    return Trajectory(data.t, data.q, data.qd, data.qdd)
+
+
+def write(path, data: Data, *, derivatives: bool = True, robot: Robot | None = None) -> Path:
+    """The data as CSV (`data.write_csv`), and beside it `<name>.truth.json` with the true arm's
+    standard and base parameters when the data were simulated (`robot`: the unperturbed model,
+    whose base parameter map the truth shares)."""
+    path = write_csv(path, data, derivatives=derivatives)
+    if getattr(data, "truth", None) is not None:
+        write_truth(path.with_suffix(".truth.json"), data.truth, robot=robot)
+    return path
+
+
+def write_truth(path, truth: Robot, *, robot: Robot | None = None) -> Path:
+    """The true arm's standard parameters (regressor frames) and base parameters as JSON."""
+    from .parameters import base_map, standard_names, standard_vector
+
+    pi = standard_vector(truth)
+    bmap = base_map(robot if robot is not None else truth)
+    doc = {"model": truth.name, "standard": dict(zip(standard_names(truth.n), pi.tolist())),
+           "base": dict(zip(bmap.names, (bmap.P @ pi).tolist())),
+           "links": [{"m": float(l.m), "r": [float(x) for x in l.r], "I": [[float(x) for x in row] for row in l.I],
+                      "Jm": float(l.Jm), "B": float(l.B), "Tc": [float(x) for x in l.Tc], "G": float(l.G)}
+                     for l in truth.links]}
+    Path(path).write_text(json.dumps(doc, indent=1) + "\n")
+    return Path(path)
