@@ -344,41 +344,43 @@ def _vector_assignments(assignments) -> list[str]:
     return lines
 
 
+def _balanced_sum(terms: list[str]) -> str:
+    """The terms' sum as a balanced tree (depth log2 of their count, not a chain)."""
+    while len(terms) > 1:
+        terms = [f"({a} + {b})" for a, b in zip(terms[::2], terms[1::2])] + terms[len(terms) - len(terms) % 2:]
+    return terms[0]
+
+
 def simd_source(model: str, p: Program) -> str:
     """The SIMD kernel of one program: a block of SYMDYN_W states gathered into
     structure-of-arrays, the program once per lane in a loop the compiler
     vectorizes, scattered back (a short last block repeats its last state);
-    then the range and threaded entry points.  The gather also tests every
-    input value (x·0 is 0 unless x is NaN or infinite), so that the contract's
-    check costs no pass of its own over the inputs."""
+    then the range and threaded entry points.  Each lane also sums x·0 over its
+    inputs (0 unless one is NaN or infinite) in a balanced tree, so that the
+    contract's check costs a few vector operations, not a pass of its own."""
     sig = signature(p)
     used = p.used_inputs()
     f = f"{model}_{p.name}"
     ins = [(a, syms) for a, syms in p.inputs]
-    read = [(a, syms) for a, syms in ins if any(s in used for s in syms)]
     body = [f"static int {f}_lanes(long i0, int m, "
             + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs]) + ")",
             "{"]
-    body += [f"    double {a}_[{len(syms)}][SYMDYN_W];" for a, syms in read]
+    body += [f"    double {a}_[{len(syms)}][SYMDYN_W];" for a, syms in ins]
     body += [f"    double {o}_[{_size(sh)}][SYMDYN_W];" for o, sh in sig.outputs]
-    body += ["    double bad_[SYMDYN_W], finite = 0.0;", "    int k, j;"]
-    body += ["    for (k = 0; k < m; ++k) {", "        const long i = i0 + k;"]
+    body += ["    double bad_[SYMDYN_W], nonfinite_[SYMDYN_W];", "    int k, j;"]
+    body += ["    for (k = 0; k < SYMDYN_W; ++k) {", "        const long i = i0 + (k < m ? k : m - 1);"]
     for a, syms in ins:
-        body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            finite += {a}[i * {len(syms)} + j] * 0.0;"]
+        body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            {a}_[j][k] = {a}[i * {len(syms)} + j];"]
     body += ["    }"]
-    if read:
-        body += ["    for (k = 0; k < SYMDYN_W; ++k) {", "        const long i = i0 + (k < m ? k : m - 1);"]
-        for a, syms in read:
-            body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            {a}_[j][k] = {a}[i * {len(syms)} + j];"]
-        body += ["    }"]
-    body += ["    if (finite != 0.0)", "        return 1;"]
     body += ["    SYMDYN_SIMD", "    for (k = 0; k < SYMDYN_W; ++k) {", "        double bad = 0.0;"]
-    for a, syms in read:
+    body.append(f"        nonfinite_[k] = {_balanced_sum([f'{a}_[{j}][k] * 0.0' for a, syms in ins for j in range(len(syms))])};")
+    for a, syms in ins:
         body += [f"        const double {s.name} = {a}_[{k}][k];" for k, s in enumerate(syms) if s in used]
     body += _vector_assignments(p.assignments)
     for o, mat in p.outputs:
         body += [f"        {o}_[{k}][k] = {_vector_text(e)};" for k, e in enumerate(mat)]
     body += ["        bad_[k] = bad;", "    }"]
+    body += ["    for (k = 0; k < SYMDYN_W; ++k)", "        if (nonfinite_[k] != 0.0)", "            return 1;"]
     args = [f"{a} + i * {len(syms)}" for a, syms in ins] + [f"{o} + i * {_size(sh)}" for o, sh in sig.outputs]
     body += ["    for (k = 0; k < m; ++k) {", "        const long i = i0 + k;",
              "        if (bad_[k] != 0.0) {",
