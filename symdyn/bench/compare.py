@@ -575,6 +575,15 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-casadi", action="store_true", help="skip the plain CasADi RNEA in C")
     p.add_argument("--no-python", action="store_true", help="skip the comparisons from Python")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown to FILE")
+    p.add_argument("--batched", action="store_true",
+                   help="also the batched section: ns per state at --sizes against the loop, Pinocchio's "
+                        "*InParallel, CasADi's map, the Toolbox and this machine's ceilings (shipped arms)")
+    p.add_argument("--no-call", action="store_true", help="skip the per-call section (with --batched)")
+    p.add_argument("--sizes", nargs="+", type=float, default=None, metavar="N",
+                   help="batch sizes of the batched section (default 10 1e3 1e5 1e6)")
+    p.add_argument("--threads", type=int, default=None,
+                   help="threads of the batched section (default: the cores this process may use)")
+    p.add_argument("--plot", metavar="PNG", help="with --batched: ns per state against N, log-log, to PNG")
     command_line.add_urdf_options(p)
     p.set_defaults(func=main)
 
@@ -593,6 +602,21 @@ def model_names(names) -> list[str]:
     return names
 
 
+def _batched(robots: list, args, log) -> str:
+    """The batched section (`batched`): printed; its Markdown returned, its plot written (--plot)."""
+    from . import batched
+
+    threads = args.threads or len(os.sched_getaffinity(0))
+    log(f"batched section: measuring this machine's ceilings on 1 and {threads} threads")
+    ceil = batched.ceilings(threads)
+    results = [batched.run(robot, sizes=args.sizes or batched.SIZES, threads=threads, seed=args.seed, log=log)
+               for robot in robots]
+    print(batched.format_report(results, ceil), flush=True)
+    if args.plot:
+        log(f"plot: {batched.plot(results, Path(args.plot))}")
+    return batched.markdown_report(results, ceil)
+
+
 def main(args=None) -> int:
     """`symdyn bench`: args is an argparse.Namespace from configure_parser, or argv strings."""
     if not isinstance(args, argparse.Namespace):
@@ -606,9 +630,10 @@ def main(args=None) -> int:
     names = model_names(getattr(args, "model", None))
     log = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
     tables: list[str] = []
-    for name in names:   # a URDF file's arm is titled by its path; the peers build it from the same Robot
-        robot = command_line.load(name, **command_line.urdf_options(args)) if command_line.is_urdf(name) \
-            else arms.load(name)
+    robots = [command_line.load(name, **command_line.urdf_options(args)) if command_line.is_urdf(name)
+              else arms.load(name) for name in names]
+    for name, robot in zip(names, robots) if not args.no_call else ():
+        # a URDF file's arm is titled by its path; the peers build it from the same Robot
         states = random_states(robot.nofriction(all=True), args.batch, args.seed)
         src = frictionless_sources(robot)
         found: list[str] = []
@@ -620,6 +645,8 @@ def main(args=None) -> int:
         note = OPS_NOTE if name == MODEL else OPS_NOTE_ARM
         print(format_table(these, found, note), flush=True)
         tables.append(markdown_table(these, found, note))
+    if args.batched:
+        tables.append(_batched(robots, args, log))
     print(f"machine: {machine()}")
     if args.markdown:
         prog = "symdyn" if Path(sys.argv[0]).name == "symdyn" else f"python {sys.argv[0]}"

@@ -152,6 +152,7 @@ class Numeric:
         self.__name__ = function.name()
         self.__doc__ = function.__str__()
         self._lead = contract.MAXDIMS - max(map(len, self.shapes))
+        self._maps: dict[int, ca.Function] = {}
 
     def __getattr__(self, name):
         if name == "function":   # not set yet (a copy being built)
@@ -170,11 +171,25 @@ class Numeric:
             outs = tuple(np.empty(lead + s) for s in self.shapes)
             return outs[0] if len(outs) == 1 else outs
         if lead:
-            values = self.function.map(count).call([ca.DM(x.reshape(count, -1).T) for x in arrays])
+            values = self._map(count).call([ca.DM(x.reshape(count, -1).T) for x in arrays])
         else:
             values = self.function.call([ca.DM(x) for x in arrays])
         outs = tuple(_rows(np.array(v), count, s).reshape(lead + s) for v, s in zip(values, self.shapes))
         return outs[0] if len(outs) == 1 else outs
+
+
+    def _map(self, count: int) -> ca.Function:
+        """CasADi's map of the function over `count` states, kept for the next call of that size
+        (building one costs about as much as evaluating it; the last MAPS sizes are kept)."""
+        mapped = self._maps.pop(count, None) or self.function.map(count)
+        self._maps[count] = mapped
+        while len(self._maps) > MAPS:
+            del self._maps[next(iter(self._maps))]
+        return mapped
+
+
+#: Batch sizes whose CasADi map a Numeric function keeps.
+MAPS = 8
 
 
 def _rows(value: np.ndarray, count: int, shape: tuple) -> np.ndarray:
