@@ -371,3 +371,31 @@ def test_an_unwritable_cache_folder_does_not_stop_the_harness(tmp_path, monkeypa
     q, qd, qdd, _ = (s[3] for s in states)
     assert np.abs(checks["tau"] - reference.rne(robot, q, qd, qdd)).max() < 1e-12
     assert "afile/cache is not writable" in capsys.readouterr().err
+
+
+def test_the_batched_section_times_checked_variants_and_bounds_them_by_the_ceilings(tmp_path):
+    """`symdyn bench --batched` on the two-link arm at small sizes: every variant's output was checked
+    against the reference before timing (a wrong peer raises), the costs are the header's op counts and
+    the signature's sizes, and the bound is the larger of ops/peak and bytes/bandwidth."""
+    from symdyn.bench import batched
+    from symdyn.codegen.emit.c import read_signatures
+
+    ceil = batched.ceilings(2, copy_bytes=8e6, iters=20_000, rounds=1)
+    assert all(x > 0 for x in (*ceil.ops, *ceil.bandwidth))
+    robot = models.load("twolink")
+    result = batched.run(robot, sizes=(10, 1001), functions=("tau", "M"), threads=2, log=lambda m: None,
+                         rounds=1, budget=0.002)
+    assert set(result.times) == {("tau", 10), ("tau", 1001), ("M", 10), ("M", 1001)}
+    assert {"loop", "simd/1", "simd/T", "pin/1", "pin/T", "casadi/T"} <= set(result.times[("tau", 1001)])
+    head = (GENERATED / "twolink" / "twolink.c").read_text()
+    tau_line = re.search(r"\*\s+tau\s+(\d+) mul, (\d+) add(?:, (\d+) fun)?", head)
+    ops = int(tau_line[1]) + int(tau_line[2]) + batched.FUN_OPS * int(tau_line[3] or 0)
+    assert result.costs["tau"] == (ops, 8 * 4 * 2) and result.costs["M"][1] == 8 * (2 + 4)
+    sig = {s.name for s in read_signatures((GENERATED / "twolink" / "twolink.h").read_text())}
+    assert set(result.costs) <= sig
+    compute, memory = ceil.bound_ns(*result.costs["M"])
+    assert math.isclose(compute, result.costs["M"][0] / ceil.ops[1] * 1e9)
+    assert math.isclose(memory, result.costs["M"][1] / ceil.bandwidth[1] * 1e9)
+    text = batched.format_report([result], ceil)
+    assert "mul-add peak" in text and "÷ bound" in text
+    assert batched.plot([result], tmp_path / "b.png").stat().st_size > 1000

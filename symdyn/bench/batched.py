@@ -97,10 +97,11 @@ def _ceilings_library() -> ctypes.CDLL:
     return dll
 
 
-def ceilings(threads: int, *, copy_bytes: float = 2e8, rounds: int = 5) -> Ceilings:
-    """The mul-add peak and the copy bandwidth of this machine on 1 and `threads` threads."""
+def ceilings(threads: int, *, copy_bytes: float = 2e8, iters: int = 2_000_000, rounds: int = 5) -> Ceilings:
+    """The mul-add peak and the copy bandwidth of this machine on 1 and `threads` threads (`iters`
+    rounds of 64 mul-adds per thread; `copy_bytes` copied, well beyond the caches by default)."""
     dll = _ceilings_library()
-    chains, iters = 64, 2_000_000
+    chains = 64
     n = int(copy_bytes / 8)
     src, dst = np.ones(n), np.zeros(n)
 
@@ -201,9 +202,10 @@ def _peers(robot, threads: int, log):
 
 
 def run(robot, *, sizes=SIZES, functions=FUNCTIONS, threads: int | None = None, max_bytes: float = 4e8,
-        seed: int = 0, log=print) -> Result:
+        seed: int = 0, log=print, rounds: int = 5, budget: float = 0.1) -> Result:
     """Time every variant of `functions` of the C code of `robot` (`symdyn.load(robot, "c")`: the
-    shipped code of a shipped arm, else generated once into the cache)."""
+    shipped code of a shipped arm, else generated once into the cache); each time the best of
+    `rounds` rounds of calls lasting `budget` seconds."""
     from ..codegen.emit.clib import load_library
     from ..codegen.entry import load
 
@@ -237,17 +239,18 @@ def run(robot, *, sizes=SIZES, functions=FUNCTIONS, threads: int | None = None, 
                     "tau_derivatives": lambda: ref.rne(robot, x["q"][k], x["qd"][k], x["qdd"][k])}[fname]()
             f(*xs, out=out, threads=threads)
             _agree(f"{name} {fname}", outs[0][k], want)
-            t = {"loop": _best(lambda: loop(ctypes.c_int(size), *ptrs), size),
-                 "simd/1": _best(lambda: f(*xs, out=out, threads=1), size),
-                 "simd/T": _best(lambda: f(*xs, out=out, threads=threads), size)}
-            t.update(_peer_times(fname, size, x, pool, casadi, bot, bare, threads))
+            best = lambda call: _best(call, size, rounds, budget)  # noqa: E731
+            t = {"loop": best(lambda: loop(ctypes.c_int(size), *ptrs)),
+                 "simd/1": best(lambda: f(*xs, out=out, threads=1)),
+                 "simd/T": best(lambda: f(*xs, out=out, threads=threads))}
+            t.update(_peer_times(fname, size, x, pool, casadi, bot, bare, threads, best))
             result.times[(fname, size)] = t
             log(f"  {name} {fname:16s} N={size:>8d}  " + "  ".join(f"{v} {ns:.1f}" for v, ns in t.items()))
             del x, xs, outs, out, ptrs
     return result
 
 
-def _peer_times(fname: str, size: int, x: dict, pool, casadi, bot, bare, threads: int) -> dict:
+def _peer_times(fname: str, size: int, x: dict, pool, casadi, bot, bare, threads: int, best) -> dict:
     """ns per state of the peers that compute `fname`, checked against the reference first."""
     t = {}
     k = slice(0, min(size, 50))
@@ -261,18 +264,18 @@ def _peer_times(fname: str, size: int, x: dict, pool, casadi, bot, bare, threads
                 else ref.accel(bare, x["q"][k], x["qd"][k], x["tau"][k]))
         call(threads, models, Q, V, A, R)
         _agree(f"pin.{call.__name__}", R.T[k], want)
-        t["pin/1"] = _best(lambda: call(1, models, Q, V, A, R), size)
-        t["pin/T"] = _best(lambda: call(threads, models, Q, V, A, R), size)
+        t["pin/1"] = best(lambda: call(1, models, Q, V, A, R))
+        t["pin/T"] = best(lambda: call(threads, models, Q, V, A, R))
     if casadi is not None and fname == "tau":
         import casadi as ca
         mapped = casadi.map(size, "thread", threads)
         args = [ca.DM(x[a].T) for a in ("q", "qd", "qdd")]
         _agree("CasADi map", np.array(mapped(*args)).T[k], ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k]))
-        t["casadi/T"] = _best(lambda: mapped(*args), size)
+        t["casadi/T"] = best(lambda: mapped(*args))
     if bot is not None and fname == "tau" and size <= 100_000:
         _agree("Robotics Toolbox rne", bot.rne(x["q"][k], x["qd"][k], x["qdd"][k]),
                ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k]))
-        t["rtb"] = _best(lambda: bot.rne(x["q"], x["qd"], x["qdd"]), size, rounds=2)
+        t["rtb"] = best(lambda: bot.rne(x["q"], x["qd"], x["qdd"]))
     return t
 
 
