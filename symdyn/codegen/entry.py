@@ -1,9 +1,9 @@
-"""`generate` and `load`: model code for NumPy, C and CasADi, from files.
+"""`generate` and `load`: model code for NumPy, C, CasADi and the array API (JAX, PyTorch), from files.
 
 The end of model → derive → simplify → program → emit.  `generate(robot,
 target, out_dir)` derives (both methods, cached), builds one program per
 function and writes `<name>.py`, `<name>.c`/`<name>.h` and `<name>.casadi`,
-each headed with the symdyn version, the model fingerprint and the sha256 of
+`<name>_xp.py` (array API), each headed with the symdyn version, the model fingerprint and the sha256 of
 its content.  `load(name_or_robot, target)` returns the functions tau, M, C,
 Cqd, G, F, fdyn, Y, tau_derivatives, fdyn_derivatives and Minv as attributes,
 every target's taking the same arguments (docs/functions.md): from the checked-in `generated/<name>/` for
@@ -30,10 +30,14 @@ from ..derivation.cache import cache_dir, package_fingerprint, writable
 from ..model import Robot, arms
 from .emit import Bundle, identifier, is_intact, read_header, write_atomic
 
-__all__ = ["generate", "load", "generate_all", "bundle", "GeneratedModel", "TARGETS", "SHIPPED",
+__all__ = ["generate", "load", "generate_all", "bundle", "GeneratedModel", "TARGETS", "LOADS", "SHIPPED",
            "GENERATED", "configure_parser"]
 
-TARGETS = ("numpy", "c", "casadi")
+TARGETS = ("numpy", "c", "casadi", "array-api")
+#: What `load` takes: the targets, and the array-API module's functions on JAX or PyTorch arrays.
+LOADS = (*TARGETS, "jax", "torch")
+#: The target whose files a loadable name reads.
+_WRITTEN = {"jax": "array-api", "torch": "array-api"}
 SHIPPED = ("twolink", "puma560", "panda", "iiwa14", "ur5")
 #: The checked-in outputs (present in a source checkout).
 GENERATED = Path(__file__).resolve().parents[2] / "generated"
@@ -56,8 +60,9 @@ def _targets(target: str) -> tuple[str, ...]:
 
 
 def files(name: str, target: str) -> tuple[str, ...]:
-    """The file names one target writes for model `name`."""
-    return {"numpy": (f"{name}.py",), "c": (f"{name}.c", f"{name}.h"), "casadi": (f"{name}.casadi",)}[target]
+    """The file names one target writes (or a loadable name reads) for model `name`."""
+    return {"numpy": (f"{name}.py",), "c": (f"{name}.c", f"{name}.h"), "casadi": (f"{name}.casadi",),
+            "array-api": (f"{name}_xp.py",)}[_WRITTEN.get(target, target)]
 
 
 def bundle(robot: Robot) -> Bundle:
@@ -127,10 +132,10 @@ def _is_shipped(robot: Robot) -> bool:
 
 def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False) -> list[Path]:
     """Write the model code of `robot` (a Robot or a model's name) for
-    `target` ("numpy", "c", "casadi" or "all") into `out_dir` (default, for
+    `target` ("numpy", "c", "casadi", "array-api" or "all") into `out_dir` (default, for
     the shipped models only: generated/<name>); `casadi_c` also writes
     CasADi's own C code.  Returns the paths written."""
-    from .emit import c as c_emit, casadi as ca_emit, numpy as np_emit
+    from .emit import array_api as xp_emit, c as c_emit, casadi as ca_emit, numpy as np_emit
 
     robot = _robot(robot)
     targets = _targets(target)
@@ -150,6 +155,8 @@ def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False
         for t in targets:
             if t == "numpy":
                 written.append(write_atomic(folder / f"{b.name}.py", np_emit.module_source(b)))
+            elif t == "array-api":
+                written.append(write_atomic(folder / f"{b.name}{xp_emit.SUFFIX}", xp_emit.module_source(b)))
             elif t == "c":
                 written.append(write_atomic(folder / f"{b.name}.h", c_emit.h_source(b)))
                 written.append(write_atomic(folder / f"{b.name}.c", c_emit.c_source(b)))
@@ -279,7 +286,7 @@ def _intact(folder: Path, name: str, target: str) -> bool:
         return False
 
 
-def _load_folder(folder: Path, name: str, target: str, robot: Robot, options) -> GeneratedModel:
+def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, jit=True) -> GeneratedModel:
     paths = [folder / f for f in files(name, target)]
     for path in paths:
         found, content = _provenance(path, target)
@@ -292,6 +299,13 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options) ->
     if target == "numpy":
         module = _import_module(paths[0], f"_symdyn_generated_{name}_{robot.fingerprint()[:12]}")
         funcs = {f: getattr(module, f) for f in module.FUNCTIONS}
+        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
+    if target in ("array-api", "jax", "torch"):
+        from .emit import array_api
+        module = _import_module(paths[0], f"_symdyn_generated_{name}_xp_{robot.fingerprint()[:12]}")
+        funcs = (array_api.jax_functions(module, jit) if target == "jax" else
+                 array_api.torch_functions(module) if target == "torch" else
+                 {f: getattr(module, f) for f in module.FUNCTIONS})
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
     if target == "c":
         from .emit.clib import CompileOptions, load_library
@@ -314,8 +328,10 @@ def _import_module(path: Path, module: str):
 COMPILED = ("tau", "fdyn")
 
 
-def load(name_or_robot, target: str = "c", *, options=None, folder=None, compiled=False) -> GeneratedModel:
-    """The generated functions of a model for `target` ("c", "numpy" or "casadi").
+def load(name_or_robot, target: str = "c", *, options=None, folder=None, compiled=False,
+         jit=None) -> GeneratedModel:
+    """The generated functions of a model for `target` ("c", "numpy", "casadi", "jax", "torch"
+    or "array-api").
 
     A shipped model's name loads generated/<name>/ (an error if stale); a
     Robot loads it too when it is that model, else its code is generated once
@@ -326,14 +342,19 @@ def load(name_or_robot, target: str = "c", *, options=None, folder=None, compile
     evaluated by compiled code — `casadi.external`s with their Jacobians and
     the Hessians of λᵀf compiled too, built once into the cache
     (`emit.casadi.compiled`) — for Opti and nlpsol; the other functions stay
-    CasADi's SX.
+    CasADi's SX.  "array-api": the functions of `<name>_xp.py`, on the arrays of any
+    library that follows the array API standard; "jax" and "torch": the same on JAX
+    arrays (each function `jax.jit`-compiled unless `jit=False`) or PyTorch tensors
+    (needs array-api-compat), other arguments converted to them (docs/functions.md).
     """
-    if target not in TARGETS:
-        raise ValueError(f"unknown target {target!r}: load() takes one of {', '.join(TARGETS)}")
+    if target not in LOADS:
+        raise ValueError(f"unknown target {target!r}: load() takes one of {', '.join(LOADS)}")
+    if jit is not None and target != "jax":
+        raise ValueError(f"jit= is an option of the JAX target, not of {target!r}")
     if compiled is not False and target != "casadi":
         raise ValueError(f"compiled= is an option of the CasADi target, not of {target!r} "
                          "(the C target is always compiled)")
-    model = _load(name_or_robot, target, options, folder)
+    model = _load(name_or_robot, target, options, folder, True if jit is None else bool(jit))
     if compiled is False:
         return model
     return _compile_casadi(model, COMPILED if compiled is True else tuple(compiled))
@@ -352,22 +373,23 @@ def _compile_casadi(model: "CasadiModel", names: tuple) -> "CasadiModel":
     return CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
 
 
-def _load(name_or_robot, target: str, options, folder) -> GeneratedModel:
+def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedModel:
     robot = _robot(name_or_robot)
     name = identifier(robot.name)
     if folder is not None:
         missing = [f for f in files(name, target) if not (Path(folder) / f).is_file()]
         if missing:
             raise FileNotFoundError(f"{folder} has no {', '.join(missing)}: generate it with "
-                                    f"symdyn generate {name} --target {target} --out {folder}")
-        return _load_folder(Path(folder), name, target, robot, options)
+                                    f"symdyn generate {name} --target {_WRITTEN.get(target, target)} "
+                                    f"--out {folder}")
+        return _load_folder(Path(folder), name, target, robot, options, jit)
     shipped = GENERATED / name
     if all((shipped / f).exists() for f in files(name, target)):
         if isinstance(name_or_robot, str):
-            return _load_folder(shipped, name, target, robot, options)
+            return _load_folder(shipped, name, target, robot, options, jit)
         found = _provenance(shipped / files(name, target)[0], target)[0]
         if _stale(shipped, found, robot, name) is None:
-            return _load_folder(shipped, name, target, robot, options)
+            return _load_folder(shipped, name, target, robot, options, jit)
     folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
     if not _intact(folder, name, target):
         if name in SHIPPED and not in_checkout():
@@ -375,8 +397,8 @@ def _load(name_or_robot, target: str, options, folder) -> GeneratedModel:
                   "symdyn carries no generated/", file=sys.stderr)
         folder = writable(folder)
         with progress.reported(f"symdyn: generating the {target} code of {name}"):
-            generate(robot, target, folder)
-    return _load_folder(folder, name, target, robot, options)
+            generate(robot, _WRITTEN.get(target, target), folder)
+    return _load_folder(folder, name, target, robot, options, jit)
 
 
 # --------------------------------------------------------------------------- command line
