@@ -6,7 +6,6 @@ import re
 import numpy as np
 
 from symdyn import cli, models
-from symdyn.codegen import entry as codegen
 from symdyn.numeric import reference as ref
 
 
@@ -24,14 +23,17 @@ def test_run_prints_the_book_numbers_and_checks_the_code_it_wrote(tmp_path, caps
 
 
 def test_run_exits_nonzero_when_the_code_it_wrote_is_wrong(tmp_path, capsys, monkeypatch):
-    """Fault injection: the written code is sealed and current but computes the wrong gravity."""
-    right = codegen.bundle
+    """Fault injection: the written NumPy module is sealed and current but computes the wrong
+    gravity (one wrong target suffices; the C and CasADi files stay right, so that their
+    library is the one every Puma test shares rather than a compile of its own)."""
+    from symdyn.codegen.emit import numpy as np_emit
 
-    def wrong(robot):   # G 1 % too large; a fault in the programs needs no second derivation
-        b = right(robot)
-        return dataclasses.replace(b, programs=tuple(
+    right = np_emit.module_source
+
+    def wrong(b):   # G 1 % too large; a fault in the programs needs no second derivation
+        return right(dataclasses.replace(b, programs=tuple(
             dataclasses.replace(p, outputs=tuple((o, m * 1.01) for o, m in p.outputs)) if p.name == "G" else p
-            for p in b.programs))
-    monkeypatch.setattr(codegen, "bundle", wrong)
+            for p in b.programs)))
+    monkeypatch.setattr(np_emit, "module_source", wrong)
     assert cli.main(["run", "--out", str(tmp_path / "puma")]) == 1
     assert "disagrees with the reference" in capsys.readouterr().err
