@@ -1,7 +1,8 @@
 """`symdyn …`: the command line.
 
 Subcommands: run (the main job), print (closed forms), generate (model
-code), bench (speed against peers), study (the chapter's studies).  Each
+code), bench (speed against peers), identify (excite, simulate, fit),
+study (the chapter's studies).  Each
 delegates to the module that owns the work; this file only parses.
 """
 
@@ -144,12 +145,17 @@ def _load_model(name: str, numeric: bool):
 
 def _cmd_study(args: argparse.Namespace) -> int:
     from .apps import studies
+    from .identify import study as identify_studies
 
+    found = {**studies.registry(), **identify_studies.STUDIES}
     if args.list or not args.name:
-        for name, (summary, _) in sorted(studies.registry().items()):
+        for name, (summary, _) in sorted(found.items()):
             print(f"{name:28s} {summary}")
         return 0
-    text = studies.run(args.name, Path(args.out))
+    if args.name in identify_studies.STUDIES:
+        text = identify_studies.run(args.name, Path(args.out))
+    else:
+        text = studies.run(args.name, Path(args.out))
     print(text)
     print(f"\nfigures and summary written to {Path(args.out) / args.name}")
     return 0
@@ -202,6 +208,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--numeric", action="store_true", help="numeric parameters even where a symbolic variant exists")
     p.add_argument("--no-cache", action="store_true", help="derive afresh, bypassing the cache")
     p.set_defaults(func=_cmd_print)
+
+    from .identify import command as identify_command
+    identify_command.configure_parser(sub.add_parser(
+        "identify", help="identification: excite, simulate, fit (base parameters, a consistent model, a report)"))
 
     p = sub.add_parser("study", help="run one of the chapter's studies (--list to see them)")
     p.add_argument("name", nargs="?", help="the study to run (see --list)")

@@ -26,6 +26,8 @@ __all__ = ["Data", "load_data", "from_arrays", "parallel_decimate", "write_csv",
 #: Low-pass cutoff (Hz) of q before differentiation, unless given: well above an excitation's
 #: harmonics (a 10 s period with 5 harmonics reaches 0.5 Hz), capped at 0.4 × the sampling rate.
 DEFAULT_CUTOFF = 10.0
+#: Seconds × cutoff dropped at each end after filtering: filtfilt's edge transients (at 10 Hz, 0.3 s).
+EDGE = 3.0
 #: Butterworth order of that low-pass (applied forwards and backwards: twice the order, no phase).
 ORDER = 4
 _KINDS = ("q", "qd", "qdd", "tau", "i")
@@ -262,6 +264,13 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
         if qdd is None:
             qdd = np.gradient(qd, t, axis=0, edge_order=2)
             notes.append("qdd by central differences of qd")
+        edge = int(np.ceil(EDGE / cutoff * rate))
+        if len(t) <= 2 * edge + 1:
+            raise ValueError(f"{source}: {len(t)} samples are too few to filter at {cutoff:g} Hz: the first and last "
+                             f"{edge} carry the filter's edge transients")
+        keep = slice(edge, len(t) - edge)
+        t, q, qd, qdd, tau = t[keep], q[keep], qd[keep], qdd[keep], tau[keep]
+        notes.append(f"the first and last {edge} samples dropped ({EDGE:g}/cutoff: the filter's edge transients)")
     if decimate > 1:
         notes.append(f"tau and Y decimated by {decimate} through one filter (parallel filtering) in fit")
     return Data(t=t, q=q, qd=qd, qdd=qdd, tau=tau, decimate=int(decimate), source=source, notes=tuple(notes))

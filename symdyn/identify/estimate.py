@@ -3,12 +3,14 @@
 The estimate step of identify (excitation → data → base regressor →
 **estimate** → consistent → validate).  The generated regressor Y (C target,
 batched, in chunks into one buffer) gives the columns of the exact base
-parameters (`parameters.base_map`): τ = Y_b(q, q̇, q̈)·β.  Each joint's rows
-are reduced chunk by chunk to the R factor of a QR decomposition of
-[Y_b,j  τ_j] (no normal equations, so noise-free data give β to rounding),
-from which ordinary least squares, each joint's residual variance σ_j² and
-the weighted least squares of Gautier & Khalil (rows of joint j divided by
-σ_j) follow without touching the samples again:
+parameters (`parameters.base_map`): τ = Y_b(q, q̇, q̈)·β.  One pass over the
+samples accumulates each joint's Gram matrix of [Y_b,j  τ_j] (large BLAS
+products, never the whole regressor in memory); ordinary least squares,
+each joint's residual variance σ_j² and the weighted least squares of
+Gautier & Khalil (rows of joint j divided by σ_j) follow from those alone,
+and a second pass computes the residuals exactly and takes one step of
+iterative refinement, which wins back the accuracy the normal equations
+lose (noise-free data give β to rounding):
 
     β̂ = argmin Σ_j ‖Y_b,j β − τ_j‖² / σ_j²,   cov β̂ = s² (Y_wᵀ Y_w)⁻¹,
     s² = Σ_j ‖Y_b,j β̂ − τ_j‖²/σ_j² / (nN − b).
@@ -138,40 +140,63 @@ def regressor_rows(robot: Robot, q, qd, qdd, *, target: str = "c") -> np.ndarray
     return _Regressor(robot, base_map(robot), target).full(*(np.atleast_2d(x) for x in (q, qd, qdd)))
 
 
-def _reduce(blocks, n: int, b: int, R=None) -> np.ndarray:
-    """Per joint, the (b+1)² R factor of the rows [Y_b,j τ_j] of all blocks (m, n, b+1): QR on the
-    stack of the previous R and each block (tall-skinny QR, batched over the joints)."""
+def _gram(blocks, n: int, b: int) -> np.ndarray:
+    """Per joint, the Gram matrix (n, b+1, b+1) of the rows [Y_b,j  τ_j] of all blocks (m, n, b+1)."""
+    G = np.zeros((n, b + 1, b + 1))
     for A in blocks:
-        A = np.swapaxes(A, 0, 1)                        # (n, m, b+1)
-        stack = A if R is None else np.concatenate([R, A], axis=1)
-        R = np.linalg.qr(stack, mode="r")
-        if R.shape[1] < b + 1:   # fewer rows than columns so far: pad to square
-            R = np.concatenate([R, np.zeros((n, b + 1 - R.shape[1], b + 1))], axis=1)
-    return R
+        A = np.ascontiguousarray(np.swapaxes(A, 0, 1))   # (n, m, b+1)
+        G += np.swapaxes(A, 1, 2) @ A
+    return G
 
 
-def _solve(R: np.ndarray, w: np.ndarray, names, what: str):
-    """β minimising Σ_j ‖(R_j [β; −1]) / w_j‖², with (R_w, column scales) for the covariance; a
-    ValueError naming the base parameters the data do not excite."""
-    b = R.shape[2] - 1
-    A = np.concatenate(R / w[:, None, None], axis=0)        # (n(b+1), b+1)
-    M, y = A[:, :b], A[:, b]
-    scale = np.linalg.norm(M, axis=0)
+def _solve(G: np.ndarray, w: np.ndarray, names):
+    """β minimising Σ_j ‖Y_b,j β − τ_j‖² / w_j² from the Gram matrices, (Σ_j Y_b,jᵀY_b,j / w_j²)⁻¹, and
+    the singular values of the weighted regressor with unit columns; a ValueError naming the base
+    parameters the data do not excite or do not separate."""
+    b = G.shape[1] - 1
+    Gw = np.tensordot(1 / w ** 2, G, axes=1)
+    A, g = Gw[:b, :b], Gw[:b, b]
+    scale = np.sqrt(np.diag(A))
     if np.any(scale == 0):
         dead = [names[k] for k in np.flatnonzero(scale == 0)]
         raise ValueError(f"the data do not excite the base parameter(s) {', '.join(dead)}: their regressor "
-                         f"columns are zero along the whole {what} (does every joint move, both ways?)")
-    Ms = M / scale
-    U, S, Vt = np.linalg.svd(Ms, full_matrices=False)
-    if S[-1] < RANK_TOL * S[0]:
-        v = Vt[-1]
+                         "columns are zero along the whole motion (does every joint move, both ways?)")
+    lam, V = np.linalg.eigh(A / np.outer(scale, scale))
+    if lam[0] < RANK_TOL * lam[-1]:
+        v = V[:, 0]
         worst = [names[k] for k in np.argsort(-np.abs(v))[:4] if abs(v[k]) > 0.1]
-        raise ValueError(f"the data do not separate the base parameters {', '.join(worst)} (scaled condition "
-                         f"number {S[0] / S[-1]:.3g}): a richer motion is needed (does every joint move, "
-                         "both ways, with varied speed?)")
-    beta = (Vt.T @ ((U.T @ y) / S)) / scale
-    inv = (Vt.T / S) @ (Vt / S[:, None]) / np.outer(scale, scale)   # (MᵀM)⁻¹
-    return beta, inv, S
+        raise ValueError(f"the data do not separate the base parameters {', '.join(worst)} (condition number "
+                         f"{np.sqrt(lam[-1] / max(lam[0], 1e-300)):.3g} with unit columns): a richer motion is "
+                         "needed (does every joint move, both ways, with varied speed?)")
+    inv = (V / lam) @ V.T / np.outer(scale, scale)
+    return inv @ g, inv, np.sqrt(np.maximum(lam[::-1], 0))
+
+
+def _rss(G: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """‖Y_b,j β − τ_j‖² per joint from the Gram matrices (≥ 0; cancellation leaves ~1e-16 of ‖τ_j‖²)."""
+    x = np.append(beta, -1.0)
+    return np.maximum(np.einsum("i,jik,k->j", x, G, x), 0.0)
+
+
+def _residuals(blocks, beta: np.ndarray, n: int):
+    """One pass over the samples at β: per joint the residual sum of squares ‖r_j‖² and Y_b,jᵀ r_j,
+    r_j = τ_j − Y_b,j β computed exactly (not from the Gram matrices, which lose the square of the
+    condition number): what one step of iterative refinement and each joint's noise need."""
+    b = len(beta)
+    rss = np.zeros(n)
+    h = np.zeros((n, b))
+    for A in blocks:
+        r = A[:, :, b] - A[:, :, :b] @ beta
+        rss += np.sum(r * r, axis=0)
+        h += np.einsum("mjb,mj->jb", A[:, :, :b], r)
+    return rss, h
+
+
+def _step(G: np.ndarray, rss: np.ndarray, h: np.ndarray, delta: np.ndarray):
+    """Moving β by δ: each joint's ‖r_j‖² and Y_b,jᵀ r_j at β + δ (r_j − Y_b,j δ)."""
+    Gb = G[:, :-1, :-1]
+    Gd = Gb @ delta
+    return rss - 2 * h @ delta + Gd @ delta, h - Gd
 
 
 def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, *, target: str = "c",
@@ -199,42 +224,52 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
     reg = _Regressor(robot, bmap, target)
     n, b = robot.n, len(bmap.names)
     if data.decimate > 1:
-        Yb, tau, t = parallel_decimate(reg.full(data.q, data.qd, data.qdd), data.tau, data.decimate, data.t)
-        blocks = (np.concatenate([Yb[s:s + CHUNK], tau[s:s + CHUNK, :, None]], axis=2)
-                  for s in range(0, len(tau), CHUNK))
-        N = len(tau)
+        Yb, tau, _ = parallel_decimate(reg.full(data.q, data.qd, data.qdd), data.tau, data.decimate, data.t)
+
+        def blocks():
+            return (np.concatenate([Yb[s:s + CHUNK], tau[s:s + CHUNK, :, None]], axis=2)
+                    for s in range(0, len(tau), CHUNK))
     else:
         tau = data.tau
-        blocks = (np.concatenate([Yb, tau[s:s + len(Yb), :, None]], axis=2)
-                  for s, Yb in reg.chunks(data.q, data.qd, data.qdd))
-        N = data.N
+
+        def blocks():
+            return (np.concatenate([Yb, tau[s:s + len(Yb), :, None]], axis=2)
+                    for s, Yb in reg.chunks(data.q, data.qd, data.qdd))
+    N = len(tau)
     if N * n <= b:
         raise ValueError(f"{N} samples of {n} joints give {N * n} equations for {b} base parameters; "
                          "record a longer motion")
-    R = _reduce(blocks, n, b)
+    G = _gram(blocks(), n, b)
     names = bmap.names
     ones = np.ones(n)
-    beta, inv, S = _solve(R, ones, names, "trajectory")
-    rss = _rss(R, beta)
+    beta, inv, S = _solve(G, ones, names)
+    rss, h = _residuals(blocks(), beta, n)
+    delta = inv @ h.sum(axis=0)                    # refinement: ordinary least squares to rounding
+    beta = beta + delta
+    rss, h = _step(G, rss, h, delta)
+    rss = np.maximum(rss, 0.0)
     sigma = np.sqrt(rss / max(N - b / n, 1))
     if method == "wls":
-        floor = 1e-12 * max(np.sqrt(np.mean(tau ** 2, axis=0)).max(), 1e-300)
+        # the noise of joint j, floored where the data are exact (the weights do not matter there)
+        floor = 1e-8 * max(np.sqrt(np.mean(tau ** 2, axis=0)).max(), 1e-300)
         w = np.maximum(sigma, floor)
-        beta, inv, S = _solve(R, w, names, "trajectory")
+        _, inv, S = _solve(G, w, names)
+        delta = inv @ (h / (w ** 2)[:, None]).sum(axis=0)
+        beta = beta + delta
+        rss, h = _step(G, rss, h, delta)
+        rss = np.maximum(rss, 0.0)
     else:
         w = ones
-    rss = _rss(R, beta)
     s2 = float(np.sum(rss / w ** 2) / max(N * n - b, 1))
     cov = s2 * inv
     std = np.sqrt(np.diag(cov))
     with np.errstate(divide="ignore", invalid="ignore"):
         relative = np.where(beta != 0, 100 * std / np.abs(beta), np.inf)
-    Mw = np.concatenate(R[:, :, :b] / w[:, None, None], axis=0)
-    sv = np.linalg.svd(Mw, compute_uv=False)
+    ev = np.linalg.eigvalsh(np.tensordot(1 / w ** 2, G, axes=1)[:b, :b])
     estimate = BaseEstimate(names=names, values=beta, std=std, relative=relative, covariance=cov,
                             expressions=bmap.expressions)
     seconds = time.perf_counter() - start
-    result = Identification(prior=robot, base=estimate, condition=float(sv[0] / sv[-1]),
+    result = Identification(prior=robot, base=estimate, condition=float(np.sqrt(ev[-1] / max(ev[0], 1e-300))),
                             scaled_condition=float(S[0] / S[-1]), rms=np.sqrt(rss / N), sigma=w if method == "wls"
                             else sigma, method=method, samples=N, data=data, seconds=seconds, target=target,
                             map=bmap)
@@ -245,11 +280,6 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
         object.__setattr__(result, "consistent", found)
         object.__setattr__(result, "consistent_seconds", time.perf_counter() - started)
     return result
-
-
-def _rss(R: np.ndarray, beta: np.ndarray) -> np.ndarray:
-    """‖Y_b,j β − τ_j‖² per joint, from the R factors."""
-    return np.sum((R @ np.append(beta, -1.0)) ** 2, axis=1)
 
 
 def _consistent_module():
@@ -406,7 +436,13 @@ class Identification:
                 path.write_text(urdf if isinstance(urdf, str) else urdf.decode())
             paths.append(path)
         if figures:
-            paths += self.figures(out, validation)
+            import importlib.util
+            import sys
+
+            if importlib.util.find_spec("matplotlib") is None:
+                print("symdyn: no figures: they need matplotlib (pip install 'symdyn[plot]')", file=sys.stderr)
+            else:
+                paths += self.figures(out, validation)
         return paths
 
     def figures(self, out: Path, validation: Validation | None = None) -> list[Path]:

@@ -23,7 +23,8 @@ import numpy as np
 from ..model import Robot
 from .data import Data, from_arrays, write_csv
 
-__all__ = ["simulate", "perturbed", "fourier", "Trajectory", "read_trajectory", "write", "write_truth"]
+__all__ = ["simulate", "perturbed", "fourier", "Trajectory", "read_trajectory", "write", "write_truth",
+           "write_trajectory"]
 
 
 @dataclass(frozen=True)
@@ -40,7 +41,7 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
     """`robot` with every inertial and friction parameter scaled by its own factor 1 + u,
     u uniform in [−perturb, perturb] (seeded): mass, each COM coordinate, the mass distribution's
     second moments (Σ = ½tr(I)·1 − I scaled as D·Σ·D, D diagonal, so the inertia stays
-    physical), rotor inertia, viscous and each Coulomb friction.  Zeros stay zeros."""
+    physical; the principal moments of a link that waives the triangle inequality), rotor inertia, viscous and each Coulomb friction.  Zeros stay zeros."""
     robot.require_numeric("simulate")
     if not 0 <= perturb < 1:
         raise ValueError(f"perturb must lie in [0, 1), got {perturb}")
@@ -51,8 +52,12 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
         I = np.array(link.I, dtype=float)
         S = 0.5 * np.trace(I) * np.eye(3) - I
         D = np.diag(u(3))
-        S = D @ S @ D
-        I_new = np.trace(S) * np.eye(3) - S
+        if np.linalg.eigvalsh(S)[0] >= -1e-12 * max(np.trace(I), 1e-300):
+            S = D @ S @ D
+            I_new = np.trace(S) * np.eye(3) - S
+        else:   # published data that break the triangle inequality (Link(physical=False)): its principal moments
+            lam, V = np.linalg.eigh(I)
+            I_new = (V * (lam * np.diag(D))) @ V.T
         links.append(dataclasses.replace(
             link, m=float(link.m) * u(), r=tuple(float(x) * f for x, f in zip(link.r, u(3))),
             I=tuple(tuple(float(x) for x in row) for row in (I_new + I_new.T) / 2),
@@ -63,6 +68,8 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
 def _trajectory(trajectory, n: int) -> Trajectory:
     if isinstance(trajectory, (str, Path)):
         trajectory = read_trajectory(trajectory)
+    elif hasattr(trajectory, "sample") and not hasattr(trajectory, "t"):   # an optimised Excitation: 100 Hz
+        trajectory = Trajectory(*trajectory.sample(100.0))
     try:
         t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
     except AttributeError:
@@ -111,10 +118,12 @@ def _per_joint(x, n: int, what: str) -> np.ndarray:
 
 
 def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: float = 100.0, seed: int = 0,
-            fill: float = 0.6, periods: int = 1) -> Trajectory:
+            fill: float = 0.6, periods: int = 1, rest: float = 0.0) -> Trajectory:
     """A random finite Fourier series per joint (Swevers et al. 1997), seeded:
     q_j(t) = c_j + Σ_k a_jk/(kω) sin(kωt) − b_jk/(kω) cos(kωt), ω = 2π/period, scaled so that q_j
-    spans `fill` of its joint range around the range's middle; sampled at `rate` Hz over `periods`."""
+    spans `fill` of its joint range around the range's middle; sampled at `rate` Hz over `periods`,
+    then held at rest for `rest` s (q̇ = q̈ = 0: the samples that tell Coulomb friction's offset FO
+    from a constant load such as gravity along a prismatic joint, sgn² q̇ being 1 while moving)."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(period * periods * rate))) / rate
     w = 2 * np.pi / period
@@ -132,6 +141,11 @@ def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: flo
         g = fill * (hi[j] - lo[j]) / 2 / np.abs(x0).max()
         q[:, j] = (lo[j] + hi[j]) / 2 + g * x0
         qd[:, j], qdd[:, j] = g * xd, g * xdd
+    hold = int(round(rest * rate))
+    if hold:
+        t = np.arange(len(t) + hold) / rate
+        q = np.concatenate([q, np.repeat(q[-1:], hold, axis=0)])
+        qd, qdd = (np.concatenate([x, np.zeros((hold, robot.n))]) for x in (qd, qdd))
     return Trajectory(t, q, qd, qdd)
 
 
@@ -154,6 +168,17 @@ def read_trajectory(path) -> Trajectory:
     data = _from_columns(cols, source=str(path), joints=None, torque_constant=None, cutoff=None, order=4,
                          decimate=1, first_line=1 if path.suffix.lower() != ".npz" else None)
     return Trajectory(data.t, data.q, data.qd, data.qdd)
+
+
+def write_trajectory(path, trajectory: Trajectory) -> Path:
+    """A trajectory as CSV: t, q1…qn, qd1…qdn, qdd1…qddn (what `simulate` and `read_trajectory` read)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    n = trajectory.q.shape[1]
+    header = ["t"] + [f"{k}{j + 1}" for k in ("q", "qd", "qdd") for j in range(n)]
+    np.savetxt(path, np.column_stack([trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd]), delimiter=",",
+               header=",".join(header), comments="", fmt="%.17g")
+    return path
 
 
 def write(path, data: Data, *, derivatives: bool = True, robot: Robot | None = None) -> Path:
