@@ -220,8 +220,9 @@ def _splice(robot: Robot, text: str) -> str:
                                      "removed and the whole body is here")
                 for rider in riders(link_name):
                     span = spans[("link", rider)]
-                    if "inertial" in span:
-                        edits.append((*span["inertial"], ""))
+                    if "inertial" in span and (own(rider)[0] != 0 or np.any(own(rider)[2])):
+                        a, b = span["inertial"]
+                        edits.append((a - len(_indent(text, a)) - 1, b, ""))   # with its line
             span = spans[("link", link_name)]
             indent = _indent(text, span["start"][0]) + "  "
             block = (f"<!-- {note} -->\n{indent}" if note else "") + _inertial_xml(*write, indent).lstrip()
@@ -241,8 +242,7 @@ def _splice(robot: Robot, text: str) -> str:
             block = f"<dynamics damping=\"{_f(damping)}\" friction=\"{_f(friction)}\"/>"
             if lost:
                 block = f"<!-- symdyn: not expressible in URDF: {'; '.join(lost)} -->\n{indent}" + block
-                warnings.warn(f"joint {joint_name!r}: not expressible in URDF: {'; '.join(lost)}", URDFWarning,
-                              stacklevel=3)
+                _warn_lost(joint_name, lost)
             if "dynamics" in span:
                 edits.append((*span["dynamics"], block))
             else:
@@ -253,6 +253,11 @@ def _splice(robot: Robot, text: str) -> str:
     for a, b, replacement in sorted(edits, reverse=True):
         data = data[:a] + replacement.encode() + data[b:]
     return data.decode()
+
+
+def _warn_lost(joint: str, lost: list) -> None:
+    warnings.warn(f"joint {joint!r}: not expressible in URDF (written as a comment): {'; '.join(lost)}",
+                  URDFWarning, stacklevel=4)
 
 
 def _indent(text: str, at_byte: int) -> str:
@@ -346,6 +351,7 @@ def _fresh(robot: Robot) -> str:
                      f'velocity="{_f(link.velocity_limit or 0)}"/>')
         if lost:
             lines.append(f"  <!-- symdyn: not expressible in URDF: {'; '.join(lost)} -->")
+            _warn_lost(f"joint{j + 1}", lost)
         lines += [f'  <joint name="joint{j + 1}" type="{kind}">', f'    <parent link="{previous}"/>',
                   f'    <child link="{name}"/>', f"    {_origin_xml(T)}",
                   f'    <axis xyz="{_f(axis[0])} {_f(axis[1])} {_f(axis[2])}"/>{limit}',
