@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
@@ -60,7 +61,8 @@ class Consistent:
     B, Tc in their own frames); standard: name → value (regressor frames, the
     names of `parameter_symbols`); base_names, target (the β̂ given) and
     achieved (P·π); margins: the smallest eigenvalue of each link's
-    pseudo-inertia (≥ 0 up to solver tolerance); moved: ‖W(Pπ − β̂)‖ / ‖W β̂‖,
+    pseudo-inertia (≥ 0 up to solver tolerance); moved: ‖W(Pπ − β̂)‖ / ‖W β̂‖ with
+    W = diag(1/scales), each base parameter's typical size (of its pivot, from the prior),
     how far the base parameters had to move (0 for a realisable β̂);
     sigmas: ‖Σ^{-1/2}(Pπ − β̂)‖ when a covariance was given (the move in
     standard deviations), else None.
@@ -78,6 +80,7 @@ class Consistent:
     seconds: float
     status: str
     regularisation: float = field(default=0.0)
+    scales: np.ndarray | None = None
 
     def table(self) -> str:
         """Per link: mass, COM and the pseudo-inertia margin, as text."""
@@ -214,14 +217,18 @@ def _solve_sdp(fit, reg, lam, n, x0, tol, nomotor):
     f, r = cp.norm(R1 @ x - t1), cp.norm(R2 @ x - t2)
     options = {"solver": cp.CLARABEL, "tol_gap_abs": tol, "tol_gap_rel": tol, "tol_feas": tol}
     stage = cp.Problem(cp.Minimize(f + TIE * r), cons)
-    stage.solve(**options)
+    with warnings.catch_warnings():   # "may be inaccurate": the status says so, and the result is checked
+        warnings.simplefilter("ignore", UserWarning)
+        stage.solve(**options)
     if x.value is None:
         raise RuntimeError(f"the consistency SDP failed: {stage.status}")
     if lam > 0:
         best = float(np.sum((R1 @ x.value - t1) ** 2))
         bound = np.sqrt(best * (1 + SLACK) + 1e-14 * float(t1 @ t1))
         second = cp.Problem(cp.Minimize(f + lam * r), cons + [f <= bound])
-        second.solve(**options)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            second.solve(**options)
         if x.value is None:
             raise RuntimeError(f"the consistency SDP failed in its second stage: {second.status}")
         stage = second
@@ -436,7 +443,8 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
     got[order] = achieved
     return Consistent(robot=new, standard=dict(zip(names, pi.tolist())), base_names=tuple(base_names),
                       target=back, achieved=got, margins=margins, moved=moved, sigmas=sigmas, method=method,
-                      seconds=seconds, status=str(status), regularisation=regularisation)
+                      seconds=seconds, status=str(status), regularisation=regularisation,
+                      scales=np.array([s[k] for k in base.independent])[np.argsort(order)])
 
 
 def base_vector(robot: Robot, base: BaseParameters | None = None) -> tuple[list, np.ndarray]:
