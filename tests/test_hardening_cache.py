@@ -4,6 +4,7 @@ and an unwritable cache folder is warned about once and done without."""
 import os
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -75,3 +76,17 @@ def test_an_unwritable_cache_folder_is_warned_about_once_and_done_without(tmp_pa
         assert name == target and float(error) < 1e-12, line
     warnings = [w for w in run.stderr.splitlines() if "not writable" in w]
     assert len(warnings) == 1 and str(folder) in warnings[0], run.stderr
+
+
+def test_processes_that_want_the_same_derivation_build_it_once(tmp_path):
+    """Two processes (test workers, a cluster's workers on one machine) derive the same arm
+    at once into one cache: one builds it, the other waits for its lock and reads the entry."""
+    script = ("import sys, time; from symdyn import models; from symdyn.derivation.entry import derive; "
+              "time.sleep(max(0.0, float(sys.argv[1]) - time.time())); "
+              "print(derive(models.load('puma560'), 'lagrange').stats['from_cache'])")
+    env = dict(os.environ, SYMDYN_CACHE_DIR=str(tmp_path))
+    start = time.time() + 3.0   # both past their imports, then at once
+    runs = [subprocess.Popen([sys.executable, "-c", script, str(start)], env=env, stdout=subprocess.PIPE, text=True)
+            for _ in range(2)]
+    found = sorted(p.communicate(timeout=120)[0].strip() for p in runs)
+    assert found == ["False", "True"], found

@@ -12,6 +12,7 @@ on without it (`writable` gives code generation a temporary folder instead).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import hashlib
 import os
@@ -125,20 +126,60 @@ def _read(path: Path, entry_key: str) -> tuple[Any, str | None]:
     return None, "it belongs to another model or symdyn version"
 
 
+def _lookup(path: Path, entry_key: str, say: bool) -> tuple[Any, bool]:
+    """(value, True) from the entry at `path`, or (None, False) — saying why an existing entry is
+    not used when `say`."""
+    if not os.path.isfile(path):   # False, not an error, in an unreadable folder
+        return None, False
+    try:
+        value, reason = _read(path, entry_key)
+        if reason is None:
+            return value, True
+    except Exception as exc:  # noqa: BLE001 (any unreadable entry is rebuilt)
+        reason = f"it is unreadable ({type(exc).__name__})"
+    if say:
+        print(f"symdyn: cache entry {path} ignored: {reason}; rebuilding", file=sys.stderr)
+    return None, False
+
+
+@contextlib.contextmanager
+def build_lock(path: Path):
+    """An exclusive lock on `path` while this process builds what `path` will hold (a lock file
+    named by its hash in the temporary folder, not in the cache, which holds entries only), so that
+    processes wanting the same entry (test workers, a cluster's workers on one machine) build it
+    once; no lock where none can be taken (no fcntl, a read-only folder): the cache is an
+    optimisation, never a reason to fail."""
+    try:
+        import fcntl
+        folder = Path(tempfile.gettempdir()) / f"symdyn-locks-{os.getuid()}"
+        folder.mkdir(mode=0o700, exist_ok=True)
+        handle = open(folder / f"{hashlib.sha256(str(path).encode()).hexdigest()[:32]}.lock", "a")
+    except (ImportError, AttributeError, OSError):
+        yield
+        return
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except OSError:
+            pass
+        yield
+
+
 def cached(kind: str, entry_key: str, build: Callable[[], Any], *, use_cache: bool = True) -> tuple[Any, bool]:
     """The value stored under (kind, key), or build() stored there; and
-    whether it came from the cache."""
+    whether it came from the cache.  A process that finds another building
+    the same entry waits for it and reads its result."""
+    if not use_cache:
+        return build(), False
     path = cache_dir() / f"{kind}-{entry_key[:32]}.pickle"
-    if use_cache and os.path.isfile(path):  # False, not an error, in an unreadable folder
-        try:
-            value, reason = _read(path, entry_key)
-            if reason is None:
-                return value, True
-        except Exception as exc:  # noqa: BLE001 (any unreadable entry is rebuilt)
-            reason = f"it is unreadable ({type(exc).__name__})"
-        print(f"symdyn: cache entry {path} ignored: {reason}; rebuilding", file=sys.stderr)
-    value = build()
-    if use_cache:
+    value, hit = _lookup(path, entry_key, say=True)
+    if hit:
+        return value, True
+    with build_lock(path):
+        value, hit = _lookup(path, entry_key, say=False)
+        if hit:
+            return value, True
+        value = build()
         payload = pickle.dumps({"format": FORMAT, "key": entry_key, "value": value}, protocol=5)
         try:
             write_atomic(path, hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload)

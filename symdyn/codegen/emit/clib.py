@@ -15,7 +15,6 @@ broadcasting, keyword arguments, bad input) and return new arrays.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import hashlib
 import importlib.machinery
@@ -33,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...derivation.cache import cache_dir, writable
+from ...derivation.cache import build_lock, cache_dir, writable
 from .. import contract
 from . import write_atomic
 from .c import Signature, read_signatures
@@ -521,27 +520,8 @@ def _library(path: Path, flags: tuple, files: dict, includes: list[str]) -> Path
 
     if intact():
         return path
-    with _build_lock(path):
+    with build_lock(path):
         return path if intact() else _build(flags, files, includes, path)
-
-
-@contextlib.contextmanager
-def _build_lock(path: Path):
-    """An exclusive lock on `path`.lock while one process builds `path`; no lock where
-    there is none to take (no fcntl, a read-only cache): the cache is an optimisation."""
-    try:
-        import fcntl
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle = open(path.with_name(path.name + ".lock"), "a")
-    except (ImportError, OSError):
-        yield
-        return
-    with handle:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX)
-        except OSError:
-            pass
-        yield
 
 
 def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOptions()) -> "CLibrary":
