@@ -1,13 +1,15 @@
 """The model stage: `Link`, `Robot` and the conventions — standard and modified DH,
-and general (URDF-like) joints (`robot`, `placement`); URDF input (`urdf`, also
-`Robot.from_urdf`); the shipped arms with their sources (`arms`, also `symdyn.models`)."""
+and general (URDF-like) joints (`robot`, `placement`); URDF input and output (`urdf`,
+also `Robot.from_urdf` and `robot.to_urdf`); the shipped arms with their sources (`arms`, also `symdyn.models`)."""
 
 from .placement import placement
 from .robot import CONVENTIONS, IDENTITY, JOINT_TYPES, Link, Robot, exact_cos_sin, rotx, roty, rotz, transl
-from .urdf import URDFError, URDFWarning, from_urdf
+from .urdf import URDFError, URDFWarning, from_urdf, to_urdf
 
 #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: defined in `urdf`, which builds on `robot`.
 Robot.from_urdf = staticmethod(from_urdf)
+#: `robot.to_urdf(path=None, *, source=…)`: the URDF text with the robot's inertials (`urdf.writer`).
+Robot.to_urdf = to_urdf
 
 __all__ = ["Link", "Robot", "CONVENTIONS", "JOINT_TYPES", "IDENTITY", "exact_cos_sin", "rotx", "roty", "rotz",
-           "transl", "placement", "from_urdf", "URDFError", "URDFWarning"]
+           "transl", "placement", "from_urdf", "to_urdf", "URDFError", "URDFWarning"]

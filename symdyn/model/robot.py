@@ -438,14 +438,6 @@ class Robot:
                                    name=f"{self.name}_mdh" if not self.name.endswith("_mdh") else self.name)
 
 
-    def to_urdf(self, path=None, *, source=None) -> str:
-        """URDF text with this robot's inertials (`symdyn.model.urdf.writer`): the file it was
-        read from with the moving links' inertials replaced, or a fresh chain; written to
-        `path` when given.  source: that file (path or text) when the record's is not at hand."""
-        from .urdf.writer import to_urdf
-
-        return to_urdf(self, path, source=source)
-
     def _axes_along_z(self) -> "Robot":
         """A general robot with every joint axis along its link's z and exact,
         exactly orthogonal placements: the frames both recursions work in.

@@ -39,6 +39,8 @@ import numpy as np
 
 from ..placement import exact_cos_sin
 from ..robot import IDENTITY, Robot
+from .reader import from_urdf
+from .tree import Tree
 from .xml import URDFError, URDFWarning, parse, read
 
 __all__ = ["to_urdf"]
@@ -161,9 +163,6 @@ def _original_text(robot: Robot, source) -> str | None:
 
 
 def _splice(robot: Robot, text: str) -> str:
-    from .reader import from_urdf
-    from .tree import MOVING, Tree
-
     record = robot.urdf
     given = {lock.joint: lock.value for lock in record.locked if lock.why == "given"}
     with warnings.catch_warnings():
