@@ -2,7 +2,7 @@
 
 Subcommands: run (the main job), print (closed forms), generate (model
 code), bench (speed against peers), identify (excite, simulate, fit),
-study (the chapter's studies).  Each
+study (the chapter's studies), sweep (many tasks on a Dask cluster).  Each
 delegates to the module that owns the work; this file only parses.
 """
 
@@ -212,6 +212,10 @@ def build_parser() -> argparse.ArgumentParser:
     from .identify import command as identify_command
     identify_command.configure_parser(sub.add_parser(
         "identify", help="identification: excite, simulate, fit (base parameters, a consistent model, a report)"))
+
+    from .sweep import command as sweep_command
+    sweep_command.configure_parser(sub.add_parser(
+        "sweep", help="many tasks on a Dask cluster: trajectory library, Monte-Carlo (--list to see them)"))
 
     p = sub.add_parser("study", help="run one of the chapter's studies (--list to see them)")
     p.add_argument("name", nargs="?", help="the study to run (see --list)")

@@ -21,7 +21,7 @@ import symdyn
 PACKAGE = Path(symdyn.__file__).resolve().parent
 
 #: The stage folders, downhill first: a module may import its own stage and those before it.
-STAGES = ("model", "derivation", "codegen", "numeric", "apps", "identify", "bench")
+STAGES = ("model", "derivation", "codegen", "numeric", "apps", "identify", "sweep", "bench")
 #: Top-level modules: the package, the command line and the documented names kept as thin re-exports.
 TOP_MODULES = ("symdyn", "symdyn.__main__", "symdyn.cli", "symdyn.models", "symdyn.reference", "symdyn.ocp")
 TOP = len(STAGES)
