@@ -182,9 +182,10 @@ def module_source(bundle: Bundle) -> str:
 
 # --------------------------------------------------------------------------- loaders
 
-def _converting(fn, convert, inner):
+def _converting(fn, convert, inner, traced=lambda values: False):
     """`inner` called with fn's arguments bound by name (Python's own TypeErrors) and
-    converted by `convert` (a ValueError naming the argument it cannot take)."""
+    converted by `convert` (a ValueError naming the argument it cannot take); `fn` itself
+    when `traced(values)` (inside a transformation, which compiles what it traces)."""
     signature = inspect.signature(fn)
 
     @functools.wraps(fn)
@@ -196,7 +197,7 @@ def _converting(fn, convert, inner):
                 values.append(convert(value))
             except (TypeError, ValueError) as exc:
                 raise ValueError(f"{fn.__name__}(): {name} must be real numbers: {exc}") from None
-        return inner(*values)
+        return fn(*values) if traced(values) else inner(*values)
 
     return call
 
@@ -212,16 +213,20 @@ def jax_functions(module, jit: bool = True) -> dict:
     """name → function of the generated module on JAX arrays: arguments that are not
     JAX arrays (NumPy arrays, lists) go through `jax.numpy.asarray`; `jit`: each function
     `jax.jit`-compiled (once per shape and dtype of its arguments), on CPU without XLA's
-    fusion (`CPU_COMPILER_OPTIONS`; a jit around them, e.g. the caller's, compiles them
-    with its own options)."""
+    fusion (`CPU_COMPILER_OPTIONS`).  Called inside a transformation (`jax.jit`, `vmap`,
+    `grad` of the caller's) a function is traced as it is: the outermost jit compiles it,
+    with its own options."""
     import jax
     import jax.numpy as jnp
 
     def convert(x):
         return x if isinstance(x, jax.Array) else jnp.asarray(x)
 
+    def traced(values):
+        return any(isinstance(v, jax.core.Tracer) for v in values)
+
     options = CPU_COMPILER_OPTIONS if jax.default_backend() == "cpu" else None
-    return {f: _converting(fn, convert, jax.jit(fn, compiler_options=options) if jit else fn)
+    return {f: _converting(fn, convert, jax.jit(fn, compiler_options=options) if jit else fn, traced)
             for f, fn in ((f, getattr(module, f)) for f in module.FUNCTIONS)}
 
 
