@@ -312,6 +312,23 @@ def _frame_maps(robot: Robot) -> list:
     return [(np.stack([c[j] for c in cols], axis=1), p[j]) for j in range(robot.n)]
 
 
+def _rounded_onto_physical(I: np.ndarray, scale: float) -> np.ndarray:
+    """A COM inertia from a pseudo-inertia on the cone's boundary (a point mass, a rod, a plate)
+    may miss `Link`'s checks by rounding (principal moments −4e-16, 0, 1e-22): its moments
+    are clipped at 0 and to the triangle inequality where they miss it by ≤ 1e-9 of the body's scale."""
+    I = (I + I.T) / 2
+    w, V = np.linalg.eigh(I)
+    tol = 1e-9 * max(scale, 1e-300)
+    fixed = w.copy()
+    fixed[(fixed < 0) & (fixed > -tol)] = 0.0
+    if fixed[2] > fixed[0] + fixed[1] and fixed[2] - fixed[0] - fixed[1] <= tol:
+        fixed[2] = fixed[0] + fixed[1]
+    if np.array_equal(fixed, w):
+        return I
+    I = (V * fixed) @ V.T
+    return (I + I.T) / 2
+
+
 def _robot_from(robot: Robot, pi: np.ndarray, maps: list) -> Robot:
     links = []
     for j, (link, (R, p)) in enumerate(zip(robot.links, maps)):
@@ -324,8 +341,7 @@ def _robot_from(robot: Robot, pi: np.ndarray, maps: list) -> Robot:
             r = R.T @ (c - p)
         else:   # no mass: no centre of mass; the inertia is the same about any point
             Ic, r, m = Io, np.zeros(3), 0.0
-        I = R.T @ Ic @ R
-        I = (I + I.T) / 2
+        I = _rounded_onto_physical(R.T @ Ic @ R, np.abs(Io).max())
         G = float(link.G)
         IA, FV, FS, FO = v[10:14]
         if G == 0:
