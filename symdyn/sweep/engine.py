@@ -33,6 +33,7 @@ import sys
 import threading
 import time
 import traceback
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
@@ -349,8 +350,9 @@ def _drive(client, sweep: Sweep, todo: list[tuple[str, dict]], write: Callable[[
     from distributed import as_completed
 
     ids = [tid for tid, _ in todo]
+    run_token = uuid.uuid4().hex[:8]   # a resume's keys never meet the cancelled keys of the run it resumes
     futures = client.map(functools.partial(execute, sweep.task), ids, [item for _, item in todo],
-                         key=[f"{sweep.name}-{tid}" for tid in ids], pure=False)
+                         key=[f"{sweep.name}-{tid}-{run_token}" for tid in ids], pure=False)
     pending = {f.key: pair for f, pair in zip(futures, todo)}
     try:
         for future in as_completed(futures):
