@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -109,7 +110,7 @@ class _Regressor:
                 Y = self.model.Y(q[s:e], qd[s:e], qdd[s:e], out=buffer[:e - s])
             else:
                 Y = np.asarray(self.model.Y(q[s:e], qd[s:e], qdd[s:e]), dtype=float)
-            yield s, Y[:, :, self.columns]
+            yield s, np.take(Y, self.columns, axis=2)
 
     def full(self, q, qd, qdd) -> np.ndarray:
         out = np.empty((len(q), self.n, len(self.columns)))
@@ -141,11 +142,16 @@ def regressor_rows(robot: Robot, q, qd, qdd, *, target: str = "c") -> np.ndarray
 
 
 def _gram(blocks, n: int, b: int) -> np.ndarray:
-    """Per joint, the Gram matrix (n, b+1, b+1) of the rows [Y_b,j  τ_j] of all blocks (m, n, b+1)."""
+    """Per joint, the Gram matrix (n, b+1, b+1) of the rows [Y_b,j  τ_j] of all blocks (Y_b (m, n, b),
+    τ (m, n)); each joint's rows Y_b[:, j] are a strided matrix BLAS reads in place."""
     G = np.zeros((n, b + 1, b + 1))
-    for A in blocks:
-        A = np.ascontiguousarray(np.swapaxes(A, 0, 1))   # (n, m, b+1)
-        G += np.swapaxes(A, 1, 2) @ A
+    for Y, tau in blocks:
+        for j in range(n):
+            Yj, tj = Y[:, j, :], tau[:, j]
+            G[j, :b, :b] += Yj.T @ Yj
+            G[j, :b, b] += Yj.T @ tj
+            G[j, b, b] += tj @ tj
+    G[:, b, :b] = G[:, :b, b]
     return G
 
 
@@ -185,10 +191,11 @@ def _residuals(blocks, beta: np.ndarray, n: int):
     b = len(beta)
     rss = np.zeros(n)
     h = np.zeros((n, b))
-    for A in blocks:
-        r = A[:, :, b] - A[:, :, :b] @ beta
+    for Y, tau in blocks:
+        r = tau - Y @ beta
         rss += np.sum(r * r, axis=0)
-        h += np.einsum("mjb,mj->jb", A[:, :, :b], r)
+        for j in range(n):
+            h[j] += Y[:, j, :].T @ r[:, j]
     return rss, h
 
 
@@ -199,14 +206,49 @@ def _step(G: np.ndarray, rss: np.ndarray, h: np.ndarray, delta: np.ndarray):
     return rss - 2 * h @ delta + Gd @ delta, h - Gd
 
 
+@contextmanager
+def _blas_threads(count: int | None):
+    """NumPy's OpenBLAS limited to `count` threads inside the block, as threadpoolctl does (Linux;
+    another BLAS or system, or count None, leaves everything as it is)."""
+    restore = []
+    if count is not None:
+        try:
+            import ctypes
+
+            with open("/proc/self/maps") as maps:
+                paths = sorted({line.split()[-1] for line in maps
+                                if "openblas" in line.lower() and line.split()[-1].startswith("/")})
+            for path in paths:
+                lib = ctypes.CDLL(path)
+                for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"),
+                                       ("openblas", "")):
+                    get = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
+                    put = getattr(lib, f"{prefix}_set_num_threads{suffix}", None)
+                    if get is not None and put is not None:
+                        restore.append((put, get()))
+                        put(int(count))
+                        break
+        except OSError:
+            pass
+    try:
+        yield
+    finally:
+        for put, old in restore:
+            put(old)
+
+
 def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, *, target: str = "c",
-        consistent_options: dict | None = None) -> "Identification":
+        blas_threads: int | None = 1, consistent_options: dict | None = None) -> "Identification":
     """Identify the base parameters of `robot`'s geometry from `data` (see the module docstring).
 
     method: "wls" (weighted by each joint's residual variance, Gautier & Khalil) or "ols".
     consistent: also find physically consistent standard parameters (`consistent.physical`,
     regularised towards `robot`'s values); False: `.robot` is `robot` moved least to reproduce
     the estimate.  target: the generated code that evaluates Y ("c", "numpy", "casadi").
+    blas_threads: NumPy's BLAS threads for the least squares (default 1: the Gram products are
+    many mid-sized ones, and on a busy machine OpenBLAS's waiting threads cost 5-10× the time they
+    save — 10⁵ Panda samples took 7-20 s with two threads on two shared cores, 1.3 s with one;
+    None leaves BLAS as it is).  The generated C regressor runs on its own threads regardless.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
@@ -219,6 +261,22 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
     physical = None
     if consistent:
         physical = _consistent_module()
+    with _blas_threads(blas_threads):
+        result = _fit(robot, data, method, target)
+    if physical is not None:
+        options = dict(consistent_options or {})
+        started = time.perf_counter()
+        # residuals at rounding level (exact data): the covariance is rounding noise and weighs nothing
+        scale = max(np.sqrt(np.mean(data.tau ** 2)), 1e-300)
+        cov = None if np.all(result.rms <= 1e-9 * scale) else result.base.covariance
+        found = physical.physical(robot, result.base.names, result.base.values, cov, prior=robot,
+                                  base=result.map.exact, **options)
+        object.__setattr__(result, "consistent", found)
+        object.__setattr__(result, "consistent_seconds", time.perf_counter() - started)
+    return result
+
+
+def _fit(robot: Robot, data: Data, method: str, target: str) -> "Identification":
     start = time.perf_counter()
     bmap = base_map(robot)
     reg = _Regressor(robot, bmap, target)
@@ -227,14 +285,12 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
         Yb, tau, _ = parallel_decimate(reg.full(data.q, data.qd, data.qdd), data.tau, data.decimate, data.t)
 
         def blocks():
-            return (np.concatenate([Yb[s:s + CHUNK], tau[s:s + CHUNK, :, None]], axis=2)
-                    for s in range(0, len(tau), CHUNK))
+            return ((Yb[s:s + CHUNK], tau[s:s + CHUNK]) for s in range(0, len(tau), CHUNK))
     else:
         tau = data.tau
 
         def blocks():
-            return (np.concatenate([Yb, tau[s:s + len(Yb), :, None]], axis=2)
-                    for s, Yb in reg.chunks(data.q, data.qd, data.qdd))
+            return ((Yb, tau[s:s + len(Yb)]) for s, Yb in reg.chunks(data.q, data.qd, data.qdd))
     N = len(tau)
     if N * n <= b:
         raise ValueError(f"{N} samples of {n} joints give {N * n} equations for {b} base parameters; "
@@ -273,15 +329,6 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
                             scaled_condition=float(S[0] / S[-1]), rms=np.sqrt(rss / N), sigma=w if method == "wls"
                             else sigma, method=method, samples=N, data=data, seconds=seconds, target=target,
                             map=bmap)
-    if physical is not None:
-        options = dict(consistent_options or {})
-        started = time.perf_counter()
-        # residuals at rounding level (exact data): the covariance is rounding noise and weighs nothing
-        exact = np.all(result.rms <= 1e-9 * max(np.sqrt(np.mean(tau ** 2)), 1e-300))
-        found = physical.physical(robot, names, beta, None if exact else cov, prior=robot, base=bmap.exact,
-                                  **options)
-        object.__setattr__(result, "consistent", found)
-        object.__setattr__(result, "consistent_seconds", time.perf_counter() - started)
     return result
 
 
