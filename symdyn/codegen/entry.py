@@ -303,6 +303,7 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
     if target in ("array-api", "jax", "torch"):
         from .emit import array_api
         module = _import_module(paths[0], f"_symdyn_generated_{name}_xp_{robot.fingerprint()[:12]}")
+        sys.modules.setdefault(module.__name__, module)   # torch.compile imports the globals' module by name
         funcs = (array_api.jax_functions(module, jit) if target == "jax" else
                  array_api.torch_functions(module) if target == "torch" else
                  {f: getattr(module, f) for f in module.FUNCTIONS})

@@ -9,7 +9,7 @@ operator, each entry broadcasts over the leading axes, and the outputs are
 stacked at the end, never written in place — so `jax.jit`, `jax.vmap`,
 `jax.grad`, `torch.compile`, `torch.func` and autograd can trace every
 function, and float32 in gives float32 out on the arguments' device.  Coulomb
-friction's sign is `xp.sign`; forward dynamics' LDLᵀ is the program's own
+friction's sign is two comparisons; forward dynamics' LDLᵀ is the program's own
 straight-line code: no Python `if` on a value anywhere.  Shapes are checked
 (they are static under tracing); values are not (a traced function cannot
 raise on them): NaN in gives NaN in every output entry that depends on it
@@ -23,7 +23,7 @@ import functools
 import inspect
 
 from ...derivation.program import Program, lower
-from . import Bundle, Infix, header_lines, seal
+from . import ATOM, Bundle, Infix, header_lines, seal
 
 __all__ = ["module_source", "function_source", "jax_functions", "torch_functions", "SUFFIX"]
 
@@ -31,7 +31,7 @@ __all__ = ["module_source", "function_source", "jax_functions", "torch_functions
 SUFFIX = "_xp.py"
 
 #: Local names of the generated functions (a program's name must not hide them).
-_LOCALS = {"xp", "like"}
+_LOCALS = {"xp", "like", "sign", "output", "arguments", "namespace", "broadcast"}
 
 _HELPERS = '''
 
@@ -107,6 +107,12 @@ def broadcast(function, names, shapes):
     return tuple(out)
 
 
+def sign(xp, x):
+    """sign x: 1, -1, 0 at +-0 and NaN at NaN (as NumPy's), by comparisons, never `xp.sign`
+    (array-api-compat's for PyTorch writes NaNs in place: no vmap) nor an `if`; derivative 0."""
+    return xp.astype(x > 0, x.dtype) - xp.astype(x < 0, x.dtype) + (x - x)
+
+
 def output(xp, like, shape, entries):
     """One output of shape like.shape + shape from its entries in row-major order (arrays
     of leading shapes that broadcast to like's, or numbers), stacked: no in-place write.
@@ -120,10 +126,14 @@ def output(xp, like, shape, entries):
 
 
 class _Printer(Infix):
-    """Infix text on arrays of the namespace `xp`: its functions, `xp.pow` for powers."""
+    """Infix text on arrays of the namespace `xp`: its functions, `xp.pow` for powers, the
+    module's traceable `sign`."""
 
     def __init__(self) -> None:
-        super().__init__({f: f"xp.{f}" for f in ("sin", "cos", "tan", "sqrt", "sign", "abs")}, power="xp.pow")
+        super().__init__({f: f"xp.{f}" for f in ("sin", "cos", "tan", "sqrt", "abs")}, power="xp.pow")
+
+    def call(self, name: str, x):
+        return (f"sign(xp, {x[0]})", ATOM) if name == "sign" else super().call(name, x)
 
 
 PRINTER = _Printer()
