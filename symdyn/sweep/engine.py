@@ -47,8 +47,9 @@ __all__ = ["Sweep", "Outcome", "SchedulerUnreachable", "SweepInterrupted", "META
 
 #: Columns every table ends with: the error (empty when the task succeeded), where and how long it ran,
 #: and whether its process had run this task function before (warm = 0 marks a first task: its import
-#: and model-loading cost).  They describe the run, not the result: they differ between runs.
-META = ("error", "worker", "wall_s", "warm")
+#: and model-loading cost); cpu_s, the task's CPU time, is what a loaded machine does not stretch.
+#: They describe the run, not the result: they differ between runs.
+META = ("error", "worker", "wall_s", "cpu_s", "warm")
 #: Seconds to wait for a scheduler before saying that none answers.
 CONNECT_TIMEOUT_S = 5.0
 TABLE = "results.csv"
@@ -137,7 +138,7 @@ def execute(task: Callable[[dict], dict], tid: str, item: dict) -> dict:
     the id, the input, the result or the error, and META."""
     name = f"{task.__module__}.{task.__qualname__}"
     warm = name in _RAN
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     try:
         result, error = dict(task(item)), ""
     except Exception as exc:   # recorded in the row; the sweep goes on
@@ -145,7 +146,8 @@ def execute(task: Callable[[dict], dict], tid: str, item: dict) -> dict:
     _RAN.add(name)
     return {"task_id": tid, **item, **result, "error": error,
             "worker": f"{socket.gethostname()}:{os.getpid()}",
-            "wall_s": round(time.perf_counter() - start, 6), "warm": warm}
+            "wall_s": round(time.perf_counter() - start, 6), "cpu_s": round(time.process_time() - cpu, 6),
+            "warm": warm}
 
 
 # --------------------------------------------------------------------------- the cluster
@@ -361,7 +363,7 @@ def _drive(client, sweep: Sweep, todo: list[tuple[str, dict]], write: Callable[[
                 row = future.result()
             except Exception as exc:
                 row = {"task_id": tid, **item, "error": describe_error(exc), "worker": "", "wall_s": None,
-                       "warm": None}
+                       "cpu_s": None, "warm": None}
             future.release()
             write(row)
     finally:

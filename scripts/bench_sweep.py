@@ -1,0 +1,137 @@
+"""Benchmark of `symdyn sweep`: the trajectory library serially, then on local Dask clusters.
+
+    .venv/bin/python scripts/bench_sweep.py --n 200 --workers 1,2 [--cold-cache] [--markdown FILE]
+
+One run, same tasks: the library of n minimum-time Puma motions (--arm, N = 40,
+Hermite–Simpson on compiled CasADi dynamics; no open-loop re-simulation unless
+--verify) first in this process one after the other (`workers=0`: the
+baseline, same task code), then on a local cluster of 1 and 2 worker
+processes (one thread each).  Reported per run: wall time, per-task time (the
+mean time inside a warm task), first-task cost (a fresh process's first task
+minus a warm one: imports and loading the compiled functions from the disk
+cache), scheduler overhead per task (worker time outside tasks: k·wall − Σ
+task time, per task; includes the start-up of the workers' first tasks and
+the idle tail), speed-up and parallel efficiency against the serial run, and
+whether every run's results equal the serial run's exactly.  --cold-cache also
+times one task in a fresh process with an empty symdyn cache (a new host of a
+cluster: derive, generate and compile the CasADi functions).  BLAS/OpenMP are
+held to one thread everywhere (Dask's workers do this by default).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import logging  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from symdyn.sweep import engine, library  # noqa: E402
+
+
+def _results(rows) -> dict:
+    return {r["task_id"]: {k: v for k, v in r.items() if k not in engine.META or k == "error"} for r in rows}
+
+
+def measure(label: str, rows, wall: float, workers: int, serial_wall: float | None) -> dict:
+    done = [r for r in rows if r["wall_s"]]
+    warm = [float(r["wall_s"]) for r in done if r["warm"] == "1"]
+    cold = [float(r["wall_s"]) for r in done if r["warm"] == "0"]
+    per_task = statistics.mean(warm) if warm else float("nan")
+    cpu = statistics.mean(float(r["cpu_s"]) for r in done if r["warm"] == "1") if warm else float("nan")
+    busy = sum(float(r["wall_s"]) for r in done)
+    out = {"run": label, "workers": workers, "wall_s": wall, "per_task_s": per_task, "cpu_per_task_s": cpu,
+           "first_task_extra_s": (statistics.mean(cold) - per_task) if cold else float("nan"),
+           "overhead_per_task_s": (max(workers, 1) * wall - busy) / len(done),
+           "tasks_per_s": len(done) / wall}
+    if serial_wall is not None:
+        out["speedup"] = serial_wall / wall
+        out["efficiency"] = serial_wall / (workers * wall)
+    return out
+
+
+def cold_cache_first_task(item: dict) -> float:
+    """Seconds of one task in a fresh process whose symdyn cache is empty (a new host)."""
+    with tempfile.TemporaryDirectory(prefix="symdyn-cold-") as cache:
+        code = ("import time; t = time.perf_counter(); from symdyn.sweep import library; "
+                f"library.motion({item!r}); print(time.perf_counter() - t)")
+        env = dict(os.environ, SYMDYN_CACHE_DIR=cache)
+        run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+        return float(run.stdout.split()[-1])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--n", type=int, default=200, help="motions (default 200)")
+    p.add_argument("--arm", default="puma560", choices=library.ARMS)
+    p.add_argument("--N", type=int, default=40, help="collocation intervals (default 40)")
+    p.add_argument("--workers", default="1,2", help="local cluster sizes to run, comma-separated (default 1,2)")
+    p.add_argument("--verify", action="store_true", help="re-simulate every motion with the reference (slower)")
+    p.add_argument("--cold-cache", action="store_true", help="also time a first task with an empty cache")
+    p.add_argument("--out", default=None, help="folder for the runs' tables (default: a temporary folder)")
+    p.add_argument("--markdown", default=None, help="also write the table as markdown to this file")
+    args = p.parse_args(argv)
+    sizes = [int(k) for k in args.workers.split(",") if k]
+    out = Path(args.out or tempfile.mkdtemp(prefix="bench-sweep-"))
+    items = library.inputs(args.n, arm=args.arm, N=args.N, verify=args.verify)
+    load = os.getloadavg()[0]
+    print(f"bench_sweep: {args.n} minimum-time {args.arm} motions (N = {args.N}, verify {args.verify}), "
+          f"{os.cpu_count()} CPUs, load average {load:.1f} at the start; tables in {out}", flush=True)
+
+    t = time.perf_counter()
+    library.motion(items[0])   # fills the cache (derive, generate, compile) if need be: not timed below
+    print(f"  warm-up task (cache fill if the cache is cold): {time.perf_counter() - t:.1f} s", flush=True)
+    serial = engine.run(library.SWEEP, items, out / "serial", workers=0, progress=False)
+    serial_wall = serial.wall_s   # the tasks and the writing of their rows; not the summary and figure
+    rows = [measure("serial (this process)", serial.rows, serial_wall, 1, None)]
+    reference = _results(serial.rows)
+    equal = {}
+    for k in sizes:
+        from distributed import Client, LocalCluster
+
+        t = time.perf_counter()
+        cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+        client = Client(cluster)
+        startup = time.perf_counter() - t
+        got = engine.run(library.SWEEP, items, out / f"workers{k}", client=client, progress=False)
+        wall = got.wall_s
+        client.close()
+        cluster.close()
+        row = measure(f"local cluster, {k} worker{'s' * (k != 1)}", got.rows, wall, k, serial_wall)
+        row["cluster_start_s"] = startup
+        rows.append(row)
+        equal[k] = _results(got.rows) == reference
+        print(f"  {row['run']}: {wall:.1f} s (cluster start {startup:.1f} s, not included)", flush=True)
+    solved = sum(1 for r in serial.rows if r["T"])
+    lines = [f"{args.n} {args.arm} motions, {solved} solved; load average {load:.1f} -> {os.getloadavg()[0]:.1f} "
+             f"on {os.cpu_count()} CPUs",
+             "| run | wall (s) | per task (s) | CPU per task (s) | first-task extra (s) | overhead per task (s) | tasks/s | speed-up "
+             "| efficiency |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['run']} | {r['wall_s']:.1f} | {r['per_task_s']:.3f} | {r['cpu_per_task_s']:.3f} | "
+                     f"{r['first_task_extra_s']:.2f} | "
+                     f"{r['overhead_per_task_s']:.4f} | {r['tasks_per_s']:.2f} | "
+                     f"{r.get('speedup', 1.0):.2f} | {r.get('efficiency', 1.0):.2f} |")
+    lines.append("results equal the serial run exactly: "
+                 + ", ".join(f"{k} worker(s) {'yes' if v else 'NO'}" for k, v in equal.items()))
+    if args.cold_cache:
+        lines.append(f"first task in a fresh process with an empty cache (derive, generate, compile): "
+                     f"{cold_cache_first_task(items[0]):.1f} s")
+    text = "\n".join(lines)
+    print(text)
+    if args.markdown:
+        Path(args.markdown).write_text(text + "\n")
+    return 0 if all(equal.values()) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
