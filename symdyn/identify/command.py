@@ -111,7 +111,10 @@ def _fit(args: argparse.Namespace) -> int:
     check = load_data(args.validate, **options) if args.validate else None
     result = fit(robot, data, args.method, consistent=not args.no_consistent, target=args.target)
     validation = result.validate(check) if check is not None else None
-    result.write(args.out, validation, figures=not args.no_figures)
+    from ..model.command_line import is_urdf
+
+    result.write(args.out, validation, figures=not args.no_figures,
+                 urdf_source=args.model if is_urdf(args.model) else None)
     print(result.summary(validation))
     print(f"\nwritten to {args.out}")
     return 0

@@ -468,10 +468,12 @@ class Identification:
                                  "moved": float(self.consistent.moved)}
         return out
 
-    def write(self, out_dir, validation: Validation | Data | None = None, *, figures: bool = True) -> list[Path]:
-        """Write summary.txt, parameters.json, identified.urdf (a model read from a URDF, when
-        `Robot.to_urdf` is there) and the figures (fit.png, validation.png, parameters.png; with
-        matplotlib) into out_dir; returns the paths."""
+    def write(self, out_dir, validation: Validation | Data | None = None, *, figures: bool = True,
+              urdf_source=None) -> list[Path]:
+        """Write summary.txt, parameters.json, identified.urdf (a model read from a URDF: that file with
+        the identified inertials, `urdf_source` its path or text where the robot's record does not
+        reach it) and the figures (fit.png, validation.png, parameters.png; with matplotlib) into
+        out_dir; returns the paths."""
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         if isinstance(validation, Data):
@@ -479,7 +481,7 @@ class Identification:
         paths = [out / "summary.txt", out / "parameters.json"]
         notes = []
         if getattr(self.prior, "urdf", None) is not None:
-            written, notes = self._write_urdf(out / "identified.urdf")
+            written, notes = self._write_urdf(out / "identified.urdf", urdf_source)
             paths += written
         paths[1].write_text(json.dumps(self.parameters(), indent=1) + "\n")
         text = self.summary(validation)
@@ -496,7 +498,7 @@ class Identification:
                 paths += self.figures(out, validation)
         return paths
 
-    def _write_urdf(self, path: Path) -> tuple[list, list]:
+    def _write_urdf(self, path: Path, source=None) -> tuple[list, list]:
         """identified.urdf through the URDF writer (the original file's other elements kept), where
         this symdyn has one; its warnings (what URDF cannot say: rotor inertia, asymmetric Coulomb
         friction) come back as lines for the summary."""
@@ -517,7 +519,7 @@ class Identification:
             return [], [f"not written: {exc}"]
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            write(robot, path)
+            write(robot, path, source=str(source) if source is not None else None)
         return [path], [str(w.message) for w in caught]
 
     def figures(self, out: Path, validation: Validation | None = None) -> list[Path]:
