@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test generate bench clean
+.PHONY: run test test-torch generate bench clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,16 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2
+
+# PyTorch's default wheel is large (~0.5 GB, with its CUDA libraries ~5 GB, 77 s to install here):
+# its tests have their own target, run after the main suite.  A CPU-only machine can install
+# the CPU wheel first (pip install torch --index-url https://download.pytorch.org/whl/cpu).
+$(VENV)/.torch-installed: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[torch]'
+	touch $@
+
+test-torch: $(VENV)/.torch-installed
+	$(BIN)/python -m pytest -q -p no:xdist -m torch tests/test_torch.py
 
 generate: $(STAMP)
 	$(BIN)/symdyn generate --all
