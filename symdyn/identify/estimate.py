@@ -125,15 +125,33 @@ class _Regressor:
         return out
 
 
-def _geometry(robot: Robot) -> Robot:
-    """The robot whose generated code serves Y: Y depends on the geometry alone, so a shipped
-    model's name where the robot is that model (its checked-in code), else the robot."""
+def _geometry(robot: Robot):
+    """The model whose generated code serves Y.  Y depends on the geometry (and gravity) alone, not on
+    masses, inertias or motors, so a robot with a shipped model's geometry — the model itself, or one
+    with a payload or other parameters — is served by that model's checked-in code by name (no
+    compilation); any other robot by its own code, generated once into the cache."""
     from ..codegen.entry import SHIPPED
     from ..model import arms
 
-    if robot.name in SHIPPED and robot.fingerprint() == arms.load(robot.name).fingerprint():
-        return robot.name
+    key = _geometry_key(robot)
+    for name in SHIPPED:
+        if name not in _GEOMETRY:
+            _GEOMETRY[name] = _geometry_key(arms.load(name))
+        if _GEOMETRY[name] == key:
+            return name
     return robot
+
+
+_GEOMETRY: dict = {}
+
+
+def _geometry_key(robot: Robot) -> str:
+    import dataclasses
+
+    bare = tuple(dataclasses.replace(link, m=0, r=(0, 0, 0), I=((0, 0, 0),) * 3, Jm=0, B=0, Tc=(0, 0), G=1,
+                                     qlim=None, physical=True) for link in robot.links)
+    return dataclasses.replace(robot, links=bare, tool=((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1)),
+                               urdf=None).fingerprint()
 
 
 def regressor_rows(robot: Robot, q, qd, qdd, *, target: str = "c") -> np.ndarray:
@@ -271,8 +289,8 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
         cov = None if np.all(result.rms <= 1e-9 * scale) else result.base.covariance
         found = physical.physical(robot, result.base.names, result.base.values, cov, prior=robot,
                                   base=result.map.exact, **options)
-        object.__setattr__(result, "consistent", found)
-        object.__setattr__(result, "consistent_seconds", time.perf_counter() - started)
+        result.consistent = found
+        result.consistent_seconds = time.perf_counter() - started
     return result
 
 
