@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-torch generate bench clean
+.PHONY: run test test-torch generate bench docs docs-check clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -42,5 +42,21 @@ $(VENV)/.bench-installed: $(STAMP)
 bench: $(VENV)/.bench-installed
 	$(BIN)/symdyn bench $(BENCH_ARGS)
 
+# The documentation site (mkdocs.yml, pages under docs/) into site/, strict: a warning, a broken
+# link or a missing reference fails.  The shipped arms' equations are printed during the build
+# (docs/_hooks/equations.py: minutes for all seven arms on a cold cache; SYMDYN_DOCS_ARMS=twolink
+# for one).  docs-check then checks the built site (tests/test_site.py: reference anchors, and in
+# a headless Chromium, where installed, the rendered equations and the figures) and runs every
+# page's examples, the slow ones included.
+$(VENV)/.docs-installed: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	touch $@
+
+docs: $(VENV)/.docs-installed
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
+
+docs-check: docs
+	SYMDYN_SITE=site SYMDYN_SLOW_DOCS=1 $(BIN)/python -m pytest -q -p no:xdist tests/test_docs.py tests/test_site.py
+
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info site site-check
