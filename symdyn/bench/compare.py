@@ -399,7 +399,11 @@ def toolbox_robot(robot):
     links = [rtb.RevoluteDH(d=float(l.d), a=float(l.a), alpha=float(l.alpha), offset=float(l.offset),
                             m=float(l.m), r=np.array(l.r, float), I=np.array(l.I, float), Jm=float(l.Jm),
                             G=float(l.G), B=float(l.B), Tc=np.array(l.Tc, float)) for l in robot.links]
-    return rtb.DHRobot(links, name=robot.name, gravity=-np.array(robot.gravity, float))
+    from spatialmath import SE3
+
+    return rtb.DHRobot(links, name=robot.name, gravity=-np.array(robot.gravity, float),
+                       base=SE3(np.array(robot.base, float), check=False),
+                       tool=SE3(np.array(robot.tool, float), check=False))
 
 
 def _agree(label: str, got, want, rtol: float = 1e-9) -> None:
