@@ -117,6 +117,16 @@ def test_calibration_intervals_hold_the_truth_at_the_nominal_rate_and_are_not_in
     assert 0.85 <= ratio <= 1.15, ratio
 
 
+def test_wls_weights_are_each_joints_own_noise(puma):
+    """Noise 100× apart between the shoulder and the wrist: each joint's σ is estimated from its own
+    equations (Gautier & Khalil), not from the joint OLS residual, which would carry the shoulder's
+    noise into the wrist's through β̂ (the Panda's wrist looked 4× noisier that way)."""
+    traj = fourier(puma, period=5, harmonics=5, rate=80, seed=1, rest=0.5)
+    noise = np.array([1.0, 1.0, 0.3, 0.01, 0.01, 0.01])
+    res = fit(puma, simulate(puma, traj, seed=4, noise=noise), consistent=False, target=TARGET)
+    assert np.allclose(res.sigma, noise, rtol=0.2), res.sigma / noise
+
+
 # --------------------------------------------------------------------------- data in
 
 def _csv(tmp_path, text: str, name="data.csv"):

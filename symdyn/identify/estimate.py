@@ -7,7 +7,8 @@ parameters (`parameters.base_map`): τ = Y_b(q, q̇, q̈)·β.  One pass over th
 samples accumulates each joint's Gram matrix of [Y_b,j  τ_j] (large BLAS
 products, never the whole regressor in memory); ordinary least squares,
 each joint's residual variance σ_j² and the weighted least squares of
-Gautier & Khalil (rows of joint j divided by σ_j) follow from those alone,
+Gautier & Khalil (rows of joint j divided by σ_j, each joint's noise
+estimated from its own equations) follow from those alone,
 and a second pass computes the residuals exactly and takes one step of
 iterative refinement, which wins back the accuracy the normal equations
 lose (noise-free data give β to rounding):
@@ -217,6 +218,31 @@ def _residuals(blocks, beta: np.ndarray, n: int):
     return rss, h
 
 
+def _joint_noise(G: np.ndarray, N: int) -> np.ndarray:
+    """Each joint's noise σ_j from its own equations alone (Gautier & Khalil): the least squares of
+    τ_j = Y_b,j β over the columns joint j sees, σ_j² = ‖τ_j − Y_b,j β̂_j‖² / (N − rank Y_b,j).
+    (The joint's residual under the joint OLS estimate would carry the other joints' noise through
+    β̂: a quiet wrist joint then looks four times noisier than it is and its parameters' σ inflate.)"""
+    n, b = G.shape[0], G.shape[1] - 1
+    sigma = np.zeros(n)
+    for j in range(n):
+        A, g = G[j, :b, :b], G[j, :b, b]
+        scale = np.sqrt(np.diag(A))
+        seen = scale > 0
+        if not seen.any():
+            sigma[j] = np.sqrt(G[j, b, b] / N)
+            continue
+        As = A[np.ix_(seen, seen)] / np.outer(scale[seen], scale[seen])
+        lam, V = np.linalg.eigh(As)
+        keep = lam > 1e-12 * lam[-1]
+        x = V[:, keep] @ ((V[:, keep].T @ (g[seen] / scale[seen])) / lam[keep])
+        beta = np.zeros(b)
+        beta[seen] = x / scale[seen]
+        rss = _rss(G[j:j + 1], beta)[0]
+        sigma[j] = np.sqrt(rss / max(N - int(keep.sum()), 1))
+    return sigma
+
+
 def _step(G: np.ndarray, rss: np.ndarray, h: np.ndarray, delta: np.ndarray):
     """Moving β by δ: each joint's ‖r_j‖² and Y_b,jᵀ r_j at β + δ (r_j − Y_b,j δ)."""
     Gb = G[:, :-1, :-1]
@@ -322,7 +348,7 @@ def _fit(robot: Robot, data: Data, method: str, target: str) -> "Identification"
     beta = beta + delta
     rss, h = _step(G, rss, h, delta)
     rss = np.maximum(rss, 0.0)
-    sigma = np.sqrt(rss / max(N - b / n, 1))
+    sigma = _joint_noise(G, N)
     if method == "wls":
         # the noise of joint j, floored where the data are exact (the weights do not matter there)
         floor = 1e-8 * max(np.sqrt(np.mean(tau ** 2, axis=0)).max(), 1e-300)
