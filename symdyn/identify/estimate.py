@@ -283,7 +283,8 @@ def _blas_threads(count: int | None):
 
 def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, *, target: str = "c",
         blas_threads: int | None = 1, consistent_options: dict | None = None) -> "Identification":
-    """Identify the base parameters of `robot`'s geometry from `data` (see the module docstring).
+    """Identify the base parameters of `robot`'s geometry from `data` (a `Data`, or a CSV/NPZ file
+    read by `load_data` with its defaults; see the module docstring).
 
     method: "wls" (weighted by each joint's residual variance, Gautier & Khalil) or "ols".
     consistent: also find physically consistent standard parameters (`consistent.physical`,
@@ -299,8 +300,12 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
     if not isinstance(robot, Robot):
         raise ValueError(f"expected a symdyn Robot, got {type(robot).__name__}")
     robot.require_numeric("identification")
+    if isinstance(data, (str, Path)):
+        from .data import load_data
+
+        data = load_data(data, joints=robot)
     if not isinstance(data, Data):
-        raise ValueError(f"expected identify.Data (load_data, simulate), got {type(data).__name__}")
+        raise ValueError(f"expected identify.Data (load_data, simulate) or a data file, got {type(data).__name__}")
     data.check_joints(robot)
     physical = None
     if consistent:
