@@ -108,3 +108,21 @@ def test_every_python_block_of_a_page_runs_in_order(page, tmp_path, monkeypatch)
     namespace: dict = {"__name__": "__docs__"}
     for k, block in enumerate(python_blocks(page)):
         exec(compile(block, f"{page.relative_to(ROOT)} python block {k + 1}", "exec"), namespace)
+
+
+def test_ruff_is_clean_on_the_package():
+    """The linter configured in pyproject.toml ([tool.ruff]) finds nothing in symdyn/."""
+    import shutil
+    import subprocess
+    import sys
+
+    ruff = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
+    if ruff is None:
+        pytest.skip("ruff is not installed (pip install ruff)")
+    done = subprocess.run([ruff, "check", "symdyn"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_package_is_typed():
+    assert (ROOT / "symdyn" / "py.typed").is_file()
+    assert '"symdyn" = ["py.typed"]' in (ROOT / "pyproject.toml").read_text()

@@ -21,7 +21,7 @@ from .dynamics import Dynamics, friction_expr, rotor_inertia
 from .kinematics import link_frames
 from ..model import Robot
 from .newton_euler import gravity_in_base, link_inertias
-from .symbols import exact, joint_symbols
+from .symbols import joint_symbols
 from .tape import AXES, Tape
 
 __all__ = ["derive"]

@@ -23,7 +23,7 @@ from .kinematics import LinkFrame, link_frames
 from ..model import Robot
 from .progress import Progress, silent
 from .symbols import exact, joint_symbols
-from .tape import AXES, Tape
+from .tape import Tape
 
 
 
