@@ -5,7 +5,8 @@
 
 Excitation: both criteria (cond, logdet) per model — wall time, IPOPT iterations, the condition
 number and log det of the stacked base regressor against the random start of the same family,
-and the condition number on a 100 Hz grid of the result.  Consistent: the SDP (cvxpy + Clarabel)
+and the condition number on a 100 Hz grid of the result.  Wall and CPU time are both printed:
+on a shared machine the wall time is the CPU time times the contention.  Consistent: the SDP (cvxpy + Clarabel)
 and the CasADi NLP (log-Cholesky) on (a) noise-free base parameters of the arm perturbed ±20 %
 from the prior and (b) the same with one base parameter made impossible — time, how far the
 base parameters moved, the largest relative error against the truth, the smallest pseudo-inertia
@@ -16,9 +17,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import time
 
-import numpy as np
+# one BLAS thread: on a shared machine OpenBLAS's threads made a 69×69 eigh 300× slower
+# (0.12 s against 0.35 ms) and IPOPT's linear algebra 2× slower; set it to measure otherwise
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
 
 
 def perturbed(robot, seed: int, amount: float = 0.2):
@@ -55,12 +61,12 @@ def main() -> None:
             Y = model.functions["Y"]
             cols = list(base.independent)
             for criterion in ("cond", "logdet"):
-                start = time.perf_counter()
+                start, cpu = time.perf_counter(), time.process_time()
                 e = excitation(robot, period=args.period, harmonics=args.harmonics, criterion=criterion, model=model)
-                wall = time.perf_counter() - start
+                wall, cpu = time.perf_counter() - start, time.process_time() - cpu
                 t, q, qd, qdd = e.sample(100)
                 W = np.vstack([np.asarray(Y(a, b, c))[:, cols] for a, b, c in zip(q, qd, qdd)])
-                print(f"excitation {name} {criterion:6s}: {wall:6.1f} s, {e.iterations} iterations ({e.status}); "
+                print(f"excitation {name} {criterion:6s}: {wall:6.1f} s ({cpu:.1f} s CPU), {e.iterations} iterations ({e.status}); "
                       f"cond {e.condition:.4g} (random start {e.random_condition:.4g}), "
                       f"log det {e.logdet:.4g} (random {e.random_logdet:.4g}); cond at 100 Hz {np.linalg.cond(W):.4g}",
                       flush=True)
@@ -73,11 +79,11 @@ def main() -> None:
             for case, target in (("feasible", values), ("impossible", impossible)):
                 for method in ("sdp", "casadi"):
                     physical(robot, names, target, base=base, method=method)   # imports and first calls
-                    start = time.perf_counter()
+                    start, cpu = time.perf_counter(), time.process_time()
                     r = physical(robot, names, target, base=base, method=method)
-                    wall = time.perf_counter() - start
+                    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
                     err = np.max(np.abs(r.achieved - values) / np.maximum(np.abs(values), 1e-3 * np.abs(values).max()))
-                    print(f"consistent {name} {case:10s} {method:6s}: {wall:6.2f} s ({r.status}); moved {r.moved:.3g}; "
+                    print(f"consistent {name} {case:10s} {method:6s}: {wall:6.2f} s ({cpu:.2f} s CPU, {r.status}); moved {r.moved:.3g}; "
                           f"max rel. error vs truth {err:.2e}; smallest pseudo-inertia eigenvalue {r.margins.min():.3g}",
                           flush=True)
 
