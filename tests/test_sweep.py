@@ -35,6 +35,67 @@ def results(rows) -> dict[str, dict[str, str]]:
     return out
 
 
+# The tests without the cluster come first: while a LocalCluster's scheduler thread lives in this
+# process, thousands of small calls into compiled code wait on the GIL it keeps taking.
+
+def test_monte_carlo_models_each_draw_exactly_and_reproduces_the_chapter_study():
+    """Draws 0 (nominal) and masses and inertias x 1.1 and x 0.9 (COMs and friction kept) are the
+    controller models of the study's computed-torque rows (`torque_control`, quick: T = 1 s):
+    the same closed loops, simulated here as the study does (one batch of the three models)."""
+    from symdyn.apps import control as C
+    from symdyn.apps.studies import control as study
+
+    draws = montecarlo.inputs(2, arm="puma560", T=1.0)
+    robot = montecarlo.scene("puma560")[0]
+    q, qd, qdd = np.random.default_rng(3).normal(size=(3, 6))
+    wrong = montecarlo.controller_model("puma560", draws[1]["draw"])
+    assert np.allclose(wrong.tau(q, qd, qdd), ref.rne(montecarlo.perturbed(robot, draws[1]["draw"]), q, qd, qdd),
+                       rtol=0, atol=1e-10)
+
+    puma, plant = study.puma_scene()
+    factors = np.array([1.0, 1.1, 0.9])
+    traj = functools.partial(C.quintic, puma.qz, puma.qr, 1.0)
+    ct = C.ComputedTorque(C.scaled(plant, puma, factors), traj, 100.0, 20.0)
+    tr = C.simulate(lambda t, q, qd, tau: plant.fdyn(q, qd, tau), ct, 1.5, np.tile(puma.qz, (3, 1)),
+                    dt=1e-3, period=1e-3)
+    rows = np.abs(traj(tr.t)[0][:, None, :] - tr.q).max(0)          # (3 models, 6 joints)
+    for f, expected in zip(factors, rows):
+        item = dict(draws[0], draw={"m": [f] * 6, "r": [[1.0] * 3] * 6, "I": [f] * 6, "B": [1.0] * 6})
+        got = montecarlo.tracking(item)
+        assert np.allclose(got["joint_max_error"], expected, rtol=1e-8, atol=1e-12), (f, got, expected)
+    assert rows[0].max() == pytest.approx(0.320e-3, abs=1e-6)        # the study's 0.320 mrad at T = 1 s
+
+
+def test_the_command_lists_runs_and_checks_its_options(tmp_path, capsys):
+    assert cli.main(["sweep", "--list"]) == 0
+    listed = capsys.readouterr().out
+    assert "trajectory-library" in listed and "monte-carlo" in listed
+    assert cli.main(["sweep", "monte-carlo", "--N", "10", "--out", str(tmp_path)]) == 2
+    assert "--N does not apply to the monte-carlo sweep" in capsys.readouterr().err
+    assert cli.main(["sweep", "monte-carlo", "--arm", "twolink", "--n", "2", "--T", "0.2", "--workers", "0",
+                     "--no-progress", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "2 of 2 tasks" in out and (tmp_path / "montecarlo_error.png").is_file()
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_scheduler_fails_within_seconds_naming_it(tmp_path, monkeypatch, capsys):
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    start = time.perf_counter()
+    with pytest.raises(engine.SchedulerUnreachable, match=f"no Dask scheduler answers at {re.escape(address)}"):
+        engine.run(library.SWEEP, INPUTS[:1], tmp_path / "a", scheduler=address, progress=False)
+    assert time.perf_counter() - start < 5
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", address)
+    code = cli.main(["sweep", "trajectory-library", "--arm", "twolink", "--n", "1", "--out", str(tmp_path / "b")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and err[0].startswith(f"symdyn: error: no Dask scheduler answers at {address}")
+
+
 @pytest.fixture(scope="module")
 def client():
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -126,61 +187,3 @@ def test_a_worker_killed_mid_sweep_loses_and_duplicates_nothing(client, serial, 
     assert results(outcome.rows) == serial
     assert len((tmp_path / "results.csv").read_text().splitlines()) == 1 + len(INPUTS)
     assert all(not r["worker"].endswith(f":{killed['pid']}") or r["warm"] for r in outcome.rows)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def test_an_unreachable_scheduler_fails_within_seconds_naming_it(tmp_path, monkeypatch, capsys):
-    address = f"tcp://127.0.0.1:{_free_port()}"
-    start = time.perf_counter()
-    with pytest.raises(engine.SchedulerUnreachable, match=f"no Dask scheduler answers at {re.escape(address)}"):
-        engine.run(library.SWEEP, INPUTS[:1], tmp_path / "a", scheduler=address, progress=False)
-    assert time.perf_counter() - start < 5
-    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", address)
-    code = cli.main(["sweep", "trajectory-library", "--arm", "twolink", "--n", "1", "--out", str(tmp_path / "b")])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and err[0].startswith(f"symdyn: error: no Dask scheduler answers at {address}")
-
-
-def test_the_command_lists_runs_and_checks_its_options(tmp_path, capsys):
-    assert cli.main(["sweep", "--list"]) == 0
-    listed = capsys.readouterr().out
-    assert "trajectory-library" in listed and "monte-carlo" in listed
-    assert cli.main(["sweep", "monte-carlo", "--N", "10", "--out", str(tmp_path)]) == 2
-    assert "--N does not apply to the monte-carlo sweep" in capsys.readouterr().err
-    assert cli.main(["sweep", "monte-carlo", "--arm", "twolink", "--n", "2", "--T", "0.2", "--workers", "0",
-                     "--no-progress", "--out", str(tmp_path)]) == 0
-    out = capsys.readouterr().out
-    assert "2 of 2 tasks" in out and (tmp_path / "montecarlo_error.png").is_file()
-
-
-def test_monte_carlo_models_each_draw_exactly_and_reproduces_the_chapter_study():
-    """Draws 0 (nominal) and masses and inertias x 1.1 and x 0.9 (COMs and friction kept) are the
-    controller models of the study's computed-torque rows (`torque_control`, quick: T = 1 s):
-    the same closed loops, simulated here as the study does (one batch of the three models)."""
-    from symdyn.apps import control as C
-    from symdyn.apps.studies import control as study
-
-    draws = montecarlo.inputs(2, arm="puma560", T=1.0)
-    robot = montecarlo.scene("puma560")[0]
-    q, qd, qdd = np.random.default_rng(3).normal(size=(3, 6))
-    wrong = montecarlo.controller_model("puma560", draws[1]["draw"])
-    assert np.allclose(wrong.tau(q, qd, qdd), ref.rne(montecarlo.perturbed(robot, draws[1]["draw"]), q, qd, qdd),
-                       rtol=0, atol=1e-10)
-
-    puma, plant = study.puma_scene()
-    factors = np.array([1.0, 1.1, 0.9])
-    traj = functools.partial(C.quintic, puma.qz, puma.qr, 1.0)
-    ct = C.ComputedTorque(C.scaled(plant, puma, factors), traj, 100.0, 20.0)
-    tr = C.simulate(lambda t, q, qd, tau: plant.fdyn(q, qd, tau), ct, 1.5, np.tile(puma.qz, (3, 1)),
-                    dt=1e-3, period=1e-3)
-    rows = np.abs(traj(tr.t)[0][:, None, :] - tr.q).max(0)          # (3 models, 6 joints)
-    for f, expected in zip(factors, rows):
-        item = dict(draws[0], draw={"m": [f] * 6, "r": [[1.0] * 3] * 6, "I": [f] * 6, "B": [1.0] * 6})
-        got = montecarlo.tracking(item)
-        assert np.allclose(got["joint_max_error"], expected, rtol=1e-8, atol=1e-12), (f, got, expected)
-    assert rows[0].max() == pytest.approx(0.320e-3, abs=1e-6)        # the study's 0.320 mrad at T = 1 s

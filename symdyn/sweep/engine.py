@@ -199,8 +199,17 @@ def connect(scheduler: str | None = None, workers: int | None = None):
     workers = workers or os.cpu_count() or 1
     if workers < 1:
         raise ValueError(f"--workers must be at least 1 (or 0 for a serial run here), got {workers}")
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+    # a Ctrl-C in the terminal reaches the whole process group: the worker processes are started
+    # ignoring it (they inherit that), and this process closes them in order, instead of each
+    # printing a page of tracebacks as it dies
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
     client = Client(cluster)
     client._symdyn_cluster = cluster   # closed with the client (see _close)
     return client, f"local Dask cluster, {workers} worker process{'es' * (workers != 1)}, 1 thread each"

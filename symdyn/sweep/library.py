@@ -21,6 +21,7 @@ import numpy as np
 
 from ..apps import ocp
 from ..apps.studies import ocp as study
+from ..derivation.cache import build_lock, cache_dir
 from ..model import arms
 from ..numeric import reference as ref
 from .engine import Sweep
@@ -62,6 +63,16 @@ def problem(arm: str, start, goal, N: int) -> ocp.Problem:
                        cost=ocp.Cost(time=1.0, smoothness=study.MIN_TIME_SMOOTHING))
 
 
+@functools.lru_cache(maxsize=4)
+def dynamics(arm: str) -> ocp.ArmFunctions:
+    """The arm's compiled CasADi functions, from this host's cache (derived, generated and compiled
+    there on a first run).  Once per process; the worker processes of one host take turns (a lock),
+    so the first builds and the others read its result instead of generating the same code at once."""
+    robot, _ = scene(arm)
+    with build_lock(cache_dir() / f"sweep-ocp-{arm}"):
+        return ocp.dynamics(robot, study.SOURCE, compiled=True)
+
+
 def _ranges(arm: str) -> np.ndarray:
     robot, limits = scene(arm)
     q = limits.q if limits.q is not None else np.tile([-math.pi, math.pi], (robot.n, 1))
@@ -101,12 +112,12 @@ def motion(item: dict) -> dict:
     """One minimum-time motion: the task of the library (runs on a worker).
 
     The worker loads the arm by name and its compiled CasADi functions from its
-    own cache (`ocp.dynamics`, built there on a first run: nothing travels but
-    the input); both stay in the worker for its later tasks."""
+    own cache (`dynamics`, built there on a first run: nothing travels but the
+    input); both stay in the worker for its later tasks."""
     robot, _ = scene(item["arm"])
     prob = problem(item["arm"], item["start"], item["goal"], int(item["N"]))
     try:
-        sol = ocp.solve(prob, ocp.dynamics(robot, study.SOURCE, compiled=True))
+        sol = ocp.solve(prob, dynamics(item["arm"]))
     except ocp.OCPError as exc:   # no minimum: a result of the library, not an error of the task
         return {"status": exc.status, "iterations": exc.iterations}
     row = {"T": sol.T, "status": sol.stats["status"], "iterations": sol.stats["iterations"],

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..apps import control as C
 from ..codegen import entry as codegen
+from ..derivation.cache import build_lock, cache_dir
 from ..derivation.regressor import parameter_values
 from ..model import Robot, arms
 from ..numeric import backend
@@ -41,13 +42,15 @@ KINDS = ("m", "r", "I", "B")   # what a draw scales: mass, COM coordinates, iner
 
 @functools.lru_cache(maxsize=4)
 def scene(arm: str):
-    """(robot, plant model, regressor Y, nominal π, start, goal) of an arm, loaded once per process:
-    the Puma of the control study (`puma_scene`: nofriction, generated code) or the two-link arm."""
+    """(robot, plant model, regressor Y, nominal π, start, goal) of an arm, loaded once per process
+    (the processes of one host take turns, so the checked-in C is compiled once): the Puma of the
+    control study (`puma_scene`: nofriction, generated code) or the two-link arm."""
     if arm not in ARMS:
         raise ValueError(f"unknown arm {arm!r} for the Monte-Carlo study: expected one of {', '.join(ARMS)}")
     robot = arms.load(arm).nofriction()
-    plant = backend.model(robot)
-    Y = codegen.load(arm, "c").Y          # kinematics only: the same for every parameter draw
+    with build_lock(cache_dir() / f"sweep-generated-{arm}"):   # a host's workers compile the code once
+        plant = backend.model(robot)
+        Y = codegen.load(arm, "c").Y      # kinematics only: the same for every parameter draw
     pi = np.array([float(v) for v in parameter_values(robot)])
     goal = robot.qr if arm == "puma560" else robot.qn
     return robot, plant, Y, pi, np.asarray(robot.qz, float), np.asarray(goal, float)
