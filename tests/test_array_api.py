@@ -281,3 +281,13 @@ def test_the_core_imports_neither_jax_nor_torch():
     found = {path: imports for path, imports in found.items() if imports}
     assert list(found) == ["codegen/emit/array_api.py"], found
     assert all(indent for indent, _ in found["codegen/emit/array_api.py"]), "imported at the module's top"
+
+
+def test_without_array_api_compat_the_arrays_own_namespace_serves(monkeypatch):
+    """JAX arrays and NumPy ≥ 2 arrays carry __array_namespace__: array-api-compat is needed for PyTorch only."""
+    import sys
+    monkeypatch.setitem(sys.modules, "array_api_compat", None)   # import array_api_compat → ImportError
+    xp = symdyn.load("twolink", "array-api")
+    q, qd, qdd, tau = (a[:3] for a in states("twolink"))
+    assert_close(xp.tau(q, qd, qdd), tau, "NumPy's own namespace")
+    assert_close(np.asarray(xp.tau(jnp.asarray(q), qd, qdd)), tau, "jax.numpy's own namespace, NumPy beside it")

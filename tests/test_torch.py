@@ -138,3 +138,15 @@ def test_bad_shapes_are_value_errors_naming_the_argument(torch):
     with pytest.raises(ValueError, match=r"Cqd\(\): qd is complex"):
         f.Cqd(torch.zeros(6), torch.zeros(6, dtype=torch.complex128))
     assert np.isnan(f.tau(torch.full((6,), float("nan")), torch.zeros(6), torch.zeros(6)).numpy()).all()
+
+
+def test_numpy_arrays_beside_tensors_become_tensors_and_other_libraries_are_refused(torch):
+    import jax.numpy as jnp
+
+    xp = symdyn.load("puma560", "array-api")
+    q, qd, qdd, tau = (a[:4] for a in states("puma560"))
+    got = xp.tau(torch.from_numpy(q), qd, qdd)
+    assert isinstance(got, torch.Tensor)
+    assert_close(got.numpy(), tau, "tensor with NumPy arrays beside it")
+    with pytest.raises(ValueError, match=r"tau\(\): the arguments are arrays of different libraries: q torch"):
+        xp.tau(torch.from_numpy(q), jnp.asarray(qd), qdd)

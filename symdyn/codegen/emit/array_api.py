@@ -36,14 +36,16 @@ _LOCALS = {"xp", "like", "sign", "output", "arguments", "namespace", "broadcast"
 _HELPERS = '''
 
 def namespace(function, names, values):
-    """The array namespace of the arguments that are arrays (NumPy's when none is:
-    lists and numbers), or a ValueError naming arguments of different libraries."""
+    """The array namespace of the arguments that are arrays, NumPy's counting only when no
+    other library's is there (NumPy arrays, lists and numbers are then converted), or a
+    ValueError naming arguments of different libraries."""
     try:
         import array_api_compat as compat
     except ImportError:
         compat = None
     arrays = [(a, v) for a, v in zip(names, values)
               if (compat.is_array_api_obj(v) if compat else hasattr(v, "__array_namespace__"))]
+    arrays = [(a, v) for a, v in arrays if type(v).__module__ != "numpy"] or arrays
     if not arrays:
         import numpy
         arrays = [(names[0], numpy.asarray(0.0))]
@@ -68,7 +70,8 @@ def arguments(function, inputs, values):
     arrays = []
     for (a, size), x in zip(inputs, values):
         try:
-            x = x if hasattr(x, "shape") and hasattr(x, "dtype") else xp.asarray(x)
+            if not (hasattr(x, "shape") and hasattr(x, "dtype")) or type(x).__module__ == "numpy":
+                x = xp.asarray(x)
             kind = ("complex" if xp.isdtype(x.dtype, "complex floating") else
                     "real" if xp.isdtype(x.dtype, ("real floating", "integral")) else None)
         except (TypeError, ValueError, RuntimeError):
