@@ -147,7 +147,8 @@ def main(argv=None) -> int:
                             t = time.perf_counter()
                             lib.sync(funcs[fn](*call_args))
                             compile_s = time.perf_counter() - t
-                            cells.append(f"{best(lambda: funcs[fn](*call_args), lib.sync, args.budget) / batch * 1e9:9.1f}")
+                            seconds = best(lambda: funcs[fn](*call_args), lib.sync, args.budget)
+                            cells.append(f"{seconds / batch * 1e9:9.1f}")
                         except (RuntimeError, MemoryError) as exc:   # out of device memory: say so, go on
                             cells.append(f"{'oom':>9s}")
                             print(f"  {name} {fn} {dtype} batch {batch}: {type(exc).__name__}: {str(exc)[:80]}",

@@ -165,8 +165,9 @@ def test_grad_of_every_function_equals_central_differences(name):
         def value(*a):
             return sum(float(np.sum(w * o)) for w, o in zip(weights, outputs(getattr(numpy, fn)(*a))))
         for k, x in enumerate(args):
-            central = np.array([(value(*args[:k], x + h * e, *args[k + 1:]) - value(*args[:k], x - h * e, *args[k + 1:]))
-                                / (2 * h) for e in np.eye(len(x))])
+            def at(step, k=k):
+                return value(*args[:k], args[k] + step, *args[k + 1:])
+            central = np.array([(at(h * e) - at(-h * e)) / (2 * h) for e in np.eye(len(x))])
             assert_close(np.asarray(got[fn][k]), central, f"{name} grad {fn} argument {k}", rtol=1e-6)
     (_, (w,)) = cases["tau"]
     _, dq, dqd = numpy.tau_derivatives(q, qd, qdd)
@@ -190,7 +191,7 @@ def test_generated_derivatives_equal_jacfwd(name):
 
 def test_jit_of_vmap_of_jacfwd_of_tau_runs():
     """The issue's 'done means', jax.jit(jax.vmap(jax.jacfwd(f.tau))), with XLA's own options
-    (the Panda's compiles in ~10 s that way: docs/functions.md; the two-link arm's here)."""
+    (the Panda's compiled in 11 s that way on this machine, docs/functions.md; the two-link arm's here)."""
     f = symdyn.load("twolink", "jax")
     q, qd, qdd, _ = (jnp.asarray(a[:8]) for a in states("twolink"))
     jac = jax.jit(jax.vmap(jax.jacfwd(f.tau)))(q, qd, qdd)
