@@ -292,3 +292,13 @@ def test_without_array_api_compat_the_arrays_own_namespace_serves(monkeypatch):
     q, qd, qdd, tau = (a[:3] for a in states("twolink"))
     assert_close(xp.tau(q, qd, qdd), tau, "NumPy's own namespace")
     assert_close(np.asarray(xp.tau(jnp.asarray(q), qd, qdd)), tau, "jax.numpy's own namespace, NumPy beside it")
+
+
+@pytest.mark.parametrize("target", ("array-api", "jax"))
+def test_an_edited_array_api_file_is_an_error_that_says_how_to_regenerate(tmp_path, target):
+    text = (codegen.GENERATED / "twolink" / "twolink_xp.py").read_text()
+    (tmp_path / "twolink_xp.py").write_text(text.replace("0.25", "0.26", 1))
+    with pytest.raises(RuntimeError, match=r"twolink_xp.py was modified.*symdyn generate twolink"):
+        symdyn.load("twolink", target, folder=tmp_path)
+    with pytest.raises(FileNotFoundError, match="--target array-api"):
+        symdyn.load("twolink", target, folder=tmp_path / "none")
