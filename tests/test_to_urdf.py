@@ -159,3 +159,34 @@ def test_a_urdf_robot_whose_file_is_not_at_hand_needs_source(tmp_path):
     written = tmp_path / "out.urdf"
     text = _changed(robot, links=[0]).to_urdf(written, source=path)
     assert written.read_text() == text
+
+
+def test_a_massless_self_closing_link_gets_an_inertial_element():
+    text = """<robot name="arm">
+  <link name="base"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/>
+    <child link="l1"/>
+    <axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="5" velocity="2"/>
+  </joint>
+  <link name="l1"/>
+  <joint name="j2" type="revolute">
+    <parent link="l1"/>
+    <child link="l2"/>
+    <origin xyz="0.3 0 0" rpy="1.5707963267948966 0 0"/>
+    <axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="5" velocity="2"/>
+  </joint>
+  <link name="l2"><inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+</robot>
+"""
+    robot = from_urdf(text)
+    heavier = dataclasses.replace(robot, links=(dataclasses.replace(robot.links[0], m=2.5, r=(0.1, 0.02, 0),
+                                                                    I=((0.02, 0, 0), (0, 0.03, 0), (0, 0, 0.04))),
+                                                robot.links[1]))
+    out = heavier.to_urdf(source=text)
+    assert '<link name="l1">\n' in out and out.count("<inertial>") == 2
+    back = from_urdf(out)
+    assert back.fingerprint() == heavier.fingerprint()
+    _assert_pinocchio_agrees(heavier, out)
