@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-torch generate bench docs docs-check clean
+.PHONY: run test test-torch generate bench docs docs-check release-check clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -57,6 +57,15 @@ docs: $(VENV)/.docs-installed
 
 docs-check: docs
 	SYMDYN_SITE=site SYMDYN_SLOW_DOCS=1 $(BIN)/python -m pytest -q -p no:xdist tests/test_docs.py tests/test_site.py
+
+# The release from HEAD: sdist and wheel by python -m build, twine check, and the sdist's wheel
+# the same as the tree's (scripts/release_check.py, ~15 s).
+$(VENV)/.release-installed: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[release]'
+	touch $@
+
+release-check: $(VENV)/.release-installed
+	$(BIN)/python scripts/release_check.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info site site-check
