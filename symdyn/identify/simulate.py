@@ -121,9 +121,11 @@ def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: flo
             fill: float = 0.6, periods: int = 1, rest: float = 0.0) -> Trajectory:
     """A random finite Fourier series per joint (Swevers et al. 1997), seeded:
     q_j(t) = c_j + Σ_k a_jk/(kω) sin(kωt) − b_jk/(kω) cos(kωt), ω = 2π/period, scaled so that q_j
-    spans `fill` of its joint range around the range's middle; sampled at `rate` Hz over `periods`,
-    then held at rest for `rest` s (q̇ = q̈ = 0: the samples that tell Coulomb friction's offset FO
-    from a constant load such as gravity along a prismatic joint, sgn² q̇ being 1 while moving)."""
+    spans `fill` of its joint range around the range's middle; sampled at `rate` Hz over `periods`.
+    rest > 0: over the last `rest` s the motion is brought to the middle of the range by a septic
+    window (q and its first three derivatives continuous), then held there for `rest` s (q̇ = q̈ = 0: the samples that tell
+    Coulomb friction's offset FO from a constant load such as gravity along a prismatic joint,
+    sgn² q̇ being 1 while moving)."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(period * periods * rate))) / rate
     w = 2 * np.pi / period
@@ -131,16 +133,24 @@ def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: flo
     lo, hi = robot.qlim.T
     q = np.empty((len(t), robot.n))
     qd, qdd = np.empty_like(q), np.empty_like(q)
+    # the window: 1, then a septic ramp to 0 over the last `rest` seconds (continuous up to the jerk, which
+    # a low-pass differentiator would otherwise smear over tenths of a second)
+    u = np.clip((t - (t[-1] + 1 / rate - rest)) / rest, 0, 1) if rest > 0 else np.zeros_like(t)
+    win = 1 - (35 * u ** 4 - 84 * u ** 5 + 70 * u ** 6 - 20 * u ** 7)
+    wd = -(140 * u ** 3 - 420 * u ** 4 + 420 * u ** 5 - 140 * u ** 6) / rest if rest > 0 else np.zeros_like(t)
+    wdd = -(420 * u ** 2 - 1680 * u ** 3 + 2100 * u ** 4 - 840 * u ** 5) / rest ** 2 if rest > 0 \
+        else np.zeros_like(t)
     for j in range(robot.n):
         a, b = rng.standard_normal(harmonics) / k, rng.standard_normal(harmonics) / k
         s, c = np.sin(np.outer(t, k * w)), np.cos(np.outer(t, k * w))
         x = s @ (a / (k * w)) - c @ (b / (k * w))
         xd = c @ a + s @ b
         xdd = (-s @ (a * k * w)) + c @ (b * k * w)
-        x0 = x - x.mean()
-        g = fill * (hi[j] - lo[j]) / 2 / np.abs(x0).max()
-        q[:, j] = (lo[j] + hi[j]) / 2 + g * x0
-        qd[:, j], qdd[:, j] = g * xd, g * xdd
+        x = x - x.mean()
+        g = fill * (hi[j] - lo[j]) / 2 / np.abs(x).max()
+        q[:, j] = (lo[j] + hi[j]) / 2 + g * x * win
+        qd[:, j] = g * (xd * win + x * wd)
+        qdd[:, j] = g * (xdd * win + 2 * xd * wd + x * wdd)
     hold = int(round(rest * rate))
     if hold:
         t = np.arange(len(t) + hold) / rate
