@@ -318,9 +318,15 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
         # residuals at rounding level (exact data): the covariance is rounding noise and weighs nothing
         scale = max(np.sqrt(np.mean(data.tau ** 2)), 1e-300)
         cov = None if np.all(result.rms <= 1e-9 * scale) else result.base.covariance
-        found = physical.physical(robot, result.base.names, result.base.values, cov, prior=robot,
-                                  base=result.map.exact, **options)
-        result.consistent = found
+        try:
+            result.consistent = physical.physical(robot, result.base.names, result.base.values, cov, prior=robot,
+                                                  base=result.map.exact, **options)
+        except Exception as exc:  # noqa: BLE001 (a solver's failure must not lose the estimate)
+            import warnings
+
+            result.consistent_error = f"{type(exc).__name__}: {exc}"
+            warnings.warn(f"no physically consistent parameters ({result.consistent_error}); the least-squares "
+                          "estimate stands", RuntimeWarning, stacklevel=2)
         result.consistent_seconds = time.perf_counter() - started
     return result
 
@@ -414,6 +420,7 @@ class Identification:
     map: BaseMap
     consistent: object = None
     consistent_seconds: float = 0.0
+    consistent_error: str | None = None
     _regressor: object = field(default=None, repr=False)
 
     # ---- the model that reproduces the estimate
@@ -424,6 +431,9 @@ class Identification:
         moved least (minimum norm) so that P·π = β̂ — a ValueError where that is no physical body."""
         if self.consistent is not None:
             return self.consistent.robot
+        if self.consistent_error is not None:
+            raise ValueError(f"the physically consistent step failed ({self.consistent_error}); the least-squares "
+                             "estimate (.base) stands")
         pi = self.standard()
         try:
             return with_standard(self.prior, pi, name=f"{self.prior.name}_identified")
@@ -490,6 +500,8 @@ class Identification:
                       + ", ".join(f"{x:.3g}" for x in c.margins)]
             if hasattr(c, "table"):
                 lines.append(c.table())
+        if self.consistent_error is not None:
+            lines += ["", f"physically consistent standard parameters: failed ({self.consistent_error})"]
         if validation is not None:
             lines += [""] + validation.lines()
         return "\n".join(lines)
