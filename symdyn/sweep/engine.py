@@ -187,6 +187,9 @@ def connect(scheduler: str | None = None, workers: int | None = None):
         raise RuntimeError("symdyn sweeps need Dask: pip install 'symdyn[sweep]' "
                            "(or pip install 'dask[distributed]')") from None
     address = scheduler_address(scheduler)
+    if address and workers is not None:
+        raise ValueError(f"--workers sizes a local cluster; the cluster at {address} has its own workers "
+                         "(leave --workers out, or unset --scheduler and DASK_SCHEDULER_ADDRESS)")
     if address:
         _probe(address)
         try:
@@ -311,7 +314,8 @@ def run(sweep: Sweep, inputs: Iterable[dict], out: Path | str, *, resume: bool =
             indent=1, default=_jsonable) + "\n")
         start = time.perf_counter()
         bar = Progress(sweep.name, len(items), len(items) - len(todo), progress)
-        engine, interrupted = "serial, in this process", False
+        engine = "serial, in this process" if todo else "nothing left to run"
+        interrupted = False
         main = threading.current_thread() is threading.main_thread()
         previous = signal.signal(signal.SIGINT, signal.default_int_handler) if main else None
 

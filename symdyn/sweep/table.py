@@ -92,10 +92,11 @@ class Table:
     @classmethod
     def open(cls, path: Path, columns: tuple[str, ...], *, resume: bool) -> "Table":
         path = Path(path)
-        if path.exists() and path.stat().st_size and not resume:
+        held = path.exists() and path.read_bytes().count(b"\n") > 1   # a header and at least one row
+        if held and not resume:
             raise TableError(f"{path} already holds results: pass --resume to finish that sweep, "
                              "or choose another --out")
-        if not path.exists() or not path.stat().st_size:
+        if not held:
             write_atomic(path, _line(columns, columns))
             return cls(path, columns, [])
         raw = path.read_bytes()
