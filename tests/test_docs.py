@@ -7,6 +7,7 @@ printed during the build) and checking the built pages is `tests/test_site.py`, 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os
 import re
 from pathlib import Path
@@ -88,6 +89,27 @@ def python_blocks(page: Path) -> list[str]:
     return re.findall(r"^```python\n(.*?)^```", page.read_text(), re.S | re.M)
 
 
+def examples(page: Path) -> list[tuple[str, str | None]]:
+    """Each Python block of a page and why it is not run (None: it runs).  Not run, only
+    compiled: a block after an `<!-- no-run: why -->` comment, a listing of a module inside
+    symdyn (relative imports), and a block importing a package this environment lacks (a
+    cluster's client, say): the page's later blocks are then not run either."""
+    found, missing = [], None
+    for before, block in re.findall(r"((?:^[^\n]*\n){0,3}?)^```python\n(.*?)^```", page.read_text(), re.S | re.M):
+        why = None
+        if marker := re.search(r"<!--\s*no-run:?\s*(.*?)\s*-->", before):
+            why = f"marked no-run ({marker.group(1)})"
+        elif re.search(r"^\s*from \.", block, re.M):
+            why = "a listing of a module inside symdyn (relative imports)"
+        else:
+            for name in re.findall(r"^\s*(?:from|import)\s+(\w+)", block, re.M):
+                if importlib.util.find_spec(name) is None:
+                    missing = missing or f"needs {name}, not installed here"
+            why = missing
+        found.append((block, why))
+    return found
+
+
 #: Pages whose examples take long (compiling CasADi's C for a Puma OCP: ~40 s): run by
 #: `make docs-check` (SYMDYN_SLOW_DOCS=1), not by the suite.
 SLOW_PAGES = {"studies_ocp.md"}
@@ -101,13 +123,16 @@ def test_the_site_has_examples():
 
 @pytest.mark.parametrize("page", PAGES_WITH_CODE, ids=lambda p: p.relative_to(DOCS).as_posix())
 def test_every_python_block_of_a_page_runs_in_order(page, tmp_path, monkeypatch):
-    """The blocks of one page share a namespace, as a reader following the page would."""
+    """The blocks of one page share a namespace, as a reader following the page would.
+    Every block compiles; those `examples` does not excuse run."""
     if page.name in SLOW_PAGES and not os.environ.get("SYMDYN_SLOW_DOCS"):
         pytest.skip(f"{page.name}'s examples are slow: SYMDYN_SLOW_DOCS=1 runs them (make docs-check)")
     monkeypatch.chdir(tmp_path)
     namespace: dict = {"__name__": "__docs__"}
-    for k, block in enumerate(python_blocks(page)):
-        exec(compile(block, f"{page.relative_to(ROOT)} python block {k + 1}", "exec"), namespace)
+    for k, (block, why) in enumerate(examples(page)):
+        code = compile(block, f"{page.relative_to(ROOT)} python block {k + 1}", "exec")
+        if why is None:
+            exec(code, namespace)
 
 
 def test_ruff_is_clean_on_the_package():
