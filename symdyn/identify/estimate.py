@@ -25,6 +25,7 @@ URDF, figures).
 
 from __future__ import annotations
 
+import functools
 import json
 import time
 from contextlib import contextmanager
@@ -95,7 +96,11 @@ class _Regressor:
     def __init__(self, robot: Robot, bmap: BaseMap, target: str):
         from ..codegen.entry import load
 
-        self.model = load(_geometry(robot), target)
+        source = _geometry(robot)
+        entry = (source if isinstance(source, str) else source.fingerprint(), target)
+        if entry not in _MODELS:   # loaded once per process (a NumPy module compiles its source on import)
+            _MODELS[entry] = load(source, target)
+        self.model = _MODELS[entry]
         self.target = target
         self.columns = np.asarray(bmap.columns)
         self.n, self.p = robot.n, 14 * robot.n
@@ -124,6 +129,9 @@ class _Regressor:
         for s, Yb in self.chunks(q, qd, qdd):
             out[s:s + len(Yb)] = Yb @ beta
         return out
+
+
+_MODELS: dict = {}
 
 
 def _geometry(robot: Robot):
@@ -250,30 +258,39 @@ def _step(G: np.ndarray, rss: np.ndarray, h: np.ndarray, delta: np.ndarray):
     return rss - 2 * h @ delta + Gd @ delta, h - Gd
 
 
+@functools.lru_cache(maxsize=1)
+def _openblas() -> tuple:
+    """(get, set) thread-count functions of every OpenBLAS this process has loaded (Linux)."""
+    found = []
+    try:
+        import ctypes
+
+        with open("/proc/self/maps") as maps:
+            paths = sorted({line.split()[-1] for line in maps
+                            if "openblas" in line.lower() and line.split()[-1].startswith("/")})
+        for path in paths:
+            lib = ctypes.CDLL(path)
+            for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"),
+                                   ("openblas", "")):
+                get = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
+                put = getattr(lib, f"{prefix}_set_num_threads{suffix}", None)
+                if get is not None and put is not None:
+                    found.append((get, put))
+                    break
+    except OSError:
+        pass
+    return tuple(found)
+
+
 @contextmanager
 def _blas_threads(count: int | None):
     """NumPy's OpenBLAS limited to `count` threads inside the block, as threadpoolctl does (Linux;
     another BLAS or system, or count None, leaves everything as it is)."""
     restore = []
     if count is not None:
-        try:
-            import ctypes
-
-            with open("/proc/self/maps") as maps:
-                paths = sorted({line.split()[-1] for line in maps
-                                if "openblas" in line.lower() and line.split()[-1].startswith("/")})
-            for path in paths:
-                lib = ctypes.CDLL(path)
-                for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"),
-                                       ("openblas", "")):
-                    get = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
-                    put = getattr(lib, f"{prefix}_set_num_threads{suffix}", None)
-                    if get is not None and put is not None:
-                        restore.append((put, get()))
-                        put(int(count))
-                        break
-        except OSError:
-            pass
+        for get, put in _openblas():
+            restore.append((put, get()))
+            put(int(count))
     try:
         yield
     finally:

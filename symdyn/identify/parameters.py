@@ -88,8 +88,13 @@ def base_map(robot: Robot) -> BaseMap:
         return BaseMap(names=tuple(str(base.params[k]) for k in base.independent), columns=tuple(base.independent),
                        P=P, expressions=tuple(str(e) for e in base.expressions), exact=base)
 
-    value, _ = cached("identify-base-map", key(robot.fingerprint(), __version__, code_fingerprint()), build)
-    return value
+    entry = key(robot.fingerprint(), __version__, code_fingerprint())
+    if entry not in _MAPS:
+        _MAPS[entry] = cached("identify-base-map", entry, build)[0]
+    return _MAPS[entry]
+
+
+_MAPS: dict = {}   # this process's maps, by cache key: a fit in a loop reads the cache file once
 
 
 def _recursion_rotation(robot: Robot, j: int) -> tuple[np.ndarray, np.ndarray]:
