@@ -151,3 +151,13 @@ def test_ruff_is_clean_on_the_package():
 def test_the_package_is_typed():
     assert (ROOT / "symdyn" / "py.typed").is_file()
     assert '"symdyn" = ["py.typed"]' in (ROOT / "pyproject.toml").read_text()
+
+
+def test_the_public_api_type_checks():
+    """mypy on the public API's modules ([tool.mypy] in pyproject.toml)."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("mypy", reason="mypy is in the test extra")
+    done = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr

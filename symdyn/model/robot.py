@@ -14,7 +14,7 @@ import dataclasses
 import hashlib
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -279,6 +279,12 @@ class Robot:
     poses: Mapping[str, tuple] = field(default_factory=dict, compare=False, hash=False)
     source: str = field(default="", compare=False, hash=False)
     urdf: Any = field(default=None, compare=False, hash=False)
+    #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: the
+    #: arm of a URDF file (`symdyn.model.urdf.from_urdf`, attached by `symdyn.model`, which builds on this module).
+    from_urdf: ClassVar[Callable[..., "Robot"]]
+    #: `robot.to_urdf(path=None, *, source=…)`: the URDF text with the robot's inertials
+    #: (`symdyn.model.urdf.to_urdf`, attached by `symdyn.model`).
+    to_urdf: ClassVar[Callable[..., str]]
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
