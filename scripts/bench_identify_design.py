@@ -6,7 +6,7 @@
 Excitation: both criteria (cond, logdet) per model — wall time, IPOPT iterations, the condition
 number and log det of the stacked base regressor against the random start of the same family,
 and the condition number on a 100 Hz grid of the result.  Wall and CPU time are both printed:
-on a shared machine the wall time is the CPU time times the contention.  Consistent: the SDP (cvxpy + Clarabel)
+on a shared machine the wall time is the CPU time times the contention.  Consistent: the SDP (Clarabel)
 and the CasADi NLP (log-Cholesky) on (a) noise-free base parameters of the arm perturbed ±20 %
 from the prior and (b) the same with one base parameter made impossible — time, how far the
 base parameters moved, the largest relative error against the truth, the smallest pseudo-inertia
