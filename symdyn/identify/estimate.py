@@ -43,8 +43,13 @@ __all__ = ["fit", "Identification", "BaseEstimate", "Validation", "regressor_row
 METHODS = ("wls", "ols")
 #: States per call of the generated Y (its buffer stays in cache-friendly size; ~2 MB for 7 joints).
 CHUNK = 2048
-#: Columns whose scaled singular value falls below this fraction of the largest are not excited.
-RANK_TOL = 1e-10
+#: A base regressor up to this size is kept between the two passes (10⁴ Panda samples: 39 MB), a larger
+#: one evaluated again.
+KEEP_BYTES = 1 << 27
+#: The data do not separate the base parameters where the smallest eigenvalue of the Gram matrix with
+#: unit columns falls below this fraction of the largest (a condition number with unit columns above
+#: ~3·10⁶, where the Gram matrix's rounding, ~1e-16 of the largest, would decide the estimate).
+RANK_TOL = 1e-13
 
 
 @dataclass(frozen=True)
@@ -358,7 +363,13 @@ def _fit(robot: Robot, data: Data, method: str, target: str) -> "Identification"
 
         def blocks():
             return ((Yb[s:s + CHUNK], tau[s:s + CHUNK]) for s in range(0, len(tau), CHUNK))
-    else:
+    elif data.N * n * b * 8 <= KEEP_BYTES:   # evaluated once, read by both passes
+        tau = data.tau
+        Yb = reg.full(data.q, data.qd, data.qdd)
+
+        def blocks():
+            return ((Yb[s:s + CHUNK], tau[s:s + CHUNK]) for s in range(0, len(tau), CHUNK))
+    else:   # evaluated again for the second pass, never all in memory
         tau = data.tau
 
         def blocks():
