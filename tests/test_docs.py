@@ -22,7 +22,7 @@ REFERENCE = DOCS / "reference"
 #: Public modules beside those named in `symdyn.__all__`: each has a reference page that
 #: documents every name of its `__all__`.
 PUBLIC_MODULES = ("symdyn.models", "symdyn.model", "symdyn.reference", "symdyn.ocp", "symdyn.identify",
-                  "symdyn.sweep")
+                  "symdyn.sweep", "symdyn.sweep.engine", "symdyn.sweep.table")
 
 
 def documented_modules() -> list[str]:
@@ -35,8 +35,7 @@ def documented_modules() -> list[str]:
             if name in named:
                 raise
             continue                      # a capability not landed (or its optional extra absent)
-        if hasattr(module, "__all__") or name in named:
-            modules.append(name)
+        modules.append(name)
     return modules
 
 
