@@ -20,6 +20,9 @@ import symdyn
 
 PACKAGE = Path(symdyn.__file__).resolve().parent
 
+#: Data beside the stages: the shipped models' generated code (symdyn/generated links to the checkout's
+#: generated/; the wheel carries it as package data), not modules of the package.
+DATA = ("generated",)
 #: The stage folders, downhill first: a module may import its own stage and those before it.
 STAGES = ("model", "derivation", "codegen", "numeric", "apps", "identify", "sweep", "bench")
 #: Top-level modules: the package, the command line and the documented names kept as thin re-exports.
@@ -47,7 +50,8 @@ def _module_name(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))
+           if p.relative_to(PACKAGE).parts[0] not in DATA}
 
 
 def _is_package(module: str) -> bool:
@@ -124,8 +128,9 @@ def _edges() -> dict[str, list[Import]]:
 
 
 def test_the_package_is_one_folder_per_stage():
-    folders = sorted(p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name != "__pycache__")
+    folders = sorted(p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name not in ("__pycache__", *DATA))
     assert folders == sorted(STAGES), f"symdyn/ holds {folders}: each folder must be one of the stages {STAGES}"
+    assert (PACKAGE / "generated").resolve() == PACKAGE.parent / "generated"   # a link, in a checkout
     flat = sorted(m for m in MODULES if m.count(".") <= 1 and m.split(".")[-1] not in STAGES)
     assert flat == sorted(TOP_MODULES), (
         f"top-level modules {sorted(set(flat) - set(TOP_MODULES))}: put new code in its stage's folder")

@@ -171,7 +171,7 @@ class Result:
 
 def _peers(robot, threads: int, log):
     """(Pinocchio model pool or None, compiled CasADi RNEA or None, Toolbox robot or None)."""
-    from .compare import casadi_rnea_c, toolbox_robot
+    from .peers import casadi_rnea_c, toolbox_robot
 
     bare = robot.nofriction(all=True)
     pool = casadi = None

@@ -48,6 +48,7 @@ from ..derivation.cache import cache_dir, writable
 from ..model import arms
 from ..numeric import reference as ref
 from . import pin_peer
+from .peers import casadi_rnea_c, toolbox_robot
 from .pin_peer import FD_RTOL, PeerUnavailable, central_jacobian, read_report
 
 __all__ = ["Row", "main", "configure_parser", "frictionless_sources", "random_states", "write_states",
@@ -171,21 +172,6 @@ def op_counts(c_path: Path) -> dict[str, int]:
 
 
 # --------------------------------------------------------------------------- C level
-
-def casadi_rnea_c(robot, folder: Path) -> Path:
-    """CasADi's C code of the plain SX RNEA (symdyn.numeric.casadi_rnea, no friction) as casadi_rnea.c/.h."""
-    import casadi as ca
-
-    from ..numeric.casadi_rnea import rnea_function
-
-    f = rnea_function(robot.nofriction(all=True), friction=False)
-    x = f.sx_in()
-    g = ca.Function("casadi_rnea", x, f.call(x), f.name_in(), f.name_out())
-    folder.mkdir(parents=True, exist_ok=True)
-    cg = ca.CodeGenerator("casadi_rnea.c", {"with_header": True})
-    cg.add(g)
-    return Path(cg.generate(str(folder) + os.sep))
-
 
 def casadi_op_count(robot) -> int:
     """Operations of the plain SX RNEA (symdyn.numeric.casadi_rnea, no friction) counted as symdyn counts
@@ -388,22 +374,6 @@ def _import_path(path: Path, name: str):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-def toolbox_robot(robot):
-    """The robot as a Robotics Toolbox DHRobot (standard DH, revolute), or None if not installed."""
-    try:
-        import roboticstoolbox as rtb
-    except ImportError:
-        return None
-    links = [rtb.RevoluteDH(d=float(l.d), a=float(l.a), alpha=float(l.alpha), offset=float(l.offset),
-                            m=float(l.m), r=np.array(l.r, float), I=np.array(l.I, float), Jm=float(l.Jm),
-                            G=float(l.G), B=float(l.B), Tc=np.array(l.Tc, float)) for l in robot.links]
-    from spatialmath import SE3
-
-    return rtb.DHRobot(links, name=robot.name, gravity=-np.array(robot.gravity, float),
-                       base=SE3(np.array(robot.base, float), check=False),
-                       tool=SE3(np.array(robot.tool, float), check=False))
 
 
 def _agree(label: str, got, want, rtol: float = 1e-9) -> None:

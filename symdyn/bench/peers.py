@@ -1,4 +1,5 @@
-"""The same arm in Pinocchio, the independent peer the reference is tested against.
+"""The same arm in the peers: Pinocchio (the independent peer the reference is
+tested against), the Robotics Toolbox, and a plain CasADi RNEA in C (a baseline).
 
 `pinocchio_model(robot)` builds a `pinocchio.Model` from a numeric robot
 (standard or modified DH or general joints, revolute or prismatic, offsets,
@@ -7,15 +8,20 @@ model (`pin_peer.arm_joints`).
 Pinocchio's universe is the robot's frame {0}: gravity is rotated into it,
 so world poses are `robot.base · data.oMf[...]`.  Friction is not modelled
 (Pinocchio's `rnea` has none): compare with `robot.nofriction(all=True)`.
+`toolbox_robot` gives a standard-DH arm as a Toolbox `DHRobot` (base and tool
+included); `casadi_rnea_c` writes CasADi's C code of the plain SX RNEA.
 """
 
 from __future__ import annotations
+
+import os
+from pathlib import Path
 
 import numpy as np
 
 from ..model import Robot
 
-__all__ = ["pinocchio_model"]
+__all__ = ["pinocchio_model", "toolbox_robot", "casadi_rnea_c"]
 
 
 def _pin():
@@ -99,3 +105,34 @@ def pinocchio_model(robot: Robot):
     model.armature = np.array([float(l.G) ** 2 * float(l.Jm) for l in robot.links])
     model.gravity = pin.Motion(_gravity0(robot), np.zeros(3))
     return model
+
+
+def casadi_rnea_c(robot, folder: Path) -> Path:
+    """CasADi's C code of the plain SX RNEA (symdyn.numeric.casadi_rnea, no friction) as casadi_rnea.c/.h."""
+    import casadi as ca
+
+    from ..numeric.casadi_rnea import rnea_function
+
+    f = rnea_function(robot.nofriction(all=True), friction=False)
+    x = f.sx_in()
+    g = ca.Function("casadi_rnea", x, f.call(x), f.name_in(), f.name_out())
+    folder.mkdir(parents=True, exist_ok=True)
+    cg = ca.CodeGenerator("casadi_rnea.c", {"with_header": True})
+    cg.add(g)
+    return Path(cg.generate(str(folder) + os.sep))
+
+
+def toolbox_robot(robot):
+    """The robot as a Robotics Toolbox DHRobot (standard DH, revolute), or None if not installed."""
+    try:
+        import roboticstoolbox as rtb
+    except ImportError:
+        return None
+    links = [rtb.RevoluteDH(d=float(l.d), a=float(l.a), alpha=float(l.alpha), offset=float(l.offset),
+                            m=float(l.m), r=np.array(l.r, float), I=np.array(l.I, float), Jm=float(l.Jm),
+                            G=float(l.G), B=float(l.B), Tc=np.array(l.Tc, float)) for l in robot.links]
+    from spatialmath import SE3
+
+    return rtb.DHRobot(links, name=robot.name, gravity=-np.array(robot.gravity, float),
+                       base=SE3(np.array(robot.base, float), check=False),
+                       tool=SE3(np.array(robot.tool, float), check=False))

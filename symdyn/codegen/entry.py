@@ -39,8 +39,9 @@ LOADS = (*TARGETS, "jax", "torch")
 #: The target whose files a loadable name reads.
 _WRITTEN = {"jax": "array-api", "torch": "array-api"}
 SHIPPED = ("twolink", "puma560", "panda", "iiwa14", "ur5")
-#: The checked-in outputs (present in a source checkout).
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
+#: The shipped models' code: generated/ of a source checkout (symdyn/generated links to it), or the
+#: copy an installed wheel carries as package data (read only: its C is compiled into the cache).
+GENERATED = (Path(__file__).resolve().parents[1] / "generated").resolve()
 
 
 def _robot(name_or_robot) -> Robot:
@@ -119,9 +120,9 @@ def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
 
 
 def in_checkout() -> bool:
-    """Whether symdyn runs from a source checkout, whose generated/ holds the
-    shipped models' code; an installed wheel has none and never writes
-    beside its package: `load` generates that code into the cache, once."""
+    """Whether symdyn runs from a source checkout, whose generated/ `generate` may
+    rewrite; an installed wheel reads the copy it carries and never writes beside
+    its package (without that copy, `load` generates the code into the cache, once)."""
     return (GENERATED.parent / "pyproject.toml").is_file()
 
 
