@@ -302,3 +302,14 @@ def test_an_edited_array_api_file_is_an_error_that_says_how_to_regenerate(tmp_pa
         symdyn.load("twolink", target, folder=tmp_path)
     with pytest.raises(FileNotFoundError, match="--target array-api"):
         symdyn.load("twolink", target, folder=tmp_path / "none")
+
+
+def test_a_symbolic_model_takes_its_parameters_last():
+    """The two-link arm with symbolic parameters: p = its free symbols, sorted by name, last."""
+    arm = arms.load("twolink", symbolic=True)
+    xp = symdyn.load(arm, "array-api")
+    values = {"a1": 1.0, "a2": 0.8, "c1": -0.5, "c2": -0.3, "g": 9.81, "m1": 1.2, "m2": 0.7}
+    p = np.array([values[str(s)] for s in sorted(arm.free_symbols, key=str)])
+    q = np.array([[0.3, -0.7], [1.1, 0.4]])
+    assert_close(xp.tau(q, -q, 2 * q, p), ref.rne(arm.subs(values), q, -q, 2 * q), "symbolic twolink tau")
+    assert_close(xp.fdyn(q, -q, xp.tau(q, -q, 2 * q, p), p), 2 * q, "symbolic twolink fdyn")
