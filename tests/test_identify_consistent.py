@@ -114,3 +114,21 @@ def test_bad_base_names_are_named():
         physical(robot, [n for n in names if n != "MX2"], [v for n, v in zip(names, values) if n != "MX2"])
     with pytest.raises(ValueError, match=r"not base parameters: \['XX9'\]"):
         physical(robot, [*names, "XX9"], [*values, 1.0])
+
+
+def test_the_covariance_decides_which_base_parameters_give_way():
+    """With ZZ2 uncertain (σ large) and the rest precise, the impossible ZZ2 moves and the rest
+    hardly do; `.sigmas` is the move in standard deviations, ‖Σ^{-1/2}(Pπ − β̂)‖."""
+    robot = models.load("twolink")
+    names, values = base_vector(robot)
+    values = values.copy()
+    k = names.index("ZZ2")
+    values[k] = -0.05
+    sigma = np.full(len(values), 1e-4)
+    sigma[k] = 1.0
+    result = physical(robot, names, values, np.diag(sigma**2))
+    _assert_realisable(result)
+    moved = np.abs(result.achieved - values)
+    assert moved[k] > 0.04
+    assert np.delete(moved, k).max() < 1e-3 * moved[k]
+    assert result.sigmas == pytest.approx(np.linalg.norm((result.achieved - values) / sigma), rel=1e-3)
