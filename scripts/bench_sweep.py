@@ -1,6 +1,7 @@
 """Benchmark of `symdyn sweep`: the trajectory library serially, then on local Dask clusters.
 
     .venv/bin/python scripts/bench_sweep.py --n 200 --workers 1,2 [--cold-cache] [--markdown FILE]
+    .venv/bin/python scripts/bench_sweep.py --probe 400 --probe-ms 50 --workers 1,2   # the engine alone
 
 One run, same tasks: the library of n minimum-time Puma motions (--arm, N = 40,
 Hermite–Simpson on compiled CasADi dynamics; no open-loop re-simulation unless
@@ -58,6 +59,41 @@ def measure(label: str, rows, wall: float, workers: int, serial_wall: float | No
     return out
 
 
+def idle(item: dict) -> dict:
+    """The probe's task: sleep for item["s"] seconds (no CPU: what remains of a run's wall time beyond
+    the sleeps is the engine's own cost, and a loaded machine hardly stretches it)."""
+    time.sleep(item["s"])
+    return {"slept": item["s"]}
+
+
+def probe(tasks: int, seconds: float, sizes: list[int], out: Path) -> list[str]:
+    """Scheduler overhead per task on tasks that only sleep, serially and on local clusters."""
+    from distributed import Client, LocalCluster
+
+    sweep = engine.Sweep("probe", "sleeping tasks", idle, inputs=None, input_columns=("index", "s"),
+                         result_columns=("slept",))
+    items = [{"index": k, "s": seconds} for k in range(tasks)]
+    lines = [f"engine overhead: {tasks} tasks that sleep {seconds * 1e3:.0f} ms each",
+             "| run | wall (s) | ideal (s) | overhead per task (ms) | efficiency |", "|---|---|---|---|---|"]
+    runs = [("serial (this process)", 0)] + [(f"local cluster, {k} worker{'s' * (k != 1)}", k) for k in sizes]
+    for label, k in runs:
+        if k:
+            cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=logging.ERROR)
+            client = Client(cluster)
+            client.run(time.sleep, 0)   # workers up and answering
+            got = engine.run(sweep, items, out / f"probe{k}", client=client, progress=False)
+            client.close()
+            cluster.close()
+        else:
+            got = engine.run(sweep, items, out / "probe0", workers=0, progress=False)
+        ideal = tasks * seconds / max(k, 1)
+        busy = sum(float(r["wall_s"]) for r in got.rows)
+        lines.append(f"| {label} | {got.wall_s:.2f} | {ideal:.2f} | "
+                     f"{(max(k, 1) * got.wall_s - busy) / tasks * 1e3:.1f} | {ideal / got.wall_s:.2f} |")
+    return lines
+
+
 def cold_cache_first_task(item: dict) -> float:
     """Seconds of one task in a fresh process whose symdyn cache is empty (a new host)."""
     with tempfile.TemporaryDirectory(prefix="symdyn-cold-") as cache:
@@ -78,9 +114,18 @@ def main(argv=None) -> int:
     p.add_argument("--cold-cache", action="store_true", help="also time a first task with an empty cache")
     p.add_argument("--out", default=None, help="folder for the runs' tables (default: a temporary folder)")
     p.add_argument("--markdown", default=None, help="also write the table as markdown to this file")
+    p.add_argument("--probe", type=int, default=0, metavar="TASKS",
+                   help="only the engine's overhead: TASKS tasks that sleep --probe-ms each (no solves)")
+    p.add_argument("--probe-ms", type=float, default=50.0, help="sleep of a probe task, ms (default 50)")
     args = p.parse_args(argv)
     sizes = [int(k) for k in args.workers.split(",") if k]
     out = Path(args.out or tempfile.mkdtemp(prefix="bench-sweep-"))
+    if args.probe:
+        text = "\n".join(probe(args.probe, args.probe_ms / 1e3, sizes, out))
+        print(text)
+        if args.markdown:
+            Path(args.markdown).write_text(text + "\n")
+        return 0
     items = library.inputs(args.n, arm=args.arm, N=args.N, verify=args.verify)
     load = os.getloadavg()[0]
     print(f"bench_sweep: {args.n} minimum-time {args.arm} motions (N = {args.N}, verify {args.verify}), "
