@@ -163,3 +163,12 @@ def test_the_public_api_type_checks():
     pytest.importorskip("mypy", reason="mypy is in the test extra")
     done = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_readme_links_into_the_site_resolve():
+    """The README is not a page of the site (mkdocs checks those): its relative links must
+    name files that exist, and it stays a front door (~150 lines at most)."""
+    readme = (ROOT / "README.md").read_text()
+    links = [link.split("#")[0] for link in re.findall(r"\]\(([^)\s]+)\)", readme) if "://" not in link]
+    assert len(links) >= 10 and [link for link in links if not (ROOT / link).exists()] == []
+    assert len(readme.splitlines()) <= 150
