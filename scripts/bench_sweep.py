@@ -27,7 +27,6 @@ for _var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import logging  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -68,8 +67,6 @@ def idle(item: dict) -> dict:
 
 def probe(tasks: int, seconds: float, sizes: list[int], out: Path) -> list[str]:
     """Scheduler overhead per task on tasks that only sleep, serially and on local clusters."""
-    from distributed import Client, LocalCluster
-
     sweep = engine.Sweep("probe", "sleeping tasks", idle, inputs=None, input_columns=("index", "s"),
                          result_columns=("slept",))
     items = [{"index": k, "s": seconds} for k in range(tasks)]
@@ -78,13 +75,10 @@ def probe(tasks: int, seconds: float, sizes: list[int], out: Path) -> list[str]:
     runs = [("serial (this process)", 0)] + [(f"local cluster, {k} worker{'s' * (k != 1)}", k) for k in sizes]
     for label, k in runs:
         if k:
-            cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   silence_logs=logging.ERROR)
-            client = Client(cluster)
+            client, _ = engine.connect(None, k)
             client.run(time.sleep, 0)   # workers up and answering
             got = engine.run(sweep, items, out / f"probe{k}", client=client, progress=False)
-            client.close()
-            cluster.close()
+            engine._close(client)
         else:
             got = engine.run(sweep, items, out / "probe0", workers=0, progress=False)
         ideal = tasks * seconds / max(k, 1)
@@ -140,17 +134,12 @@ def main(argv=None) -> int:
     reference = _results(serial.rows)
     equal = {}
     for k in sizes:
-        from distributed import Client, LocalCluster
-
         t = time.perf_counter()
-        cluster = LocalCluster(n_workers=k, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
-        client = Client(cluster)
+        client, _ = engine.connect(None, k)   # the local cluster `symdyn sweep --workers k` starts
         startup = time.perf_counter() - t
         got = engine.run(library.SWEEP, items, out / f"workers{k}", client=client, progress=False)
         wall = got.wall_s
-        client.close()
-        cluster.close()
+        engine._close(client)
         row = measure(f"local cluster, {k} worker{'s' * (k != 1)}", got.rows, wall, k, serial_wall)
         row["cluster_start_s"] = startup
         rows.append(row)

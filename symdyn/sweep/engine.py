@@ -182,6 +182,7 @@ def connect(scheduler: str | None = None, workers: int | None = None):
     $DASK_SCHEDULER_ADDRESS), else of a new local cluster of `workers` processes (default:
     one per CPU), one thread each.  Closing the client closes a local cluster too."""
     try:
+        import dask
         from distributed import Client, LocalCluster
     except ImportError:
         raise RuntimeError("symdyn sweeps need Dask: pip install 'symdyn[sweep]' "
@@ -207,9 +208,12 @@ def connect(scheduler: str | None = None, workers: int | None = None):
     # printing a page of tracebacks as it dies
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    # the workers' statistical profiler samples every thread each 10 ms: ~11 % more CPU per
+    # sub-second task (measured on the library: 0.49 s against 0.435 s), for a dashboard we do not open
     try:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
