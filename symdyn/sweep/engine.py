@@ -208,10 +208,16 @@ def connect(scheduler: str | None = None, workers: int | None = None):
     # printing a page of tracebacks as it dies
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-    # the workers' statistical profiler samples every thread each 10 ms: ~11 % more CPU per
-    # sub-second task (measured on the library: 0.49 s against 0.435 s), for a dashboard we do not open
+    # Two of Dask's defaults cost sub-second solves CPU (measured on the library's Puma motions):
+    # the workers' statistical profiler, sampling every thread each 10 ms (~11 %, for a dashboard
+    # we do not open), and MALLOC_TRIM_THRESHOLD_=65536 in the workers' environment (~15 %: glibc
+    # hands freed memory back to the system and maps it again at every solve); BLAS and OpenMP
+    # stay at one thread, as Dask sets them
+    environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+               if k != "MALLOC_TRIM_THRESHOLD_"}
     try:
-        with dask.config.set({"distributed.worker.profile.enabled": False}):
+        with dask.config.set({"distributed.worker.profile.enabled": False,
+                              "distributed.nanny.pre-spawn-environ": environ}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=logging.ERROR)
     finally:
