@@ -24,7 +24,18 @@ NAMES = tuple(_MODULES)
 
 
 def load(name: str, symbolic: bool = False) -> Robot:
-    """The shipped robot called `name`; `symbolic=True` for the symbolic variant."""
+    """The shipped robot called `name` (one of `NAMES`), with its source in `robot.source`.
+
+    Args:
+        name: "twolink", "puma560", "puma560_mdh", "rrp", "panda", "iiwa14" or "ur5".
+        symbolic: the symbolic variant (the two-link arm's a1, a2, c1, c2, m1, m2, g).
+
+    Returns:
+        The `Robot`.
+
+    Raises:
+        KeyError: an unknown name (the message lists the known ones).
+    """
     if not isinstance(name, str) or name not in _MODULES:
         raise KeyError(f"unknown model {name!r}: known models are {', '.join(NAMES)}")
     module, options = _MODULES[name]
