@@ -172,3 +172,12 @@ def test_the_readme_links_into_the_site_resolve():
     links = [link.split("#")[0] for link in re.findall(r"\]\(([^)\s]+)\)", readme) if "://" not in link]
     assert len(links) >= 10 and [link for link in links if not (ROOT / link).exists()] == []
     assert len(readme.splitlines()) <= 150
+
+
+def test_every_page_is_in_the_navigation():
+    """mkdocs --strict fails on a page left out of the navigation (make docs); the suite says so first."""
+    pages = set(nav_pages())
+    omitted = sorted(p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*.md")
+                     if "equations" not in p.parts and "_hooks" not in p.parts
+                     and p.relative_to(DOCS).as_posix() not in pages)
+    assert omitted == [], f"pages not in mkdocs.yml's nav: {omitted}"
