@@ -55,7 +55,11 @@ $(VENV)/.docs-installed: $(STAMP)
 docs: $(VENV)/.docs-installed
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
-docs-check: docs
+$(VENV)/.browser-installed: $(VENV)/.docs-installed
+	$(BIN)/python -m pip install --quiet -e '.[docs,browser]'
+	touch $@
+
+docs-check: docs $(VENV)/.browser-installed
 	SYMDYN_SITE=site SYMDYN_SLOW_DOCS=1 $(BIN)/python -m pytest -q -p no:xdist tests/test_docs.py tests/test_site.py
 
 # The release from HEAD: sdist and wheel by python -m build, twine check, and the sdist's wheel
