@@ -79,7 +79,7 @@ def server():
 def browser(server):
     if CHROMIUM is None:
         pytest.skip("no Chromium (apt-get install chromium): the browser checks did not run")
-    playwright = pytest.importorskip("playwright.sync_api", reason="playwright (the docs extra) drives Chromium")
+    playwright = pytest.importorskip("playwright.sync_api", reason="playwright (the browser extra) drives Chromium")
     SHOTS.mkdir(exist_ok=True)
     with playwright.sync_playwright() as p:
         chromium = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
