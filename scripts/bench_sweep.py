@@ -2,6 +2,7 @@
 
     .venv/bin/python scripts/bench_sweep.py --n 200 --workers 1,2 [--cold-cache] [--markdown FILE]
     .venv/bin/python scripts/bench_sweep.py --probe 400 --probe-ms 50 --workers 1,2   # the engine alone
+    .venv/bin/python scripts/bench_sweep.py --fuzz 40 --workers 1,2                   # the random-arm fuzz
 
 One run, same tasks: the library of n minimum-time Puma motions (--arm, N = 40,
 Hermite–Simpson on compiled CasADi dynamics; no open-loop re-simulation unless
@@ -27,6 +28,7 @@ for _var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -38,7 +40,27 @@ from symdyn.sweep import engine, library  # noqa: E402
 
 
 def _results(rows) -> dict:
-    return {r["task_id"]: {k: v for k, v in r.items() if k not in engine.META or k == "error"} for r in rows}
+    """Rows by task id without the run's columns (and, for the fuzz, without its per-stage seconds)."""
+    out = {}
+    for r in rows:
+        row = {k: v for k, v in r.items() if k not in engine.META or k == "error"}
+        if "stages" in row and row["stages"]:
+            row["stages"] = [s[:3] for s in json.loads(row["stages"])]
+        out[r["task_id"]] = row
+    return out
+
+
+def fuzz_sweep(arms: int):
+    """The random-arm fuzz as a sweep (scripts/fuzz_arms.py's task), and its first `arms` inputs."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import fuzz_arms
+
+    columns = ("index", "seed", "n_min", "n_max", "general", "states", "stages", "tol")
+    sweep = engine.Sweep("fuzz-arms", "random-arm differential check", fuzz_arms.check_one, inputs=None,
+                         input_columns=columns, result_columns=("name", "n", "joints", "stages", "bad", "code"))
+    items = [{"index": k, "seed": 1000 + k, "n_min": 1, "n_max": 7, "general": 0.0, "states": 12,
+              "stages": list(fuzz_arms.STAGES), "tol": 1e-10} for k in range(arms)]
+    return sweep, items
 
 
 def measure(label: str, rows, wall: float, workers: int, serial_wall: float | None) -> dict:
@@ -111,6 +133,8 @@ def main(argv=None) -> int:
     p.add_argument("--probe", type=int, default=0, metavar="TASKS",
                    help="only the engine's overhead: TASKS tasks that sleep --probe-ms each (no solves)")
     p.add_argument("--probe-ms", type=float, default=50.0, help="sleep of a probe task, ms (default 50)")
+    p.add_argument("--fuzz", type=int, default=0, metavar="ARMS",
+                   help="the random-arm fuzz of ARMS arms instead of the library (scripts/fuzz_arms.py's task)")
     args = p.parse_args(argv)
     sizes = [int(k) for k in args.workers.split(",") if k]
     out = Path(args.out or tempfile.mkdtemp(prefix="bench-sweep-"))
@@ -120,15 +144,19 @@ def main(argv=None) -> int:
         if args.markdown:
             Path(args.markdown).write_text(text + "\n")
         return 0
-    items = library.inputs(args.n, arm=args.arm, N=args.N, verify=args.verify)
     load = os.getloadavg()[0]
-    print(f"bench_sweep: {args.n} minimum-time {args.arm} motions (N = {args.N}, verify {args.verify}), "
-          f"{os.cpu_count()} CPUs, load average {load:.1f} at the start; tables in {out}", flush=True)
-
-    t = time.perf_counter()
-    library.motion(items[0])   # fills the cache (derive, generate, compile) if need be: not timed below
-    print(f"  warm-up task (cache fill if the cache is cold): {time.perf_counter() - t:.1f} s", flush=True)
-    serial = engine.run(library.SWEEP, items, out / "serial", workers=0, progress=False)
+    if args.fuzz:
+        sweep, items = fuzz_sweep(args.fuzz)
+        what = f"the random-arm fuzz of {args.fuzz} arms (seeds 1000…, 1 to 7 joints)"
+    else:
+        sweep, items = library.SWEEP, library.inputs(args.n, arm=args.arm, N=args.N, verify=args.verify)
+        what = f"{args.n} minimum-time {args.arm} motions (N = {args.N}, verify {args.verify})"
+        t = time.perf_counter()
+        library.motion(items[0])   # fills the cache (derive, generate, compile) if need be: not timed below
+        print(f"  warm-up task (cache fill if the cache is cold): {time.perf_counter() - t:.1f} s", flush=True)
+    print(f"bench_sweep: {what}, {os.cpu_count()} CPUs, load average {load:.1f} at the start; tables in {out}",
+          flush=True)
+    serial = engine.run(sweep, items, out / "serial", workers=0, progress=False)
     serial_wall = serial.wall_s   # the tasks and the writing of their rows; not the summary and figure
     rows = [measure("serial (this process)", serial.rows, serial_wall, 1, None)]
     reference = _results(serial.rows)
@@ -137,7 +165,7 @@ def main(argv=None) -> int:
         t = time.perf_counter()
         client, _ = engine.connect(None, k)   # the local cluster `symdyn sweep --workers k` starts
         startup = time.perf_counter() - t
-        got = engine.run(library.SWEEP, items, out / f"workers{k}", client=client, progress=False)
+        got = engine.run(sweep, items, out / f"workers{k}", client=client, progress=False)
         wall = got.wall_s
         engine._close(client)
         row = measure(f"local cluster, {k} worker{'s' * (k != 1)}", got.rows, wall, k, serial_wall)
@@ -145,9 +173,9 @@ def main(argv=None) -> int:
         rows.append(row)
         equal[k] = _results(got.rows) == reference
         print(f"  {row['run']}: {wall:.1f} s (cluster start {startup:.1f} s, not included)", flush=True)
-    solved = sum(1 for r in serial.rows if r["T"])
-    lines = [f"{args.n} {args.arm} motions, {solved} solved; load average {load:.1f} -> {os.getloadavg()[0]:.1f} "
-             f"on {os.cpu_count()} CPUs",
+    done = sum(1 for r in serial.rows if not r["error"] and (args.fuzz or r["T"]))
+    lines = [f"{what}: {done} {'checked' if args.fuzz else 'solved'}; load average {load:.1f} -> "
+             f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs",
              "| run | wall (s) | per task (s) | CPU per task (s) | first-task extra (s) | overhead per task (s) | tasks/s | speed-up "
              "| efficiency |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -157,7 +185,7 @@ def main(argv=None) -> int:
                      f"{r.get('speedup', 1.0):.2f} | {r.get('efficiency', 1.0):.2f} |")
     lines.append("results equal the serial run exactly: "
                  + ", ".join(f"{k} worker(s) {'yes' if v else 'NO'}" for k, v in equal.items()))
-    if args.cold_cache:
+    if args.cold_cache and not args.fuzz:
         lines.append(f"first task in a fresh process with an empty cache (derive, generate, compile): "
                      f"{cold_cache_first_task(items[0]):.1f} s")
     text = "\n".join(lines)

@@ -14,15 +14,14 @@ import signal
 import socket
 import time
 
+import distributed   # the sweep extra, part of the test extra: pip install -e '.[test]'
 import numpy as np
 import pytest
 
-distributed = pytest.importorskip("distributed", reason="the sweep extra: pip install 'symdyn[sweep]'")
-
-from symdyn import cli  # noqa: E402
-from symdyn.numeric import reference as ref  # noqa: E402
-from symdyn.sweep import engine, library, montecarlo  # noqa: E402
-from symdyn.sweep.table import decode_json  # noqa: E402
+from symdyn import cli
+from symdyn.numeric import reference as ref
+from symdyn.sweep import engine, library, montecarlo
+from symdyn.sweep.table import decode_json
 
 #: Eight motions of the two-link arm, coarse grid, no open-loop check: cheap, real solves.
 INPUTS = library.inputs(8, arm="twolink", N=8, verify=False)
