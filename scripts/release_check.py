@@ -56,12 +56,18 @@ def main(argv: list[str]) -> int:
         a, b = contents(wheel), contents(next(direct.glob("*.whl")))
         differ = sorted(set(a) ^ set(b)) + sorted(n for n in set(a) & set(b) if a[n] != b[n])
         files = zipfile.ZipFile(wheel).namelist()
-        print(f"{args.ref}: sdist {sdist.name} {sdist.stat().st_size / 1e3:.0f} kB, "
-              f"wheel {wheel.name} {wheel.stat().st_size / 1e3:.0f} kB ({len(files)} files)")
-        print(f"python -m build (sdist, then the wheel from it): {t_build:.1f} s; twine check --strict: "
-              f"{t_twine:.1f} s, passed; a wheel straight from the tree: {t_direct:.1f} s")
-        print(f"py.typed in the wheel: {'symdyn/py.typed' in files}; generated code in the wheel: "
-              f"{any('/generated/' in f for f in files)}")
+        print(
+            f"{args.ref}: sdist {sdist.name} {sdist.stat().st_size / 1e3:.0f} kB, "
+            f"wheel {wheel.name} {wheel.stat().st_size / 1e3:.0f} kB ({len(files)} files)"
+        )
+        print(
+            f"python -m build (sdist, then the wheel from it): {t_build:.1f} s; twine check --strict: "
+            f"{t_twine:.1f} s, passed; a wheel straight from the tree: {t_direct:.1f} s"
+        )
+        print(
+            f"py.typed in the wheel: {'symdyn/py.typed' in files}; generated code in the wheel: "
+            f"{any('/generated/' in f for f in files)}"
+        )
         if differ:
             print(f"the sdist's wheel and the tree's wheel differ in: {', '.join(differ)}")
             return 1

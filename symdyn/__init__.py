@@ -24,8 +24,9 @@ if TYPE_CHECKING:  # the stages below are imported when first used: `import symd
     from .derivation.dynamics import Dynamics
 
 
-def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False, cache: bool = True,
-           progress: bool = False) -> Dynamics:
+def derive(
+    robot: Robot, method: str = "newton-euler", *, regroup: bool = False, cache: bool = True, progress: bool = False
+) -> Dynamics:
     """Closed-form dynamics of `robot`: M(q), C(q, q̇), G(q), F(q̇) and τ as sympy matrices.
 
     The two methods are independent derivations of the same dynamics and agree
@@ -56,8 +57,9 @@ def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False,
     return _derive(robot, method, regroup=regroup, cache=cache, progress=progress)
 
 
-def generate(robot: Robot | str, target: str = "all", out_dir: str | PathLike | None = None, *,
-             casadi_c: bool = False) -> list[Path]:
+def generate(
+    robot: Robot | str, target: str = "all", out_dir: str | PathLike | None = None, *, casadi_c: bool = False
+) -> list[Path]:
     """Write the model code of `robot` for `target` into `out_dir`.
 
     Every target prints the same straight-line program (one joint CSE over all

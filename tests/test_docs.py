@@ -21,8 +21,16 @@ DOCS = ROOT / "docs"
 REFERENCE = DOCS / "reference"
 #: Public modules beside those named in `symdyn.__all__`: each has a reference page that
 #: documents every name of its `__all__`.
-PUBLIC_MODULES = ("symdyn.models", "symdyn.model", "symdyn.reference", "symdyn.ocp", "symdyn.identify",
-                  "symdyn.sweep", "symdyn.sweep.engine", "symdyn.sweep.table")
+PUBLIC_MODULES = (
+    "symdyn.models",
+    "symdyn.model",
+    "symdyn.reference",
+    "symdyn.ocp",
+    "symdyn.identify",
+    "symdyn.sweep",
+    "symdyn.sweep.engine",
+    "symdyn.sweep.table",
+)
 
 
 def documented_modules() -> list[str]:
@@ -30,11 +38,11 @@ def documented_modules() -> list[str]:
     modules = []
     for name in dict.fromkeys([*named, *PUBLIC_MODULES]):
         try:
-            module = importlib.import_module(name)
+            importlib.import_module(name)
         except ImportError:
             if name in named:
                 raise
-            continue                      # a capability not landed (or its optional extra absent)
+            continue  # a capability not landed (or its optional extra absent)
         modules.append(name)
     return modules
 
@@ -80,8 +88,14 @@ def test_every_page_of_the_navigation_exists():
 
 def test_every_reference_page_is_in_the_navigation():
     pages = set(nav_pages())
-    assert sorted(p.relative_to(DOCS).as_posix() for p in REFERENCE.glob("*.md")
-                  if p.relative_to(DOCS).as_posix() not in pages) == []
+    assert (
+        sorted(
+            p.relative_to(DOCS).as_posix()
+            for p in REFERENCE.glob("*.md")
+            if p.relative_to(DOCS).as_posix() not in pages
+        )
+        == []
+    )
 
 
 def python_blocks(page: Path) -> list[str]:
@@ -112,8 +126,9 @@ def examples(page: Path) -> list[tuple[str, str | None]]:
 #: Pages whose examples take long (compiling CasADi's C for a Puma OCP: ~40 s; XLA compiling
 #: the JAX target: ~5 s): run by `make docs-check` (SYMDYN_SLOW_DOCS=1), not by the suite.
 SLOW_PAGES = {"studies_ocp.md", "jax_torch.md"}
-PAGES_WITH_CODE = sorted((p for p in DOCS.rglob("*.md") if "equations" not in p.parts and python_blocks(p)),
-                         key=lambda p: p.as_posix())
+PAGES_WITH_CODE = sorted(
+    (p for p in DOCS.rglob("*.md") if "equations" not in p.parts and python_blocks(p)), key=lambda p: p.as_posix()
+)
 
 
 def test_the_site_has_examples():
@@ -147,6 +162,34 @@ def test_ruff_is_clean_on_the_package():
     assert done.returncode == 0, done.stdout + done.stderr
 
 
+#: Files kept in `ruff format`'s style; the rest of the tree joins in one formatting commit once the
+#: branches in flight have landed (80 of symdyn's 100 files would change today).
+FORMATTED = (
+    "symdyn/__init__.py",
+    "symdyn/models.py",
+    "symdyn/reference.py",
+    "symdyn/ocp.py",
+    "tests/test_docs.py",
+    "tests/test_site.py",
+    "scripts/release_check.py",
+    "docs/_hooks/equations.py",
+)
+
+
+def test_ruff_format_keeps_the_formatted_files():
+    import shutil
+    import subprocess
+    import sys
+
+    ruff = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
+    if ruff is None:
+        pytest.skip("ruff is not installed (pip install ruff)")
+    done = subprocess.run(
+        [ruff, "format", "--check", *FORMATTED], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
 def test_the_package_is_typed():
     assert (ROOT / "symdyn" / "py.typed").is_file()
     import tomllib
@@ -177,7 +220,9 @@ def test_the_readme_links_into_the_site_resolve():
 def test_every_page_is_in_the_navigation():
     """mkdocs --strict fails on a page left out of the navigation (make docs); the suite says so first."""
     pages = set(nav_pages())
-    omitted = sorted(p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*.md")
-                     if "equations" not in p.parts and "_hooks" not in p.parts
-                     and p.relative_to(DOCS).as_posix() not in pages)
+    omitted = sorted(
+        p.relative_to(DOCS).as_posix()
+        for p in DOCS.rglob("*.md")
+        if "equations" not in p.parts and "_hooks" not in p.parts and p.relative_to(DOCS).as_posix() not in pages
+    )
     assert omitted == [], f"pages not in mkdocs.yml's nav: {omitted}"

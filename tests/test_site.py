@@ -22,8 +22,10 @@ SITE = Path(os.environ.get("SYMDYN_SITE", ROOT / "site")).resolve()
 SHOTS = ROOT / "site-check"
 CHROMIUM = os.environ.get("SYMDYN_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
 
-pytestmark = pytest.mark.skipif(not (os.environ.get("SYMDYN_SITE") and (SITE / "index.html").is_file()),
-                                reason="checks a built site: make docs-check (SYMDYN_SITE=site)")
+pytestmark = pytest.mark.skipif(
+    not (os.environ.get("SYMDYN_SITE") and (SITE / "index.html").is_file()),
+    reason="checks a built site: make docs-check (SYMDYN_SITE=site)",
+)
 
 
 def html(page: str) -> str:
@@ -35,8 +37,11 @@ def built_arms() -> list[str]:
 
 
 def test_every_page_of_the_navigation_was_built():
-    missing = [p for p in nav_pages() if not (SITE / re.sub(r"(README|index)?\.md$", lambda m: "index.html"
-                                                         if m.group(1) else ".html", p)).is_file()]
+    missing = [
+        p
+        for p in nav_pages()
+        if not (SITE / re.sub(r"(README|index)?\.md$", lambda m: "index.html" if m.group(1) else ".html", p)).is_file()
+    ]
     assert missing == []
 
 
@@ -105,7 +110,7 @@ def test_the_browser_renders_the_equations(browser, arm):
         pytest.skip(f"{arm}'s page was not built (SYMDYN_DOCS_ARMS)")
     tab, errors = open_page(browser, f"equations/{arm}.html")
     tab.wait_for_function("() => window.MathJax && MathJax.startup && MathJax.startup.promise", timeout=60_000)
-    tab.evaluate("() => MathJax.startup.promise")            # typesetting done
+    tab.evaluate("() => MathJax.startup.promise")  # typesetting done
     found = tab.evaluate("""() => ({math: document.querySelectorAll('.arithmatex').length,
         rendered: document.querySelectorAll('.arithmatex mjx-container').length,
         errors: document.querySelectorAll('mjx-merror').length,
