@@ -156,12 +156,16 @@ def main(argv=None) -> int:
         print(f"  warm-up task (cache fill if the cache is cold): {time.perf_counter() - t:.1f} s", flush=True)
     print(f"bench_sweep: {what}, {os.cpu_count()} CPUs, load average {load:.1f} at the start; tables in {out}",
           flush=True)
+    if args.fuzz:   # every run derives and compiles its arms afresh, as a first fuzz of those seeds does
+        os.environ["SYMDYN_CACHE_DIR"] = tempfile.mkdtemp(prefix="symdyn-cache-serial-")
     serial = engine.run(sweep, items, out / "serial", workers=0, progress=False)
     serial_wall = serial.wall_s   # the tasks and the writing of their rows; not the summary and figure
     rows = [measure("serial (this process)", serial.rows, serial_wall, 1, None)]
     reference = _results(serial.rows)
     equal = {}
     for k in sizes:
+        if args.fuzz:
+            os.environ["SYMDYN_CACHE_DIR"] = tempfile.mkdtemp(prefix=f"symdyn-cache-workers{k}-")
         t = time.perf_counter()
         client, _ = engine.connect(None, k)   # the local cluster `symdyn sweep --workers k` starts
         startup = time.perf_counter() - t
