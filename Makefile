@@ -45,7 +45,8 @@ bench: $(VENV)/.bench-installed
 # The documentation site (mkdocs.yml, pages under docs/) into site/, strict: a warning, a broken
 # link or a missing reference fails.  The shipped arms' equations are printed during the build
 # (docs/_hooks/equations.py, one process per core: the build takes ~2 min on 2 cores;
-# SYMDYN_DOCS_ARMS=twolink renders one arm, ~10 s).  docs-check then checks the built site (tests/test_site.py: reference anchors, and in
+# SYMDYN_DOCS_ARMS=twolink renders one arm, ~10 s).  docs-check then checks the built site
+# (tests/test_site.py: reference anchors, and in
 # a headless Chromium, where installed, the rendered equations and the figures) and runs every
 # page's examples, the slow ones included.
 $(VENV)/.docs-installed: $(STAMP)
