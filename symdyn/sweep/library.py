@@ -151,9 +151,10 @@ def report(rows: list[dict], out_dir: Path) -> list[str]:
     passed = [r for r in checked if r["check"] == "1"]
     lines += [f"  minimum time: min {T.min():.3f} s, median {np.median(T):.3f} s, max {T.max():.3f} s; "
               f"IPOPT iterations median {np.median(it):.0f}, max {it.max()}",
-              f"  re-simulated open loop with the reference: {len(passed)} of {len(checked)} reach the goal "
-              f"within the tolerance with every limit held"
-              + (f"; worst goal error {max(float(r['goal_error']) for r in checked):.2e} rad" if checked else ""),
+              (f"  re-simulated open loop with the reference: {len(passed)} of {len(checked)} reach the goal "
+               f"within the tolerance with every limit held; worst goal error "
+               f"{max(float(r['goal_error']) for r in checked):.2e} rad") if checked else
+              "  not re-simulated (--no-verify)",
               f"  worst limit violation on the grid: {max(float(r['limit_violation']) for r in solved):.1e}"]
     for r in [r for r in checked if r["check"] != "1"][:10]:
         lines.append(f"    FAIL task {r['task_id']}: goal error {float(r['goal_error']):.2e} rad, "
