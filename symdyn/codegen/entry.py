@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..derivation import progress
-from ..derivation.cache import cache_dir, package_fingerprint, writable
+from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writable
 from ..model import Robot, arms
 from .emit import Bundle, identifier, is_intact, read_header, write_atomic
 
@@ -394,12 +394,14 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
             return _load_folder(shipped, name, target, robot, options, jit)
     folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
     if not _intact(folder, name, target):
-        if name in SHIPPED and not in_checkout():
-            print(f"symdyn: generating the code of {name} ({target}) into the cache, once: an installed "
-                  "symdyn carries no generated/", file=sys.stderr)
-        folder = writable(folder)
-        with progress.reported(f"symdyn: generating the {target} code of {name}"):
-            generate(robot, _WRITTEN.get(target, target), folder)
+        with build_lock(folder):   # processes that want the same code (a cluster's workers) write it once
+            if not _intact(folder, name, target):
+                if name in SHIPPED and not in_checkout():
+                    print(f"symdyn: generating the code of {name} ({target}) into the cache, once: an "
+                          "installed symdyn carries no generated/", file=sys.stderr)
+                folder = writable(folder)
+                with progress.reported(f"symdyn: generating the {target} code of {name}"):
+                    generate(robot, _WRITTEN.get(target, target), folder)
     return _load_folder(folder, name, target, robot, options, jit)
 
 
