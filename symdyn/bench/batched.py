@@ -315,7 +315,8 @@ def ceiling_lines(ceil: Ceilings) -> list[str]:
     return [f"ceilings (measured in this run): mul-add peak {ceil.ops[0] / 1e9:.1f} Gop/s on 1 thread, "
             f"{ceil.ops[1] / 1e9:.1f} on {ceil.threads}; copy bandwidth {ceil.bandwidth[0] / 1e9:.1f} GB/s on 1 "
             f"thread, {ceil.bandwidth[1] / 1e9:.1f} on {ceil.threads}",
-            f"ops/state: mul + add + div + {FUN_OPS} per sin/cos/sign call (header counts); bytes/state: inputs "
+            f"ops/state: mul + add + div + {FUN_OPS} per sin/cos/sign call (the header's counts: after one joint "
+            "CSE, with the model's friction); bytes/state: inputs "
             "+ outputs; bound = max(ops / peak, bytes / bandwidth) at T threads"]
 
 
