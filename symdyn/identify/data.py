@@ -47,6 +47,7 @@ class Data:
     tau: np.ndarray
     decimate: int = 1
     source: str = "arrays"
+    differentiated: bool = False   # q̇ computed from q (then its sign at rest is noise: see fit's rest_speed)
     notes: tuple = field(default=())
     truth: object = field(default=None, compare=False, repr=False)   # the true arm of simulated data
 
@@ -248,6 +249,7 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
     if not isinstance(decimate, (int, np.integer)) or decimate < 1:
         raise ValueError(f"decimate must be a positive integer, got {decimate!r}")
     needs_derivative = qd is None or qdd is None
+    differentiated = qd is None
     if cutoff is not None or needs_derivative or decimate > 1:
         rate = _uniform_rate(t, source, first_line)
     if cutoff is not None or needs_derivative:
@@ -273,7 +275,8 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
         notes.append(f"the first and last {edge} samples dropped ({EDGE:g}/cutoff: the filter's edge transients)")
     if decimate > 1:
         notes.append(f"tau and Y decimated by {decimate} through one filter (parallel filtering) in fit")
-    return Data(t=t, q=q, qd=qd, qdd=qdd, tau=tau, decimate=int(decimate), source=source, notes=tuple(notes))
+    return Data(t=t, q=q, qd=qd, qdd=qdd, tau=tau, decimate=int(decimate), source=source, notes=tuple(notes),
+                differentiated=differentiated)
 
 
 def _uniform_rate(t: np.ndarray, source: str, first_line) -> float:
