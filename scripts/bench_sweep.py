@@ -5,7 +5,7 @@
     .venv/bin/python scripts/bench_sweep.py --fuzz 40 --workers 1,2                   # the random-arm fuzz
 
 One run, same tasks: the library of n minimum-time Puma motions (--arm, N = 40,
-Hermite–Simpson on compiled CasADi dynamics; no open-loop re-simulation unless
+Hermite–Simpson on compiled CasADi dynamics; no re-simulation unless
 --verify) first in this process one after the other (`workers=0`: the
 baseline, same task code), then on a local cluster of 1 and 2 worker
 processes (one thread each).  Reported per run: wall time, per-task time (the
@@ -14,7 +14,9 @@ minus a warm one: imports and loading the compiled functions from the disk
 cache), scheduler overhead per task (worker time outside tasks: k·wall − Σ
 task time, per task; includes the start-up of the workers' first tasks and
 the idle tail), speed-up and parallel efficiency against the serial run, and
-whether every run's results equal the serial run's exactly.  --cold-cache also
+whether every run's results equal the serial run's exactly; then the machine's
+ceiling: the same motions split over k independent processes without Dask
+(what the cores give side by side bounds any engine's efficiency).  --cold-cache also
 times one task in a fresh process with an empty symdyn cache (a new host of a
 cluster: derive, generate and compile the CasADi functions).  BLAS/OpenMP are
 held to one thread everywhere (Dask's workers do this by default).
@@ -110,6 +112,25 @@ def probe(tasks: int, seconds: float, sizes: list[int], out: Path) -> list[str]:
     return lines
 
 
+def independent(items: list[dict], k: int) -> float:
+    """The machine's ceiling for k workers: k independent processes (no Dask, no driver), each
+    running its share of the tasks one after the other once warm; the wall time of the slowest.
+    What the cores give side by side (shared caches, memory, clocks) bounds any engine."""
+    code = ("import json, sys, time; from symdyn.sweep import library; items = json.loads(sys.stdin.read()); "
+            "library.motion(items[0]); t = time.perf_counter(); [library.motion(i) for i in items]; "
+            "print(time.perf_counter() - t)")
+    shares = [items[j::k] for j in range(k)]
+    procs = [subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                              text=True) for _ in shares]
+    for proc, share in zip(procs, shares):
+        proc.stdin.write(json.dumps(share))
+        proc.stdin.close()
+    walls = [float(proc.stdout.read().split()[-1]) for proc in procs]
+    if any(proc.wait() for proc in procs):
+        raise RuntimeError("an independent process failed")
+    return max(walls)
+
+
 def cold_cache_first_task(item: dict) -> float:
     """Seconds of one task in a fresh process whose symdyn cache is empty (a new host)."""
     with tempfile.TemporaryDirectory(prefix="symdyn-cold-") as cache:
@@ -124,9 +145,11 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--n", type=int, default=200, help="motions (default 200)")
     p.add_argument("--arm", default="puma560", choices=library.ARMS)
-    p.add_argument("--N", type=int, default=40, help="collocation intervals (default 40)")
+    p.add_argument("--N", type=int, default=None, help="collocation intervals (default: the arm's, Puma 40)")
     p.add_argument("--workers", default="1,2", help="local cluster sizes to run, comma-separated (default 1,2)")
     p.add_argument("--verify", action="store_true", help="re-simulate every motion with the reference (slower)")
+    p.add_argument("--no-ceiling", dest="ceiling", action="store_false",
+                   help="skip the machine's ceiling (the motions in independent processes, no Dask)")
     p.add_argument("--cold-cache", action="store_true", help="also time a first task with an empty cache")
     p.add_argument("--out", default=None, help="folder for the runs' tables (default: a temporary folder)")
     p.add_argument("--markdown", default=None, help="also write the table as markdown to this file")
@@ -150,7 +173,7 @@ def main(argv=None) -> int:
         what = f"the random-arm fuzz of {args.fuzz} arms (seeds 1000…, 1 to 7 joints)"
     else:
         sweep, items = library.SWEEP, library.inputs(args.n, arm=args.arm, N=args.N, verify=args.verify)
-        what = f"{args.n} minimum-time {args.arm} motions (N = {args.N}, verify {args.verify})"
+        what = f"{args.n} minimum-time {args.arm} motions (N = {items[0]['N']}, verify {args.verify})"
         t = time.perf_counter()
         library.motion(items[0])   # fills the cache (derive, generate, compile) if need be: not timed below
         print(f"  warm-up task (cache fill if the cache is cold): {time.perf_counter() - t:.1f} s", flush=True)
@@ -187,6 +210,12 @@ def main(argv=None) -> int:
                      f"{r['first_task_extra_s']:.2f} | "
                      f"{r['overhead_per_task_s']:.4f} | {r['tasks_per_s']:.2f} | "
                      f"{r.get('speedup', 1.0):.2f} | {r.get('efficiency', 1.0):.2f} |")
+    if not args.fuzz and args.ceiling:
+        ceiling = {k: independent(items, k) for k in sizes if k > 1}
+        lines.append("the machine's ceiling (k independent processes, no Dask, each warm, its share of the "
+                     "motions one after the other): " + ", ".join(
+                         f"{k}: {w:.1f} s, speed-up {serial_wall / w:.2f}, efficiency {serial_wall / (k * w):.2f}"
+                         for k, w in ceiling.items()))
     lines.append("results equal the serial run exactly: "
                  + ", ".join(f"{k} worker(s) {'yes' if v else 'NO'}" for k, v in equal.items()))
     if args.cold_cache and not args.fuzz:

@@ -1,6 +1,8 @@
 """Optimal control on CasADi dynamics: small instances of each study, re-simulated
 open-loop with the reference; transcriptions agree; infeasible requests fail clearly."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -192,6 +194,29 @@ def test_multiple_shooting_re_simulated_with_its_own_rk4_reproduces_the_nodes(ar
     sol = ocp.solve(problem, ocp.dynamics(arm2, "plain"))
     _, q, qd = ocp.resimulate(arm2, sol, substeps=problem.substeps)
     assert np.abs(q - sol.q).max() < 1e-8 and np.abs(qd - sol.qd).max() < 1e-8
+
+
+def test_interval_replay_starts_each_interval_at_its_node(arm2):
+    """replay="intervals" re-simulates interval k from node k: a node moved by 0.1 rad shows as a
+    gap of 0.1 at that node and the next (the interval into it misses it, the one out of it starts
+    there), while the open-loop replay, which never reads a node after the first, is unchanged."""
+    problem = ocp.Problem(HANG, np.array([-1.0, 0.3]), T=1.0, N=8, method="multiple-shooting")
+    sol = ocp.solve(problem, ocp.dynamics(arm2, "plain"))
+    _, q_open, _ = ocp.resimulate(arm2, sol, substeps=problem.substeps)
+    check = ocp.verify(arm2, problem, sol, replay="intervals", substeps=problem.substeps, tol_q=1e-6, tol_qd=1e-6)
+    assert check.ok and check.path_q_error < 1e-8 and check.path_qd_error < 1e-8, check.describe()
+    q_moved = sol.q.copy()
+    q_moved[4, 0] += 0.1
+    moved = dataclasses.replace(sol, q=q_moved)
+    _, q, _ = ocp.resimulate(arm2, moved, substeps=problem.substeps, restart=True)
+    gap = np.abs(q - moved.q).max(1)
+    assert gap[4] == pytest.approx(0.1, abs=1e-8) and gap[5] > 0.05
+    assert np.all(np.delete(gap, [4, 5]) < 1e-8)   # every other interval starts at its own node
+    bad = ocp.verify(arm2, problem, moved, replay="intervals", substeps=problem.substeps)
+    assert not bad.ok and "interval by interval" in bad.describe() and bad.path_q_error >= 0.1 - 1e-8
+    assert np.array_equal(ocp.resimulate(arm2, moved, substeps=problem.substeps)[1], q_open)
+    with pytest.raises(ValueError, match="unknown replay 'closed'"):
+        ocp.verify(arm2, problem, sol, replay="closed")
 
 
 def test_hermite_simpson_torque_passes_through_nodes_and_midpoints(arm2):

@@ -77,6 +77,21 @@ def test_the_command_lists_runs_and_checks_its_options(tmp_path, capsys):
     assert "2 of 2 tasks" in out and (tmp_path / "montecarlo_error.png").is_file()
 
 
+def test_library_motions_are_re_simulated_with_the_reference(tmp_path):
+    """verify=True: each motion's torque re-simulated with the reference reaches its goal with every
+    limit held, and the summary says so; the Panda's scene is its URDF's limits (Franka's data sheet:
+    87 / 12 N·m, 2.175 / 2.61 rad/s) and its motions are checked interval by interval."""
+    items = library.inputs(2, arm="twolink")   # N = 40; at 20 the first misses its goal by 0.47 rad
+    outcome = engine.run(library.SWEEP, items, tmp_path, workers=0, progress=False)
+    for row in outcome.rows:
+        assert row["check"] == "1" and float(row["goal_error"]) < 1e-2 and float(row["limit_violation"]) <= 1e-6
+    assert "re-simulated open loop with the reference: 2 of 2 reach the goal" in (tmp_path / "summary.txt").read_text()
+    _, limits = library.scene("panda")
+    assert np.array_equal(limits.tau, [87, 87, 87, 87, 12, 12, 12])
+    assert np.array_equal(limits.qd, [2.175] * 4 + [2.61] * 3)
+    assert library.REPLAY["panda"] == "intervals" and library.inputs(1, arm="panda")[0]["N"] == 60
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

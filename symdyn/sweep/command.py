@@ -16,8 +16,9 @@ from pathlib import Path
 from . import MODULES, get
 
 #: The sweeps' own options: flag -> (dest, type, help).  Defaults come from each Sweep.options.
-OWN = {"--arm": ("arm", str, "the arm (trajectory-library, monte-carlo: puma560 or twolink)"),
-       "--N": ("N", int, "collocation intervals per motion (trajectory-library; default 40)"),
+OWN = {"--arm": ("arm", str, "the arm (trajectory-library: puma560, panda or twolink; monte-carlo: "
+                            "puma560 or twolink)"),
+       "--N": ("N", int, "collocation intervals per motion (trajectory-library; default 40, panda 60)"),
        "--seed": ("seed", int, "seed of the random inputs (default 0)"),
        "--spread": ("spread", float, "relative parameter spread x, factors in [1 - x, 1 + x] "
                                      "(monte-carlo; default 0.1)"),
@@ -41,7 +42,7 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
                         "one after the other")
     p.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
     p.add_argument("--no-verify", action="store_true",
-                   help="trajectory-library: skip the open-loop re-simulation of each motion (faster)")
+                   help="trajectory-library: skip the re-simulation of each motion (faster)")
     for flag, (dest, kind, text) in OWN.items():
         p.add_argument(flag, dest=dest, type=kind, default=None, help=text)
     p.set_defaults(func=run_command)
@@ -54,7 +55,8 @@ def run_command(args: argparse.Namespace) -> int:
         for name in MODULES:
             sweep = get(name)
             print(f"{name:20s} {sweep.summary}")
-            print(f"{'':20s} options: " + ", ".join(f"--{k} (default {v[0]})" for k, v in sweep.options.items()))
+            print(f"{'':20s} options: " + ", ".join(f"--{k}" + ("" if v[0] is None else f" (default {v[0]})")
+                                                   for k, v in sweep.options.items()))
         return 0
     sweep = get(args.name)
     options = {}
