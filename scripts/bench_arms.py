@@ -22,11 +22,27 @@ def _generic7():
 
     base = random_arm(5000, ArmOptions(n_min=7, n_max=7, prismatic=0.0, symbolic=0.0))
     links = []
-    for k, link in enumerate(base.links):   # generic rpy and a generic unit axis on every joint
+    for k, link in enumerate(base.links):  # generic rpy and a generic unit axis on every joint
         rpy = (0.3 + 0.17 * k, -0.4 + 0.11 * k, 0.25 * k + 0.1)
-        axis = (math.sin(0.7 + k), math.cos(0.7 + k) * math.sin(0.3 * k + 0.2), math.cos(0.7 + k) * math.cos(0.3 * k + 0.2))
-        links.append(Link(origin=placement((0.05 * k, 0.1, 0.2), rpy), axis=axis, m=link.m, r=link.r, I=link.I,
-                          Jm=link.Jm, G=link.G, B=link.B, Tc=link.Tc, qlim=link.qlim))
+        axis = (
+            math.sin(0.7 + k),
+            math.cos(0.7 + k) * math.sin(0.3 * k + 0.2),
+            math.cos(0.7 + k) * math.cos(0.3 * k + 0.2),
+        )
+        links.append(
+            Link(
+                origin=placement((0.05 * k, 0.1, 0.2), rpy),
+                axis=axis,
+                m=link.m,
+                r=link.r,
+                I=link.I,
+                Jm=link.Jm,
+                G=link.G,
+                B=link.B,
+                Tc=link.Tc,
+                qlim=link.qlim,
+            )
+        )
     return Robot("generic7", tuple(links), convention="general")
 
 
@@ -57,7 +73,7 @@ def run(name: str) -> list:
 def main(argv) -> int:
     names = argv or ["panda", "iiwa14", "ur5", "generic7"]
     print(f"{'model':10s} {'step':50s} {'seconds':>8s}", flush=True)
-    for name in names:   # one process per model keeps the caches cold
+    for name in names:  # one process per model keeps the caches cold
         result = subprocess.run([sys.executable, __file__, "--one", name], capture_output=True, text=True)
         if result.returncode:
             print(result.stderr, file=sys.stderr)

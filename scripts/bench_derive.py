@@ -40,8 +40,10 @@ def main() -> int:
     timed("Lagrange: the same as sympy matrices (derive)", lambda: derive(robot, "lagrange", cache=False))
     reg = timed("regressor Y (symbolic inertial parameters)", lambda: regressor(robot))
     timed("base parameters (exact rank analysis)", lambda: base_parameters(robot, reg))
-    dyn = timed("Newton–Euler on regrouped base parameters (first run, fills cache)",
-                lambda: derive(robot, "newton-euler", regroup=True))
+    dyn = timed(
+        "Newton–Euler on regrouped base parameters (first run, fills cache)",
+        lambda: derive(robot, "newton-euler", regroup=True),
+    )
     timed("the same, from the cache", lambda: derive(robot, "newton-euler", regroup=True))
     print(f"{'step':68s} {'seconds':>8s}")
     for label, seconds in rows:

@@ -31,15 +31,22 @@ ARMS = ("puma560", "panda", "iiwa14")
 FUNCTIONS = ("tau", "M", "fdyn", "tau_derivatives", "autodiff")
 BATCHES = (1, 10, 100, 1000, 10_000, 65_536, 100_000, 1_000_000)
 #: Published GPU figures (ns per state), iiwa on an H100: (source, function) → (ns, note).
-PUBLISHED = {"tau": "GRiD ID 16 ns @65k, MJX ~20 ns", "tau_derivatives": "GRiD grad 116 ns @65k",
-             "autodiff": "GRiD grad 116 ns @65k"}
+PUBLISHED = {
+    "tau": "GRiD ID 16 ns @65k, MJX ~20 ns",
+    "tau_derivatives": "GRiD grad 116 ns @65k",
+    "autodiff": "GRiD grad 116 ns @65k",
+}
 
 
 def states(robot, batch: int, seed: int = 0):
     rng = np.random.default_rng(seed)
     lo, hi = robot.qlim.T
-    return (rng.uniform(lo, hi, (batch, robot.n)), rng.uniform(-2, 2, (batch, robot.n)),
-            rng.uniform(-5, 5, (batch, robot.n)), rng.uniform(-20, 20, (batch, robot.n)))
+    return (
+        rng.uniform(lo, hi, (batch, robot.n)),
+        rng.uniform(-2, 2, (batch, robot.n)),
+        rng.uniform(-5, 5, (batch, robot.n)),
+        rng.uniform(-20, 20, (batch, robot.n)),
+    )
 
 
 def best(call, sync, budget: float) -> float:
@@ -58,8 +65,10 @@ class Jax:
 
     def __init__(self):
         import jax
+
         jax.config.update("jax_enable_x64", True)
         from symdyn.codegen.emit.array_api import CPU_COMPILER_OPTIONS
+
         self.jax, self.jnp = jax, jax.numpy
         self.gpu = jax.default_backend() != "cpu"
         self.device = f"{jax.default_backend()}: {jax.devices()[0].device_kind}"
@@ -84,6 +93,7 @@ class Torch:
 
     def __init__(self):
         import torch
+
         self.torch = torch
         self.gpu = torch.cuda.is_available()
         self.dev = "cuda" if self.gpu else "cpu"
@@ -91,6 +101,7 @@ class Torch:
 
     def functions(self, name):
         from torch.func import jacrev, vmap
+
         f = symdyn.load(name, "torch")
         funcs = {fn: getattr(f, fn) for fn in FUNCTIONS[:-1]}
         funcs["autodiff"] = vmap(jacrev(f.tau, argnums=(0, 1)))
@@ -128,8 +139,10 @@ def main(argv=None) -> int:
         return 1
     if not any(lib.gpu for lib in libs):
         print("no GPU: running on CPU")
-    print(f"symdyn {symdyn.__version__}; ns per state (best of repeated calls; compile: the first call at the "
-          f"largest batch, s); published context for the iiwa on an H100: {', '.join(sorted(set(PUBLISHED.values())))}")
+    print(
+        f"symdyn {symdyn.__version__}; ns per state (best of repeated calls; compile: the first call at the "
+        f"largest batch, s); published context for the iiwa on an H100: {', '.join(sorted(set(PUBLISHED.values())))}"
+    )
     for lib in libs:
         print(f"\n{lib.name} on {lib.device}")
         head = f"{'arm':8s} {'function':16s} {'dtype':7s} " + " ".join(f"{b:>9d}" for b in args.batches)
@@ -149,15 +162,24 @@ def main(argv=None) -> int:
                             compile_s = time.perf_counter() - t
                             seconds = best(lambda: funcs[fn](*call_args), lib.sync, args.budget)
                             cells.append(f"{seconds / batch * 1e9:9.1f}")
-                        except (RuntimeError, MemoryError) as exc:   # out of device memory: say so, go on
+                        except (RuntimeError, MemoryError) as exc:  # out of device memory: say so, go on
                             cells.append(f"{'oom':>9s}")
-                            print(f"  {name} {fn} {dtype} batch {batch}: {type(exc).__name__}: {str(exc)[:80]}",
-                                  file=sys.stderr)
-                    label = "jacfwd(tau)" if fn == "autodiff" and lib.name == "jax" else \
-                        "jacrev(tau)" if fn == "autodiff" else fn
+                            print(
+                                f"  {name} {fn} {dtype} batch {batch}: {type(exc).__name__}: {str(exc)[:80]}",
+                                file=sys.stderr,
+                            )
+                    label = (
+                        "jacfwd(tau)"
+                        if fn == "autodiff" and lib.name == "jax"
+                        else "jacrev(tau)"
+                        if fn == "autodiff"
+                        else fn
+                    )
                     note = PUBLISHED.get(fn, "") if name == "iiwa14" else ""
-                    print(f"{name:8s} {label:16s} {dtype:7s} " + " ".join(cells) + f" {compile_s:8.2f}  {note}",
-                          flush=True)
+                    print(
+                        f"{name:8s} {label:16s} {dtype:7s} " + " ".join(cells) + f" {compile_s:8.2f}  {note}",
+                        flush=True,
+                    )
     return 0
 
 

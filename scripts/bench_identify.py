@@ -37,12 +37,14 @@ def main() -> None:
     period = 10.0
     traj = fourier(robot, period=period, harmonics=5, rate=args.samples / period, seed=1)
     clean = simulate(robot, traj, seed=3)
-    noise = 0.02 * np.sqrt(np.mean(clean.tau ** 2, axis=0))
+    noise = 0.02 * np.sqrt(np.mean(clean.tau**2, axis=0))
     data = simulate(robot, traj, truth=clean.truth, noise=noise, seed=4)
     true = base_map(robot).values(clean.truth)
-    print(f"{args.model}: {data.N} samples × {robot.n} joints, {len(true)} base parameters; "
-          f"{os.cpu_count()} CPUs, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}, "
-          f"load average {os.getloadavg()[0]:.1f}")
+    print(
+        f"{args.model}: {data.N} samples × {robot.n} joints, {len(true)} base parameters; "
+        f"{os.cpu_count()} CPUs, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}, "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     for method in ("wls", "ols"):
         times = []
         for _ in range(args.repeats):
@@ -50,14 +52,18 @@ def main() -> None:
             res = fit(robot, data, method, consistent=False)
             times.append(time.perf_counter() - start)
         z = (res.base.values - true) / res.base.std
-        print(f"  {method.upper()}: median {np.median(times):.3f} s (min {min(times):.3f}, max {max(times):.3f}); "
-              f"condition {res.condition:.4g}; {np.mean(np.abs(z) <= 1.96):.0%} of the truth inside the 95 % "
-              "intervals")
+        print(
+            f"  {method.upper()}: median {np.median(times):.3f} s (min {min(times):.3f}, max {max(times):.3f}); "
+            f"condition {res.condition:.4g}; {np.mean(np.abs(z) <= 1.96):.0%} of the truth inside the 95 % "
+            "intervals"
+        )
     if args.consistent:
         start = time.perf_counter()
         res = fit(robot, data, "wls", consistent=True)
-        print(f"  WLS + consistent: {time.perf_counter() - start:.2f} s (consistent step "
-              f"{res.consistent_seconds:.2f} s, moved {res.consistent.moved:.3g})")
+        print(
+            f"  WLS + consistent: {time.perf_counter() - start:.2f} s (consistent step "
+            f"{res.consistent_seconds:.2f} s, moved {res.consistent.moved:.3g})"
+        )
 
 
 if __name__ == "__main__":

@@ -33,9 +33,15 @@ def perturbed(robot, seed: int, amount: float = 0.2):
     for link in robot.links:
         k = 1 + amount * rng.uniform(-1, 1)
         I = np.array(link.I, dtype=float) * k + 1e-3 * np.eye(3)
-        links.append(dataclasses.replace(
-            link, m=float(link.m) * k, r=tuple(float(x) * (1 + amount * rng.uniform(-1, 1)) + 0.01 for x in link.r),
-            I=tuple(map(tuple, I)), B=float(link.B) * (1 + amount * rng.uniform(-1, 1))))
+        links.append(
+            dataclasses.replace(
+                link,
+                m=float(link.m) * k,
+                r=tuple(float(x) * (1 + amount * rng.uniform(-1, 1)) + 0.01 for x in link.r),
+                I=tuple(map(tuple, I)),
+                B=float(link.B) * (1 + amount * rng.uniform(-1, 1)),
+            )
+        )
     return dataclasses.replace(robot, links=tuple(links))
 
 
@@ -66,10 +72,12 @@ def main() -> None:
                 wall, cpu = time.perf_counter() - start, time.process_time() - cpu
                 t, q, qd, qdd = e.sample(100)
                 W = np.vstack([np.asarray(Y(a, b, c))[:, cols] for a, b, c in zip(q, qd, qdd)])
-                print(f"excitation {name} {criterion:6s}: {wall:6.1f} s ({cpu:.1f} s CPU), {e.iterations} iterations ({e.status}); "
-                      f"cond {e.condition:.4g} (random start {e.random_condition:.4g}), "
-                      f"log det {e.logdet:.4g} (random {e.random_logdet:.4g}); cond at 100 Hz {np.linalg.cond(W):.4g}",
-                      flush=True)
+                print(
+                    f"excitation {name} {criterion:6s}: {wall:6.1f} s ({cpu:.1f} s CPU), {e.iterations} iterations ({e.status}); "
+                    f"cond {e.condition:.4g} (random start {e.random_condition:.4g}), "
+                    f"log det {e.logdet:.4g} (random {e.random_logdet:.4g}); cond at 100 Hz {np.linalg.cond(W):.4g}",
+                    flush=True,
+                )
         if not args.skip_consistent:
             truth = perturbed(robot, seed=1)
             names, values = base_vector(truth, base)
@@ -78,14 +86,16 @@ def main() -> None:
             impossible[k] = -abs(impossible[k]) - 0.01
             for case, target in (("feasible", values), ("impossible", impossible)):
                 for method in ("sdp", "casadi"):
-                    physical(robot, names, target, base=base, method=method)   # imports and first calls
+                    physical(robot, names, target, base=base, method=method)  # imports and first calls
                     start, cpu = time.perf_counter(), time.process_time()
                     r = physical(robot, names, target, base=base, method=method)
                     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
                     err = np.max(np.abs(r.achieved - values) / np.maximum(np.abs(values), 1e-3 * np.abs(values).max()))
-                    print(f"consistent {name} {case:10s} {method:6s}: {wall:6.2f} s ({cpu:.2f} s CPU, {r.status}); moved {r.moved:.3g}; "
-                          f"max rel. error vs truth {err:.2e}; smallest pseudo-inertia eigenvalue {r.margins.min():.3g}",
-                          flush=True)
+                    print(
+                        f"consistent {name} {case:10s} {method:6s}: {wall:6.2f} s ({cpu:.2f} s CPU, {r.status}); moved {r.moved:.3g}; "
+                        f"max rel. error vs truth {err:.2e}; smallest pseudo-inertia eigenvalue {r.margins.min():.3g}",
+                        flush=True,
+                    )
 
 
 if __name__ == "__main__":

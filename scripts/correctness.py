@@ -18,8 +18,14 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from symdyn.bench.differential import (STAGES, check_arm, disagreements, pinocchio_derivatives,  # noqa: E402
-                                       relative_error, states)
+from symdyn.bench.differential import (
+    STAGES,
+    check_arm,
+    disagreements,
+    pinocchio_derivatives,  # noqa: E402
+    relative_error,
+    states,
+)
 from symdyn.bench.peers import pinocchio_model  # noqa: E402
 from symdyn.codegen import entry as codegen  # noqa: E402
 from symdyn.model import arms  # noqa: E402

@@ -39,16 +39,26 @@ def main(argv=None) -> int:
     p.add_argument("--n-max", type=int, default=7, help="most joints per arm (default 7)")
     p.add_argument("--tol", type=float, default=1e-10, help="largest relative error accepted (default 1e-10)")
     p.add_argument("--states", type=int, default=12, help="random states per arm (default 12)")
-    p.add_argument("--general", type=float, default=0.0,
-                   help="fraction of arms drawn in the general (URDF-like) convention (default 0: DH only)")
+    p.add_argument(
+        "--general",
+        type=float,
+        default=0.0,
+        help="fraction of arms drawn in the general (URDF-like) convention (default 0: DH only)",
+    )
     p.add_argument("--out", help="write the table here too (tab-separated)")
     p.add_argument("--stages", default=",".join(STAGES), help=f"comma-separated subset of {','.join(STAGES)}")
-    p.add_argument("--workers", type=int, default=None,
-                   help="check the arms on a local Dask cluster of this many worker processes")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="check the arms on the Dask cluster at ADDRESS (e.g. tcp://10.0.0.5:8786)")
-    p.add_argument("--sweep-out", default=None, help="the cluster run's results.csv and summary (default: a "
-                                                     "temporary folder)")
+    p.add_argument(
+        "--workers", type=int, default=None, help="check the arms on a local Dask cluster of this many worker processes"
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="check the arms on the Dask cluster at ADDRESS (e.g. tcp://10.0.0.5:8786)",
+    )
+    p.add_argument(
+        "--sweep-out", default=None, help="the cluster run's results.csv and summary (default: a temporary folder)"
+    )
     p.add_argument("--resume", action="store_true", help="with --sweep-out: skip the arms already checked there")
     args = p.parse_args(argv)
     stages = args.stages.split(",")
@@ -57,8 +67,19 @@ def main(argv=None) -> int:
     start = time.perf_counter()
     header = "arm\tn\tjoints\tstage\tworst\twhat\tseconds"
     print(header, flush=True)
-    items = [{"index": k, "seed": args.seed + k, "n_min": args.n_min, "n_max": args.n_max, "general": args.general,
-              "states": args.states, "stages": stages, "tol": args.tol} for k in range(args.arms)]
+    items = [
+        {
+            "index": k,
+            "seed": args.seed + k,
+            "n_min": args.n_min,
+            "n_max": args.n_max,
+            "general": args.general,
+            "states": args.states,
+            "stages": stages,
+            "tol": args.tol,
+        }
+        for k in range(args.arms)
+    ]
     if args.workers is not None or args.scheduler is not None or _scheduler_from_environment():
         results = _on_cluster(items, args)
     else:
@@ -78,10 +99,11 @@ def main(argv=None) -> int:
                 print(f"# {result['name']}: {stage} {what}: {error:.3e} {detail}", file=sys.stderr)
             print(f"# seed {seed}:\n" + "\n".join(result["code"]), file=sys.stderr, flush=True)
     seconds = time.perf_counter() - start
-    summary = (f"{args.arms} arms (seeds {args.seed}…{args.seed + args.arms - 1}, {args.n_min} ≤ n ≤ {args.n_max}), "
-               f"{len(failures)} with disagreements over {args.tol:.0e}, {crashes} crashes, "
-               f"worst per stage: " + ", ".join(f"{s} {worst_by_stage[s]:.1e}" for s in stages)
-               + f"; {seconds:.0f} s")
+    summary = (
+        f"{args.arms} arms (seeds {args.seed}…{args.seed + args.arms - 1}, {args.n_min} ≤ n ≤ {args.n_max}), "
+        f"{len(failures)} with disagreements over {args.tol:.0e}, {crashes} crashes, "
+        f"worst per stage: " + ", ".join(f"{s} {worst_by_stage[s]:.1e}" for s in stages) + f"; {seconds:.0f} s"
+    )
     print(summary)
     if args.out:
         with open(args.out, "w") as fh:
@@ -101,8 +123,14 @@ def check_one(item: dict) -> dict:
         worst = max(mine, key=lambda f: f.error)
         per_stage.append([stage, worst.error, worst.what, sum(f.seconds for f in mine)])
     bad = [[f.stage, f.what, f.error, f.detail] for f in disagreements(findings, item["tol"])]
-    return {"name": robot.name, "n": robot.n, "joints": "".join(link.joint[0] for link in robot.links),
-            "stages": per_stage, "bad": bad, "code": robot_code(robot).splitlines() if bad else []}
+    return {
+        "name": robot.name,
+        "n": robot.n,
+        "joints": "".join(link.joint[0] for link in robot.links),
+        "stages": per_stage,
+        "bad": bad,
+        "code": robot_code(robot).splitlines() if bad else [],
+    }
 
 
 def _scheduler_from_environment() -> bool:
@@ -115,25 +143,47 @@ def _on_cluster(items: list[dict], args) -> list[dict]:
     """The arms' results, checked on a Dask cluster through the sweep engine, in seed order."""
     from symdyn.sweep.engine import Sweep, run
 
-    sweep = Sweep("fuzz-arms", "the random-arm differential check, one task per arm", check_one,
-                  inputs=lambda n: items, input_columns=("index", "seed", "n_min", "n_max", "general", "states",
-                                                         "stages", "tol"),
-                  result_columns=("name", "n", "joints", "stages", "bad", "code"))
+    sweep = Sweep(
+        "fuzz-arms",
+        "the random-arm differential check, one task per arm",
+        check_one,
+        inputs=lambda n: items,
+        input_columns=("index", "seed", "n_min", "n_max", "general", "states", "stages", "tol"),
+        result_columns=("name", "n", "joints", "stages", "bad", "code"),
+    )
     out = Path(args.sweep_out or tempfile.mkdtemp(prefix="fuzz-arms-"))
     outcome = run(sweep, items, out, resume=args.resume, scheduler=args.scheduler, workers=args.workers)
-    print(f"# cluster run: {outcome.ran} arms on {outcome.engine} in {outcome.wall_s:.0f} s; table {outcome.table}",
-          file=sys.stderr, flush=True)
+    print(
+        f"# cluster run: {outcome.ran} arms on {outcome.engine} in {outcome.wall_s:.0f} s; table {outcome.table}",
+        file=sys.stderr,
+        flush=True,
+    )
     by_index = {int(r["index"]): r for r in outcome.rows}
     results = []
     for item in items:
         r = by_index[item["index"]]
-        if r["error"]:   # the task itself failed (e.g. its worker died too often): a crash of every stage
-            results.append({"name": f"seed {item['seed']}", "n": 0, "joints": "", "code": [],
-                            "stages": [[s, float("inf"), "crashed", 0.0] for s in item["stages"]],
-                            "bad": [[s, "crashed", float("inf"), r["error"]] for s in item["stages"]]})
+        if r["error"]:  # the task itself failed (e.g. its worker died too often): a crash of every stage
+            results.append(
+                {
+                    "name": f"seed {item['seed']}",
+                    "n": 0,
+                    "joints": "",
+                    "code": [],
+                    "stages": [[s, float("inf"), "crashed", 0.0] for s in item["stages"]],
+                    "bad": [[s, "crashed", float("inf"), r["error"]] for s in item["stages"]],
+                }
+            )
         else:
-            results.append({"name": r["name"], "n": int(r["n"]), "joints": r["joints"], "code": json.loads(r["code"]),
-                            "stages": json.loads(r["stages"]), "bad": json.loads(r["bad"])})
+            results.append(
+                {
+                    "name": r["name"],
+                    "n": int(r["n"]),
+                    "joints": r["joints"],
+                    "code": json.loads(r["code"]),
+                    "stages": json.loads(r["stages"]),
+                    "bad": json.loads(r["bad"]),
+                }
+            )
     return results
 
 

@@ -23,9 +23,13 @@ CHOICES = [f"{s}:{m}" for s in SOURCES for m in ("compiled", "sx")]
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--variants", nargs="+", choices=CHOICES,
-                   default=[f"{s}:{'compiled' if c else 'sx'}" for s, c in VARIANTS],
-                   help="source:evaluation, the first is the reference of the ratios (default: all four)")
+    p.add_argument(
+        "--variants",
+        nargs="+",
+        choices=CHOICES,
+        default=[f"{s}:{'compiled' if c else 'sx'}" for s, c in VARIANTS],
+        help="source:evaluation, the first is the reference of the ratios (default: all four)",
+    )
     p.add_argument("--quick", action="store_true", help="coarse grids (seconds)")
     p.add_argument("--repeats", type=int, default=1, help="solves per source; the fastest is kept")
     args = p.parse_args(argv)

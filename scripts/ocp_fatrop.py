@@ -36,24 +36,25 @@ def stagewise(problem: ocp.Problem, arm: ocp.ArmFunctions) -> tuple[ca.Opti, ca.
     guess = ocp._guess(problem, arm, problem.T_guess)
     opti = ca.Opti()
     X, U = [], []
-    for k in range(N + 1):   # declared in stage order: x0, u0, x1, u1, …, xN
+    for k in range(N + 1):  # declared in stage order: x0, u0, x1, u1, …, xN
         X.append(opti.variable(4 * n + 1))
         U += [opti.variable(4 * n)] if k < N else []
     J = 0
     for k in range(N + 1):
-        q, qd, qdd, tau, T = X[k][:n], X[k][n:2 * n], X[k][2 * n:3 * n], X[k][3 * n:4 * n], X[k][4 * n]
+        q, qd, qdd, tau, T = X[k][:n], X[k][n : 2 * n], X[k][2 * n : 3 * n], X[k][3 * n : 4 * n], X[k][4 * n]
         opti.set_initial(X[k], np.concatenate([g[2 * k] for g in guess[:4]] + [[problem.T_guess]]))
         points = [(q, qd, qdd, tau)]
         if k < N:
-            qddm, taum, qddn, taun = (U[k][i * n:(i + 1) * n] for i in range(4))
-            opti.set_initial(U[k], np.r_[guess[2][2 * k + 1], guess[3][2 * k + 1], guess[2][2 * k + 2],
-                                         guess[3][2 * k + 2]])
+            qddm, taum, qddn, taun = (U[k][i * n : (i + 1) * n] for i in range(4))
+            opti.set_initial(
+                U[k], np.r_[guess[2][2 * k + 1], guess[3][2 * k + 1], guess[2][2 * k + 2], guess[3][2 * k + 2]]
+            )
             h = T / N
             qdn = qd + h / 6 * (qdd + 4 * qddm + qddn)
             qdm = (qd + qdn) / 2 + h / 8 * (qdd - qddn)
             qn = q + h / 6 * (qd + 4 * qdm + qdn)
             qm = (q + qn) / 2 + h / 8 * (qd - qdn)
-            opti.subject_to(X[k + 1] == ca.vertcat(qn, qdn, qddn, taun, T))   # gap-closing first
+            opti.subject_to(X[k + 1] == ca.vertcat(qn, qdn, qddn, taun, T))  # gap-closing first
             points.append((qm, qdm, qddm, taum))
             J += problem.cost.smoothness * ca.sum1(ocp._quadratic_smoothness(tau, taum, taun, h))
         if k == 0:
@@ -72,23 +73,39 @@ def stagewise(problem: ocp.Problem, arm: ocp.ArmFunctions) -> tuple[ca.Opti, ca.
 
 def fatrop(problem: ocp.Problem, arm: ocp.ArmFunctions) -> dict:
     opti, T = stagewise(problem, arm)
-    opti.solver("fatrop", {"structure_detection": "auto", "record_time": True, "print_time": False},
-                {"print_level": 0, "tol": 1e-8})
+    opti.solver(
+        "fatrop",
+        {"structure_detection": "auto", "record_time": True, "print_time": False},
+        {"print_level": 0, "tol": 1e-8},
+    )
     start = time.perf_counter()
     sol = opti.solve()
     wall = time.perf_counter() - start
     st = sol.stats()
     evals = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
-    return dict(solver="fatrop (stage-wise)", iterations=int(st["iter_count"]), wall=wall,
-                solver_wall=float(st["t_wall_total"]), evals=evals,
-                T=float(sol.value(T)), cost=float(sol.value(opti.f)))
+    return dict(
+        solver="fatrop (stage-wise)",
+        iterations=int(st["iter_count"]),
+        wall=wall,
+        solver_wall=float(st["t_wall_total"]),
+        evals=evals,
+        T=float(sol.value(T)),
+        cost=float(sol.value(opti.f)),
+    )
 
 
 def ipopt(problem: ocp.Problem, arm: ocp.ArmFunctions) -> dict:
     sol = ocp.solve(problem, arm)
     st = sol.stats
-    return dict(solver="IPOPT + MUMPS (ocp.solve)", iterations=st["iterations"], wall=st["solve_wall"],
-                solver_wall=st["ipopt_wall"], evals=st["eval_wall"], T=sol.T, cost=sol.cost)
+    return dict(
+        solver="IPOPT + MUMPS (ocp.solve)",
+        iterations=st["iterations"],
+        wall=st["solve_wall"],
+        solver_wall=st["ipopt_wall"],
+        evals=st["eval_wall"],
+        T=sol.T,
+        cost=sol.cost,
+    )
 
 
 def main(argv=None) -> int:
@@ -102,15 +119,19 @@ def main(argv=None) -> int:
     problem = studies.min_time_problem(robot, robot.qz, robot.qr, N=args.N)
     arm = ocp.dynamics(robot, args.source, compiled=not args.sx)
     print(f"Puma min-time qz→qr, Hermite–Simpson N={args.N}, {arm.label}, fastest of {args.repeats}\n")
-    print("| solver | iterations | solve with set-up, wall (s) | per iteration (ms) | of which function "
-          "evaluations (ms) | of which the solver itself (ms) | T (s) | cost |")
+    print(
+        "| solver | iterations | solve with set-up, wall (s) | per iteration (ms) | of which function "
+        "evaluations (ms) | of which the solver itself (ms) | T (s) | cost |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for run in (ipopt, fatrop):
         r = min((run(problem, arm) for _ in range(args.repeats)), key=lambda r: r["wall"])
         it = max(r["iterations"], 1)
-        print(f"| {r['solver']} | {r['iterations']} | {r['wall']:.3f} | {1e3 * r['solver_wall'] / it:.1f} "
-              f"| {1e3 * r['evals'] / it:.1f} | {1e3 * (r['solver_wall'] - r['evals']) / it:.1f} | {r['T']:.6f} "
-              f"| {r['cost']:.9f} |")
+        print(
+            f"| {r['solver']} | {r['iterations']} | {r['wall']:.3f} | {1e3 * r['solver_wall'] / it:.1f} "
+            f"| {1e3 * r['evals'] / it:.1f} | {1e3 * (r['solver_wall'] - r['evals']) / it:.1f} | {r['T']:.6f} "
+            f"| {r['cost']:.9f} |"
+        )
     return 0
 
 

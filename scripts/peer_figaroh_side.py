@@ -57,27 +57,38 @@ def main() -> None:
     n = robot.model.nv
     # the physics check: Pinocchio's RNEA on the true arm's URDF against symdyn's noise-free torques
     truth_data = truth_model.createData()
-    tau_rnea = np.array([pin.rnea(truth_model, truth_data, q, v, a)
-                         for q, v, a in zip(d["fit_q"], d["fit_qd"], d["fit_qdd"])])
+    tau_rnea = np.array(
+        [pin.rnea(truth_model, truth_data, q, v, a) for q, v, a in zip(d["fit_q"], d["fit_qd"], d["fit_qdd"])]
+    )
     physics = float(np.abs(tau_rnea - d["fit_tau_clean"]).max() / np.abs(d["fit_tau_clean"]).max())
 
-    report = {"figaroh": getattr(figaroh, "__version__", "?"), "pinocchio": pin.__version__,
-              "physics_max_rel": physics, "configs": {}}
+    report = {
+        "figaroh": getattr(figaroh, "__version__", "?"),
+        "pinocchio": pin.__version__,
+        "physics_max_rel": physics,
+        "configs": {},
+    }
     predictions = {}
     for label, extras in (("rigid", False), ("motor", True)):
-        config = {"has_friction": extras, "has_actuator_inertia": extras, "has_joint_offset": extras,
-                  "is_joint_torques": True, "is_external_wrench": False, "act_idxv": list(range(n)),
-                  "active_joints": list(robot.model.names[1:])}
+        config = {
+            "has_friction": extras,
+            "has_actuator_inertia": extras,
+            "has_joint_offset": extras,
+            "is_joint_torques": True,
+            "is_external_wrench": False,
+            "act_idxv": list(range(n)),
+            "active_joints": list(robot.model.names[1:]),
+        }
 
         def standard(model):
             p = get_standard_parameters(model, config)
-            p.update(add_standard_additional_parameters(model, config))   # zeros: the data have none
+            p.update(add_standard_additional_parameters(model, config))  # zeros: the data have none
             return p
 
         params_std, params_true = standard(robot.model), standard(truth_model)
-        tau = d["fit_tau"].T.flatten()                # joint-major, as FIGAROH stacks the rows
+        tau = d["fit_tau"].T.flatten()  # joint-major, as FIGAROH stacks the rows
         times = []
-        for _ in range(repeats):   # the median of `repeats` runs of the whole chain
+        for _ in range(repeats):  # the median of `repeats` runs of the whole chain
             t0 = time.perf_counter()
             W = build_regressor_basic(robot, d["fit_q"], d["fit_qd"], d["fit_qdd"], config)
             t1 = time.perf_counter()
@@ -85,7 +96,7 @@ def main() -> None:
             W_e = build_regressor_reduced(W, idx_e)
             qr = QRDecomposer(tolerance=1e-6)
             W_b, base_dict, names, phi_ols, phi_nom = qr.double_decomposition(tau, W_e, params_r, params_std)
-            rel_ols = relative_stdev(W_b, phi_ols, tau)   # FIGAROH's OLS relative σ (%), rounded to 0.01
+            rel_ols = relative_stdev(W_b, phi_ols, tau)  # FIGAROH's OLS relative σ (%), rounded to 0.01
             t2 = time.perf_counter()
             # WLS as BaseIdentification does it (joint residual variances from the OLS fit)
             ident = _Bare.__new__(_Bare)
@@ -104,21 +115,33 @@ def main() -> None:
         M = qr.get_M()
         true_base = M @ np.array([params_true[k] for k in params_r])
         # validation: the same columns of the validation trajectory's regressor
-        W_v = build_regressor_reduced(build_regressor_basic(robot, d["val_q"], d["val_qd"], d["val_qdd"], config),
-                                      idx_e)[:, qr.get_base_indices()]
-        entry = {"columns": W.shape[1], "kept": len(params_r), "names": list(names),
-                 "true": true_base.tolist(), "nominal": np.asarray(phi_nom).tolist(),
-                 "condition": float(np.linalg.cond(W_b)),
-                 "seconds_regressor": t_reg, "seconds_qr_ols": t_ols, "seconds_wls": t_wls,
-                 "rank_check": int(np.linalg.matrix_rank(W_e)), "methods": {}}
+        W_v = build_regressor_reduced(
+            build_regressor_basic(robot, d["val_q"], d["val_qd"], d["val_qdd"], config), idx_e
+        )[:, qr.get_base_indices()]
+        entry = {
+            "columns": W.shape[1],
+            "kept": len(params_r),
+            "names": list(names),
+            "true": true_base.tolist(),
+            "nominal": np.asarray(phi_nom).tolist(),
+            "condition": float(np.linalg.cond(W_b)),
+            "seconds_regressor": t_reg,
+            "seconds_qr_ols": t_ols,
+            "seconds_wls": t_wls,
+            "rank_check": int(np.linalg.matrix_rank(W_e)),
+            "methods": {},
+        }
         for method, phi, std, rel in (("ols", phi_ols, std_ols, rel_ols), ("wls", phi_wls, std_wls, rel_wls)):
             fit_res = (tau - W_b @ phi).reshape(n, -1)
             pred = (W_v @ phi).reshape(n, -1).T
             predictions[f"{label}_{method}"] = pred
             entry["methods"][method] = {
-                "values": np.asarray(phi).tolist(), "std": std.tolist(), "relative": np.asarray(rel).tolist(),
-                "rms_fit": np.sqrt(np.mean(fit_res ** 2, axis=1)).tolist(),
-                "rms_val": np.sqrt(np.mean((pred - d["val_tau"]) ** 2, axis=0)).tolist()}
+                "values": np.asarray(phi).tolist(),
+                "std": std.tolist(),
+                "relative": np.asarray(rel).tolist(),
+                "rms_fit": np.sqrt(np.mean(fit_res**2, axis=1)).tolist(),
+                "rms_val": np.sqrt(np.mean((pred - d["val_tau"]) ** 2, axis=0)).tolist(),
+            }
         report["configs"][label] = entry
     with open(out, "w") as f:
         json.dump(report, f)

@@ -28,7 +28,7 @@ def strip(text: str, drop: set[str]) -> ET.Element:
             for child in list(element):
                 if child.tag not in KEEP_JOINT:
                     element.remove(child)
-                elif child.tag in ("limit", "dynamics"):   # drop simulator-specific attributes
+                elif child.tag in ("limit", "dynamics"):  # drop simulator-specific attributes
                     for key in list(child.attrib):
                         if key not in ("lower", "upper", "effort", "velocity", "damping", "friction"):
                             del child.attrib[key]

@@ -47,61 +47,109 @@ class Case:
     """One chain of one file: `from_urdf(file, **options)`, and what the reading must give."""
 
     name: str
-    file: str                       # relative to example-robot-data's robots/ folder
+    file: str  # relative to example-robot-data's robots/ folder
     what: str
     options: dict
-    joints: tuple                   # the chain's moving joints, in order
+    joints: tuple  # the chain's moving joints, in order
     seed: int
-    warn: tuple = ()                # links the reading must warn about (and not refuse)
-    tau_ops: int | None = None      # an expected τ operation count (± 10 %), where an issue names one
+    warn: tuple = ()  # links the reading must warn about (and not refuse)
+    tau_ops: int | None = None  # an expected τ operation count (± 10 %), where an issue names one
 
 
-TALOS_LOCKS = {"torso_1_joint": 0.3, "torso_2_joint": 0.2,          # on the chain: made fixed
-               "arm_right_1_joint": 0.5, "arm_right_2_joint": -0.6, "arm_right_4_joint": -1.0,
-               "head_1_joint": 0.4, "head_2_joint": -0.5,
-               "gripper_left_joint": -0.4, "gripper_right_joint": -0.6, "leg_left_4_joint": 1.0}
-TIAGO_DUAL_LOCKS = {"arm_right_1_joint": 0.6, "arm_right_2_joint": -0.4, "arm_right_4_joint": 1.2,
-                    "arm_right_6_joint": 0.7, "head_1_joint": 0.3, "head_2_joint": -0.5,
-                    "hand_right_index_joint": 1.0, "hand_left_thumb_joint": 0.8}
+TALOS_LOCKS = {
+    "torso_1_joint": 0.3,
+    "torso_2_joint": 0.2,  # on the chain: made fixed
+    "arm_right_1_joint": 0.5,
+    "arm_right_2_joint": -0.6,
+    "arm_right_4_joint": -1.0,
+    "head_1_joint": 0.4,
+    "head_2_joint": -0.5,
+    "gripper_left_joint": -0.4,
+    "gripper_right_joint": -0.6,
+    "leg_left_4_joint": 1.0,
+}
+TIAGO_DUAL_LOCKS = {
+    "arm_right_1_joint": 0.6,
+    "arm_right_2_joint": -0.4,
+    "arm_right_4_joint": 1.2,
+    "arm_right_6_joint": 0.7,
+    "head_1_joint": 0.3,
+    "head_2_joint": -0.5,
+    "hand_right_index_joint": 1.0,
+    "hand_left_thumb_joint": 0.8,
+}
 BAXTER_LOCKS = {"r_gripper_l_finger_joint": 0.012, "left_s0": 0.4, "left_e1": 1.0, "head_pan": 0.3}
 
 TIAGO_ARM = tuple(f"arm_{k}_joint" for k in range(1, 8))
 CASES = (
-    Case("tiago", "tiago_description/robots/tiago.urdf",
-         "TIAGo: torso lift + arm; wheels on the base, head and hand locked",
-         dict(tip_link="arm_tool_link"), ("torso_lift_joint",) + TIAGO_ARM, seed=1,
-         warn=("base_antenna_left_link", "base_antenna_right_link")),
-    Case("so101", "so_arm_description/urdf/so101.urdf",
-         "SO-101 to the gripper frame, the moving jaw locked at 0",
-         dict(tip_link="gripper_frame_link"),
-         ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"), seed=2),
-    Case("so101_jaw", "so_arm_description/urdf/so101.urdf",
-         "SO-101, the jaw locked open (gripper = 0.8)",
-         dict(tip_link="gripper_frame_link", locked={"gripper": 0.8}),
-         ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"), seed=3),
-    Case("talos_left_arm", "talos_data/robots/talos_full_v2.urdf",
-         "Talos' left arm to the gripper base; torso locked on the chain, gripper (with its mimic "
-         "joints), right arm, head and a leg at non-zero values",
-         dict(tip_link="gripper_left_base_link", locked=TALOS_LOCKS),
-         tuple(f"arm_left_{k}_joint" for k in range(1, 8)), seed=4),
-    Case("kinova", "kinova_description/robots/kinova.urdf",
-         "Kinova Jaco2 (j2s6s200) to the end effector, snapped",
-         dict(tip_link="j2s6s200_end_effector"), tuple(f"j2s6s200_joint_{k}" for k in range(1, 7)), seed=5,
-         tau_ops=464),
-    Case("kinova_unsnapped", "kinova_description/robots/kinova.urdf",
-         "the same Jaco2 with the file's numbers (snap=False), for the op counts",
-         dict(tip_link="j2s6s200_end_effector", snap=False), tuple(f"j2s6s200_joint_{k}" for k in range(1, 7)),
-         seed=6),
-    Case("tiago_dual_left", "tiago_description/robots/tiago_dual.urdf",
-         "TIAGo++: torso lift + left arm; right arm, head and fingers locked at non-zero values",
-         dict(tip_link="arm_left_tool_link", locked=TIAGO_DUAL_LOCKS),
-         ("torso_lift_joint",) + tuple(f"arm_left_{k}_joint" for k in range(1, 8)), seed=7,
-         warn=("base_antenna_left_link", "base_antenna_right_link")),
-    Case("baxter_right", "baxter_description/urdf/baxter.urdf",
-         "Baxter's right arm to the gripper; a prismatic finger (and its mimic) open, the left arm and "
-         "head locked",
-         dict(tip_link="right_gripper", locked=BAXTER_LOCKS),
-         ("right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"), seed=8),
+    Case(
+        "tiago",
+        "tiago_description/robots/tiago.urdf",
+        "TIAGo: torso lift + arm; wheels on the base, head and hand locked",
+        dict(tip_link="arm_tool_link"),
+        ("torso_lift_joint",) + TIAGO_ARM,
+        seed=1,
+        warn=("base_antenna_left_link", "base_antenna_right_link"),
+    ),
+    Case(
+        "so101",
+        "so_arm_description/urdf/so101.urdf",
+        "SO-101 to the gripper frame, the moving jaw locked at 0",
+        dict(tip_link="gripper_frame_link"),
+        ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"),
+        seed=2,
+    ),
+    Case(
+        "so101_jaw",
+        "so_arm_description/urdf/so101.urdf",
+        "SO-101, the jaw locked open (gripper = 0.8)",
+        dict(tip_link="gripper_frame_link", locked={"gripper": 0.8}),
+        ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"),
+        seed=3,
+    ),
+    Case(
+        "talos_left_arm",
+        "talos_data/robots/talos_full_v2.urdf",
+        "Talos' left arm to the gripper base; torso locked on the chain, gripper (with its mimic "
+        "joints), right arm, head and a leg at non-zero values",
+        dict(tip_link="gripper_left_base_link", locked=TALOS_LOCKS),
+        tuple(f"arm_left_{k}_joint" for k in range(1, 8)),
+        seed=4,
+    ),
+    Case(
+        "kinova",
+        "kinova_description/robots/kinova.urdf",
+        "Kinova Jaco2 (j2s6s200) to the end effector, snapped",
+        dict(tip_link="j2s6s200_end_effector"),
+        tuple(f"j2s6s200_joint_{k}" for k in range(1, 7)),
+        seed=5,
+        tau_ops=464,
+    ),
+    Case(
+        "kinova_unsnapped",
+        "kinova_description/robots/kinova.urdf",
+        "the same Jaco2 with the file's numbers (snap=False), for the op counts",
+        dict(tip_link="j2s6s200_end_effector", snap=False),
+        tuple(f"j2s6s200_joint_{k}" for k in range(1, 7)),
+        seed=6,
+    ),
+    Case(
+        "tiago_dual_left",
+        "tiago_description/robots/tiago_dual.urdf",
+        "TIAGo++: torso lift + left arm; right arm, head and fingers locked at non-zero values",
+        dict(tip_link="arm_left_tool_link", locked=TIAGO_DUAL_LOCKS),
+        ("torso_lift_joint",) + tuple(f"arm_left_{k}_joint" for k in range(1, 8)),
+        seed=7,
+        warn=("base_antenna_left_link", "base_antenna_right_link"),
+    ),
+    Case(
+        "baxter_right",
+        "baxter_description/urdf/baxter.urdf",
+        "Baxter's right arm to the gripper; a prismatic finger (and its mimic) open, the left arm and head locked",
+        dict(tip_link="right_gripper", locked=BAXTER_LOCKS),
+        ("right_s0", "right_s1", "right_e0", "right_e1", "right_w0", "right_w1", "right_w2"),
+        seed=8,
+    ),
 )
 BY_NAME = {c.name: c for c in CASES}
 
@@ -144,14 +192,16 @@ def robots_folder(given: str | None) -> Path:
         try:
             dist = importlib.metadata.distribution("example-robot-data")
         except importlib.metadata.PackageNotFoundError:
-            sys.exit("urdf_trees: example-robot-data is not installed: pip install example-robot-data "
-                     "(or pip install -e '.[robots]'), or give its robots/ folder with --data")
+            sys.exit(
+                "urdf_trees: example-robot-data is not installed: pip install example-robot-data "
+                "(or pip install -e '.[robots]'), or give its robots/ folder with --data"
+            )
         folder = Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots"))
-        if not folder.is_dir():   # another layout: find the folder among the wheel's files
+        if not folder.is_dir():  # another layout: find the folder among the wheel's files
             hits = [f for f in dist.files or () if "example-robot-data/robots/" in str(f)]
             if hits:
                 text = str(dist.locate_file(hits[0]))
-                folder = Path(text[:text.index("example-robot-data/robots/")]) / "example-robot-data" / "robots"
+                folder = Path(text[: text.index("example-robot-data/robots/")]) / "example-robot-data" / "robots"
     if not folder.is_dir():
         sys.exit(f"urdf_trees: no example-robot-data robots/ folder at {folder}: pip install example-robot-data")
     return folder
@@ -199,9 +249,11 @@ def run(case: Case, folder: Path, count: int) -> Result:
         if not any(f"link {link!r}" in w for w in issued):
             out.problems.append(f"no URDFWarning about link {link!r} (warnings: {issued})")
     nonzero = [f"{lock.joint}={lock.value:g}" for lock in record.locked if lock.value != 0]
-    log(f"{case.name}: read in {out.read_s:.2f} s: {robot.n} joints, {len(record.locked)} locked "
+    log(
+        f"{case.name}: read in {out.read_s:.2f} s: {robot.n} joints, {len(record.locked)} locked "
         f"({len(nonzero)} non-zero), {out.snaps} snaps (largest {out.max_snap:.1e}), "
-        f"{len(record.warnings)} warnings")
+        f"{len(record.warnings)} warnings"
+    )
 
     log(f"{case.name}: derive + generate + compile (symdyn.load(robot, 'c'))…")
     start, wall = time.perf_counter(), time.time()
@@ -211,8 +263,10 @@ def run(case: Case, folder: Path, count: int) -> Result:
     out.cold = header.stat().st_mtime >= wall - 0.05
     out.cached_s = cached_load(case, folder)
     out.ops = op_counts(header)
-    log(f"{case.name}: first load {out.first_s:.1f} s ({'cold' if out.cold else 'from the cache'}), "
-        f"cached (another process) {out.cached_s:.2f} s; ops " + ", ".join(f"{f} {out.ops.get(f)}" for f in FUNCTIONS))
+    log(
+        f"{case.name}: first load {out.first_s:.1f} s ({'cold' if out.cold else 'from the cache'}), "
+        f"cached (another process) {out.cached_s:.2f} s; ops " + ", ".join(f"{f} {out.ops.get(f)}" for f in FUNCTIONS)
+    )
     if case.tau_ops and abs(out.ops.get("tau", 0) - case.tau_ops) > 0.1 * case.tau_ops:
         out.problems.append(f"tau takes {out.ops.get('tau')} operations, the issue expects about {case.tau_ops}")
 
@@ -221,8 +275,7 @@ def run(case: Case, folder: Path, count: int) -> Result:
     out.errors = compare(robot, path, count=count, seed=case.seed, functions=functions)
     out.compare_s = time.perf_counter() - start
     key, worst = out.worst
-    log(f"{case.name}: {'ok' if out.ok else 'FAIL'}: worst relative error {worst:.1e} ({key}) "
-        f"in {out.compare_s:.1f} s")
+    log(f"{case.name}: {'ok' if out.ok else 'FAIL'}: worst relative error {worst:.1e} ({key}) in {out.compare_s:.1f} s")
     return out
 
 
@@ -231,15 +284,20 @@ def cached_load(case: Case, folder: Path) -> float:
     code and library (reads and checks the files, imports the compiled extension); NaN when that
     process generated or compiled anew after all — symdyn's source changed in between (the
     cache is keyed by it), as it does while someone edits the tree."""
-    result = subprocess.run([sys.executable, __file__, "--data", str(folder), "--time-cached-load", case.name],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, __file__, "--data", str(folder), "--time-cached-load", case.name],
+        capture_output=True,
+        text=True,
+    )
     if result.returncode:
         log(f"{case.name}: the cached load in a new process failed:\n{result.stderr.strip()}")
         return math.nan
     seconds, hit = result.stdout.split()[-2:]
     if hit != "hit":
-        log(f"{case.name}: the new process generated or compiled again ({float(seconds):.1f} s): symdyn's "
-            "source changed since the first load; no cached time")
+        log(
+            f"{case.name}: the new process generated or compiled again ({float(seconds):.1f} s): symdyn's "
+            "source changed since the first load; no cached time"
+        )
         return math.nan
     return float(seconds)
 
@@ -264,29 +322,41 @@ def _time_cached_load(case: Case, folder: Path) -> None:
 
 # --------------------------------------------------------------------------- report
 
+
 def _seconds(s: float) -> str:
     return "–" if not math.isfinite(s) else (f"{s:.2f} s" if s < 10 else f"{s:.0f} s")
 
 
 def markdown(results: list, command: str, cold: bool) -> str:
-    lines = ["# Robot trees from example-robot-data", "",
-             "The slow check of issue 22 (`scripts/urdf_trees.py`): real URDF trees read by "
-             "`Robot.from_urdf` (off-chain joints locked and merged, angles and axes snapped) against "
-             "Pinocchio's `buildReducedModel` of the whole file with the same joints locked at the same "
-             f"values (`symdyn.bench.reduced.compare`, generated C included; every relative error ≤ {TOL:g}).",
-             "", "Produced by" + (" (`--cold`: a fresh cache, so the first load derives, generates and "
-                                  "compiles)" if cold else "") + ":", "", "```", command, "```", "",
-             "The first `symdyn.load(robot, \"c\")` derives, generates and compiles unless the cache holds "
-             "the robot's code (then marked *cache*); the cached load is the same call in a new process "
-             "(– where that process found the cache outdated: symdyn's source changed in between).", "",
-             "Where symdyn snapped the file's angles and axes (π/2 written 1.57079632679, 4.9e-12 rad off), "
-             "Pinocchio reads a copy snapped by the same rule, so the errors measure the dynamics, not "
-             "the snap (against the file as written they were up to 4e-11, TIAGo's forward dynamics); "
-             "the `kinova_unsnapped` row reads the file's numbers on both sides (`snap=False`).",
-             "",
-             "| robot | chain base → tip | n | locked (non-zero) | snaps (largest change) | max error vs "
-             "Pinocchio reduced | τ / M / G / fdyn ops | read | first load | cached load |",
-             "|---|---|---:|---|---|---|---|---:|---:|---:|"]
+    lines = [
+        "# Robot trees from example-robot-data",
+        "",
+        "The slow check of issue 22 (`scripts/urdf_trees.py`): real URDF trees read by "
+        "`Robot.from_urdf` (off-chain joints locked and merged, angles and axes snapped) against "
+        "Pinocchio's `buildReducedModel` of the whole file with the same joints locked at the same "
+        f"values (`symdyn.bench.reduced.compare`, generated C included; every relative error ≤ {TOL:g}).",
+        "",
+        "Produced by"
+        + (" (`--cold`: a fresh cache, so the first load derives, generates and compiles)" if cold else "")
+        + ":",
+        "",
+        "```",
+        command,
+        "```",
+        "",
+        'The first `symdyn.load(robot, "c")` derives, generates and compiles unless the cache holds '
+        "the robot's code (then marked *cache*); the cached load is the same call in a new process "
+        "(– where that process found the cache outdated: symdyn's source changed in between).",
+        "",
+        "Where symdyn snapped the file's angles and axes (π/2 written 1.57079632679, 4.9e-12 rad off), "
+        "Pinocchio reads a copy snapped by the same rule, so the errors measure the dynamics, not "
+        "the snap (against the file as written they were up to 4e-11, TIAGo's forward dynamics); "
+        "the `kinova_unsnapped` row reads the file's numbers on both sides (`snap=False`).",
+        "",
+        "| robot | chain base → tip | n | locked (non-zero) | snaps (largest change) | max error vs "
+        "Pinocchio reduced | τ / M / G / fdyn ops | read | first load | cached load |",
+        "|---|---|---:|---|---|---|---|---:|---:|---:|",
+    ]
     for r in results:
         key, worst = r.worst
         nonzero = sum(1 for lock in r.locked if lock.value != 0)
@@ -294,20 +364,32 @@ def markdown(results: list, command: str, cold: bool) -> str:
         ops = " / ".join(str(r.ops.get(f, "–")) for f in ("tau", "M", "G", "fdyn"))
         status = "" if r.ok else " **FAIL**"
         first = _seconds(r.first_s) + ("" if r.cold in (True, None) else " *cache*")
-        lines.append(f"| {r.case.name}{status} | {r.chain} | {r.n} | {len(r.locked)} ({nonzero}), "
-                     f"{on_base} on the base | {r.snaps} ({r.max_snap:.1e}) | {worst:.1e} ({key}) | {ops} | "
-                     f"{_seconds(r.read_s)} | {first} | {_seconds(r.cached_s)} |")
-    lines += ["", "Operations of the generated functions (after one joint CSE, with the model's friction; "
-              "a − b counts one add, negation is free):", "",
-              "| robot | " + " | ".join(FUNCTIONS) + " |", "|---|" + "---:|" * len(FUNCTIONS)]
+        lines.append(
+            f"| {r.case.name}{status} | {r.chain} | {r.n} | {len(r.locked)} ({nonzero}), "
+            f"{on_base} on the base | {r.snaps} ({r.max_snap:.1e}) | {worst:.1e} ({key}) | {ops} | "
+            f"{_seconds(r.read_s)} | {first} | {_seconds(r.cached_s)} |"
+        )
+    lines += [
+        "",
+        "Operations of the generated functions (after one joint CSE, with the model's friction; "
+        "a − b counts one add, negation is free):",
+        "",
+        "| robot | " + " | ".join(FUNCTIONS) + " |",
+        "|---|" + "---:|" * len(FUNCTIONS),
+    ]
     for r in results:
         lines.append(f"| {r.case.name} | " + " | ".join(str(r.ops.get(f, "–")) for f in FUNCTIONS) + " |")
     lines += ["", "## Each robot", ""]
     for r in results:
-        lines.append(f"- **{r.case.name}** (`{r.case.file}`): {r.case.what}. Chain {r.chain}, "
-                     f"joints {', '.join(r.case.joints)}.")
-        nonzero = [f"{lock.joint} = {lock.value:g} ({lock.why}{', chain' if lock.on_chain else ''}"
-                   f"{'' if lock.moves else ', on the base'})" for lock in r.locked if lock.value != 0]
+        lines.append(
+            f"- **{r.case.name}** (`{r.case.file}`): {r.case.what}. Chain {r.chain}, joints {', '.join(r.case.joints)}."
+        )
+        nonzero = [
+            f"{lock.joint} = {lock.value:g} ({lock.why}{', chain' if lock.on_chain else ''}"
+            f"{'' if lock.moves else ', on the base'})"
+            for lock in r.locked
+            if lock.value != 0
+        ]
         if nonzero:
             lines.append(f"  Non-zero locks: {'; '.join(nonzero)}.")
         if r.warnings:
@@ -325,17 +407,26 @@ def _local(text: str) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--robots", nargs="+", choices=list(BY_NAME), metavar="NAME",
-                        help=f"a subset of {', '.join(BY_NAME)} (default: all)")
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--robots",
+        nargs="+",
+        choices=list(BY_NAME),
+        metavar="NAME",
+        help=f"a subset of {', '.join(BY_NAME)} (default: all)",
+    )
     parser.add_argument("--markdown", metavar="PATH", help="also write the report (Markdown) there")
     parser.add_argument("--count", type=int, default=200, help="random states per robot (default 200)")
-    parser.add_argument("--cold", action="store_true",
-                        help="a fresh symdyn cache (SYMDYN_CACHE_DIR), so the first load derives, generates "
-                             "and compiles")
-    parser.add_argument("--data", metavar="FOLDER", help="example-robot-data's robots/ folder "
-                        "(default: the installed wheel's)")
+    parser.add_argument(
+        "--cold",
+        action="store_true",
+        help="a fresh symdyn cache (SYMDYN_CACHE_DIR), so the first load derives, generates and compiles",
+    )
+    parser.add_argument(
+        "--data", metavar="FOLDER", help="example-robot-data's robots/ folder (default: the installed wheel's)"
+    )
     parser.add_argument("--time-cached-load", choices=list(BY_NAME), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     folder = robots_folder(args.data)
@@ -364,8 +455,9 @@ def _run_all(args, folder: Path, argv) -> int:
         case = BY_NAME[name]
         try:
             results.append(run(case, folder, args.count))
-        except Exception as exc:   # one robot's failure is reported, the others still run
+        except Exception as exc:  # one robot's failure is reported, the others still run
             import traceback
+
             log(f"{name}: FAIL: {type(exc).__name__}: {exc}")
             traceback.print_exc()
             result = Result(case)
@@ -382,7 +474,10 @@ def _run_all(args, folder: Path, argv) -> int:
         if not r.ok:
             key, worst = r.worst
             print(f"FAIL {r.case.name}: worst {worst:.1e} ({key}); " + "; ".join(r.problems), file=sys.stderr)
-    log(f"{len(results) - len(failed)} of {len(results)} robots pass" + (f"; FAIL: {', '.join(failed)}" if failed else ""))
+    log(
+        f"{len(results) - len(failed)} of {len(results)} robots pass"
+        + (f"; FAIL: {', '.join(failed)}" if failed else "")
+    )
     return 1 if failed else 0
 
 

@@ -35,8 +35,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .numeric import reference as ref
 
     robot = arms.load("puma560")
-    print(f"{robot.name}: {robot.n} joints, {robot.convention} DH, "
-          f"total mass {sum(float(l.m) for l in robot.links):.2f} kg  [{robot.source}]")
+    print(
+        f"{robot.name}: {robot.n} joints, {robot.convention} DH, "
+        f"total mass {sum(float(l.m) for l in robot.links):.2f} kg  [{robot.source}]"
+    )
     for method in ("newton-euler", "lagrange"):
         start = time.perf_counter()
         dyn = derive(robot, method, progress=True)
@@ -44,9 +46,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"{method:13s} {how} in {time.perf_counter() - start:.2f} s")
     dyn = derive(robot, "newton-euler", regroup=True, progress=True)
     counts = {t: op_counts(dyn, t, ("cse",))["cse"] for t in ("tau", "M", "G", "Cqd")}
-    print(f"derivation's operations after one joint CSE, mul + add (Newton–Euler on regrouped base parameters, "
-          f"{friction_variant(robot)}; the generated files' headers count sin/cos/sign calls too): " +
-          ", ".join(f"{t} {c['mul'] + c['add']} ({c['mul']} mul + {c['add']} add)" for t, c in counts.items()))
+    print(
+        f"derivation's operations after one joint CSE, mul + add (Newton–Euler on regrouped base parameters, "
+        f"{friction_variant(robot)}; the generated files' headers count sin/cos/sign calls too): "
+        + ", ".join(f"{t} {c['mul'] + c['add']} ({c['mul']} mul + {c['add']} add)" for t, c in counts.items())
+    )
     paths = generate(robot, "all", args.out)
     print(f"generated {len(paths)} files in {paths[0].parent}")
     np.set_printoptions(precision=4, suppress=True, linewidth=120)
@@ -56,16 +60,24 @@ def _cmd_run(args: argparse.Namespace) -> int:
         q = getattr(robot, pose)
         G, M = ref.gravload(robot, q), ref.inertia(robot, q)
         for f in written.values():
-            worst = max(worst, float(np.abs(np.asarray(f.G(q), dtype=float).reshape(G.shape) - G).max()),
-                        float(np.abs(np.asarray(f.M(q), dtype=float).reshape(M.shape) - M).max()))
+            worst = max(
+                worst,
+                float(np.abs(np.asarray(f.G(q), dtype=float).reshape(G.shape) - G).max()),
+                float(np.abs(np.asarray(f.M(q), dtype=float).reshape(M.shape) - M).max()),
+            )
         print(f"\n{pose} = {q}")
         print(f"  G(q)      = {G}  N·m")
         print(f"  diag M(q) = {np.diag(M)}  kg·m²")
-    print(f"\ngenerated code (C, NumPy, CasADi) in {paths[0].parent} vs reference at the book poses: "
-          f"max |error| {worst:.1e}")
+    print(
+        f"\ngenerated code (C, NumPy, CasADi) in {paths[0].parent} vs reference at the book poses: "
+        f"max |error| {worst:.1e}"
+    )
     if not worst <= RUN_TOLERANCE:
-        print(f"symdyn: error: the generated code disagrees with the reference by {worst:.1e} "
-              f"(more than {RUN_TOLERANCE:.0e})", file=sys.stderr)
+        print(
+            f"symdyn: error: the generated code disagrees with the reference by {worst:.1e} "
+            f"(more than {RUN_TOLERANCE:.0e})",
+            file=sys.stderr,
+        )
         return 1
     return 0
 
@@ -77,7 +89,7 @@ def _cmd_print(args: argparse.Namespace) -> int:
     from .derivation.simplify import op_counts
     from .model import command_line
 
-    robot = command_line.from_args(args, symbolic=not args.numeric)   # a shipped model or a URDF file
+    robot = command_line.from_args(args, symbolic=not args.numeric)  # a shipped model or a URDF file
     if not 1 <= args.digits <= 17:
         raise ValueError(f"--digits must be between 1 and 17, got {args.digits}")
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
@@ -88,17 +100,22 @@ def _cmd_print(args: argparse.Namespace) -> int:
     print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits, layouts=layouts))
     comment = "%" if args.format == "latex" else "#"
     closed = ("raw", "cse", "folded") + (("pruned",) if args.prune and not robot.is_symbolic else ())
-    print(f"{comment} {robot.name} by {dyn.method}; operations (mul + add) at each stage, full inertial "
-          f"parameters (not regrouped), {friction_variant(robot)}"
-          + ("; terms in named intermediates: raw and cse only, folding is what they avoid:"
-             if any(lay.layout == "named" for lay in layouts) else ":"))
+    print(
+        f"{comment} {robot.name} by {dyn.method}; operations (mul + add) at each stage, full inertial "
+        f"parameters (not regrouped), {friction_variant(robot)}"
+        + (
+            "; terms in named intermediates: raw and cse only, folding is what they avoid:"
+            if any(lay.layout == "named" for lay in layouts)
+            else ":"
+        )
+    )
     for lay in layouts:
         t = lay.term
         stages = closed if lay.layout == "closed" else ("raw", "cse")
         counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
         row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
         print(f"{comment}   {t:4s} {row}")
-    record = getattr(robot, "urdf", None)   # a URDF file's chain: what was locked, excluded, snapped
+    record = getattr(robot, "urdf", None)  # a URDF file's chain: what was locked, excluded, snapped
     for line in record.lines() if record is not None and command_line.is_urdf(args.model) else ():
         print(f"{comment} {line}")
     return 0
@@ -114,18 +131,25 @@ def _print_constants(dyn, args: argparse.Namespace) -> int:
     comment = "%" if args.format == "latex" else "#"
     kinds = {k: sum(1 for c in form.constants if str(c.symbol).startswith(k)) for k in ("I", "g", "F")}
     terms = {k: form.term_count(k) for k in "MbcGF"}
-    print(f"{comment} {len(form.constants)} named constants ({kinds['I']} inertial, {kinds['g']} gravity, "
-          f"{kinds['F']} friction); constant x abbreviation terms: "
-          + ", ".join(f"{k} {v}" for k, v in terms.items()) + f" ({sum(terms.values())} in all)")
+    print(
+        f"{comment} {len(form.constants)} named constants ({kinds['I']} inertial, {kinds['g']} gravity, "
+        f"{kinds['F']} friction); constant x abbreviation terms: "
+        + ", ".join(f"{k} {v}" for k, v in terms.items())
+        + f" ({sum(terms.values())} in all)"
+    )
     generated = {p.name: p for p in bundle(dyn.robot).programs}
     how = "constants from their definitions" if dyn.robot.is_symbolic else "constants as numbers"
-    print(f"{comment} operations (mul + add, sin/cos calls) of evaluating this form ({how}, one joint CSE, "
-          f"{friction_variant(dyn.robot)}) "
-          f"vs the generated code (the program every emitter prints):")
+    print(
+        f"{comment} operations (mul + add, sin/cos calls) of evaluating this form ({how}, one joint CSE, "
+        f"{friction_variant(dyn.robot)}) "
+        f"vs the generated code (the program every emitter prints):"
+    )
     for kind in ("M", "Cqd", "G", "tau"):
         ours, theirs = form.op_count(kind), generated[kind].op_count()
-        print(f"{comment}   {kind:4s} named constants {ours['mul'] + ours['add']:5d} + {ours['fun']:2d} fun   "
-              f"generated ({generated[kind].origin}) {theirs['mul'] + theirs['add']:5d} + {theirs['fun']:2d} fun")
+        print(
+            f"{comment}   {kind:4s} named constants {ours['mul'] + ours['add']:5d} + {ours['fun']:2d} fun   "
+            f"generated ({generated[kind].origin}) {theirs['mul'] + theirs['add']:5d} + {theirs['fun']:2d} fun"
+        )
     return 0
 
 
@@ -161,9 +185,11 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return 0
 
 
-DESCRIPTION = ("symdyn: symbolic rigid-body dynamics of robot arms, by Lagrange's energy method and the "
-               "recursive Newton-Euler method, closed forms printed like a textbook, and fast generated model "
-               "code (NumPy, C, CasADi) checked against a numeric reference.")
+DESCRIPTION = (
+    "symdyn: symbolic rigid-body dynamics of robot arms, by Lagrange's energy method and the "
+    "recursive Newton-Euler method, closed forms printed like a textbook, and fast generated model "
+    "code (NumPy, C, CasADi) checked against a numeric reference."
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -181,41 +207,70 @@ def build_parser() -> argparse.ArgumentParser:
     from .bench import compare
     from .codegen import entry
     from .derivation.printing import CLOSED_LIMIT
+
     entry.configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
     compare.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))
 
     p = sub.add_parser("print", help="print closed-form M, C, G, F, tau of a model")
     command_line.add_arguments(p)
-    p.add_argument("--term", default="all", choices=("M", "C", "Cqd", "G", "F", "tau", "all"),
-                   help="which term to print (default: all)")
-    p.add_argument("--method", default="newton-euler", choices=("newton-euler", "lagrange"),
-                   help="which derivation (default: newton-euler)")
-    p.add_argument("--format", default="text", choices=("text", "pretty", "latex"),
-                   help="output format (default: text)")
-    p.add_argument("--form", default="book", choices=("book", "folded"),
-                   help="book: products of sines/cosines of natural angles (S23*C4*S5); "
-                        "folded: sines/cosines of angle sums")
-    p.add_argument("--layout", default="auto", choices=("auto", "closed", "named"),
-                   help="closed: every element in closed form; named: the derivation's named intermediates, "
-                        f"then the elements in them; auto (default): closed up to {CLOSED_LIMIT} terms, "
-                        "named beyond (a 7-joint arm's M, C, tau)")
-    p.add_argument("--constants", action="store_true",
-                   help="named-constant form (Armstrong, Khatib & Burdick 1986): M, b, c, G, F, tau in named "
-                        "inertial constants with their definitions, values and units, and C2, S23 abbreviations")
+    p.add_argument(
+        "--term",
+        default="all",
+        choices=("M", "C", "Cqd", "G", "F", "tau", "all"),
+        help="which term to print (default: all)",
+    )
+    p.add_argument(
+        "--method",
+        default="newton-euler",
+        choices=("newton-euler", "lagrange"),
+        help="which derivation (default: newton-euler)",
+    )
+    p.add_argument(
+        "--format", default="text", choices=("text", "pretty", "latex"), help="output format (default: text)"
+    )
+    p.add_argument(
+        "--form",
+        default="book",
+        choices=("book", "folded"),
+        help="book: products of sines/cosines of natural angles (S23*C4*S5); folded: sines/cosines of angle sums",
+    )
+    p.add_argument(
+        "--layout",
+        default="auto",
+        choices=("auto", "closed", "named"),
+        help="closed: every element in closed form; named: the derivation's named intermediates, "
+        f"then the elements in them; auto (default): closed up to {CLOSED_LIMIT} terms, "
+        "named beyond (a 7-joint arm's M, C, tau)",
+    )
+    p.add_argument(
+        "--constants",
+        action="store_true",
+        help="named-constant form (Armstrong, Khatib & Burdick 1986): M, b, c, G, F, tau in named "
+        "inertial constants with their definitions, values and units, and C2, S23 abbreviations",
+    )
     p.add_argument("--digits", type=int, default=5, help="significant digits of printed numbers (default: 5)")
-    p.add_argument("--prune", type=float, default=None, metavar="TOL",
-                   help="drop terms below TOL relative to each element's scale")
+    p.add_argument(
+        "--prune", type=float, default=None, metavar="TOL", help="drop terms below TOL relative to each element's scale"
+    )
     p.add_argument("--numeric", action="store_true", help="numeric parameters even where a symbolic variant exists")
     p.add_argument("--no-cache", action="store_true", help="derive afresh, bypassing the cache")
     p.set_defaults(func=_cmd_print)
 
     from .identify import command as identify_command
-    identify_command.configure_parser(sub.add_parser(
-        "identify", help="identification: excite, simulate, fit (base parameters, a consistent model, a report)"))
+
+    identify_command.configure_parser(
+        sub.add_parser(
+            "identify", help="identification: excite, simulate, fit (base parameters, a consistent model, a report)"
+        )
+    )
 
     from .sweep import command as sweep_command
-    sweep_command.configure_parser(sub.add_parser(
-        "sweep", help="many tasks on a Dask cluster: trajectory library, Monte-Carlo (--list to see them)"))
+
+    sweep_command.configure_parser(
+        sub.add_parser(
+            "sweep", help="many tasks on a Dask cluster: trajectory library, Monte-Carlo (--list to see them)"
+        )
+    )
 
     p = sub.add_parser("study", help="run one of the chapter's studies (--list to see them)")
     p.add_argument("name", nargs="?", help="the study to run (see --list)")

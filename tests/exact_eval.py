@@ -19,7 +19,7 @@ def _power(z, k):
     """(c + i s)^k for integer k, exactly."""
     c, s = z
     if k < 0:
-        c, s, k = c, -s, -k           # |z| = 1: the inverse is the conjugate
+        c, s, k = c, -s, -k  # |z| = 1: the inverse is the conjugate
     rc, rs = Fraction(1), Fraction(0)
     for _ in range(k):
         rc, rs = rc * c - rs * s, rc * s + rs * c

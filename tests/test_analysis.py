@@ -21,6 +21,7 @@ def puma_json():
 
 # --------------------------------------------------------------------------- model functions
 
+
 @pytest.mark.parametrize("backend", ["auto", "reference"])
 def test_model_functions_bias_is_coriolis_plus_gravity_without_friction(puma, backend):
     from conftest import random_states
@@ -44,6 +45,7 @@ def test_model_functions_refuses_a_symbolic_robot():
 
 
 # --------------------------------------------------------------------------- gravity load
+
 
 def test_gravity_map_grid_points_equal_reference_gravload(puma):
     sweep = A.gravity_load_map(puma, resolution=9)
@@ -84,6 +86,7 @@ def test_with_gravity_rejects_a_negative_magnitude(puma):
 
 # --------------------------------------------------------------------------- inertia variation
 
+
 def test_inertia_map_points_equal_reference_inertia(puma):
     sweep = A.inertia_map(puma, resolution=6)
     q = np.zeros(6)
@@ -100,8 +103,7 @@ def test_puma_M22_depends_on_q3_only(puma):
 
 
 def test_extreme_ratio_is_max_over_min_and_nan_across_zero():
-    sweep = A.Sweep((1,), (np.array([0.0, 1.0, 2.0]),), np.array([[2.0, -1.0], [5.0, 0.5], [4.0, 3.0]]),
-                    ("a", "b"))
+    sweep = A.Sweep((1,), (np.array([0.0, 1.0, 2.0]),), np.array([[2.0, -1.0], [5.0, 0.5], [4.0, 3.0]]), ("a", "b"))
     a, b = sweep.extremes()
     assert (a.min, a.argmin, a.max, a.argmax) == (2.0, (0.0,), 5.0, (1.0,))
     assert a.ratio == 2.5
@@ -109,6 +111,7 @@ def test_extreme_ratio_is_max_over_min_and_nan_across_zero():
 
 
 # --------------------------------------------------------------------------- payload
+
 
 def point_jacobian(robot, q, p):
     """Translational Jacobian (3, n) of a point p fixed in the last link (independent of payload code)."""
@@ -122,7 +125,7 @@ def test_payload_changes_M_and_G_by_the_point_mass_terms(puma, additive):
     Jp = point_jacobian(puma, q, p)
     dM = m * Jp.T @ Jp
     dG = m * Jp.T @ np.array([0, 0, 9.81])
-    if not additive:   # the book's payload replaces the last link's mass m6 at r6 (its inertia tensor is kept)
+    if not additive:  # the book's payload replaces the last link's mass m6 at r6 (its inertia tensor is kept)
         last = puma.links[-1]
         Jc = point_jacobian(puma, q, last.r)
         dM -= last.m * Jc.T @ Jc
@@ -136,11 +139,12 @@ def test_payload_ratio_is_elementwise_and_nan_where_unloaded_is_zero(puma):
     effect = A.payload_effect(puma, 2.5, (0, 0, 0.1), puma.qn)
     G0 = ref.gravload(puma, puma.qn)
     assert effect.G_ratio[1] == pytest.approx(effect.G1[1] / G0[1], rel=1e-14)
-    assert math.isnan(effect.G_ratio[0])           # no gravity load on joint 1
+    assert math.isnan(effect.G_ratio[0])  # no gravity load on joint 1
     assert effect.M_ratio[0, 0] == pytest.approx(effect.M1[0, 0] / effect.M0[0, 0], rel=1e-14)
 
 
 # --------------------------------------------------------------------------- base wrench
+
 
 def test_total_mass_matches_the_model_data(puma):
     assert A.total_mass(puma) == pytest.approx(puma_json()["total_mass"], abs=1e-9)
@@ -151,14 +155,15 @@ def test_static_base_wrench_is_the_weight_and_its_moment(puma):
     W = A.base_wrench(puma, q)
     weight = np.array([0, 0, 9.81])
     moment = np.zeros(3)
-    for i, link in enumerate(puma.links):     # COM of link i from forward kinematics of the chain up to it
-        arm = dataclasses.replace(puma, links=puma.links[:i + 1], tool=transl(*link.r), poses={})
-        moment += np.cross(ref.fkine(arm, q[:i + 1])[:3, 3], link.m * weight)
+    for i, link in enumerate(puma.links):  # COM of link i from forward kinematics of the chain up to it
+        arm = dataclasses.replace(puma, links=puma.links[: i + 1], tool=transl(*link.r), poses={})
+        moment += np.cross(ref.fkine(arm, q[: i + 1])[:3, 3], link.m * weight)
     np.testing.assert_allclose(W[:3], A.total_mass(puma) * weight, atol=1e-10)
     np.testing.assert_allclose(W[3:], moment, atol=1e-10)
 
 
 # --------------------------------------------------------------------------- manipulability
+
 
 def test_asada_measure_of_the_twolink_arm_by_hand(twolink):
     q = np.array([0.0, math.pi / 2])
@@ -207,6 +212,7 @@ def test_unknown_axes_are_named(puma):
 
 # --------------------------------------------------------------------------- joint dynamics
 
+
 def test_joint_transfer_function_counts_the_rotor_once(puma):
     data = puma_json()["links"]
     q = puma.qn
@@ -214,8 +220,8 @@ def test_joint_transfer_function_counts_the_rotor_once(puma):
     M = ref.inertia(puma, q)
     for j, link in enumerate(data):
         G, Jm = link["G"], link["Jm"]
-        assert tf.J[j] == pytest.approx(Jm + (M[j, j] - G ** 2 * Jm) / G ** 2, rel=1e-12)
-        assert tf.J[j] == pytest.approx(M[j, j] / G ** 2, rel=1e-12)   # the rotor once, not twice
+        assert tf.J[j] == pytest.approx(Jm + (M[j, j] - G**2 * Jm) / G**2, rel=1e-12)
+        assert tf.J[j] == pytest.approx(M[j, j] / G**2, rel=1e-12)  # the rotor once, not twice
         assert tf.B[j] == link["B"]
     # joint 6: the link inertia about its own axis is Izz6 + m6·(rx² + ry²) = 4e-5 at any pose
     last = data[5]
@@ -233,6 +239,7 @@ def test_joint_transfer_function_needs_a_gear_ratio(twolink):
 
 # --------------------------------------------------------------------------- exercise 3
 
+
 def test_exercise_arm_gravity_load_matches_the_closed_form():
     arm = A.twolink_exercise_arm()
     m1, m2, r1, r2, a1, g = 0.45, 0.35, 0.08, 0.08, 0.16, 9.81
@@ -248,10 +255,11 @@ def test_exercise_arm_joint1_inertia_against_q2():
     m1, m2, r1, r2, a1 = 0.45, 0.35, 0.08, 0.08, 0.16
     curve = A.inertia_curve(arm, element=(0, 0), joint=1, resolution=37)
     q2 = curve.axes[0]
-    expected = m1 * r1 ** 2 + m2 * (a1 ** 2 + r2 ** 2 + 2 * a1 * r2 * np.cos(q2))
+    expected = m1 * r1**2 + m2 * (a1**2 + r2**2 + 2 * a1 * r2 * np.cos(q2))
     np.testing.assert_allclose(curve.values[:, 0], expected, atol=1e-14)
     assert curve.extremes()[0].ratio == pytest.approx(
-        (m1 * r1 ** 2 + m2 * (a1 + r2) ** 2) / (m1 * r1 ** 2 + m2 * (a1 - r2) ** 2))
+        (m1 * r1**2 + m2 * (a1 + r2) ** 2) / (m1 * r1**2 + m2 * (a1 - r2) ** 2)
+    )
 
 
 def test_joint_grid_names_a_bad_joint(puma):
@@ -264,8 +272,18 @@ def test_joint_grid_names_a_bad_joint(puma):
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.parametrize("name", ["gravity-load", "inertia-variation", "payload", "base-wrench",
-                                  "manipulability", "joint-dynamics", "twolink-exercise"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "gravity-load",
+        "inertia-variation",
+        "payload",
+        "base-wrench",
+        "manipulability",
+        "joint-dynamics",
+        "twolink-exercise",
+    ],
+)
 def test_analysis_study_writes_its_figure_and_summary(name, tmp_path):
     from symdyn.apps.studies import analyses, registry
 

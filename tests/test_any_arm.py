@@ -71,6 +71,7 @@ def test_a_dh_arm_is_the_same_arm_in_general_form():
 
 def _dh_origin(link):
     from symdyn.model import placement
+
     T = np.array(placement((link.a, 0, 0), (link.alpha, 0, 0)), dtype=float)
     T[:3, 3] += T[:3, 2] * float(link.d)
     return T
@@ -90,7 +91,7 @@ def test_the_sample_covers_the_features_of_the_generator():
     assert any(not link.is_revolute for link in links)
     assert any(link.m == 0 for link in links) and any(link.m > 0 and not any(map(any, link.I)) for link in links)
     assert any(float(link.G) < 0 for link in links) and any(sum(link.Tc) != 0 for link in links)
-    assert any(abs(math.sin(2 * float(link.alpha))) > 1e-6 for link in links)   # a generic twist
+    assert any(abs(math.sin(2 * float(link.alpha))) > 1e-6 for link in links)  # a generic twist
     assert any(r.base != Robot("x", (Link(m=1),)).base for r in arms)
     assert any(r.gravity != (0, 0, 9.81) for r in arms)
 
@@ -103,6 +104,7 @@ def test_an_arm_prints_as_code_that_rebuilds_it():
 
 
 # --------------------------------------------------------------------------- regressions
+
 
 def test_regrouping_keeps_the_coulomb_offset_of_a_prismatic_joint():
     """Found by the random arms: FO (sgn² q̇ = 1 at the sample points) looked like
@@ -140,7 +142,7 @@ def test_singular_inertia_is_a_clear_error_naming_the_joint():
 
 def test_the_batch_evaluator_matches_sympy():
     x, y, d = sp.symbols("x y d", real=True)
-    expr = sp.cos(x) * d**2 - sp.sign(y) * sp.Abs(x) / 3 + sp.sin(x + y + sp.pi / 7)   # pi, as in the RRP arm's offsets
+    expr = sp.cos(x) * d**2 - sp.sign(y) * sp.Abs(x) / 3 + sp.sin(x + y + sp.pi / 7)  # pi, as in the RRP arm's offsets
     values = {x: np.array([0.3, -1.2]), y: np.array([0.0, 2.0])}
     got = evaluate([expr], [(d, x * y + 1)], values)[0]
     expected = [float(expr.subs(d, x * y + 1).subs({x: a, y: b})) for a, b in zip(*values.values())]

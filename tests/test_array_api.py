@@ -27,7 +27,7 @@ from tests.conftest import random_states
 jax.config.update("jax_enable_x64", True)
 
 ARMS = {name: functools.partial(arms.load, name) for name in codegen.SHIPPED}
-ARMS["random-101"] = functools.partial(random_arm, 101, ArmOptions(n_max=4))   # test_derivatives' arm
+ARMS["random-101"] = functools.partial(random_arm, 101, ArmOptions(n_max=4))  # test_derivatives' arm
 FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives", "fdyn_derivatives", "Minv")
 STATES = 200
 
@@ -42,14 +42,22 @@ def states(name):
     """(q, qd, qdd, tau) at STATES random states within the joint limits, qd = 0 in the first five."""
     r = robot(name)
     q, qd, qdd = random_states(r, STATES, seed=25)
-    qd[:5] = 0.0   # Coulomb friction at rest is 0: sign(0)
+    qd[:5] = 0.0  # Coulomb friction at rest is 0: sign(0)
     return q, qd, qdd, ref.rne(r, q, qd, qdd)
 
 
 def arguments(f, q, qd, qdd, tau):
     """The arguments of function f at a state."""
-    return {"M": (q,), "G": (q,), "Minv": (q,), "F": (qd,), "C": (q, qd), "Cqd": (q, qd),
-            "fdyn": (q, qd, tau), "fdyn_derivatives": (q, qd, tau)}.get(f, (q, qd, qdd))
+    return {
+        "M": (q,),
+        "G": (q,),
+        "Minv": (q,),
+        "F": (qd,),
+        "C": (q, qd),
+        "Cqd": (q, qd),
+        "fdyn": (q, qd, tau),
+        "fdyn_derivatives": (q, qd, tau),
+    }.get(f, (q, qd, qdd))
 
 
 def outputs(value):
@@ -67,8 +75,15 @@ def test_every_function_on_jax_float64_matches_the_reference_and_numpy(name):
     q, qd, qdd, tau = states(name)
     f, numpy = jax_model(name), symdyn.load(r, "numpy")
     C = ref.coriolis(r, q, qd)
-    expected = {"tau": tau, "M": ref.inertia(r, q), "C": C, "Cqd": np.einsum("nij,nj->ni", C, qd),
-                "G": ref.gravload(r, q), "F": ref.friction(r, qd), "fdyn": qdd}
+    expected = {
+        "tau": tau,
+        "M": ref.inertia(r, q),
+        "C": C,
+        "Cqd": np.einsum("nij,nj->ni", C, qd),
+        "G": ref.gravload(r, q),
+        "F": ref.friction(r, qd),
+        "fdyn": qdd,
+    }
     for fn in FUNCTIONS:
         args = arguments(fn, q, qd, qdd, tau)
         got = outputs(getattr(f, fn)(*map(jnp.asarray, args)))
@@ -79,8 +94,12 @@ def test_every_function_on_jax_float64_matches_the_reference_and_numpy(name):
             assert_close(np.asarray(got[0]), expected[fn], f"{name} {fn} vs reference")
     pi = np.array([float(v) for v in parameter_values(r)])
     assert_close(np.asarray(f.Y(q, qd, qdd)) @ pi, tau, f"{name} Y pi")
-    assert_close(np.einsum("nij,njk->nik", np.asarray(f.Minv(q)), expected["M"]),
-                 np.broadcast_to(np.eye(r.n), (STATES, r.n, r.n)), f"{name} Minv M", rtol=1e-10)
+    assert_close(
+        np.einsum("nij,njk->nik", np.asarray(f.Minv(q)), expected["M"]),
+        np.broadcast_to(np.eye(r.n), (STATES, r.n, r.n)),
+        f"{name} Minv M",
+        rtol=1e-10,
+    )
 
 
 @pytest.mark.parametrize("name", ARMS)
@@ -96,8 +115,9 @@ def test_float32_in_float32_out_within_its_rounding(name):
         single = outputs(getattr(xp, fn)(*(a.astype(np.float32) for a in args)))
         double = outputs(getattr(xp, fn)(*args))
         assert all(s.dtype == np.float32 for s in single), fn
-        worst[fn] = max(float(np.max(np.abs(s - d)) / max(1.0, float(np.max(np.abs(d)))))
-                        for s, d in zip(single, double))
+        worst[fn] = max(
+            float(np.max(np.abs(s - d)) / max(1.0, float(np.max(np.abs(d))))) for s, d in zip(single, double)
+        )
     print(f"{name} float32 vs float64, worst relative error: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))
     for fn, err in worst.items():
         assert err < (1e-2 if "fdyn" in fn or fn == "Minv" else 1e-4), f"{name} {fn} float32 error {err:.1e}"
@@ -106,7 +126,7 @@ def test_float32_in_float32_out_within_its_rounding(name):
 @pytest.mark.parametrize("name", ARMS)
 def test_jitted_tau_matches_the_reference(name):
     q, qd, qdd, tau = states(name)
-    f = symdyn.load(robot(name), "jax")   # jitted by default
+    f = symdyn.load(robot(name), "jax")  # jitted by default
     assert_close(np.asarray(f.tau(q, qd, qdd)), tau, f"{name} jitted tau")
 
 
@@ -145,7 +165,7 @@ def test_grad_of_every_function_equals_central_differences(name):
     """jax.grad (reverse mode) of a weighted sum of each function's outputs, every argument,
     against central differences of the NumPy target (1e-6: the differences' own error); and of τ
     against the generated derivatives and M (1e-10).  All grads in one jit."""
-    q, qd, qdd, tau = (a[5] for a in states(name))   # one state with qd != 0
+    q, qd, qdd, tau = (a[5] for a in states(name))  # one state with qd != 0
     f, numpy = jax_model(name), symdyn.load(robot(name), "numpy")
     rng = np.random.default_rng(3)
     cases = {}
@@ -156,17 +176,24 @@ def test_grad_of_every_function_equals_central_differences(name):
     def grads(cases):
         def scalar(fn, weights, *a):
             return sum(jnp.sum(w * o) for w, o in zip(weights, outputs(getattr(f, fn)(*a))))
-        return {fn: jax.grad(functools.partial(scalar, fn, w), argnums=tuple(range(len(a))))(*a)
-                for fn, (a, w) in cases.items()}
+
+        return {
+            fn: jax.grad(functools.partial(scalar, fn, w), argnums=tuple(range(len(a))))(*a)
+            for fn, (a, w) in cases.items()
+        }
 
     got = jit(grads)(cases)
     h = 1e-6
     for fn, (args, weights) in cases.items():
+
         def value(*a):
             return sum(float(np.sum(w * o)) for w, o in zip(weights, outputs(getattr(numpy, fn)(*a))))
+
         for k, x in enumerate(args):
+
             def at(step, k=k):
-                return value(*args[:k], args[k] + step, *args[k + 1:])
+                return value(*args[:k], args[k] + step, *args[k + 1 :])
+
             central = np.array([(at(h * e) - at(-h * e)) / (2 * h) for e in np.eye(len(x))])
             assert_close(np.asarray(got[fn][k]), central, f"{name} grad {fn} argument {k}", rtol=1e-6)
     (_, (w,)) = cases["tau"]
@@ -181,8 +208,10 @@ def test_generated_derivatives_equal_jacfwd(name):
     f = jax_model(name)
 
     def both(q, qd, qdd, tau):
-        return ((f.tau_derivatives(q, qd, qdd)[1:] + (f.M(q),), jax.vmap(jax.jacfwd(f.tau, (0, 1, 2)))(q, qd, qdd)),
-                (f.fdyn_derivatives(q, qd, tau)[1:], jax.vmap(jax.jacfwd(f.fdyn, (0, 1, 2)))(q, qd, tau)))
+        return (
+            (f.tau_derivatives(q, qd, qdd)[1:] + (f.M(q),), jax.vmap(jax.jacfwd(f.tau, (0, 1, 2)))(q, qd, qdd)),
+            (f.fdyn_derivatives(q, qd, tau)[1:], jax.vmap(jax.jacfwd(f.fdyn, (0, 1, 2)))(q, qd, tau)),
+        )
 
     for generated, auto in jit(both)(q, qd, qdd, tau):
         for g, a, what in zip(generated, auto, ("q", "qd", "qdd or tau")):
@@ -196,34 +225,40 @@ def test_jit_of_vmap_of_jacfwd_of_tau_runs():
     q, qd, qdd, _ = (jnp.asarray(a[:8]) for a in states("twolink"))
     jac = jax.jit(jax.vmap(jax.jacfwd(f.tau)))(q, qd, qdd)
     assert jac.shape == (8, 2, 2)
-    assert_close(np.asarray(jac), symdyn.load("twolink", "numpy").tau_derivatives(q, qd, qdd)[1], "jit vmap jacfwd",
-                 rtol=1e-10)
+    assert_close(
+        np.asarray(jac), symdyn.load("twolink", "numpy").tau_derivatives(q, qd, qdd)[1], "jit vmap jacfwd", rtol=1e-10
+    )
 
 
 def test_dtype_follows_the_arguments():
     f = jax_model("twolink")
     q32 = jnp.asarray([[0.3, -0.2]], dtype=jnp.float32)
     assert f.M(q32).dtype == jnp.float32
-    assert f.tau(q32, q32, q32.astype(jnp.float64)).dtype == jnp.float64   # promoted as the library does
-    assert f.M(jnp.asarray([1, 2])).dtype == jnp.float64                  # integers: the default float
-    np.testing.assert_allclose(np.asarray(f.M(jnp.asarray([1, 2]))), ref.inertia(robot("twolink"), [1.0, 2.0]),
-                               rtol=1e-14)
+    assert f.tau(q32, q32, q32.astype(jnp.float64)).dtype == jnp.float64  # promoted as the library does
+    assert f.M(jnp.asarray([1, 2])).dtype == jnp.float64  # integers: the default float
+    np.testing.assert_allclose(
+        np.asarray(f.M(jnp.asarray([1, 2]))), ref.inertia(robot("twolink"), [1.0, 2.0]), rtol=1e-14
+    )
     xp = symdyn.load("twolink", "array-api")
     out = xp.fdyn_derivatives(*(np.full((3, 2), 0.5, dtype=np.float32),) * 3)
     assert all(isinstance(o, np.ndarray) and o.dtype == np.float32 for o in out)
 
 
 def test_leading_shapes_broadcast_and_empty_batches_give_empty_outputs():
-    f, numpy = symdyn.load("twolink", "jax"), symdyn.load("twolink", "numpy")   # jitted: op by op, new shapes compile
+    f, numpy = symdyn.load("twolink", "jax"), symdyn.load("twolink", "numpy")  # jitted: op by op, new shapes compile
     q, qd, qdd, _ = states("twolink")
     q4 = q[:12].reshape(3, 4, 2)
     got = f.tau(q4, qd[0], qdd[:4])
     assert got.shape == (3, 4, 2)
     assert_close(np.asarray(got), numpy.tau(q4, qd[0], qdd[:4]), "broadcast tau")
     assert f.M(np.zeros((0, 2))).shape == (0, 2, 2)
-    assert [o.shape for o in f.fdyn_derivatives(np.zeros((0, 2)), qd[0], qdd[0])] == [(0, 2), (0, 2, 2), (0, 2, 2),
-                                                                                     (0, 2, 2)]
-    assert f.G(q[0].tolist()).shape == (2,)   # a list: converted by jax.numpy.asarray
+    assert [o.shape for o in f.fdyn_derivatives(np.zeros((0, 2)), qd[0], qdd[0])] == [
+        (0, 2),
+        (0, 2, 2),
+        (0, 2, 2),
+        (0, 2, 2),
+    ]
+    assert f.G(q[0].tolist()).shape == (2,)  # a list: converted by jax.numpy.asarray
 
 
 @pytest.mark.parametrize("target", ("jax", "jax-eager", "array-api"))
@@ -250,9 +285,9 @@ def test_nan_in_gives_nan_out_where_the_output_depends_on_it():
     f = symdyn.load("twolink", "jax")
     q = jnp.asarray([0.3, np.nan])
     assert np.isnan(np.asarray(f.tau(q, jnp.zeros(2), jnp.zeros(2)))).all()
-    assert (np.asarray(f.F(jnp.asarray([np.nan, np.nan]))) == 0).all()   # no friction: F is the constant 0
-    assert np.isnan(np.asarray(jax_model("puma560").F(jnp.full(6, np.nan)))).all()   # Coulomb: sign(NaN) is NaN
-    assert np.isfinite(np.asarray(f.M(jnp.asarray([np.nan, 0.3])))).all()   # M depends on q2 only
+    assert (np.asarray(f.F(jnp.asarray([np.nan, np.nan]))) == 0).all()  # no friction: F is the constant 0
+    assert np.isnan(np.asarray(jax_model("puma560").F(jnp.full(6, np.nan)))).all()  # Coulomb: sign(NaN) is NaN
+    assert np.isfinite(np.asarray(f.M(jnp.asarray([np.nan, 0.3])))).all()  # M depends on q2 only
     assert np.isnan(np.asarray(f.M(q))[[0, 0, 1], [0, 1, 0]]).all()
 
 
@@ -276,9 +311,12 @@ def test_the_array_api_files_are_headed_and_import_no_array_library(name):
 def test_the_core_imports_neither_jax_nor_torch():
     """Only the array-API loaders import them, inside functions (extras, never core dependencies)."""
     package = codegen.GENERATED.parent / "symdyn"
-    found = {path.relative_to(package).as_posix(): re.findall(r"^( *)(?:import|from) (jax|torch|array_api_compat)\b",
-                                                               path.read_text(), re.M)
-             for path in package.rglob("*.py")}
+    found = {
+        path.relative_to(package).as_posix(): re.findall(
+            r"^( *)(?:import|from) (jax|torch|array_api_compat)\b", path.read_text(), re.M
+        )
+        for path in package.rglob("*.py")
+    }
     found = {path: imports for path, imports in found.items() if imports}
     assert list(found) == ["codegen/emit/array_api.py"], found
     assert all(indent for indent, _ in found["codegen/emit/array_api.py"]), "imported at the module's top"
@@ -287,7 +325,8 @@ def test_the_core_imports_neither_jax_nor_torch():
 def test_without_array_api_compat_the_arrays_own_namespace_serves(monkeypatch):
     """JAX arrays and NumPy ≥ 2 arrays carry __array_namespace__: array-api-compat is needed for PyTorch only."""
     import sys
-    monkeypatch.setitem(sys.modules, "array_api_compat", None)   # import array_api_compat → ImportError
+
+    monkeypatch.setitem(sys.modules, "array_api_compat", None)  # import array_api_compat → ImportError
     xp = symdyn.load("twolink", "array-api")
     q, qd, qdd, tau = (a[:3] for a in states("twolink"))
     assert_close(xp.tau(q, qd, qdd), tau, "NumPy's own namespace")

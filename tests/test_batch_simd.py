@@ -42,7 +42,7 @@ def model(request):
 def _states(n, count, seed=0):
     rng = np.random.default_rng(seed)
     q, qd, qdd = (rng.uniform(-3, 3, (count, n)) for _ in range(3))
-    qd[::5, : n // 2] = 0.0   # Coulomb friction at rest: sign(0)
+    qd[::5, : n // 2] = 0.0  # Coulomb friction at rest: sign(0)
     return {"q": q, "qd": qd, "qdd": qdd, "tau": qdd * 10}
 
 
@@ -56,8 +56,15 @@ def test_every_kernel_equals_the_scalar_function_state_by_state(model):
     lib_sigs = {name: getattr(model, name) for name in model.functions}
     args = _states(model.n, max(SIZES), seed=1)
     for name, f in lib_sigs.items():
-        names = [a.split("=")[0].strip() for a in f.__text_signature__.split("(")[1].split(")")[0].split(",")[1:]
-                 if a.strip() and "*" not in a and "=" not in a] if f.__text_signature__ else None
+        names = (
+            [
+                a.split("=")[0].strip()
+                for a in f.__text_signature__.split("(")[1].split(")")[0].split(",")[1:]
+                if a.strip() and "*" not in a and "=" not in a
+            ]
+            if f.__text_signature__
+            else None
+        )
         names = names or ["q", "qd", "qdd"][:1]
         single = _one_by_one(f, names, args, max(SIZES))
         for count in SIZES:
@@ -71,12 +78,12 @@ def test_every_kernel_equals_the_scalar_function_state_by_state(model):
                 scale = np.max(np.abs(want.reshape(count, -1)), axis=1)
                 err = np.max(np.abs(g - want).reshape(count, -1), axis=1)
                 assert np.all(err <= RTOL * scale), f"{model.name}.{name} at N={count}: {np.max(err / scale):.1e}"
-        if name == "F":   # no sin/cos: the same arithmetic, bitwise
+        if name == "F":  # no sin/cos: the same arithmetic, bitwise
             assert np.array_equal(f(args["qd"]), single[0])
 
 
 def test_threads_give_bitwise_the_same_results_and_out_is_written_in_place(model):
-    count = 20_001   # not a multiple of 2, long enough for two threads to start
+    count = 20_001  # not a multiple of 2, long enough for two threads to start
     args = _states(model.n, count, seed=2)
     for name, ins in (("tau", "q qd qdd"), ("M", "q"), ("fdyn", "q qd tau")):
         f = getattr(model, name)
@@ -111,9 +118,9 @@ def test_out_and_threads_are_checked(model):
 
 
 def test_a_state_with_a_huge_angle_is_computed_by_the_scalar_function():
-    model = codegen.load("twolink", "c")   # G is all sin/cos; a library that compiles in a second
+    model = codegen.load("twolink", "c")  # G is all sin/cos; a library that compiles in a second
     q = _states(2, 17, seed=3)["q"]
-    q[5, 1] = 3e5   # outside the inline range: libm in the scalar function, that lane recomputed
+    q[5, 1] = 3e5  # outside the inline range: libm in the scalar function, that lane recomputed
     q[9, 0] = -1e9
     np.testing.assert_allclose(model.G(q), np.array([model.G(x) for x in q]), rtol=RTOL, atol=0)
 
@@ -123,7 +130,11 @@ def sincos(tmp_path_factory):
     """The kernels' sincosv_ over an array (SYMDYN_W lanes at a time) and the scalar sincos_, via ctypes."""
     folder = tmp_path_factory.mktemp("sincos")
     src = folder / "sincos.c"
-    src.write_text("#include <math.h>\n" + c_emit._HELPERS + c_emit._SIMD_HELPERS + r"""
+    src.write_text(
+        "#include <math.h>\n"
+        + c_emit._HELPERS
+        + c_emit._SIMD_HELPERS
+        + r"""
 void sincos_simd(long n, const double *x, double *s, double *c);
 void sincos_scalar(long n, const double *x, double *s, double *c);
 void sincos_simd(long n, const double *x, double *s, double *c)
@@ -153,10 +164,24 @@ void sincos_libm(long n, const double *x, double *s, double *c)
         c[i] = cos(x[i]);
     }
 }
-""")
+"""
+    )
     lib = folder / "libsincos.so"
-    subprocess.run([clib.compiler(), *clib.DEFAULT_FLAGS, "-Wall", "-Wextra", "-Werror", "-Wno-unused-function",
-                    str(src), "-o", str(lib), "-lm"], check=True)
+    subprocess.run(
+        [
+            clib.compiler(),
+            *clib.DEFAULT_FLAGS,
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-Wno-unused-function",
+            str(src),
+            "-o",
+            str(lib),
+            "-lm",
+        ],
+        check=True,
+    )
     dll = ctypes.CDLL(str(lib))
 
     def run(fn, xs):
@@ -164,6 +189,7 @@ void sincos_libm(long n, const double *x, double *s, double *c)
         s, c = np.empty_like(xs), np.empty_like(xs)
         getattr(dll, fn)(ctypes.c_long(len(xs)), *(ctypes.c_void_p(a.ctypes.data) for a in (xs, s, c)))
         return s, c
+
     return run
 
 
@@ -190,7 +216,7 @@ def test_vector_sincos_is_the_scalar_one_and_within_one_ulp_of_math(sincos):
     for points, within in ((xs, None), (multiples, 3e-26)):
         s, c = sincos("sincos_simd", points)
         s1, c1 = sincos("sincos_scalar", points)
-        assert np.array_equal(s, s1) and np.array_equal(c, c1)   # the same bits as the scalar functions' sincos_
+        assert np.array_equal(s, s1) and np.array_equal(c, c1)  # the same bits as the scalar functions' sincos_
         for got, want, fn in zip((s, c), _math(sincos, points), ("sin", "cos")):
             ulps, absolute = _errors(got, want)
             if within is None:
@@ -205,7 +231,7 @@ def test_vector_sincos_is_the_scalar_one_and_within_one_ulp_of_math(sincos):
 
 
 def test_batches_not_divisible_by_the_threads_are_bitwise_the_single_thread_results(model):
-    count = 3 * 4096 + 5   # enough blocks for three threads, a short last block
+    count = 3 * 4096 + 5  # enough blocks for three threads, a short last block
     args = _states(model.n, count, seed=5)
     one = model.tau(args["q"], args["qd"], args["qdd"], threads=1)
     for threads in (2, 3, 7):
@@ -233,7 +259,7 @@ def test_float32_and_strided_inputs_are_converted_once_and_equal_float64_ones(mo
     q, qd, qdd = args["q"], args["qd"], args["qdd"]
     want = model.tau(q, qd, qdd)
     wide = np.empty((1001, 2 * model.n))
-    wide[:, ::2] = q                       # a strided view: (1001, n) with a step of 2
+    wide[:, ::2] = q  # a strided view: (1001, n) with a step of 2
     assert np.array_equal(model.tau(wide[:, ::2], qd, qdd), want)
     assert np.array_equal(model.tau(np.asfortranarray(q), qd, qdd), want)
     q32 = q.astype(np.float32)

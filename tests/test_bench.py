@@ -74,10 +74,12 @@ def test_states_pool_must_be_power_of_two(tmp_path):
 
 
 def test_op_counts_read_from_generated_header(tmp_path):
-    header = ("/*\n * operation counts (a - b counts as one add, negation is free):\n"
-              " *   tau   230 mul, 171 add, 16 fun (417 total)  [newton-euler]\n"
-              " *   fdyn  411 mul, 297 add, 6 div, 16 fun (730 total)  [newton-euler]\n */\n"
-              "void m_tau(void) { /* 12 mul (99 total) is not in the header */ }\n")
+    header = (
+        "/*\n * operation counts (a - b counts as one add, negation is free):\n"
+        " *   tau   230 mul, 171 add, 16 fun (417 total)  [newton-euler]\n"
+        " *   fdyn  411 mul, 297 add, 6 div, 16 fun (730 total)  [newton-euler]\n */\n"
+        "void m_tau(void) { /* 12 mul (99 total) is not in the header */ }\n"
+    )
     (tmp_path / "m.c").write_text(header)
     assert bench.op_counts(tmp_path / "m.c") == {"tau": 417, "fdyn": 730}
     shipped = bench.op_counts(PUMA / "puma560.c")
@@ -90,9 +92,11 @@ def _row(function, ours, peer, theirs, ops=None, target=None, level=bench.C_PEER
 
 
 def test_table_has_speed_up_and_target_columns():
-    rows = [_row("tau", (100.0, 125.0, 90.0), "Pinocchio rnea", (850.0, 900.0, 800.0), 369, 8),
-            _row("M", (200.0,), "Pinocchio crba", (850.0,), 196, 6),
-            _row("tau", (50.0,), "plain RNEA, CasADi C codegen", (100.0,), 369, 1, level=bench.C_BASELINE)]
+    rows = [
+        _row("tau", (100.0, 125.0, 90.0), "Pinocchio rnea", (850.0, 900.0, 800.0), 369, 8),
+        _row("M", (200.0,), "Pinocchio crba", (850.0,), 196, 6),
+        _row("tau", (50.0,), "plain RNEA, CasADi C codegen", (100.0,), 369, 1, level=bench.C_BASELINE),
+    ]
     assert [r.ratio for r in rows] == [8.5, 4.25, 2.0]
     assert rows[0].spread == (900.0 / 125.0, 800.0 / 90.0) and rows[1].spread is None
     assert [r.met for r in rows] == ["yes", "no", "yes"]
@@ -117,16 +121,23 @@ def test_missing_toolbox_makes_no_row_and_says_make_bench(puma, monkeypatch):
     reference, under a peer's column); every row's peer is an outside library."""
     bare = puma.nofriction(all=True)
     tau = lambda q, qd, qdd: reference.rne(bare, q, qd, qdd)  # noqa: E731
-    monkeypatch.setattr("symdyn.codegen.emit.clib.load_library",
-                        lambda c, h: types.SimpleNamespace(functions={"tau": tau}))
+    monkeypatch.setattr(
+        "symdyn.codegen.emit.clib.load_library", lambda c, h: types.SimpleNamespace(functions={"tau": tau})
+    )
     monkeypatch.setattr(bench, "_import_path", lambda path, name: types.SimpleNamespace(tau=tau))
     monkeypatch.setattr(bench, "_paired_ns", lambda ours, peer, number, repeat, per=1: ((1.0,), (2.0,)))
     monkeypatch.setattr(bench, "_shipped_model", lambda: None)
     monkeypatch.setattr(bench, "toolbox_robot", lambda robot: None)
     states = bench.random_states(bare, bench.POOL, seed=2)
     missing = []
-    rows = bench.python_level(puma, {"c": PUMA / "puma560.c", "h": PUMA / "puma560.h", "py": PUMA / "puma560.py"},
-                              states, None, print, missing)
+    rows = bench.python_level(
+        puma,
+        {"c": PUMA / "puma560.c", "h": PUMA / "puma560.h", "py": PUMA / "puma560.py"},
+        states,
+        None,
+        print,
+        missing,
+    )
     assert [r.peer for r in rows] == ["pin.rnea", "pin.rneaInParallel, 1 thread"]
     assert missing == [f"Robotics Toolbox: not installed (roboticstoolbox-python): {pin_peer.HOW_TO_INSTALL}"]
     assert "make bench" in missing[0]
@@ -165,6 +176,7 @@ def test_arm_targets_are_issue_15s():
 
 # --------------------------------------------------------------------------- the C++ peer's arm file
 
+
 def _read_arm(path):
     """The arm file parsed by its documented format (pin_peer.cpp's header): (joints, gravity)."""
     lines = path.read_text().splitlines()
@@ -177,9 +189,17 @@ def _read_arm(path):
         v = np.array(v, dtype=float)
         assert kind in "RP" and len(v) == 26
         Ixx, Ixy, Ixz, Iyy, Iyz, Izz = v[19:25]
-        joints.append(pin_peer.PeerJoint(kind == "R", tuple(v[:3]), tuple(map(tuple, v[3:15].reshape(3, 4))),
-                                         v[15], tuple(v[16:19]),
-                                         ((Ixx, Ixy, Ixz), (Ixy, Iyy, Iyz), (Ixz, Iyz, Izz)), v[25]))
+        joints.append(
+            pin_peer.PeerJoint(
+                kind == "R",
+                tuple(v[:3]),
+                tuple(map(tuple, v[3:15].reshape(3, 4))),
+                v[15],
+                tuple(v[16:19]),
+                ((Ixx, Ixy, Ixz), (Ixy, Iyy, Iyz), (Ixz, Iyz, Izz)),
+                v[25],
+            )
+        )
     return joints, gravity
 
 
@@ -210,23 +230,28 @@ def _outputs(model, q, qd, qdd, tau):
     data = model.createData()
     sym = lambda m: np.triu(m) + np.triu(m, 1).T  # noqa: E731
     M = sym(pin.crba(model, data, q))
-    return {"rnea": pin.rnea(model, data, q, qd, qdd).copy(), "crba": M,
-            "aba": pin.aba(model, data, q, qd, tau).copy(),
-            "computeGeneralizedGravity": pin.computeGeneralizedGravity(model, data, q).copy(),
-            "nonLinearEffects": pin.nonLinearEffects(model, data, q, qd).copy(),
-            "computeCoriolisMatrix": pin.computeCoriolisMatrix(model, data, q, qd).copy(),
-            "crba_cholesky": np.linalg.solve(M, tau - pin.nonLinearEffects(model, data, q, qd)),
-            "computeRNEADerivatives": pin.computeRNEADerivatives(model, data, q, qd, qdd)[0].copy(),
-            "computeABADerivatives": pin.computeABADerivatives(model, data, q, qd, tau)[0].copy(),
-            "computeMinverse": sym(pin.computeMinverse(model, data, q))}
+    return {
+        "rnea": pin.rnea(model, data, q, qd, qdd).copy(),
+        "crba": M,
+        "aba": pin.aba(model, data, q, qd, tau).copy(),
+        "computeGeneralizedGravity": pin.computeGeneralizedGravity(model, data, q).copy(),
+        "nonLinearEffects": pin.nonLinearEffects(model, data, q, qd).copy(),
+        "computeCoriolisMatrix": pin.computeCoriolisMatrix(model, data, q, qd).copy(),
+        "crba_cholesky": np.linalg.solve(M, tau - pin.nonLinearEffects(model, data, q, qd)),
+        "computeRNEADerivatives": pin.computeRNEADerivatives(model, data, q, qd, qdd)[0].copy(),
+        "computeABADerivatives": pin.computeABADerivatives(model, data, q, qd, tau)[0].copy(),
+        "computeMinverse": sym(pin.computeMinverse(model, data, q)),
+    }
 
 
 def _modified_prismatic_arm():
     """Modified DH with a prismatic joint, offsets and rotor inertia: the other branches of the DH walk."""
     I = ((0.02, 0.001, 0.0), (0.001, 0.03, 0.002), (0.0, 0.002, 0.025))
-    links = [Link(d=0.3, alpha=0.0, a=0.0, offset=0.2, m=2.0, r=(0.01, 0.02, 0.1), I=I, Jm=1e-4, G=50),
-             Link(joint="prismatic", theta=0.4, a=0.1, alpha=-np.pi / 2, offset=0.05, m=1.5, r=(0.0, 0.03, -0.05), I=I),
-             Link(d=0.1, a=0.25, alpha=np.pi / 3, m=0.8, r=(0.05, 0.0, 0.0), I=I, Jm=2e-4, G=-30)]
+    links = [
+        Link(d=0.3, alpha=0.0, a=0.0, offset=0.2, m=2.0, r=(0.01, 0.02, 0.1), I=I, Jm=1e-4, G=50),
+        Link(joint="prismatic", theta=0.4, a=0.1, alpha=-np.pi / 2, offset=0.05, m=1.5, r=(0.0, 0.03, -0.05), I=I),
+        Link(d=0.1, a=0.25, alpha=np.pi / 3, m=0.8, r=(0.05, 0.0, 0.0), I=I, Jm=2e-4, G=-30),
+    ]
     return Robot("mdh3", tuple(links), convention="modified")
 
 
@@ -249,7 +274,7 @@ def test_arm_file_round_trip_gives_the_reference_dynamics(arm, puma, tmp_path):
         outputs = _outputs(model, q[k], qd[k], qdd[k], tau[k])
         exact = {name: v for name, v in outputs.items() if not name.endswith("Derivatives")}
         assert pin_peer.check_peer(robot, exact, q, qd, qdd, tau, k=k) < 1e-10
-        assert pin_peer.check_peer(robot, outputs, q, qd, qdd, tau, k=k) < 1e-8     # central differences
+        assert pin_peer.check_peer(robot, outputs, q, qd, qdd, tau, k=k) < 1e-8  # central differences
 
 
 def test_unaligned_axes_reach_the_cpp_unchanged(tmp_path):
@@ -265,11 +290,17 @@ def test_unaligned_axes_reach_the_cpp_unchanged(tmp_path):
         model.appendBodyToJoint(j, pin.Inertia.Random(), pin.SE3.Identity())
     model.armature = np.array([0.1, 0.0, 0.2])
     joints, gravity = pin_peer.arm_joints(model)
-    assert [(j.revolute, np.allclose(j.axis, a)) for j, a in zip(joints, axes)] == \
-        [(True, True), (False, True), (False, True)]
+    assert [(j.revolute, np.allclose(j.axis, a)) for j, a in zip(joints, axes)] == [
+        (True, True),
+        (False, True),
+        (False, True),
+    ]
     rebuilt = _model_like_the_cpp(*_read_arm(pin_peer.write_arm(tmp_path / "arm.txt", joints, gravity)))
-    assert [rebuilt.joints[k].shortname() for k in (1, 2, 3)] == \
-        ["JointModelRevoluteUnaligned", "JointModelPZ", "JointModelPrismaticUnaligned"]
+    assert [rebuilt.joints[k].shortname() for k in (1, 2, 3)] == [
+        "JointModelRevoluteUnaligned",
+        "JointModelPZ",
+        "JointModelPrismaticUnaligned",
+    ]
     q, qd, qdd = rng.uniform(-1, 1, (3, 3))
     want = pin.rnea(model, model.createData(), q, qd, qdd)
     assert np.abs(pin.rnea(rebuilt, rebuilt.createData(), q, qd, qdd) - want).max() < 1e-12
@@ -297,13 +328,16 @@ def test_check_peer_names_a_wrong_algorithm(puma):
 
 # --------------------------------------------------------------------------- the C++ peer's build
 
+
 def test_cache_key_changes_with_source_flags_and_compiler():
     base = pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, [])
     assert base == pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, [])
-    others = {pin_peer.cache_key("int main(){ }", "c++", pin_peer.CXXFLAGS, []),
-              pin_peer.cache_key("int main(){}", "c++", ("-O2",), []),
-              pin_peer.cache_key("int main(){}", "g++-nonexistent", pin_peer.CXXFLAGS, []),
-              pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, ["/elsewhere"])}
+    others = {
+        pin_peer.cache_key("int main(){ }", "c++", pin_peer.CXXFLAGS, []),
+        pin_peer.cache_key("int main(){}", "c++", ("-O2",), []),
+        pin_peer.cache_key("int main(){}", "g++-nonexistent", pin_peer.CXXFLAGS, []),
+        pin_peer.cache_key("int main(){}", "c++", pin_peer.CXXFLAGS, ["/elsewhere"]),
+    }
     assert base not in others and len(others) == 4
 
 
@@ -312,9 +346,12 @@ def fake_compiler(tmp_path, monkeypatch):
     """CXX that 'compiles' in no time (writes the source's first line to -o) and logs each call."""
     log = tmp_path / "calls"
     script = tmp_path / "fakecxx"
-    script.write_text("#!/bin/sh\n[ \"$1\" = --version ] && { echo fake 1.0; exit 0; }\necho x >> " + str(log) +
-                      "\nwhile [ $# -gt 0 ]; do [ \"$1\" = -o ] && out=$2; shift; done\n"
-                      "head -1 \"$SRC\" > \"$out\"\n")
+    script.write_text(
+        '#!/bin/sh\n[ "$1" = --version ] && { echo fake 1.0; exit 0; }\necho x >> '
+        + str(log)
+        + '\nwhile [ $# -gt 0 ]; do [ "$1" = -o ] && out=$2; shift; done\n'
+        'head -1 "$SRC" > "$out"\n'
+    )
     script.chmod(0o755)
     source = tmp_path / "pin_peer.cpp"
     source.write_text("// version 1\n")
@@ -332,11 +369,11 @@ def test_peer_is_built_once_and_rebuilt_when_stale_or_damaged(fake_compiler):
     binary = pin_peer.peer_binary(said.append)
     assert binary.read_text() == "// version 1\n" and calls() == 1
     assert said[0].startswith("building the Pinocchio C++ peer") and "minutes" in said[0]
-    assert pin_peer.peer_binary(said.append) == binary and calls() == 1          # reused
-    binary.write_text("// truncated")                                          # damaged: rebuilt
+    assert pin_peer.peer_binary(said.append) == binary and calls() == 1  # reused
+    binary.write_text("// truncated")  # damaged: rebuilt
     assert pin_peer.peer_binary(said.append) == binary and calls() == 2
     assert binary.read_text() == "// version 1\n"
-    source.write_text("// version 2\n")                                        # stale: a new key
+    source.write_text("// version 2\n")  # stale: a new key
     fresh = pin_peer.peer_binary(said.append)
     assert fresh != binary and fresh.read_text() == "// version 2\n" and calls() == 3
 
@@ -383,8 +420,9 @@ def test_the_batched_section_times_checked_variants_and_bounds_them_by_the_ceili
     ceil = batched.ceilings(2, copy_bytes=8e6, iters=20_000, rounds=1)
     assert all(x > 0 for x in (*ceil.ops, *ceil.bandwidth))
     robot = models.load("twolink")
-    result = batched.run(robot, sizes=(10, 1001), functions=("tau", "M"), threads=2, log=lambda m: None,
-                         rounds=1, budget=0.002)
+    result = batched.run(
+        robot, sizes=(10, 1001), functions=("tau", "M"), threads=2, log=lambda m: None, rounds=1, budget=0.002
+    )
     assert set(result.times) == {("tau", 10), ("tau", 1001), ("M", 10), ("M", 1001)}
     assert {"loop", "simd/1", "simd/T", "pin/1", "pin/T", "casadi/T"} <= set(result.times[("tau", 1001)])
     head = (GENERATED / "twolink" / "twolink.c").read_text()

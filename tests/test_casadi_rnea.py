@@ -85,9 +85,13 @@ def test_symbolic_robot_is_refused():
 def test_jacobian_by_ad_matches_finite_differences(puma):
     tau = casadi_rnea.rnea_function(puma)
     q, qd, qdd = (x[0] for x in random_states(puma, 1, seed=6))
-    J = np.array(ca.Function("J", [tau.sx_in(0), tau.sx_in(1), tau.sx_in(2)],
-                             [ca.jacobian(tau(*tau.sx_in()), tau.sx_in(0))])(q, qd, qdd))
+    J = np.array(
+        ca.Function("J", [tau.sx_in(0), tau.sx_in(1), tau.sx_in(2)], [ca.jacobian(tau(*tau.sx_in()), tau.sx_in(0))])(
+            q, qd, qdd
+        )
+    )
     eps = 1e-6
-    fd = np.column_stack([(ref.rne(puma, q + eps * e, qd, qdd) - ref.rne(puma, q - eps * e, qd, qdd)) / (2 * eps)
-                          for e in np.eye(6)])
+    fd = np.column_stack(
+        [(ref.rne(puma, q + eps * e, qd, qdd) - ref.rne(puma, q - eps * e, qd, qdd)) / (2 * eps) for e in np.eye(6)]
+    )
     assert np.abs(J - fd).max() < 1e-6 * max(1.0, np.abs(fd).max())

@@ -31,14 +31,19 @@ def test_an_out_folder_under_a_regular_file_is_one_line_and_exit_2(tmp_path, cap
     assert cli.main([*command, "--out", str(blocker / "out")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"symdyn: error: cannot write to {blocker / 'out'}: Not a directory"]
-    assert time.perf_counter() - start < 1.0   # refused before any work
+    assert time.perf_counter() - start < 1.0  # refused before any work
 
 
 def test_ctrl_c_prints_one_line_and_exits_130(tmp_path):
     env = dict(os.environ, SYMDYN_CACHE_DIR=str(tmp_path / "cache"))
-    proc = subprocess.Popen([sys.executable, "-m", "symdyn", "run", "--out", str(tmp_path / "out")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
-    first = proc.stderr.readline()   # the first progress line: inside the (cold, ~10 s) main job
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "symdyn", "run", "--out", str(tmp_path / "out")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        text=True,
+    )
+    first = proc.stderr.readline()  # the first progress line: inside the (cold, ~10 s) main job
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
     assert first and proc.returncode == 130, first + err

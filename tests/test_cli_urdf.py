@@ -61,7 +61,7 @@ def test_header_lists_what_was_locked_and_excluded(generated):
 def test_regenerate_line_rebuilds_the_files_byte_for_byte(generated, tmp_path, monkeypatch):
     command = shlex.split(_field(_header(generated / "branches.c"), "regenerate"))
     assert command[:3] == ["symdyn", "generate", "branches.urdf"], command
-    monkeypatch.chdir(URDF.parent)   # the line names the file alone: it runs beside it
+    monkeypatch.chdir(URDF.parent)  # the line names the file alone: it runs beside it
     assert cli.main([*command[1:], "--out", str(tmp_path)]) == 0
     for name in ("branches.c", "branches.h"):
         assert (tmp_path / name).read_bytes() == (generated / name).read_bytes(), name
@@ -69,8 +69,9 @@ def test_regenerate_line_rebuilds_the_files_byte_for_byte(generated, tmp_path, m
 
 def test_generate_without_out_writes_out_and_the_file_stem(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["generate", str(URDF), "--tip", "hand", "--exclude", "finger", "--no-snap",
-                     "--target", "numpy"]) == 0
+    assert (
+        cli.main(["generate", str(URDF), "--tip", "hand", "--exclude", "finger", "--no-snap", "--target", "numpy"]) == 0
+    )
     head = _header(tmp_path / "out" / "branches" / "branches.py")
     assert "--no-snap" in _field(head, "regenerate") and any("snap=False" in line for line in head)
 
@@ -80,18 +81,21 @@ def test_print_reads_a_urdf_file(capsys):
     out = capsys.readouterr().out
     assert "G1 = " in out and "G3 = " in out and "G4" not in out
     assert "# branches by newton-euler" in out
-    assert "j4 = 0.5 -> l3" in out   # what was locked, as in the generated headers
+    assert "j4 = 0.5 -> l3" in out  # what was locked, as in the generated headers
 
 
-@pytest.mark.parametrize("argv, culprit", [
-    (["generate", "no/such/arm.urdf", "--target", "c", "--out", "{tmp}"], "no URDF file no/such/arm.urdf"),
-    (["print", "no_such_arm.urdf"], "no URDF file no_such_arm.urdf"),
-    (["generate", "puma", "--out", "{tmp}"], "unknown model 'puma'"),
-    (["print", "puma"], "unknown model 'puma'"),
-    (["generate", str(URDF), "--tip", "hand", "--lock", "j1=abc", "--out", "{tmp}"], "--lock j1=abc"),
-    (["print", str(URDF), "--lock", "j1"], "--lock j1:"),
-    (["generate", "twolink", "--tip", "l2", "--out", "{tmp}"], "--tip apply to a URDF file"),
-])
+@pytest.mark.parametrize(
+    "argv, culprit",
+    [
+        (["generate", "no/such/arm.urdf", "--target", "c", "--out", "{tmp}"], "no URDF file no/such/arm.urdf"),
+        (["print", "no_such_arm.urdf"], "no URDF file no_such_arm.urdf"),
+        (["generate", "puma", "--out", "{tmp}"], "unknown model 'puma'"),
+        (["print", "puma"], "unknown model 'puma'"),
+        (["generate", str(URDF), "--tip", "hand", "--lock", "j1=abc", "--out", "{tmp}"], "--lock j1=abc"),
+        (["print", str(URDF), "--lock", "j1"], "--lock j1:"),
+        (["generate", "twolink", "--tip", "l2", "--out", "{tmp}"], "--tip apply to a URDF file"),
+    ],
+)
 def test_errors_name_the_culprit(argv, culprit, tmp_path, capsys):
     assert cli.main([a.format(tmp=tmp_path) for a in argv]) == 2
     err = capsys.readouterr().err
@@ -111,7 +115,23 @@ def test_lock_values_are_numbers_per_joint():
 
 def test_bench_takes_a_urdf_file(capsys):
     """The peers are built from the same Robot; the smallest run (no C++ peer, no CasADi baseline)."""
-    argv = ["bench", "--model", str(URDF), *OPTIONS, "--calls", "1000", "--pin-calls", "100", "--reps", "1",
-            "--rounds", "1", "--batch", "1024", "--no-pin", "--no-casadi"]
+    argv = [
+        "bench",
+        "--model",
+        str(URDF),
+        *OPTIONS,
+        "--calls",
+        "1000",
+        "--pin-calls",
+        "100",
+        "--reps",
+        "1",
+        "--rounds",
+        "1",
+        "--batch",
+        "1024",
+        "--no-pin",
+        "--no-casadi",
+    ]
     assert cli.main(argv) == 0
     assert "branches, frictionless" in capsys.readouterr().out

@@ -31,7 +31,7 @@ def test_the_puma_form_expands_back_to_exactly_the_derived_dynamics(puma, kind):
     values = {c.symbol: c.value for c in puma.constants}
     values.update(dict(puma.abbreviations))
     for a, b in zip(ours, derived):
-        if kind == "F":     # sgn(q̇) is no trig polynomial: F is compared as it stands
+        if kind == "F":  # sgn(q̇) is no trig polynomial: F is compared as it stands
             assert sp.expand(a.xreplace(values) - b) == 0
         else:
             assert trigpoly.equal(a.xreplace(values), b, _angles(dyn))
@@ -41,7 +41,7 @@ def test_the_puma_has_armstrong_like_constants_with_values_and_units(puma):
     names = [str(c.symbol) for c in puma.constants]
     inertial = [n for n in names if n.startswith("I")]
     gravity = [n for n in names if n.startswith("g")]
-    assert 20 <= len(inertial) <= 40 and len(gravity) == 5     # Armstrong et al.: 23 and 5 (pruned)
+    assert 20 <= len(inertial) <= 40 and len(gravity) == 5  # Armstrong et al.: 23 and 5 (pruned)
     assert {c.units for c in puma.constants if str(c.symbol) in inertial} == {"kg·m²"}
     assert {c.units for c in puma.constants if str(c.symbol) in gravity} == {"N·m"}
     assert all(c.value > 0 for c in puma.constants if not str(c.symbol).startswith("F"))
@@ -51,7 +51,13 @@ def test_the_puma_has_armstrong_like_constants_with_values_and_units(puma):
     G2 = dict((n, t) for n, _, t in puma.elements)["G2"]
     # Armstrong et al.'s five terms and the S23·C5 term of the wrist offset they pruned
     assert {" ".join(sorted(map(str, t.free_symbols))) for t in G2} == {
-        "C5 S23 g1", "C23 C4 S5 g1", "S2 g2", "S23 g3", "C2 g4", "C23 g5"}
+        "C5 S23 g1",
+        "C23 C4 S5 g1",
+        "S2 g2",
+        "S23 g3",
+        "C2 g4",
+        "C23 g5",
+    }
     # M55 and M66 are one constant each: the rotor and link inertias of the wrist
     by = {n: t for n, _, t in puma.elements}
     assert len(by["M55"]) == len(by["M66"]) == 1
@@ -70,12 +76,12 @@ def test_the_puma_constant_definition_is_exact_in_link_parameters(puma):
 def test_twolink_constants_are_the_books_groups(twolink_sym):
     a1, a2, c1, c2, m1, m2, g = sp.symbols("a1 a2 c1 c2 m1 m2 g", real=True)
     defs = {str(c.symbol): c.definition for c in twolink_sym.constants}
-    assert sp.expand(defs["I1"] - (m1 * (a1 + c1)**2 + m2 * (a1**2 + (a2 + c2)**2))) == 0
+    assert sp.expand(defs["I1"] - (m1 * (a1 + c1) ** 2 + m2 * (a1**2 + (a2 + c2) ** 2))) == 0
     assert sp.expand(defs["I2"] - 2 * a1 * m2 * (a2 + c2)) == 0
-    assert defs["I3"] == m2 * (a2 + c2)**2
+    assert defs["I3"] == m2 * (a2 + c2) ** 2
     assert defs["g2"] == g * m2 * (a2 + c2)
     # masses outside: I1 is m1·(…) + m2·(…), the printed grouping of Eq. 9.3
-    assert set(sp.Add.make_args(defs["I1"])) == {m1 * (a1 + c1)**2, m2 * (a1**2 + (a2 + c2)**2)}
+    assert set(sp.Add.make_args(defs["I1"])) == {m1 * (a1 + c1) ** 2, m2 * (a1**2 + (a2 + c2) ** 2)}
 
 
 def test_twolink_form_expands_to_the_derived_torque(twolink_sym):

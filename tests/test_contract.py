@@ -88,15 +88,20 @@ def test_complex_input_is_an_error_naming_the_argument(model, count):
     with pytest.raises(ValueError, match=r"^tau\(\): qd is complex"):
         model.tau(q, qd + 1e-3j, qdd)
     with pytest.raises(ValueError, match=r"^M\(\): q is complex"):
-        model.M(q[0].astype(complex))   # even with a zero imaginary part
+        model.M(q[0].astype(complex))  # even with a zero imaginary part
     with pytest.raises(ValueError, match=r"^G\(\): q is complex"):
         model.G([0.1, 0.2, 0.3, 0.4, 0.5, 1j])
 
 
-@pytest.mark.parametrize("bad, why", [(0.5, r"must have shape \(\.\.\., 6\), got \(\)"),
-                                      (np.zeros(5), r"must have shape \(\.\.\., 6\), got \(5,\)"),
-                                      (np.zeros((4, 7)), r"must have shape \(\.\.\., 6\), got \(4, 7\)"),
-                                      (["a"] * 6, "must be real numbers")])
+@pytest.mark.parametrize(
+    "bad, why",
+    [
+        (0.5, r"must have shape \(\.\.\., 6\), got \(\)"),
+        (np.zeros(5), r"must have shape \(\.\.\., 6\), got \(5,\)"),
+        (np.zeros((4, 7)), r"must have shape \(\.\.\., 6\), got \(4, 7\)"),
+        (["a"] * 6, "must be real numbers"),
+    ],
+)
 def test_wrong_shapes_and_non_numbers_are_errors_naming_the_argument(model, bad, why):
     q, qd, _, _ = _states(1)
     with pytest.raises(ValueError, match=rf"^C\(\): qd {why}"):

@@ -40,9 +40,13 @@ def _batch(f, q, qd, qdd):
 def test_newton_euler_agrees_with_reference_at_200_states(ne):
     robot = ne.robot
     q, qd, qdd = random_states(robot, 200, seed=3)
-    for term, expected in (("tau", ref.rne(robot, q, qd, qdd)), ("M", ref.inertia(robot, q)),
-                           ("C", ref.coriolis(robot, q, qd)), ("G", ref.gravload(robot, q)),
-                           ("F", ref.friction(robot, qd))):
+    for term, expected in (
+        ("tau", ref.rne(robot, q, qd, qdd)),
+        ("M", ref.inertia(robot, q)),
+        ("C", ref.coriolis(robot, q, qd)),
+        ("G", ref.gravload(robot, q)),
+        ("F", ref.friction(robot, qd)),
+    ):
         got = _batch(_numeric(ne, term), q, qd, qdd).reshape(expected.shape)
         scale = max(1.0, np.abs(expected).max())
         assert np.abs(got - expected).max() <= 1e-12 * scale, term
@@ -52,8 +56,12 @@ def test_lagrange_agrees_with_reference_at_200_states():
     robot = models.load("puma560")
     dyn = derive(robot, "lagrange")
     q, qd, qdd = random_states(robot, 200, seed=4)
-    for term, expected in (("tau", ref.rne(robot, q, qd, qdd)), ("M", ref.inertia(robot, q)),
-                           ("C", ref.coriolis(robot, q, qd)), ("G", ref.gravload(robot, q))):
+    for term, expected in (
+        ("tau", ref.rne(robot, q, qd, qdd)),
+        ("M", ref.inertia(robot, q)),
+        ("C", ref.coriolis(robot, q, qd)),
+        ("G", ref.gravload(robot, q)),
+    ):
         got = _batch(_numeric(dyn, term), q, qd, qdd).reshape(expected.shape)
         assert np.abs(got - expected).max() <= 1e-12 * max(1.0, np.abs(expected).max()), term
 
@@ -108,7 +116,7 @@ def test_twolink_coefficients_are_those_of_eq_9_3():
     q1, q2 = dyn.q
     qd1, qd2 = dyn.qd
     qdd1, qdd2 = dyn.qdd
-    M11 = m1 * (a1**2 + 2 * a1 * c1 + c1**2) + m2 * (a1**2 + (a2 + c2)**2 + (2 * a1 * a2 + 2 * a1 * c2) * sp.cos(q2))
+    M11 = m1 * (a1**2 + 2 * a1 * c1 + c1**2) + m2 * (a1**2 + (a2 + c2) ** 2 + (2 * a1 * a2 + 2 * a1 * c2) * sp.cos(q2))
     M12 = m2 * (a2 + c2) * (a2 + c2 + a1 * sp.cos(q2))
     C1 = -2 * a1 * m2 * (a2 + c2) * sp.sin(q2)
     C2 = -a1 * m2 * (a2 + c2) * sp.sin(q2)
@@ -177,5 +185,6 @@ def test_op_counts_are_reported_per_stage():
     counts = dyn.op_count("G")
     assert {"mul", "add"} <= set(counts) and counts["mul"] > 0
     from symdyn.derivation.simplify import op_counts
+
     stages = op_counts(dyn, "G", ("raw", "cse", "folded"))
     assert stages["folded"]["mul"] + stages["folded"]["add"] < stages["cse"]["mul"] + stages["cse"]["add"]

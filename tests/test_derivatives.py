@@ -16,10 +16,13 @@ pin = pytest.importorskip("pinocchio")
 
 RTOL = 1e-10
 STATES = 200
-ARMS = {"twolink": lambda: arms.load("twolink"), "puma560": lambda: arms.load("puma560"),
-        "rrp": lambda: arms.load("rrp"),
-        "random-101": lambda: random_arm(101, ArmOptions(n_max=4)),
-        "random-7": lambda: random_arm(7, ArmOptions(n_min=4, n_max=4))}
+ARMS = {
+    "twolink": lambda: arms.load("twolink"),
+    "puma560": lambda: arms.load("puma560"),
+    "rrp": lambda: arms.load("rrp"),
+    "random-101": lambda: random_arm(101, ArmOptions(n_max=4)),
+    "random-7": lambda: random_arm(7, ArmOptions(n_min=4, n_max=4)),
+}
 
 
 @pytest.fixture(scope="module", params=list(ARMS))
@@ -66,9 +69,13 @@ def test_derivatives_match_central_differences_of_the_generated_functions(arm):
     _, dqdd_dq, dqdd_dqd, Minv = f.fdyn_derivatives(q, qd, tau)
     h, n = 1e-6, robot.n
     for k, e in enumerate(np.eye(n) * h):
-        for got, fun, args, at in ((dtau_dq, f.tau, (q, qd, qdd), 0), (dtau_dqd, f.tau, (q, qd, qdd), 1),
-                                   (dqdd_dq, f.fdyn, (q, qd, tau), 0), (dqdd_dqd, f.fdyn, (q, qd, tau), 1),
-                                   (Minv, f.fdyn, (q, qd, tau), 2)):
+        for got, fun, args, at in (
+            (dtau_dq, f.tau, (q, qd, qdd), 0),
+            (dtau_dqd, f.tau, (q, qd, qdd), 1),
+            (dqdd_dq, f.fdyn, (q, qd, tau), 0),
+            (dqdd_dqd, f.fdyn, (q, qd, tau), 1),
+            (Minv, f.fdyn, (q, qd, tau), 2),
+        ):
             up, down = list(args), list(args)
             up[at], down[at] = args[at] + e, args[at] - e
             _close(got[..., k], (fun(*up) - fun(*down)) / (2 * h), f"{robot.name} column {k + 1}", 1e-6)
@@ -82,8 +89,9 @@ def test_every_target_gives_the_same_derivatives(target, binding):
     q, qd, qdd, tau = states(robot, STATES, seed=6)
     for name, args in (("tau_derivatives", (q, qd, qdd)), ("fdyn_derivatives", (q, qd, tau)), ("Minv", (q,))):
         expected = getattr(reference, name)(*args)
-        for k in (slice(None), 3):   # a batch, one state
+        for k in (slice(None), 3):  # a batch, one state
             got = getattr(other, name)(*(a[k] for a in args))
-            for g, x in zip(got if isinstance(got, tuple) else (got,),
-                            expected if isinstance(expected, tuple) else (expected,)):
+            for g, x in zip(
+                got if isinstance(got, tuple) else (got,), expected if isinstance(expected, tuple) else (expected,)
+            ):
                 _close(g, x[k], f"{target} {name}", 1e-12)

@@ -85,8 +85,9 @@ def test_header_signatures_round_trip():
     assert sigs["fdyn"].inputs == (("q", 6), ("qd", 6), ("tau", 6))
     assert "void puma560_tau(const double q[6], const double qd[6], const double qdd[6], double tau[6]);" in header
     assert "void puma560_M(const double q[6], double M[36]);" in header
-    assert ("void puma560_tau_batch(int n, const double *q, const double *qd, const double *qdd, "
-            "double *tau);") in header
+    assert (
+        "void puma560_tau_batch(int n, const double *q, const double *qd, const double *qdd, double *tau);"
+    ) in header
 
 
 def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
@@ -104,8 +105,14 @@ def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
     (tmp_path / "trig.h").write_text(c_emit.h_source(bundle))
     sc = load_library(tmp_path / "trig.c", tmp_path / "trig.h").functions["sc"]
     rng = np.random.default_rng(0)
-    xs = np.concatenate([rng.uniform(-10, 10, 100_000), rng.uniform(-1e5, 1e5, 10_000),
-                         np.arange(-8, 9) * np.pi / 4, [0.0, 1e-300, 3e5, -1e7]])
+    xs = np.concatenate(
+        [
+            rng.uniform(-10, 10, 100_000),
+            rng.uniform(-1e5, 1e5, 10_000),
+            np.arange(-8, 9) * np.pi / 4,
+            [0.0, 1e-300, 3e5, -1e7],
+        ]
+    )
     got = sc(xs[:, None])
     for k, ref_fn in enumerate((np.sin, np.cos)):
         ulps = np.abs(got[:, k] - ref_fn(xs)) / np.spacing(np.abs(ref_fn(xs)))
@@ -117,13 +124,13 @@ def test_inline_sincos_is_within_one_ulp_of_libm(tmp_path, monkeypatch):
 
 def test_a_long_source_is_split_into_whole_functions_each_with_the_preamble():
     text = (codegen.GENERATED / "puma560" / "puma560.c").read_text()
-    head = text[:text.index("\nvoid ") + 1]
-    definitions = re.compile(r"(?m)^(?=(static )?(void|int) \w+\()")   # a SIMD kernel's static lanes and range too
-    functions = [f for f in definitions.split(text[len(head):]) if f]
+    head = text[: text.index("\nvoid ") + 1]
+    definitions = re.compile(r"(?m)^(?=(static )?(void|int) \w+\()")  # a SIMD kernel's static lanes and range too
+    functions = [f for f in definitions.split(text[len(head) :]) if f]
     parts = clib.split_source(text, 3)
     assert len(text) > clib.SPLIT_BYTES and len(parts) == 3
     assert all(p.startswith(head) for p in parts)
-    bodies = sorted(f for p in parts for f in definitions.split(p[len(head):]) if f)
+    bodies = sorted(f for p in parts for f in definitions.split(p[len(head) :]) if f)
     assert bodies == sorted(functions)
     sizes = [len(p) for p in parts]
     # longest first into the lightest part; a kernel's lanes, range and entry point stay together
@@ -142,7 +149,7 @@ def test_short_or_unusual_sources_compile_in_one_piece():
 def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, monkeypatch):
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(clib, "_jobs", lambda: 2)
-    monkeypatch.setattr(clib, "SPLIT_BYTES", 0)   # the two-link arm's short file, in parts too
+    monkeypatch.setattr(clib, "SPLIT_BYTES", 0)  # the two-link arm's short file, in parts too
     c_path, h_path = _copy_model(tmp_path)
     lib = load_library(c_path, h_path, CompileOptions(binding="ctypes"))
     for function, (args, expected) in cases("twolink").items():

@@ -17,7 +17,7 @@ def model(request):
 def _mapped(f, args):
     """f over a batch (N, …) of states with CasADi's map: outputs (N, rows) or (N, rows, cols)."""
     count = len(args[0])
-    out = np.array(f.map(count)(*(a.T for a in args)))   # (rows, N·cols)
+    out = np.array(f.map(count)(*(a.T for a in args)))  # (rows, N·cols)
     rows, cols = f.size_out(0)
     blocks = out.reshape(rows, count, cols).transpose(1, 0, 2)
     return blocks[..., 0] if cols == 1 else blocks
@@ -49,8 +49,9 @@ def test_single_state_equals_mapped(model):
         np.testing.assert_allclose(single, batch[k], rtol=1e-15, atol=1e-15)
 
 
-@pytest.mark.parametrize("function, wrt", [("tau", "q"), ("tau", "qd"), ("tau", "qdd"),
-                                           ("fdyn", "q"), ("fdyn", "tau"), ("G", "q")])
+@pytest.mark.parametrize(
+    "function, wrt", [("tau", "q"), ("tau", "qd"), ("tau", "qdd"), ("fdyn", "q"), ("fdyn", "tau"), ("G", "q")]
+)
 def test_jacobians_match_finite_differences(model, function, wrt):
     f = getattr(model, function)
     J = model.jacobian(function, wrt)

@@ -53,8 +53,15 @@ def _module(path):
 def test_sincos_kernel_is_libm_to_rounding():
     m = _module(codegen.GENERATED / "puma560" / "puma560.py")
     table = np.arange(-2048, 2049) / 256.0
-    xs = np.concatenate([np.random.default_rng(0).uniform(-8, 8, 100_000), table, table[:-1] + 1 / 512,
-                         np.arange(-8, 9) * np.pi / 3, [0.0, 1e-300, -1e-9]])
+    xs = np.concatenate(
+        [
+            np.random.default_rng(0).uniform(-8, 8, 100_000),
+            table,
+            table[:-1] + 1 / 512,
+            np.arange(-8, 9) * np.pi / 3,
+            [0.0, 1e-300, -1e-9],
+        ]
+    )
     s, c = m._sincos(xs[None], np.empty((6, xs.size)))
     for got, exact in ((s[0], np.sin(xs)), (c[0], np.cos(xs))):
         err = np.abs(got - exact)
@@ -93,7 +100,7 @@ def test_batches_longer_than_a_chunk_and_empty_batches(model):
 def test_angles_beyond_the_sine_table_agree_with_the_reference(model):
     robot = models.load(model.name)
     (q, qd, qdd), _ = cases(model.name)["tau"]
-    far = q + np.array([4 * np.pi, -6 * np.pi] * model.n)[:model.n]
+    far = q + np.array([4 * np.pi, -6 * np.pi] * model.n)[: model.n]
     assert_close(model.tau(far, qd, qdd), ref.rne(robot, far, qd, qdd), f"{model.name} tau at |q| > 8")
     assert_close(model.M(far[0]), ref.inertia(robot, far[0]), f"{model.name} M, one state at |q| > 8")
 
@@ -111,9 +118,17 @@ def test_a_non_finite_state_is_an_error_naming_the_argument(model, count, bad):
 
 def test_every_primitive_in_the_scalar_and_the_batched_body(tmp_path):
     x1, x2, x3 = sp.symbols("x1 x2 x3", real=True)
-    exprs = [3 * sp.sign(x1) * x2 + sp.sign(x2 - x3), sp.Abs(x1 - x2) * x3, sp.sqrt(x3 ** 2 + 1),
-             (x3 ** 2 + 2) ** sp.Rational(5, 2), x1 / x3 - 1 / (x2 ** 2 + 1), sp.tan(x1 * x2),
-             sp.sin(x1 - 2 * x3) * sp.cos(x2) + sp.sin(x1 * x3), -x1 ** 3 + x2 ** 4, sp.Integer(0)]
+    exprs = [
+        3 * sp.sign(x1) * x2 + sp.sign(x2 - x3),
+        sp.Abs(x1 - x2) * x3,
+        sp.sqrt(x3**2 + 1),
+        (x3**2 + 2) ** sp.Rational(5, 2),
+        x1 / x3 - 1 / (x2**2 + 1),
+        sp.tan(x1 * x2),
+        sp.sin(x1 - 2 * x3) * sp.cos(x2) + sp.sin(x1 * x3),
+        -(x1**3) + x2**4,
+        sp.Integer(0),
+    ]
     second = sp.Matrix([[x1 * x2, 1], [sp.cos(x2) ** 2, x3]])
     program = make_program("f", [("x", (x1, x2, x3))], [("y", sp.Matrix(exprs)), ("z", second)])
     path = tmp_path / "prims.py"

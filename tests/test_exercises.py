@@ -19,8 +19,16 @@ from symdyn.model import arms
 from symdyn.numeric import backend
 from symdyn.numeric import reference as ref
 
-EXERCISES = ("ex-root-locus", "ex-voltage-motor", "ex-puma-joints", "ex-air-puck", "ex-ellipsoids",
-             "ex-slow-feedforward", "ex-opspace-incline", "ex-sea")
+EXERCISES = (
+    "ex-root-locus",
+    "ex-voltage-motor",
+    "ex-puma-joints",
+    "ex-air-puck",
+    "ex-ellipsoids",
+    "ex-slow-feedforward",
+    "ex-opspace-incline",
+    "ex-sea",
+)
 
 
 def test_study_list_names_all_eight_exercises(capsys):
@@ -30,6 +38,7 @@ def test_study_list_names_all_eight_exercises(capsys):
 
 
 # --------------------------------------------------------------------------- ex. 1b
+
 
 def _max_pole(coefficients) -> float:
     return float(np.abs(np.roots(coefficients)).max())
@@ -44,7 +53,10 @@ def test_root_locus_max_gain_is_where_the_characteristic_roots_leave_the_unit_ci
     k_p = loop.max_gain()
     assert _max_pole([1, -a, 0.999 * k_p * b]) < 1 < _max_pole([1, -a, 1.001 * k_p * b])
     k_pi = loop.max_gain(10.0)
-    pi = lambda K: [1, -(1 + a), a + b * (K + 10 * K * T), -b * K]  # (z-1)z(z-a) + b((Kv + Ki T)z - Kv)
+
+    def pi(K):  # (z-1)z(z-a) + b((Kv + Ki T)z - Kv)
+        return [1, -(1 + a), a + b * (K + 10 * K * T), -b * K]
+
     assert _max_pole(pi(0.999 * k_pi)) < 1 < _max_pole(pi(1.001 * k_pi))
 
 
@@ -54,47 +66,52 @@ def test_simulated_velocity_loop_grows_per_sample_as_its_largest_pole():
     for factor in (0.8, 1.2):
         tr = SM.velocity_step(linear, factor * loop.max_gain(), 0.04)
         rate = SM.decay_per_sample(tr.t, tr.qd[:, 0])
-        assert rate == pytest.approx(math.sqrt(factor), rel=2e-3)   # |z|² = b·Kv = factor at the limit 1/b
+        assert rate == pytest.approx(math.sqrt(factor), rel=2e-3)  # |z|² = b·Kv = factor at the limit 1/b
 
 
 # --------------------------------------------------------------------------- ex. 1c
+
 
 def test_voltage_loop_bandwidth_matches_the_analytic_transfer_function():
     drive, L, R, Kv = C.JointDrive(), 1e-3, 1.6, 0.96
     Km = drive.Km
     # |H(jw)|² = c²/((a0 - a2 w²)² + a1² w²) = c²/(2 a0²): a quadratic in x = w²
     a2, a1, a0 = L * drive.J, L * drive.Bm + R * drive.J, R * drive.Bm + Km * Km + Kv * Km
-    x = max(np.roots([a2 ** 2, a1 ** 2 - 2 * a0 * a2, -a0 ** 2]).real)
+    x = max(np.roots([a2**2, a1**2 - 2 * a0 * a2, -(a0**2)]).real)
     assert XM.bandwidth(*XM.VoltageDrive(drive, L, R).closed_loop(Kv)) == pytest.approx(math.sqrt(x), rel=1e-8)
     assert XM.bandwidth(*XM.current_loop(drive, 0.6)) == pytest.approx((drive.Bm + 0.6 * Km) / drive.J, rel=1e-8)
-    assert XM.VoltageDrive(drive).damping == pytest.approx(drive.Bm + Km ** 2 / R)
+    assert XM.VoltageDrive(drive).damping == pytest.approx(drive.Bm + Km**2 / R)
 
 
 # --------------------------------------------------------------------------- ex. 12
+
 
 def test_sea_touches_an_unknown_object_and_settles_at_5_newtons():
     sea = C.SEA(obstacle=0.2, force_limit=10.0)
     tr, guard = SM.touch(sea, 5.0)
     assert guard.contact_time is not None and 1.0 < guard.contact_time < 2.5
     assert sea.spring_force(tr.q[-1]) == pytest.approx(5.0, abs=1e-4)
-    assert float(sea.wall_force(tr.q[-1], tr.qd[-1])) == pytest.approx(-5.0, abs=1e-3)  # the load at rest: wall = -spring
-    assert tr.q[-1, 1] == pytest.approx(0.2 + 5.0 / sea.wall_k, abs=1e-7)                # Hooke in the wall
+    assert float(sea.wall_force(tr.q[-1], tr.qd[-1])) == pytest.approx(
+        -5.0, abs=1e-3
+    )  # the load at rest: wall = -spring
+    assert tr.q[-1, 1] == pytest.approx(0.2 + 5.0 / sea.wall_k, abs=1e-7)  # Hooke in the wall
 
 
 def test_sea_frequency_response_peak_and_collision_rest_state():
     k, m, zeta = 5.0, 1.0, 0.05
     H = XM.sea_frequency_response(k, m, [math.sqrt(k / m)], zeta)[0]
-    assert abs(H) == pytest.approx(math.sqrt(1 + 4 * zeta ** 2) / (2 * zeta), rel=1e-12)
+    assert abs(H) == pytest.approx(math.sqrt(1 + 4 * zeta**2) / (2 * zeta), rel=1e-12)
     sea = C.SEA()
     K = sea.lqr()
     A, B = sea.matrices()
     E = np.array([0, 0, 0, 1 / sea.m_load])
     goal = np.array([1.0, 0, 1.0, 0])
-    x = np.linalg.solve(A - B @ K[None, :], -B[:, 0] * (K @ goal) - E * -1.0)   # (A - BK)x + BKx* + E d = 0
+    x = np.linalg.solve(A - B @ K[None, :], -B[:, 0] * (K @ goal) - E * -1.0)  # (A - BK)x + BKx* + E d = 0
     np.testing.assert_allclose(XM.collision_steady_state(sea, K, -1.0), x[[0, 2]], rtol=1e-12)
 
 
 # --------------------------------------------------------------------------- ex. 1e
+
 
 def test_puma_wrist_joint_alone_follows_the_single_joint_drive_model():
     """Joint 6 moving alone sees a constant inertia and no coupling: the arm run equals the one-joint
@@ -116,6 +133,7 @@ def test_puma_wrist_joint_alone_follows_the_single_joint_drive_model():
 
 # --------------------------------------------------------------------------- ex. 10
 
+
 def test_ellipsoid_radii_are_the_singular_values_of_J_and_J_inv_M():
     puma = arms.load("puma560")
     q = np.array(SA.ELLIPSOID_POSES["qn"])
@@ -129,18 +147,21 @@ def test_ellipsoid_radii_are_the_singular_values_of_J_and_J_inv_M():
 
 # --------------------------------------------------------------------------- ex. 11b
 
+
 def test_slow_feedforward_error_grows_as_the_update_period():
     tr, demand = SA.feedforward_runs(rates=(20, 10), T=0.5, horizon=0.5)
     worst = np.abs(demand[:, None, :] - tr.q).max(axis=(0, 2))
     assert worst[1] / worst[0] == pytest.approx(2.0, rel=0.1)
     puma = arms.load("puma560").nofriction()
-    ff = C.TorqueFeedforward(backend.model(puma), functools.partial(C.quintic, puma.qz, puma.qr, 0.5), 0.0, 0.0,
-                             ff_period=0.1)
-    held = ff(0.17, puma.qz, np.zeros(6))                       # the model part sampled at t = 0.1 s
+    ff = C.TorqueFeedforward(
+        backend.model(puma), functools.partial(C.quintic, puma.qz, puma.qr, 0.5), 0.0, 0.0, ff_period=0.1
+    )
+    held = ff(0.17, puma.qz, np.zeros(6))  # the model part sampled at t = 0.1 s
     np.testing.assert_allclose(held, ref.rne(puma, *C.quintic(puma.qz, puma.qr, 0.5, 0.1)), rtol=1e-9, atol=1e-9)
 
 
 # --------------------------------------------------------------------------- ex. 11d
+
 
 def test_incline_contact_settles_at_the_set_force_and_hookes_depth():
     surface = XA.InclinedSurface(point=(0.6, -0.15, -0.06), slope=math.radians(10.0))
@@ -149,24 +170,30 @@ def test_incline_contact_settles_at_the_set_force_and_hookes_depth():
     assert W[-1, 2] == pytest.approx(-5.0, rel=0.02)
     n = surface.normal
     depth = (np.asarray(surface.point) - p) @ n
-    assert depth == pytest.approx(-W[-1, 2] / (surface.k * n[2]), rel=1e-9)     # force along the normal, Hooke
+    assert depth == pytest.approx(-W[-1, 2] / (surface.k * n[2]), rel=1e-9)  # force along the normal, Hooke
     np.testing.assert_allclose(W[-1, :3] / np.linalg.norm(W[-1, :3]), -n, atol=1e-12)
 
 
 # --------------------------------------------------------------------------- ex. 9
+
 
 def test_air_puck_conserves_momentum_and_keeps_its_centre_of_mass():
     robot = P.puck_robot()
     model = backend.model(robot, "casadi")
     start = np.array([0.0, np.pi / 4, np.pi, 0.0, np.pi / 4, 0.0])
     traj = functools.partial(C.quintic, start, start + np.array([1.0, 0.3, -0.5, 0, 0, 0]), 0.3)
-    tr = C.simulate(lambda t, q, qd, tau: model.fdyn(q, qd, tau), P.PassiveBase(model, traj), 0.3,
-                    np.concatenate([np.zeros(3), start]), dt=3e-3)
-    assert np.abs(tr.tau[:, :3]).max() == 0 and np.abs(tr.q[-1, :3]).max() > 1e-3   # passive base, yet it moves
+    tr = C.simulate(
+        lambda t, q, qd, tau: model.fdyn(q, qd, tau),
+        P.PassiveBase(model, traj),
+        0.3,
+        np.concatenate([np.zeros(3), start]),
+        dt=3e-3,
+    )
+    assert np.abs(tr.tau[:, :3]).max() == 0 and np.abs(tr.q[-1, :3]).max() > 1e-3  # passive base, yet it moves
     M = ref.inertia(robot, tr.q)
-    arm_share = np.abs(np.einsum("kij,kj->ki", M[:, :3, 3:], tr.qd[:, 3:])).max()   # what the base must cancel
+    arm_share = np.abs(np.einsum("kij,kj->ki", M[:, :3, 3:], tr.qd[:, 3:])).max()  # what the base must cancel
     mom = P.momentum(M, tr.q, tr.qd)
-    assert arm_share > 1.0 and np.abs(mom).max() < 1e-6 * arm_share                   # RK4 error only
+    assert arm_share > 1.0 and np.abs(mom).max() < 1e-6 * arm_share  # RK4 error only
     com = P.centre_of_mass(robot, tr.q)
     assert np.ptp(com[:, :2], axis=0).max() < 1e-8 < np.abs(tr.q[:, :2]).max() * 1e-3
     # the base velocity at zero momentum, from the arm's: the planner's kinematics

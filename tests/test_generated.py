@@ -30,7 +30,9 @@ def test_regenerating_reproduces_generated_byte_for_byte(tmp_path, name):
     expected = sorted(p.name for p in (codegen.GENERATED / name).iterdir() if p.is_file())
     assert sorted(p.name for p in written) == expected
     for file in expected:
-        assert (tmp_path / file).read_bytes() == (codegen.GENERATED / name / file).read_bytes(), f"{name}/{file} differs"
+        assert (tmp_path / file).read_bytes() == (codegen.GENERATED / name / file).read_bytes(), (
+            f"{name}/{file} differs"
+        )
 
 
 @pytest.mark.parametrize("name", codegen.SHIPPED)
@@ -61,7 +63,7 @@ def test_a_robot_other_than_the_files_is_generated_into_the_cache(tmp_path, monk
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
     heavy = _stale_copy(tmp_path, monkeypatch)
     shutil.rmtree(tmp_path / "twolink")
-    robot = dataclasses.replace(heavy, base=models.load("twolink").base)   # same arm, as a Robot object
+    robot = dataclasses.replace(heavy, base=models.load("twolink").base)  # same arm, as a Robot object
     m = codegen.load(robot, "numpy")
     assert m.folder.is_relative_to(tmp_path / "cache")
     q = np.array([[0.3, -0.7], [1.1, 0.4]])
@@ -70,8 +72,19 @@ def test_a_robot_other_than_the_files_is_generated_into_the_cache(tmp_path, monk
 
 def test_loaded_model_lists_its_functions():
     m = codegen.load("puma560", "numpy")
-    assert list(m.functions) == ["tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives",
-                                 "fdyn_derivatives", "Minv"]
+    assert list(m.functions) == [
+        "tau",
+        "M",
+        "C",
+        "Cqd",
+        "G",
+        "F",
+        "fdyn",
+        "Y",
+        "tau_derivatives",
+        "fdyn_derivatives",
+        "Minv",
+    ]
     with pytest.raises(AttributeError, match="'aba'"):
         m.aba
     with pytest.raises(ValueError, match="unknown target 'fortran'"):

@@ -7,17 +7,13 @@ import sys
 import time
 
 import numpy as np
-import pytest
 
-import symdyn
-from symdyn import models
 from symdyn.derivation import cache
-from symdyn.numeric import reference as ref
 
 
 def test_a_cache_entry_with_any_flipped_bit_is_rebuilt_or_exactly_right(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
-    value = {"M": [[1.0 + 2 ** -40, 0.25], [0.25, 3.0]], "names": ("q1", "q2")}
+    value = {"M": [[1.0 + 2**-40, 0.25], [0.25, 3.0]], "names": ("q1", "q2")}
     cache.cached("test", "k" * 64, lambda: value)
     (path,) = tmp_path.glob("test-*.pickle")
     good = path.read_bytes()
@@ -66,8 +62,7 @@ def test_an_unwritable_cache_folder_is_warned_about_once_and_done_without(tmp_pa
     (tmp_path / "afile").write_text("not a folder")
     folder = tmp_path / "afile" / "cache"
     env = dict(os.environ, SYMDYN_CACHE_DIR=str(folder))
-    run = subprocess.run([sys.executable, "-c", _UNWRITABLE], capture_output=True, text=True, env=env,
-                         timeout=600)
+    run = subprocess.run([sys.executable, "-c", _UNWRITABLE], capture_output=True, text=True, env=env, timeout=600)
     assert run.returncode == 0, run.stderr
     lines = run.stdout.splitlines()
     assert lines[0] == "derive (2, 2)"
@@ -81,12 +76,16 @@ def test_an_unwritable_cache_folder_is_warned_about_once_and_done_without(tmp_pa
 def test_processes_that_want_the_same_derivation_build_it_once(tmp_path):
     """Two processes (test workers, a cluster's workers on one machine) derive the same arm
     at once into one cache: one builds it, the other waits for its lock and reads the entry."""
-    script = ("import sys, time; from symdyn import models; from symdyn.derivation.entry import derive; "
-              "time.sleep(max(0.0, float(sys.argv[1]) - time.time())); "
-              "print(derive(models.load('puma560'), 'lagrange').stats['from_cache'])")
+    script = (
+        "import sys, time; from symdyn import models; from symdyn.derivation.entry import derive; "
+        "time.sleep(max(0.0, float(sys.argv[1]) - time.time())); "
+        "print(derive(models.load('puma560'), 'lagrange').stats['from_cache'])"
+    )
     env = dict(os.environ, SYMDYN_CACHE_DIR=str(tmp_path))
-    start = time.time() + 3.0   # both past their imports, then at once
-    runs = [subprocess.Popen([sys.executable, "-c", script, str(start)], env=env, stdout=subprocess.PIPE, text=True)
-            for _ in range(2)]
+    start = time.time() + 3.0  # both past their imports, then at once
+    runs = [
+        subprocess.Popen([sys.executable, "-c", script, str(start)], env=env, stdout=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
     found = sorted(p.communicate(timeout=120)[0].strip() for p in runs)
     assert found == ["False", "True"], found

@@ -20,8 +20,9 @@ from symdyn.numeric import reference as ref
 
 def _python(code: str, *args: str, **env: str) -> subprocess.CompletedProcess:
     """Run `code` with `args` in a fresh Python, with extra environment variables."""
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=600,
-                          env=dict(os.environ, **env))
+    return subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=600, env=dict(os.environ, **env)
+    )
 
 
 # The two-link arm: a rebuild is what is tested, and its library compiles in well under a second.
@@ -47,7 +48,7 @@ def test_a_truncated_library_in_the_cache_is_rebuilt(tmp_path, binding):
         assert run.returncode == 0, f"{attempt}: exit {run.returncode}: {run.stderr}"
         assert float(run.stdout) < 1e-12, attempt
         (lib,) = tmp_path.glob("c/twolink-*/*.so")
-        lib.write_bytes(lib.read_bytes()[:lib.stat().st_size // 3])
+        lib.write_bytes(lib.read_bytes()[: lib.stat().st_size // 3])
 
 
 _TOO_MANY_DIMENSIONS = """
@@ -130,6 +131,7 @@ def test_generate_interrupted_midway_leaves_the_old_set(tmp_path, monkeypatch):
 
     def killed(bundle):
         raise KeyboardInterrupt
+
     monkeypatch.setattr(c_emit, "c_source", killed)
     with pytest.raises(KeyboardInterrupt):
         codegen.generate(robot, "all", out)
@@ -141,8 +143,8 @@ def test_leftovers_of_a_killed_generate_are_cleaned_up_or_restored(tmp_path):
     out = tmp_path / "twolink"
     codegen.generate("twolink", "numpy", out)
     before = _snapshot(out)
-    os.rename(out, tmp_path / ".twolink.old-4242")           # killed between the two renames
-    (tmp_path / ".twolink.staging-abc").mkdir()              # and a staging folder left behind
+    os.rename(out, tmp_path / ".twolink.old-4242")  # killed between the two renames
+    (tmp_path / ".twolink.staging-abc").mkdir()  # and a staging folder left behind
     (tmp_path / ".twolink.staging-abc" / "twolink.py").write_text("half")
     codegen.generate("twolink", "c", out)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["twolink"]

@@ -102,14 +102,15 @@ def test_calibration_intervals_hold_the_truth_at_the_nominal_rate_and_are_not_in
     truth = perturbed(twolink, 0.2, seed=5)
     true = base_map(twolink).values(truth)
     clean = simulate(twolink, traj, truth=truth)
-    sigma = np.array([0.01, 0.04]) * np.sqrt(np.mean(clean.tau ** 2, axis=0)).max()
+    sigma = np.array([0.01, 0.04]) * np.sqrt(np.mean(clean.tau**2, axis=0)).max()
     est, std = [], []
     for seed in range(50):
-        res = fit(twolink, simulate(twolink, traj, truth=truth, noise=sigma, seed=100 + seed), consistent=False,
-                  target=TARGET)
+        res = fit(
+            twolink, simulate(twolink, traj, truth=truth, noise=sigma, seed=100 + seed), consistent=False, target=TARGET
+        )
         est.append(res.base.values)
         std.append(res.base.std)
-        assert np.allclose(res.sigma, sigma, rtol=0.25)   # the WLS weights find each joint's noise
+        assert np.allclose(res.sigma, sigma, rtol=0.25)  # the WLS weights find each joint's noise
     est, std = np.array(est), np.array(std)
     coverage = np.mean(np.abs(est - true) <= 1.959964 * std)
     assert abs(coverage - 0.95) <= 0.03, coverage
@@ -129,6 +130,7 @@ def test_wls_weights_are_each_joints_own_noise(puma):
 
 # --------------------------------------------------------------------------- data in
 
+
 def _csv(tmp_path, text: str, name="data.csv"):
     path = tmp_path / name
     path.write_text(text)
@@ -138,16 +140,19 @@ def _csv(tmp_path, text: str, name="data.csv"):
 GOOD = "t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0.1,0.2,1,2\n0.2,0.2,0.3,1,2\n"
 
 
-@pytest.mark.parametrize("text, words", [
-    ("t,q1,q2,tau1\n0,0,0,1\n0.1,0,0,1\n", ["tau2", "missing"]),
-    ("q1,q2,tau1,tau2\n0,0,1,2\n", ["'t'"]),
-    ("t,q1,q3,tau1,tau3\n0,0,0,1,2\n", ["q2", "missing"]),
-    ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,0,1,2\n0.1,0,0,1,2\n", ["row 3", "column t", "data.csv:4"]),
-    ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,nan,1,2\n", ["row 2", "column q2", "data.csv:3"]),
-    ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,0,abc,2\n", ["row 2", "column tau1", "'abc'"]),
-    ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,0,1\n", ["row 2", "4 fields"]),
-    ("t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,1,2,3\n", ["3 joints", "q3", "twolink"]),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("t,q1,q2,tau1\n0,0,0,1\n0.1,0,0,1\n", ["tau2", "missing"]),
+        ("q1,q2,tau1,tau2\n0,0,1,2\n", ["'t'"]),
+        ("t,q1,q3,tau1,tau3\n0,0,0,1,2\n", ["q2", "missing"]),
+        ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,0,1,2\n0.1,0,0,1,2\n", ["row 3", "column t", "data.csv:4"]),
+        ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,nan,1,2\n", ["row 2", "column q2", "data.csv:3"]),
+        ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,0,abc,2\n", ["row 2", "column tau1", "'abc'"]),
+        ("t,q1,q2,tau1,tau2\n0,0,0,1,2\n0.1,0,0,1\n", ["row 2", "4 fields"]),
+        ("t,q1,q2,q3,tau1,tau2,tau3\n0,0,0,0,1,2,3\n", ["3 joints", "q3", "twolink"]),
+    ],
+)
 def test_bad_data_is_an_error_naming_the_column_and_row(tmp_path, twolink, text, words):
     with pytest.raises(ValueError) as exc:
         load_data(_csv(tmp_path, text), joints=twolink, cutoff=None)
@@ -155,8 +160,9 @@ def test_bad_data_is_an_error_naming_the_column_and_row(tmp_path, twolink, text,
 
 
 def test_the_model_checks_the_joint_count_in_fit(tmp_path, puma):
-    data = from_arrays(np.arange(3) * 0.1, np.zeros((3, 2)), np.zeros((3, 2)), qd=np.zeros((3, 2)),
-                       qdd=np.zeros((3, 2)))
+    data = from_arrays(
+        np.arange(3) * 0.1, np.zeros((3, 2)), np.zeros((3, 2)), qd=np.zeros((3, 2)), qdd=np.zeros((3, 2))
+    )
     with pytest.raises(ValueError, match="column q3 is missing"):
         fit(puma, data, consistent=False, target=TARGET)
 
@@ -170,8 +176,18 @@ def test_motor_currents_with_a_torque_constant_and_npz(tmp_path, twolink):
     np.savez(tmp_path / "d.npz", t=data.t, q=data.q, qd=data.qd, qdd=data.qdd, tau=data.tau)
     again = load_data(tmp_path / "d.npz", joints=2)
     assert np.array_equal(again.tau, data.tau) and np.array_equal(again.q, data.q)
-    np.savez(tmp_path / "bad.npz", t=data.t, q1=data.q[:, 0], q2=[0.0, np.inf], tau1=data.tau[:, 0],
-             tau2=data.tau[:, 1], qd1=data.t, qd2=data.t, qdd1=data.t, qdd2=data.t)
+    np.savez(
+        tmp_path / "bad.npz",
+        t=data.t,
+        q1=data.q[:, 0],
+        q2=[0.0, np.inf],
+        tau1=data.tau[:, 0],
+        tau2=data.tau[:, 1],
+        qd1=data.t,
+        qd2=data.t,
+        qdd1=data.t,
+        qdd2=data.t,
+    )
     with pytest.raises(ValueError, match="row 2, column q2"):
         load_data(tmp_path / "bad.npz")
 
@@ -183,7 +199,7 @@ def test_filtered_differentiation_of_sampled_angles(tmp_path, twolink):
     data = simulate(twolink, traj, seed=1, quantisation=1e-5)
     path = write_csv(tmp_path / "q.csv", data, derivatives=False)
     read = load_data(path, joints=twolink)
-    edge = 150   # 3/cutoff = 0.3 s at each end: filtfilt's edge transients
+    edge = 150  # 3/cutoff = 0.3 s at each end: filtfilt's edge transients
     assert np.array_equal(read.t, traj.t[edge:-edge])
     assert np.abs(read.qd - traj.qd[edge:-edge]).max() < 2e-3 * np.abs(traj.qd).max()
     assert np.abs(read.qdd - traj.qdd[edge:-edge]).max() < 2e-2 * np.abs(traj.qdd).max()
@@ -195,33 +211,73 @@ def test_filtered_differentiation_of_sampled_angles(tmp_path, twolink):
 def test_unexcited_parameters_are_named(twolink):
     traj = fourier(twolink, period=4, harmonics=3, rate=50, seed=1)
     still = traj.q.copy()
-    still[:, 1] = 0.3   # joint 2 never moves
+    still[:, 1] = 0.3  # joint 2 never moves
     zero = np.zeros_like(traj.qd[:, 1])
-    data = simulate(twolink, type(traj)(traj.t, still, np.column_stack([traj.qd[:, 0], zero]),
-                                        np.column_stack([traj.qdd[:, 0], zero])))
+    data = simulate(
+        twolink,
+        type(traj)(traj.t, still, np.column_stack([traj.qd[:, 0], zero]), np.column_stack([traj.qdd[:, 0], zero])),
+    )
     with pytest.raises(ValueError, match="FV2"):
         fit(twolink, data, consistent=False, target=TARGET)
 
 
 # --------------------------------------------------------------------------- the command line
 
+
 def test_command_line_simulates_fits_and_validates(tmp_path, twolink):
     for name, seed in (("fit", 1), ("check", 2)):
-        write_trajectory(tmp_path / f"{name}-trajectory.csv",
-                         fourier(twolink, period=4, harmonics=4, rate=50, seed=seed, rest=0.5))
-        assert cli.main(["identify", "simulate", "twolink", str(tmp_path / f"{name}-trajectory.csv"),
-                         "--perturb", "0.2", "--seed", "9", "--out", str(tmp_path / f"{name}.csv")]) == 0
+        write_trajectory(
+            tmp_path / f"{name}-trajectory.csv", fourier(twolink, period=4, harmonics=4, rate=50, seed=seed, rest=0.5)
+        )
+        assert (
+            cli.main(
+                [
+                    "identify",
+                    "simulate",
+                    "twolink",
+                    str(tmp_path / f"{name}-trajectory.csv"),
+                    "--perturb",
+                    "0.2",
+                    "--seed",
+                    "9",
+                    "--out",
+                    str(tmp_path / f"{name}.csv"),
+                ]
+            )
+            == 0
+        )
     truth = json.loads((tmp_path / "fit.truth.json").read_text())
     out = tmp_path / "result"
-    assert cli.main(["identify", "fit", "twolink", str(tmp_path / "fit.csv"), "--validate",
-                     str(tmp_path / "check.csv"), "--out", str(out), "--no-consistent", "--target", TARGET]) == 0
+    assert (
+        cli.main(
+            [
+                "identify",
+                "fit",
+                "twolink",
+                str(tmp_path / "fit.csv"),
+                "--validate",
+                str(tmp_path / "check.csv"),
+                "--out",
+                str(out),
+                "--no-consistent",
+                "--target",
+                TARGET,
+            ]
+        )
+        == 0
+    )
     params = json.loads((out / "parameters.json").read_text())
     for row in params["base"]:
         assert row["value"] == pytest.approx(truth["base"][row["name"]], rel=1e-8, abs=1e-10)
     summary = (out / "summary.txt").read_text()
     assert "validation on" in summary and "condition number" in summary
-    assert {p.name for p in out.iterdir()} >= {"summary.txt", "parameters.json", "fit.png", "validation.png",
-                                               "parameters.png"}
+    assert {p.name for p in out.iterdir()} >= {
+        "summary.txt",
+        "parameters.json",
+        "fit.png",
+        "validation.png",
+        "parameters.png",
+    }
     assert cli.main(["identify", "fit", "twolink", str(tmp_path / "nothere.csv"), "--out", str(out)]) == 2
 
 
@@ -246,7 +302,7 @@ def test_the_consistent_robot_reproduces_noise_free_data_and_its_urdf_carries_it
     written = res.write(tmp_path, figures=False, urdf_source=path)
     assert tmp_path / "identified.urdf" in written
     again = Robot.from_urdf(tmp_path / "identified.urdf")
-    inertial = [k for k in range(14 * robot.n) if k % 14 < 10]   # XX…M: what a URDF's <inertial> holds
+    inertial = [k for k in range(14 * robot.n) if k % 14 < 10]  # XX…M: what a URDF's <inertial> holds
     assert np.abs(standard_vector(again)[inertial] - res.standard()[inertial]).max() < 1e-9
     assert "not at hand" not in (tmp_path / "summary.txt").read_text()
 
@@ -257,11 +313,11 @@ def test_joints_at_rest_are_left_out_where_the_speed_was_differentiated(tmp_path
     differentiated q).  Kept, they leave joint 1 with a residual of ~4.5 N·m (measured); left out,
     the fit predicts the exact torques to a few hundredths of a N·m."""
     traj = fourier(puma, period=6, harmonics=4, rate=200, seed=2, rest=0.5)
-    data = simulate(puma, traj, perturb=0.2, seed=3, quantisation=2 * np.pi / 2 ** 17)
+    data = simulate(puma, traj, perturb=0.2, seed=3, quantisation=2 * np.pi / 2**17)
     qonly = load_data(write_csv(tmp_path / "q.csv", data, derivatives=False), joints=puma)
     assert qonly.differentiated and not data.differentiated
 
-    def error(res):   # RMS per joint against the exact torques
+    def error(res):  # RMS per joint against the exact torques
         return np.sqrt(np.mean((res.predict(data.q, data.qd, data.qdd) - data.tau) ** 2, axis=0))
 
     kept = error(fit(puma, qonly, consistent=False, rest_speed=0.0, target=TARGET))

@@ -29,18 +29,27 @@ def _perturbed(robot, seed: int, amount: float = 0.2):
     for link in robot.links:
         k = 1 + amount * rng.uniform(-1, 1)
         I = np.array(link.I, dtype=float) * k + 1e-3 * np.eye(3)
-        links.append(dataclasses.replace(
-            link, m=float(link.m) * k, r=tuple(float(x) * (1 + amount * rng.uniform(-1, 1)) + 0.01 for x in link.r),
-            I=tuple(map(tuple, I)), B=float(link.B) * (1 + amount * rng.uniform(-1, 1)),
-            Tc=tuple(float(x) * (1 + amount * rng.uniform(-1, 1)) for x in link.Tc)))
+        links.append(
+            dataclasses.replace(
+                link,
+                m=float(link.m) * k,
+                r=tuple(float(x) * (1 + amount * rng.uniform(-1, 1)) + 0.01 for x in link.r),
+                I=tuple(map(tuple, I)),
+                B=float(link.B) * (1 + amount * rng.uniform(-1, 1)),
+                Tc=tuple(float(x) * (1 + amount * rng.uniform(-1, 1)) for x in link.Tc),
+            )
+        )
     return dataclasses.replace(robot, links=tuple(links))
 
 
 def _states(robot, count=16, seed=0):
     rng = np.random.default_rng(seed)
     lo, hi = robot.qlim.T
-    return rng.uniform(lo, hi, (count, robot.n)), rng.uniform(-2, 2, (count, robot.n)), \
-        rng.uniform(-5, 5, (count, robot.n))
+    return (
+        rng.uniform(lo, hi, (count, robot.n)),
+        rng.uniform(-2, 2, (count, robot.n)),
+        rng.uniform(-5, 5, (count, robot.n)),
+    )
 
 
 def _assert_realisable(result, tol=1e-9):
@@ -89,16 +98,19 @@ def test_an_impossible_base_set_is_moved_to_a_realisable_one_and_says_how_far(me
     _assert_realisable(result)
     assert result.achieved[k] >= 0
     assert 1e-3 < result.moved < 1
-    assert result.moved == pytest.approx(np.linalg.norm((result.achieved - values) / result.scales)
-                                         / np.linalg.norm(values / result.scales), rel=1e-9)
+    assert result.moved == pytest.approx(
+        np.linalg.norm((result.achieved - values) / result.scales) / np.linalg.norm(values / result.scales), rel=1e-9
+    )
     # the robot's own base parameters are the achieved ones
     np.testing.assert_allclose(base_vector(result.robot)[1], result.achieved, rtol=1e-9, atol=1e-12)
 
 
 def test_the_casadi_route_agrees_with_the_sdp_inside_the_cone():
     robot = models.load("twolink")
-    truth = dataclasses.replace(robot, links=tuple(
-        dataclasses.replace(link, I=((0.02, 0, 0), (0, 0.03, 0), (0, 0, 0.04))) for link in robot.links))
+    truth = dataclasses.replace(
+        robot,
+        links=tuple(dataclasses.replace(link, I=((0.02, 0, 0), (0, 0.03, 0), (0, 0, 0.04))) for link in robot.links),
+    )
     names, values = base_vector(truth)
     sdp = physical(robot, names, values, method="sdp")
     nlp = physical(robot, names, values, method="casadi")

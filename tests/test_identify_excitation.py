@@ -29,8 +29,7 @@ def twolink():
 
 @pytest.fixture(scope="module")
 def designed(twolink):
-    limits = ExcitationLimits.for_robot(twolink, q=[[-2.0, 2.5], [-1.5, 1.5]], qd=[1.5, 2.0], qdd=[6.0, 8.0],
-                                        tau=TAU)
+    limits = ExcitationLimits.for_robot(twolink, q=[[-2.0, 2.5], [-1.5, 1.5]], qd=[1.5, 2.0], qdd=[6.0, 8.0], tau=TAU)
     return excitation(twolink, period=4, harmonics=3, limits=limits, seed=3)
 
 
@@ -54,7 +53,7 @@ def test_every_limit_holds_along_the_sampled_trajectory(designed, twolink):
     assert np.all(np.abs(qd) <= lim.qd) and np.all(np.abs(qdd) <= lim.qdd)
     tau = rne(twolink, q, qd, qdd)
     assert np.all(np.abs(tau) <= TAU)
-    assert np.abs(tau).max(0) @ (1 / TAU) > 0.9   # the torque limit shapes the design (one joint near it)
+    assert np.abs(tau).max(0) @ (1 / TAU) > 0.9  # the torque limit shapes the design (one joint near it)
     # and the motion uses its room: not a trivially small trajectory
     assert np.all(np.ptp(q, axis=0) > 0.5)
 
@@ -88,8 +87,9 @@ def test_write_gives_csv_json_and_plot(designed, tmp_path):
 def test_the_command_line_writes_the_design(tmp_path, capsys):
     parser = argparse.ArgumentParser()
     configure_parser(parser)
-    args = parser.parse_args(["twolink", "--period", "2", "--harmonics", "2", "--rate", "20", "--max-iter", "15",
-                              "--out", str(tmp_path)])
+    args = parser.parse_args(
+        ["twolink", "--period", "2", "--harmonics", "2", "--rate", "20", "--max-iter", "15", "--out", str(tmp_path)]
+    )
     assert run_cli(args) == 0
     assert "condition number" in capsys.readouterr().out
     assert (tmp_path / "excitation.csv").is_file()

@@ -34,7 +34,7 @@ def test_reverse_accumulation_equals_forward_mode_and_the_hand_derivative():
     assert _exact(fwd[1], fwd[0]) == _exact(rev[1], rev[0])
     full = [_inline(o, DEFINITIONS).xreplace({sp.sign(y): sp.Symbol("s_y")}) for o in OUTPUTS]
     by_hand = [[sp.expand(sp.diff(o, v).xreplace({sp.Symbol("s_y"): sp.sign(y)})) for v in WRT] for o in full]
-    assert _exact(rev[1], rev[0]) == by_hand          # sign(y) held constant, the inactive d a constant
+    assert _exact(rev[1], rev[0]) == by_hand  # sign(y) held constant, the inactive d a constant
     assert rev[1][2] == [0, 0]
 
 
@@ -44,7 +44,7 @@ def test_jacobian_takes_reverse_for_many_inputs_and_forward_for_many_outputs():
     for k, u in enumerate(inputs[1:], 2):
         chain.append((sp.Symbol(f"p{k}", real=True), sp.sin(chain[-1][0]) * u))
     many_in = jacobian(chain, [chain[-1][0]], list(inputs))
-    assert all(s.name.startswith("dD") for s, _ in many_in[0])            # reverse accumulation
+    assert all(s.name.startswith("dD") for s, _ in many_in[0])  # reverse accumulation
     fan = [(sp.Symbol(f"r{k}", real=True), sp.sin(x) * k) for k in range(1, 9)]
     many_out = jacobian(fan, [s * s for s, _ in fan], [x])
     assert all(s.name.startswith("D") and not s.name.startswith("dD") for s, _ in many_out[0])
@@ -57,7 +57,8 @@ def test_the_chosen_order_gives_the_leaner_tau_derivatives_program():
     for name, method in (("forward", forward), ("reverse", reverse), ("chosen", jacobian)):
         new, rows = method(tau.definitions, list(tau.outputs[0][1]), list(q) + list(qd))
         J = sp.ImmutableMatrix(rows)
-        spec = FunctionSpec("tau_derivatives", tau.inputs, (("tau", tau.outputs[0][1]), ("J", J)),
-                            tuple(tau.definitions) + tuple(new))
+        spec = FunctionSpec(
+            "tau_derivatives", tau.inputs, (("tau", tau.outputs[0][1]), ("J", J)), tuple(tau.definitions) + tuple(new)
+        )
         ops[name] = spec.program().op_count()["total"]
     assert ops["chosen"] == min(ops["forward"], ops["reverse"]) < max(ops["forward"], ops["reverse"])

@@ -25,7 +25,7 @@ def test_fkine_and_jacob0_agree_with_the_reference(name):
 
 
 def test_right_angles_are_exact():
-    robot = models.load("puma560")                 # α = ±π/2 stored as floats
+    robot = models.load("puma560")  # α = ±π/2 stored as floats
     for frame in kinematics.link_frames(robot):
         for x in list(frame.R) + list(frame.p):
             assert not any(isinstance(a, sp.Float) for a in sp.sympify(x).atoms(sp.Number))
@@ -59,5 +59,5 @@ def test_symbolic_dh_angles_are_a_clear_error_for_lagrange():
     robot = dataclasses.replace(base, links=(dataclasses.replace(base.links[0], alpha=alpha),) + base.links[1:])
     with pytest.raises(ValueError, match="alpha|α"):
         derive(robot, "lagrange", cache=False)
-    dyn = derive(robot, "newton-euler", cache=False)      # Newton–Euler handles it
+    dyn = derive(robot, "newton-euler", cache=False)  # Newton–Euler handles it
     assert dyn.M.free_symbols >= {alpha}

@@ -66,10 +66,12 @@ def derived():
             robot = models.load(name)
             cache[name] = robot, lagrange.derive(robot)
         return cache[name]
+
     return get
 
 
 # --------------------------------------------------------------------------- against the reference
+
 
 @pytest.mark.parametrize("name", NUMERIC)
 def test_M_C_G_match_the_reference_at_random_states(name, derived):
@@ -103,7 +105,7 @@ def _variant(name):
     rrp = models.load("rrp")
     if name == "tilted base, odd twist, prismatic offset":
         links = list(rrp.links)
-        links[0] = dataclasses.replace(links[0], alpha=-1.1)                 # not a multiple of π/2
+        links[0] = dataclasses.replace(links[0], alpha=-1.1)  # not a multiple of π/2
         links[2] = dataclasses.replace(links[2], offset=0.07)
         T = np.array(rotx(0.4), dtype=float) @ np.array(roty(-2.0), dtype=float)
         return dataclasses.replace(rrp, links=tuple(links), base=T.tolist())
@@ -126,6 +128,7 @@ def test_variants_match_the_reference(name):
 
 # --------------------------------------------------------------------------- the two-link arm, exactly
 
+
 @pytest.fixture(scope="module")
 def twolink_sym():
     robot = models.load("twolink", symbolic=True)
@@ -141,7 +144,7 @@ def test_twolink_matches_eq_9_3(twolink_sym):
     M12 = m2 * (a2 + c2) * (a2 + c2 + a1 * sp.cos(q2))
     G1 = g * ((a1 * m1 + a1 * m2 + c1 * m1) * sp.cos(q1) + (a2 * m2 + c2 * m2) * sp.cos(q1 + q2))
     G2 = g * (a2 * m2 + c2 * m2) * sp.cos(q1 + q2)
-    velocity = (-2 * a1 * m2 * (a2 + c2) * sp.sin(q2) * qd1 * qd2 - a1 * m2 * (a2 + c2) * sp.sin(q2) * qd2**2)
+    velocity = -2 * a1 * m2 * (a2 + c2) * sp.sin(q2) * qd1 * qd2 - a1 * m2 * (a2 + c2) * sp.sin(q2) * qd2**2
     assert sp.expand(D.M[0, 0] - M11) == 0
     assert sp.expand(D.M[0, 1] - M12) == 0
     assert sp.expand(D.M[1, 0] - M12) == 0
@@ -149,8 +152,7 @@ def test_twolink_matches_eq_9_3(twolink_sym):
     assert sp.expand(D.G[1] - G2) == 0
     assert sp.expand(D.Cqd[0] - velocity) == 0
     at_rest = {qd1: 0, qd2: 0, g: 0, **{x: 0 for x in D.qdd}}
-    assert sp.expand(D.tau[0] - D.tau[0].xreplace(at_rest) - velocity
-                     - (D.M * sp.Matrix(D.qdd))[0] - D.G[0]) == 0
+    assert sp.expand(D.tau[0] - D.tau[0].xreplace(at_rest) - velocity - (D.M * sp.Matrix(D.qdd))[0] - D.G[0]) == 0
 
 
 def test_symbolic_twolink_agrees_with_the_numeric_one(twolink_sym, derived):
@@ -164,6 +166,7 @@ def test_symbolic_twolink_agrees_with_the_numeric_one(twolink_sym, derived):
 
 
 # --------------------------------------------------------------------------- physics, exactly
+
 
 @pytest.mark.parametrize("name", ["puma560", "rrp", "twolink_sym"])
 def test_M_symmetric_and_Mdot_minus_2C_skew_symmetric_exactly(name):
@@ -197,6 +200,7 @@ def test_derive_fills_a_lagrange_dynamics(derived):
 
 
 # --------------------------------------------------------------------------- bad input
+
 
 def test_symbolic_twist_is_refused_with_a_clear_message():
     al = sp.Symbol("alpha1", real=True)

@@ -37,7 +37,7 @@ REFERENCE = "symdyn.numeric.reference"
 @dataclass(frozen=True)
 class Import:
     importer: str
-    target: str   # a module of the package, or a third-party top-level name ("sympy")
+    target: str  # a module of the package, or a third-party top-level name ("sympy")
     line: int
     text: str
 
@@ -50,8 +50,7 @@ def _module_name(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))
-           if p.relative_to(PACKAGE).parts[0] not in DATA}
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py")) if p.relative_to(PACKAGE).parts[0] not in DATA}
 
 
 def _is_package(module: str) -> bool:
@@ -88,7 +87,7 @@ def imports(module: str, source: str | None = None) -> list[Import]:
             out += [Import(module, _known(a.name), node.lineno, text) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
             if node.level:
-                base = ".".join(here.split(".")[:len(here.split(".")) - node.level + 1])
+                base = ".".join(here.split(".")[: len(here.split(".")) - node.level + 1])
                 base = f"{base}.{node.module}" if node.module else base
             else:
                 base = node.module
@@ -130,17 +129,21 @@ def _edges() -> dict[str, list[Import]]:
 def test_the_package_is_one_folder_per_stage():
     folders = sorted(p.name for p in PACKAGE.iterdir() if p.is_dir() and p.name not in ("__pycache__", *DATA))
     assert folders == sorted(STAGES), f"symdyn/ holds {folders}: each folder must be one of the stages {STAGES}"
-    assert (PACKAGE / "generated").resolve() == PACKAGE.parent / "generated"   # a link, in a checkout
+    assert (PACKAGE / "generated").resolve() == PACKAGE.parent / "generated"  # a link, in a checkout
     flat = sorted(m for m in MODULES if m.count(".") <= 1 and m.split(".")[-1] not in STAGES)
     assert flat == sorted(TOP_MODULES), (
-        f"top-level modules {sorted(set(flat) - set(TOP_MODULES))}: put new code in its stage's folder")
+        f"top-level modules {sorted(set(flat) - set(TOP_MODULES))}: put new code in its stage's folder"
+    )
 
 
 def test_imports_run_only_downhill():
     names = " < ".join(STAGES) + " < cli"
-    upward = [f"{imp} imports {imp.target}, a later stage ({names})"
-              for module in MODULES for imp in imports(module)
-              if imp.target in MODULES and stage(imp.target) > stage(module)]
+    upward = [
+        f"{imp} imports {imp.target}, a later stage ({names})"
+        for module in MODULES
+        for imp in imports(module)
+        if imp.target in MODULES and stage(imp.target) > stage(module)
+    ]
     assert not upward, "upward imports:\n" + "\n".join(upward)
 
 
@@ -152,7 +155,7 @@ def test_there_are_no_import_circles():
         for imp in graph[module]:
             if imp.target in on_path:
                 steps = path + [imp]
-                steps = steps[next(i for i, step in enumerate(steps) if step.importer == imp.target):]
+                steps = steps[next(i for i, step in enumerate(steps) if step.importer == imp.target) :]
                 text = " → ".join(map(str, steps)) + f" → {imp.target}"
                 circles.setdefault(frozenset(step.importer for step in steps), text)
             elif imp.target not in done:
@@ -166,20 +169,26 @@ def test_there_are_no_import_circles():
 
 
 def test_the_reference_never_imports_sympy_nor_the_symbolic_stages():
-    bad = [f"{imp} imports {imp.target}" for imp in imports(REFERENCE)
-           if imp.target == "sympy" or (imp.target in MODULES and stage(imp.target) > STAGES.index("model"))]
+    bad = [
+        f"{imp} imports {imp.target}"
+        for imp in imports(REFERENCE)
+        if imp.target == "sympy" or (imp.target in MODULES and stage(imp.target) > STAGES.index("model"))
+    ]
     assert not bad, "the reference must stay NumPy-only and independent of what it checks:\n" + "\n".join(bad)
 
 
-@pytest.mark.parametrize("module, line, target", [
-    ("symdyn.model.arms.puma560", "from ..robot import Link", "symdyn.model.robot"),
-    ("symdyn.codegen.functions", "from .. import model", "symdyn.model"),
-    ("symdyn.codegen.emit.c", "from ...derivation.program import lower", "symdyn.derivation.program"),
-    ("symdyn.apps.studies.ocp", "from ...model import arms", "symdyn.model.arms"),
-    ("symdyn.derivation.entry", "from .. import __version__", None),
-    ("symdyn.derivation.dynamics", "from symdyn.codegen.emit.clib import compiler", "symdyn.codegen.emit.clib"),
-    ("symdyn.numeric.reference", "import sympy.polys", "sympy"),
-])
+@pytest.mark.parametrize(
+    "module, line, target",
+    [
+        ("symdyn.model.arms.puma560", "from ..robot import Link", "symdyn.model.robot"),
+        ("symdyn.codegen.functions", "from .. import model", "symdyn.model"),
+        ("symdyn.codegen.emit.c", "from ...derivation.program import lower", "symdyn.derivation.program"),
+        ("symdyn.apps.studies.ocp", "from ...model import arms", "symdyn.model.arms"),
+        ("symdyn.derivation.entry", "from .. import __version__", None),
+        ("symdyn.derivation.dynamics", "from symdyn.codegen.emit.clib import compiler", "symdyn.codegen.emit.clib"),
+        ("symdyn.numeric.reference", "import sympy.polys", "sympy"),
+    ],
+)
 def test_imports_inside_functions_are_resolved_to_modules(module, line, target):
     found = [imp.target for imp in imports(module, f"def f():\n    {line}\n")]
     assert found == ([target] if target else [])
@@ -195,8 +204,19 @@ def test_documented_paths_still_work():
     assert all(callable(f) for f in (symdyn.derive, symdyn.generate, symdyn.load))
     assert (symdyn.Link, symdyn.Robot, model.Link, model.Robot) == (robot.Link, robot.Robot) * 2
     assert (models.load, models.NAMES) == (arms.load, arms.NAMES)
-    for name in ("rne", "inertia", "coriolis", "christoffel", "gravload", "friction", "accel", "fdyn", "fkine",
-                 "jacob0", "energy"):
+    for name in (
+        "rne",
+        "inertia",
+        "coriolis",
+        "christoffel",
+        "gravload",
+        "friction",
+        "accel",
+        "fdyn",
+        "fkine",
+        "jacob0",
+        "energy",
+    ):
         assert getattr(reference, name) is getattr(numeric_reference, name), name
     for name in ("Limits", "Problem", "Cost", "solve", "dynamics", "verify", "OCPError", "SOURCES"):
         assert getattr(ocp, name) is getattr(apps_ocp, name), name

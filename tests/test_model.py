@@ -33,30 +33,37 @@ def _puma_state(**bad):
 
 # --------------------------------------------------------------------------- bad states
 
-@pytest.mark.parametrize("bad, match", [
-    (dict(q=np.zeros(5)), r"q must have shape \(6,\) or \(N, 6\); got shape \(5,\)"),
-    (dict(qd=np.zeros((4, 7))), r"qd must have shape \(6,\) or \(N, 6\); got shape \(4, 7\)"),
-    (dict(qdd=3.0), r"qdd must have shape \(6,\)"),
-    (dict(q=np.zeros((3, 6)), qd=np.zeros((4, 6))), r"incompatible shapes: q \(3, 6\), qd \(4, 6\)"),
-    (dict(q=[0, 0, math.nan, 0, 0, 0]), r"q contains NaN or infinity \(first at index \(2,\)\)"),
-    (dict(qd=np.array([[0, 0, 0, 0, 0, 0], [0, math.inf, 0, 0, 0, 0]])), r"qd contains NaN or infinity"),
-    (dict(qdd=["a"] * 6), r"qdd must be a numeric array"),
-])
+
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        (dict(q=np.zeros(5)), r"q must have shape \(6,\) or \(N, 6\); got shape \(5,\)"),
+        (dict(qd=np.zeros((4, 7))), r"qd must have shape \(6,\) or \(N, 6\); got shape \(4, 7\)"),
+        (dict(qdd=3.0), r"qdd must have shape \(6,\)"),
+        (dict(q=np.zeros((3, 6)), qd=np.zeros((4, 6))), r"incompatible shapes: q \(3, 6\), qd \(4, 6\)"),
+        (dict(q=[0, 0, math.nan, 0, 0, 0]), r"q contains NaN or infinity \(first at index \(2,\)\)"),
+        (dict(qd=np.array([[0, 0, 0, 0, 0, 0], [0, math.inf, 0, 0, 0, 0]])), r"qd contains NaN or infinity"),
+        (dict(qdd=["a"] * 6), r"qdd must be a numeric array"),
+    ],
+)
 def test_bad_states_are_refused_by_name(puma, bad, match):
     with pytest.raises(ValueError, match=match):
         ref.rne(puma, **_puma_state(**bad))
 
 
-@pytest.mark.parametrize("call, match", [
-    (lambda r: ref.inertia(r, np.zeros(2)), r"q must have shape \(6,\)"),
-    (lambda r: ref.gravload(r, [0, 0, 0, 0, 0, -math.inf]), r"q contains NaN"),
-    (lambda r: ref.coriolis(r, np.zeros(6), np.zeros(3)), r"qd must have shape \(6,\)"),
-    (lambda r: ref.accel(r, np.zeros(6), np.zeros(6), np.zeros(2)), r"tau must have shape \(6,\)"),
-    (lambda r: ref.rne(r, np.zeros(6), np.zeros(6), np.zeros(6), wrench=np.zeros(3)), r"wrench .*shape \(6,\)"),
-    (lambda r: ref.gravload(r, np.zeros(6), gravity=(0, 9.81)), r"gravity must be a finite 3-vector"),
-    (lambda r: ref.fdyn(r, -1.0, np.zeros(6)), r"T must be a positive"),
-    (lambda r: ref.fdyn(r, 1.0, np.zeros((2, 6))), r"q0 and qd0 must have shape \(6,\)"),
-])
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda r: ref.inertia(r, np.zeros(2)), r"q must have shape \(6,\)"),
+        (lambda r: ref.gravload(r, [0, 0, 0, 0, 0, -math.inf]), r"q contains NaN"),
+        (lambda r: ref.coriolis(r, np.zeros(6), np.zeros(3)), r"qd must have shape \(6,\)"),
+        (lambda r: ref.accel(r, np.zeros(6), np.zeros(6), np.zeros(2)), r"tau must have shape \(6,\)"),
+        (lambda r: ref.rne(r, np.zeros(6), np.zeros(6), np.zeros(6), wrench=np.zeros(3)), r"wrench .*shape \(6,\)"),
+        (lambda r: ref.gravload(r, np.zeros(6), gravity=(0, 9.81)), r"gravity must be a finite 3-vector"),
+        (lambda r: ref.fdyn(r, -1.0, np.zeros(6)), r"T must be a positive"),
+        (lambda r: ref.fdyn(r, 1.0, np.zeros((2, 6))), r"q0 and qd0 must have shape \(6,\)"),
+    ],
+)
 def test_bad_arguments_of_other_reference_functions_are_refused_by_name(puma, call, match):
     with pytest.raises(ValueError, match=match):
         call(puma)
@@ -64,31 +71,41 @@ def test_bad_arguments_of_other_reference_functions_are_refused_by_name(puma, ca
 
 # --------------------------------------------------------------------------- bad models
 
-@pytest.mark.parametrize("build, match", [
-    (lambda: _arm(Link(m=1, I=((0.1, 0.05, 0), (0, 0.2, 0), (0, 0, 0.3)))),
-     r"inertia of link 1 is not symmetric: I\[0,1\]=0.05, I\[1,0\]=0"),
-    (lambda: _arm(Link(m=1, I=GOOD_I), Link(m=1, I=((1, 0, 0), (0, -0.2, 0), (0, 0, 0.3)))),
-     r"inertia of link 2 is not positive semidefinite"),
-    (lambda: _arm(Link(m=1, I=np.diag([1.0, 1.0, 3.0]))),
-     r"inertia of link 1 is physically impossible: .* violate the triangle inequality"),
-    (lambda: _arm(Link(m=-2.0)), r"mass of link 1 is negative: m = -2.0"),
-    (lambda: _arm(Link(m=1), convention="craig"), r"unknown DH convention 'craig'"),
-    (lambda: Link(joint="spherical"), r"unknown joint type 'spherical'"),
-    (lambda: Link(qlim=(1.0, -1.0)), r"joint limits reversed or empty: qlim = \(1.0, -1.0\)"),
-    (lambda: _arm(Link(m=1), Link(G=0, Jm=1e-4)), r"gear ratio of link 2 is 0 but it has motor parameters"),
-    (lambda: _arm(Link(m=1), base=np.diag([1.0, 1.0, -1.0, 1.0])), r"base rotation is not a proper rotation"),
-    (lambda: _arm(Link(m=1), base=np.array(transl(1, 0, 0)) * 2), r"base is not a homogeneous transform"),
-    (lambda: _arm(Link(m=1), tool=((1, 0, 0, 0), (0, 2, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))), r"tool rotation"),
-    (lambda: Robot("empty", ()), r"robot 'empty' has no links"),
-    (lambda: _arm(Link(m=1), "link"), r"links\[1\] of robot 'arm' is a str, expected Link"),
-    (lambda: Link(r=(0, 0)), r"r must have 3 elements, got 2"),
-    (lambda: Link(I=((1, 0), (0, 1))), r"I must be a 3×3 matrix"),
-    (lambda: Link(m=math.nan), r"m must be finite"),
-    (lambda: _arm(Link(Tc=(-0.1, -0.2), G=10)), r"Coulomb friction of link 1 must be Tc = \(Tc\+ >= 0"),
-    (lambda: _arm(Link(B=-1.0, G=10)), r"B of link 1 is negative"),
-    (lambda: models.load("puma560").payload(-1.0), r"payload mass is negative: -1.0"),
-    (lambda: models.load("puma560").payload(1.0, (0, 0)), r"payload position must have 3 elements"),
-])
+
+@pytest.mark.parametrize(
+    "build, match",
+    [
+        (
+            lambda: _arm(Link(m=1, I=((0.1, 0.05, 0), (0, 0.2, 0), (0, 0, 0.3)))),
+            r"inertia of link 1 is not symmetric: I\[0,1\]=0.05, I\[1,0\]=0",
+        ),
+        (
+            lambda: _arm(Link(m=1, I=GOOD_I), Link(m=1, I=((1, 0, 0), (0, -0.2, 0), (0, 0, 0.3)))),
+            r"inertia of link 2 is not positive semidefinite",
+        ),
+        (
+            lambda: _arm(Link(m=1, I=np.diag([1.0, 1.0, 3.0]))),
+            r"inertia of link 1 is physically impossible: .* violate the triangle inequality",
+        ),
+        (lambda: _arm(Link(m=-2.0)), r"mass of link 1 is negative: m = -2.0"),
+        (lambda: _arm(Link(m=1), convention="craig"), r"unknown DH convention 'craig'"),
+        (lambda: Link(joint="spherical"), r"unknown joint type 'spherical'"),
+        (lambda: Link(qlim=(1.0, -1.0)), r"joint limits reversed or empty: qlim = \(1.0, -1.0\)"),
+        (lambda: _arm(Link(m=1), Link(G=0, Jm=1e-4)), r"gear ratio of link 2 is 0 but it has motor parameters"),
+        (lambda: _arm(Link(m=1), base=np.diag([1.0, 1.0, -1.0, 1.0])), r"base rotation is not a proper rotation"),
+        (lambda: _arm(Link(m=1), base=np.array(transl(1, 0, 0)) * 2), r"base is not a homogeneous transform"),
+        (lambda: _arm(Link(m=1), tool=((1, 0, 0, 0), (0, 2, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))), r"tool rotation"),
+        (lambda: Robot("empty", ()), r"robot 'empty' has no links"),
+        (lambda: _arm(Link(m=1), "link"), r"links\[1\] of robot 'arm' is a str, expected Link"),
+        (lambda: Link(r=(0, 0)), r"r must have 3 elements, got 2"),
+        (lambda: Link(I=((1, 0), (0, 1))), r"I must be a 3×3 matrix"),
+        (lambda: Link(m=math.nan), r"m must be finite"),
+        (lambda: _arm(Link(Tc=(-0.1, -0.2), G=10)), r"Coulomb friction of link 1 must be Tc = \(Tc\+ >= 0"),
+        (lambda: _arm(Link(B=-1.0, G=10)), r"B of link 1 is negative"),
+        (lambda: models.load("puma560").payload(-1.0), r"payload mass is negative: -1.0"),
+        (lambda: models.load("puma560").payload(1.0, (0, 0)), r"payload position must have 3 elements"),
+    ],
+)
 def test_bad_models_are_refused_by_name(build, match):
     with pytest.raises(ValueError, match=match):
         build()
@@ -111,6 +128,7 @@ def test_symbolic_robot_is_refused_by_the_reference_naming_its_symbols():
 
 # --------------------------------------------------------------------------- new robots, never mutated
 
+
 def test_robot_and_link_are_frozen(puma):
     with pytest.raises(dataclasses.FrozenInstanceError):
         puma.gravity = (0, 0, 1.62)
@@ -126,8 +144,12 @@ def test_payload_and_nofriction_return_new_robots_and_leave_the_original(puma):
     coulomb_free, frictionless = puma.nofriction(), puma.nofriction(all=True)
     assert puma.fingerprint() == before and puma.links is links
     assert puma.links[-1].m == 0.09 and puma.links[0].Tc == (0.395, -0.435) and puma.links[0].B == 0.00148
-    assert len({before, book.fingerprint(), additive.fingerprint(),
-                coulomb_free.fingerprint(), frictionless.fingerprint()}) == 5
+    assert (
+        len(
+            {before, book.fingerprint(), additive.fingerprint(), coulomb_free.fingerprint(), frictionless.fingerprint()}
+        )
+        == 5
+    )
     assert coulomb_free.links[0].Tc == (0, 0) and coulomb_free.links[0].B == 0.00148
     assert frictionless.links[0].Tc == (0, 0) and frictionless.links[0].B == 0
     assert book.links[:-1] == puma.links[:-1] == additive.links[:-1]
@@ -171,15 +193,18 @@ def test_subs_on_the_symbolic_twolink_gives_the_numeric_twolinks_dynamics(twolin
     robot = sym.subs(values)
     assert not robot.is_symbolic and sym.is_symbolic
     q, qd, qdd = random_states(twolink, 100, seed=9)
-    for a, b in ((ref.rne(robot, q, qd, qdd), ref.rne(twolink, q, qd, qdd)),
-                 (ref.inertia(robot, q), ref.inertia(twolink, q)),
-                 (ref.coriolis(robot, q, qd), ref.coriolis(twolink, q, qd)),
-                 (ref.fkine(robot, q), ref.fkine(twolink, q))):
+    for a, b in (
+        (ref.rne(robot, q, qd, qdd), ref.rne(twolink, q, qd, qdd)),
+        (ref.inertia(robot, q), ref.inertia(twolink, q)),
+        (ref.coriolis(robot, q, qd), ref.coriolis(twolink, q, qd)),
+        (ref.fkine(robot, q), ref.fkine(twolink, q)),
+    ):
         assert np.abs(a - b).max() <= 1e-13 * np.abs(b).max()
     assert np.abs(ref.gravload(twolink, q)).max() > 1.0
 
 
 # --------------------------------------------------------------------------- general joints
+
 
 def test_a_generic_float_rotation_becomes_an_exactly_orthogonal_rational_one():
     from symdyn.model.placement import rational_rotation
@@ -200,6 +225,8 @@ def test_generic_turns_decide_whether_code_generation_regroups():
     from symdyn.model import placement
 
     assert generic_turns(models.load("puma560")) == 0 and generic_turns(models.load("panda")) == 0
-    links = tuple(Link(origin=placement((0.1, 0, 0.2), (0.3 * k + 0.1, -0.2, 0.7)), axis=(0.6, 0, 0.8), m=1.0,
-                       I=0.01 * np.eye(3)) for k in range(5))
+    links = tuple(
+        Link(origin=placement((0.1, 0, 0.2), (0.3 * k + 0.1, -0.2, 0.7)), axis=(0.6, 0, 0.8), m=1.0, I=0.01 * np.eye(3))
+        for k in range(5)
+    )
     assert generic_turns(Robot("g5", links, convention="general")) == 5 > GENERIC_TURNS_MAX

@@ -26,6 +26,7 @@ def puma_nc():
 
 # --------------------------------------------------------------------------- problem set-up
 
+
 def test_motor_torque_limits_are_motor_limits_times_gear_ratio(puma):
     lim = ocp.motor_torque_limits(puma, [1, 2, 3, 4, 5, 6])
     G = [-62.6111, 107.815, -53.7063, 76.0364, 71.923, 76.686]
@@ -37,8 +38,8 @@ def test_motor_torque_limits_are_motor_limits_times_gear_ratio(puma):
 def test_urdf_effort_and_velocity_limits_are_the_default_limits():
     panda = models.load("panda")
     lim = ocp.Limits.for_robot(panda)
-    assert lim.tau.tolist() == [87, 87, 87, 87, 12, 12, 12]            # <limit effort> of panda.urdf
-    assert lim.qd.tolist() == [2.175] * 4 + [2.61] * 3                  # <limit velocity>
+    assert lim.tau.tolist() == [87, 87, 87, 87, 12, 12, 12]  # <limit effort> of panda.urdf
+    assert lim.qd.tolist() == [2.175] * 4 + [2.61] * 3  # <limit velocity>
     assert np.array_equal(lim.q, panda.qlim)
     assert ocp.Limits.for_robot(panda.nofriction()).tau.tolist() == lim.tau.tolist()
     # explicit limits still win, each on its own
@@ -53,7 +54,8 @@ def test_a_dh_model_without_effort_or_velocity_limits_keeps_them_unbounded(puma)
     lim = ocp.Limits.for_robot(puma)
     assert lim.tau is None and lim.qd is None and np.array_equal(lim.q, puma.qlim)
     assert S.puma_limits(S.puma()).tau == pytest.approx(
-        np.array(S.PUMA_MOTOR_TAU) * np.abs([float(link.G) for link in puma.links]), rel=1e-12)
+        np.array(S.PUMA_MOTOR_TAU) * np.abs([float(link.G) for link in puma.links]), rel=1e-12
+    )
 
 
 def test_joints_without_a_urdf_limit_are_unbounded_where_others_have_one(arm2):
@@ -71,27 +73,35 @@ def test_an_infinite_limit_leaves_that_joint_unbounded(arm2, method):
     arm = ocp.dynamics(arm2, "plain", compiled=False)
     T = {}
     for name, lim in (("bounded", bounded), ("open", open_tau)):
-        problem = ocp.Problem(HANG, np.array([0.0, 0.5]), N=20, method=method, limits=lim,
-                              cost=ocp.Cost(time=1.0, smoothness=1e-6))
+        problem = ocp.Problem(
+            HANG, np.array([0.0, 0.5]), N=20, method=method, limits=lim, cost=ocp.Cost(time=1.0, smoothness=1e-6)
+        )
         sol = ocp.solve(problem, arm)
         tol = dict(tol_q=0.1, tol_qd=0.2) if method == "trapezoidal" else {}
         check = ocp.verify(arm2, problem, sol, **tol)
-        assert check.ok, (name, check.describe())           # the dynamics still hold on the free joint
+        assert check.ok, (name, check.describe())  # the dynamics still hold on the free joint
         T[name] = sol.T
-    assert np.abs(sol.tau[:, 1]).max() > 10.0                # the elbow uses more than the old limit
+    assert np.abs(sol.tau[:, 1]).max() > 10.0  # the elbow uses more than the old limit
     assert T["open"] < T["bounded"]
 
 
 def test_minimum_time_without_torque_or_speed_limits_is_refused(arm2):
     q0, qf = HANG, np.array([0.0, 0.5])
     min_time = ocp.Cost(time=1.0)
-    for lim in (ocp.Limits(), ocp.Limits.for_robot(arm2), ocp.Limits(q=arm2.qlim),
-                ocp.Limits(tau=np.full(2, np.inf), qd=np.full(2, np.inf))):
-        with pytest.raises(ValueError, match=r"minimum-time problem has no torque or speed limit.*"
-                                             r"Limits\(tau=.*Limits\.for_robot\(robot, tau=.*effort"):
+    for lim in (
+        ocp.Limits(),
+        ocp.Limits.for_robot(arm2),
+        ocp.Limits(q=arm2.qlim),
+        ocp.Limits(tau=np.full(2, np.inf), qd=np.full(2, np.inf)),
+    ):
+        with pytest.raises(
+            ValueError,
+            match=r"minimum-time problem has no torque or speed limit.*"
+            r"Limits\(tau=.*Limits\.for_robot\(robot, tau=.*effort",
+        ):
             ocp.Problem(q0, qf, T=None, cost=min_time, limits=lim)
     ocp.Problem(q0, qf, T=None, cost=min_time, limits=ocp.Limits(qd=np.array([3.0, np.inf])))
-    ocp.Problem(q0, qf, T=1.0, cost=ocp.Cost(effort=1.0))   # a fixed time needs no limit
+    ocp.Problem(q0, qf, T=1.0, cost=ocp.Cost(effort=1.0))  # a fixed time needs no limit
 
 
 def test_bad_problems_are_refused_by_name():
@@ -139,10 +149,11 @@ def test_twolink_hangs_at_minus_half_pi_and_is_upright_at_plus_half_pi(arm2):
     G, stable = S.hanging_check(arm2)
     assert np.abs(G).max() < 1e-12 and stable
     _, pot = ref.energy(arm2, np.array([HANG, UP]), np.zeros((2, 2)))
-    assert pot[1] - pot[0] == pytest.approx(2 * 9.81 * (0.5 + 1.5))   # both masses lifted by 2·COM height
+    assert pot[1] - pot[0] == pytest.approx(2 * 9.81 * (0.5 + 1.5))  # both masses lifted by 2·COM height
 
 
 # --------------------------------------------------------------------------- the studies, coarse
+
 
 def test_swing_up_reaches_upright_open_loop_within_limits(arm2):
     sol, check = S.solve_checked(arm2, S.swing_up_problem(N=30), "symdyn")
@@ -153,7 +164,7 @@ def test_swing_up_reaches_upright_open_loop_within_limits(arm2):
 
 def test_puma_minimum_time_is_bang_bang_and_re_simulates(puma_nc):
     problem = S.min_time_problem(puma_nc, puma_nc.qz, puma_nc.qr, N=10)
-    sol, check = S.solve_checked(puma_nc, problem, "plain", compiled=False)   # compiled = SX: test_ocp_compiled
+    sol, check = S.solve_checked(puma_nc, problem, "plain", compiled=False)  # compiled = SX: test_ocp_compiled
     assert check.ok, check.describe()
     # joint 2 turns π/2 at ≤ 4 rad/s, so T > π/8; a torque limit must bind
     assert np.pi / 8 < sol.T < 1.0
@@ -166,7 +177,7 @@ def test_puma_minimum_effort_with_payload_costs_more_and_beats_minimum_jerk(puma
     costs = []
     for robot in (puma_nc, puma_nc.payload(*S.PUMA_PAYLOAD)):
         problem = S.min_effort_problem(robot, N=10)
-        sol, check = S.solve_checked(robot, problem, "plain", compiled=False)   # as above
+        sol, check = S.solve_checked(robot, problem, "plain", compiled=False)  # as above
         assert check.ok, check.describe()
         assert sol.cost <= S._min_jerk_effort(robot, problem)
         costs.append(sol.cost)
@@ -178,8 +189,9 @@ def test_transcriptions_agree_on_the_two_link_minimum_time(arm2):
     arm = ocp.dynamics(arm2, "plain")
     T = {}
     for method in ocp.METHODS:
-        problem = ocp.Problem(HANG, np.array([0.0, 0.5]), N=20, method=method, limits=lim,
-                              cost=ocp.Cost(time=1.0, smoothness=1e-6))
+        problem = ocp.Problem(
+            HANG, np.array([0.0, 0.5]), N=20, method=method, limits=lim, cost=ocp.Cost(time=1.0, smoothness=1e-6)
+        )
         sol = ocp.solve(problem, arm)
         # trapezoidal collocation is second order: a looser goal tolerance on this grid
         tol = dict(tol_q=0.1, tol_qd=0.2) if method == "trapezoidal" else {}
@@ -211,7 +223,7 @@ def test_interval_replay_starts_each_interval_at_its_node(arm2):
     _, q, _ = ocp.resimulate(arm2, moved, substeps=problem.substeps, restart=True)
     gap = np.abs(q - moved.q).max(1)
     assert gap[4] == pytest.approx(0.1, abs=1e-8) and gap[5] > 0.05
-    assert np.all(np.delete(gap, [4, 5]) < 1e-8)   # every other interval starts at its own node
+    assert np.all(np.delete(gap, [4, 5]) < 1e-8)  # every other interval starts at its own node
     bad = ocp.verify(arm2, problem, moved, replay="intervals", substeps=problem.substeps)
     assert not bad.ok and "interval by interval" in bad.describe() and bad.path_q_error >= 0.1 - 1e-8
     assert np.array_equal(ocp.resimulate(arm2, moved, substeps=problem.substeps)[1], q_open)
@@ -231,9 +243,11 @@ def test_hermite_simpson_torque_passes_through_nodes_and_midpoints(arm2):
 
 # --------------------------------------------------------------------------- failure
 
+
 def test_torque_too_small_to_hold_the_arm_fails_with_status_and_hint(arm2):
-    problem = ocp.Problem(HANG, np.array([0.0, 0.0]), T=1.0, N=10, method="trapezoidal",
-                          limits=ocp.Limits(tau=np.array([2.0, 2.0])))
+    problem = ocp.Problem(
+        HANG, np.array([0.0, 0.0]), T=1.0, N=10, method="trapezoidal", limits=ocp.Limits(tau=np.array([2.0, 2.0]))
+    )
     with pytest.raises(ocp.OCPError) as err:
         ocp.solve(problem, ocp.dynamics(arm2, "plain"), max_iter=200)
     e = err.value
@@ -244,6 +258,7 @@ def test_torque_too_small_to_hold_the_arm_fails_with_status_and_hint(arm2):
 
 # --------------------------------------------------------------------------- comparison harness
 
+
 def test_comparison_harness_plain_against_itself_and_against_symdyn(arm2):
     problem = ocp.Problem(HANG, np.array([-1.0, 0.3]), T=1.0, N=6)
     case = [("two-link", arm2, problem)]
@@ -253,7 +268,7 @@ def test_comparison_harness_plain_against_itself_and_against_symdyn(arm2):
     assert same[0]["iterations"] == same[1]["iterations"]
     table = S.format_table(same)
     assert "| IPOPT iterations |" in table and "plain SX / plain SX" in table
-    for r in same:   # IPOPT's own work and the function evaluations both take time
+    for r in same:  # IPOPT's own work and the function evaluations both take time
         assert 0 < r["outside_per_iteration"] < r["per_iteration"]
         assert 0 < r["free_evaluations"] < r["total"]
     assert f"would still take {same[0]['free_evaluations']:.2f} s" in table

@@ -44,7 +44,7 @@ def test_compiled_functions_and_their_jacobians_and_hessians_equal_the_sx_ones(b
         lam = ca.DM(np.random.default_rng(2).normal(size=(2, 50)))
         val = np.array(f.map(50)(*args))
         assert np.allclose(np.array(g.map(50)(*args)), val, rtol=1e-12, atol=1e-12)
-        for k in range(3):   # Jacobian and Hessian of λᵀf, through CasADi's AD on each
+        for k in range(3):  # Jacobian and Hessian of λᵀf, through CasADi's AD on each
             x = [ca.MX.sym(f.name_in(i), 2) for i in range(3)]
             jf = ca.Function("j", x, [ca.jacobian(f(*x), x[k])]).map(50)(*args)
             jg = ca.Function("j", x, [ca.jacobian(g(*x), x[k])]).map(50)(*args)
@@ -61,8 +61,13 @@ def test_the_compiled_jacobian_matches_central_differences(both):
     x = [ca.MX.sym(n, 2) for n in ("q", "qd", "tau")]
     J = np.array(ca.Function("J", x, [ca.jacobian(cc.fdyn(*x), x[0])])(*x0))
     eps = 1e-6
-    fd = np.column_stack([(np.array(cc.fdyn(x0[0] + eps * e, *x0[1:])) - np.array(cc.fdyn(x0[0] - eps * e, *x0[1:])))
-                          .ravel() / (2 * eps) for e in np.eye(2)])
+    fd = np.column_stack(
+        [
+            (np.array(cc.fdyn(x0[0] + eps * e, *x0[1:])) - np.array(cc.fdyn(x0[0] - eps * e, *x0[1:]))).ravel()
+            / (2 * eps)
+            for e in np.eye(2)
+        ]
+    )
     assert np.allclose(J, fd, rtol=1e-6, atol=1e-6)
 
 
@@ -73,12 +78,13 @@ def test_the_library_is_cached_by_source_and_rebuilt_when_damaged(arm2, tmp_path
     (lib,) = tmp_path.glob("casadi/tau-*/libtau.so")
     built = lib.stat().st_mtime_ns
     compiled(f)
-    assert lib.stat().st_mtime_ns == built          # reused
-    lib.write_bytes(lib.read_bytes()[:1000])          # truncated: would crash dlopen
+    assert lib.stat().st_mtime_ns == built  # reused
+    lib.write_bytes(lib.read_bytes()[:1000])  # truncated: would crash dlopen
     g = compiled(f)
     assert lib.stat().st_size > 1000
-    assert np.allclose(np.array(g([0.1, 0.2], [0.3, 0.4], [0.5, 0.6])),
-                       np.array(f([0.1, 0.2], [0.3, 0.4], [0.5, 0.6])), rtol=1e-13)
+    assert np.allclose(
+        np.array(g([0.1, 0.2], [0.3, 0.4], [0.5, 0.6])), np.array(f([0.1, 0.2], [0.3, 0.4], [0.5, 0.6])), rtol=1e-13
+    )
 
 
 def test_a_long_step_reports_what_it_builds_and_how_long_a_quick_one_says_nothing(capsys):
@@ -87,22 +93,25 @@ def test_a_long_step_reports_what_it_builds_and_how_long_a_quick_one_says_nothin
     err = capsys.readouterr().err.splitlines()
     assert err[0].strip() == "building X ..."
     assert re.fullmatch(r"building X: done in 0\.[3-9] s", err[-1].strip()), err
-    with progress.reported("building Y"):          # the default threshold, REPORT_AFTER_S = 2 s
+    with progress.reported("building Y"):  # the default threshold, REPORT_AFTER_S = 2 s
         pass
     assert capsys.readouterr().err == ""
 
 
 def test_the_compiled_build_shows_progress_and_a_cached_one_is_silent(arm2, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)   # the two-link arm builds in about a second
-    arm = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)   # not the in-process lru_cache
+    monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)  # the two-link arm builds in about a second
+    arm = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)  # not the in-process lru_cache
     ocp._compiled_step.__wrapped__(arm.fdyn_sx, 2, 1, arm.fdyn_derivatives_sx, arm.name)
     err = capsys.readouterr().err
-    for what in ("compiling tau (symdyn) with its Jacobian and Hessian", "compiling fdyn (symdyn)",
-                 "compiling the multiple-shooting interval (1 RK4 step,"):
+    for what in (
+        "compiling tau (symdyn) with its Jacobian and Hessian",
+        "compiling fdyn (symdyn)",
+        "compiling the multiple-shooting interval (1 RK4 step,",
+    ):
         assert f"ocp {arm2.name}: {what}" in err, err
     assert len(re.findall(r": done in \d+\.\d s", err)) >= 3, err
-    monkeypatch.setattr(progress, "REPORT_AFTER_S", 2.0)   # as shipped: a read from the cache is far quicker
+    monkeypatch.setattr(progress, "REPORT_AFTER_S", 2.0)  # as shipped: a read from the cache is far quicker
     again = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)
     ocp._compiled_step.__wrapped__(again.fdyn_sx, 2, 1, again.fdyn_derivatives_sx, again.name)
     assert capsys.readouterr().err == ""
@@ -123,9 +132,15 @@ def test_load_compiled_gives_externals_that_follow_the_contract(arm2):
 
 @pytest.mark.parametrize("method", ["multiple-shooting", "trapezoidal"])
 def test_ocp_optimum_on_the_compiled_path_equals_the_sx_one(both, method):
-    problem = ocp.Problem(HANG, UP, T=2.0, N=20, method=method,
-                          limits=ocp.Limits(tau=np.array([15.0, 4.0]), qd=np.array([5.0, 5.0])),
-                          cost=ocp.Cost(effort=1.0, smoothness=1e-3))
+    problem = ocp.Problem(
+        HANG,
+        UP,
+        T=2.0,
+        N=20,
+        method=method,
+        limits=ocp.Limits(tau=np.array([15.0, 4.0]), qd=np.array([5.0, 5.0])),
+        cost=ocp.Cost(effort=1.0, smoothness=1e-3),
+    )
     a, b = (ocp.solve(problem, arm) for arm in both)
     assert a.stats["success"] and b.stats["success"]
     assert b.stats["compiled"] and not a.stats["compiled"]
@@ -147,7 +162,7 @@ def test_nmpc_tracker_reaches_a_goal_within_its_torque_limits():
         taus.append(tau)
         x = mpc._plant_step(arm2, x, tau, 0.02, 5)
     assert np.abs(np.array(taus)).max() <= 40.0 + 1e-6
-    assert np.abs(x[:2] - goal[:2]).max() < 1e-2      # settled on the goal after 0.8 s
+    assert np.abs(x[:2] - goal[:2]).max() < 1e-2  # settled on the goal after 0.8 s
 
 
 @pytest.mark.parametrize("integrator", ["euler", "rk4"])
@@ -164,8 +179,9 @@ def test_rti_iterated_converges_to_the_ipopt_tracker_solution_and_keeps_the_limi
     tau_ip, st = ipopt.control(x, ref)
     assert st["success"]
     if integrator == "rk4":
-        tau_sx, _ = ocp.Tracker(ocp.dynamics(arm2, "symdyn", compiled=False), lim, 0.02, 8, tol=1e-12,
-                                integrator=integrator).control(x, ref)
+        tau_sx, _ = ocp.Tracker(
+            ocp.dynamics(arm2, "symdyn", compiled=False), lim, 0.02, 8, tol=1e-12, integrator=integrator
+        ).control(x, ref)
         assert np.abs(tau_sx - tau_ip).max() < 1e-8 * np.abs(tau_ip).max()
     rti = ocp.RTITracker(arm, lim, 0.02, 8, integrator=integrator)
     steps = []
@@ -174,10 +190,10 @@ def test_rti_iterated_converges_to_the_ipopt_tracker_solution_and_keeps_the_limi
         tau, st = rti.feedback(x)
         assert st["success"]
         steps.append(np.abs(tau - tau_ip).max())
-    assert steps[0] > 1e-3                      # the first QP is not yet the optimum
+    assert steps[0] > 1e-3  # the first QP is not yet the optimum
     assert steps[-1] < 1e-6 * np.abs(tau_ip).max()
     X, U = rti.prediction
-    assert np.abs(U / lim.tau).max() <= 1 + 1e-9 and np.abs(U / lim.tau).max() > 0.999    # torque limit active
+    assert np.abs(U / lim.tau).max() <= 1 + 1e-9 and np.abs(U / lim.tau).max() > 0.999  # torque limit active
     assert np.abs(X[:, 2:] / lim.qd).max() <= 1 + 1e-6 and np.abs(X[:, 2:] / lim.qd).max() > 0.999
     _, st = rti.control(x, ref)
     assert st["wall"] == pytest.approx(st["prepare"] + st["feedback"]) and st["iterations"] == 1

@@ -11,9 +11,11 @@ import symdyn
 from symdyn.apps import ocp, ocp_step
 from symdyn.model.random_arms import ArmOptions, random_arm
 
-ARMS = {"twolink": lambda: symdyn.models.load("twolink").nofriction(),
-        "puma560": lambda: symdyn.models.load("puma560"),   # Coulomb friction: sign held
-        "random-3": lambda: random_arm(7, ArmOptions(n_min=3, n_max=3))}
+ARMS = {
+    "twolink": lambda: symdyn.models.load("twolink").nofriction(),
+    "puma560": lambda: symdyn.models.load("puma560"),  # Coulomb friction: sign held
+    "random-3": lambda: random_arm(7, ArmOptions(n_min=3, n_max=3)),
+}
 
 
 def _dense(x) -> np.ndarray:
@@ -66,5 +68,4 @@ def test_the_hessian_is_symmetric_and_the_compiled_step_equals_the_graph():
     H = np.block([[_dense(blocks[8 * r + c]) for c in range(4)] for r in range(4)])
     assert np.abs(H - H.T).max() <= 1e-12 * np.abs(H).max()
     _agree(compiled.call(z), step.call(z), "compiled step")
-    _agree(compiled.reverse(1).jacobian().call([*z, *out, *lam, *adj(*z, *out, *lam)]), blocks,
-           "compiled Hessian")
+    _agree(compiled.reverse(1).jacobian().call([*z, *out, *lam, *adj(*z, *out, *lam)]), blocks, "compiled Hessian")

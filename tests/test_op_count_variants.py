@@ -28,8 +28,9 @@ def _names_variant(text: str) -> bool:
     return "CSE" in text and bool(FRICTION.search(text))
 
 
-@pytest.mark.parametrize("path", sorted(p for p in GENERATED.glob("*/*") if p.suffix in (".c", ".h", ".py")),
-                         ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "path", sorted(p for p in GENERATED.glob("*/*") if p.suffix in (".c", ".h", ".py")), ids=lambda p: p.name
+)
 def test_generated_headers_name_friction_stage_and_derivation(path):
     head = path.read_text().split("\n\n", 1)[0].splitlines()
     heading = next(line for line in head if "operation counts" in line)
@@ -44,14 +45,18 @@ def test_generated_headers_name_friction_stage_and_derivation(path):
 def test_print_names_parameters_and_friction(capsys):
     assert cli.main(["print", "twolink", "--term", "tau"]) == 0
     lines = [line for line in capsys.readouterr().out.splitlines() if "operations" in line]
-    assert lines == ["# twolink_sym by newton-euler; operations (mul + add) at each stage, full inertial "
-                     "parameters (not regrouped), without friction:"]
+    assert lines == [
+        "# twolink_sym by newton-euler; operations (mul + add) at each stage, full inertial "
+        "parameters (not regrouped), without friction:"
+    ]
 
 
 def test_run_summary_names_its_variant(tmp_path, capsys, monkeypatch):
     """The summary line of `symdyn run` (stopped just after it, before generating code)."""
+
     def stop(*args, **kwargs):
         raise RuntimeError("stopped after the summary")
+
     monkeypatch.setattr("symdyn.codegen.entry.generate", stop)
     assert cli.main(["run", "--out", str(tmp_path)]) == 2
     line = next(line for line in capsys.readouterr().out.splitlines() if "operations" in line)

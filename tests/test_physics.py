@@ -31,6 +31,7 @@ def robot(request):
 
 # --------------------------------------------------------------------------- identities
 
+
 def test_mass_matrix_is_symmetric_positive_definite(robot):
     q, _, _ = random_states(robot, 200, seed=1)
     M = ref.inertia(robot, q)
@@ -45,7 +46,7 @@ def test_mdot_minus_2c_is_skew_symmetric(robot):
     Mdot = (ref.inertia(robot, q + h * qd) - ref.inertia(robot, q - h * qd)) / (2 * h)
     S = Mdot - 2 * ref.coriolis(robot, q, qd)
     assert np.abs(S + np.swapaxes(S, -1, -2)).max() <= 1e-7 * np.abs(Mdot).max()
-    assert np.abs(S).max() > 1e-3 * np.abs(Mdot).max()      # the identity is not vacuous
+    assert np.abs(S).max() > 1e-3 * np.abs(Mdot).max()  # the identity is not vacuous
 
 
 def test_inverse_dynamics_at_rest_is_gravity_load(robot):
@@ -61,30 +62,41 @@ def _energy(robot, q, qd):
     return kinetic + potential
 
 
-@pytest.mark.parametrize("name, q0, qd0, tol", [
-    ("puma560", [0.0, 0.8, -2.5, 0.0, 0.5, 0.0], [0.2, -0.2, 0.2, 0.5, -0.5, 0.5], 1e-8),
-    ("twolink", [-1.2, 0.3], [0.3, -0.2], 1e-7),     # drifts ~1e-9 at this tolerance
-])
+@pytest.mark.parametrize(
+    "name, q0, qd0, tol",
+    [
+        ("puma560", [0.0, 0.8, -2.5, 0.0, 0.5, 0.0], [0.2, -0.2, 0.2, 0.5, -0.5, 0.5], 1e-8),
+        ("twolink", [-1.2, 0.3], [0.3, -0.2], 1e-7),  # drifts ~1e-9 at this tolerance
+    ],
+)
 def test_energy_is_conserved_without_friction_or_torque(name, q0, qd0, tol):
     robot = models.load(name).nofriction(all=True)
     t, q, qd = ref.fdyn(robot, 2.0, q0, qd0, t_eval=np.linspace(0, 2, 41), rtol=tol, atol=tol)
     E = _energy(robot, q, qd)
     kinetic = ref.energy(robot, q, qd)[0]
-    assert t[-1] == 2.0 and kinetic.max() > 1.0                         # the arm really moves
+    assert t[-1] == 2.0 and kinetic.max() > 1.0  # the arm really moves
     assert np.abs(E - E[0]).max() <= 1e-6 * np.abs(E).max()
 
 
 def test_viscous_friction_dissipates_energy_monotonically():
     """Puma with viscous friction only (Coulomb removed): dE/dt = −q̇ᵀ G²B q̇ ≤ 0."""
     robot = models.load("puma560").nofriction()
-    t, q, qd = ref.fdyn(robot, 1.0, [0.0, 0.8, -2.5, 0.0, 0.5, 0.0], [0.2, -0.2, 0.2, 0.5, -0.5, 0.5],
-                        t_eval=np.linspace(0, 1, 21), rtol=1e-8, atol=1e-8)
+    t, q, qd = ref.fdyn(
+        robot,
+        1.0,
+        [0.0, 0.8, -2.5, 0.0, 0.5, 0.0],
+        [0.2, -0.2, 0.2, 0.5, -0.5, 0.5],
+        t_eval=np.linspace(0, 1, 21),
+        rtol=1e-8,
+        atol=1e-8,
+    )
     E = _energy(robot, q, qd)
     assert np.all(np.diff(E) <= 1e-9 * np.abs(E).max())
     assert E[0] - E[-1] > 1.0
 
 
 # --------------------------------------------------------------------------- conventions
+
 
 def _table_friction(qd):
     """Friction of the Puma from the JSON table: G²·B·q̇ + |G|·Tc⁺ / |G|·Tc⁻ / 0."""
@@ -96,19 +108,23 @@ def _table_friction(qd):
     return np.array(out)
 
 
-@pytest.mark.parametrize("qd", [
-    [0.7, -0.7, 0.3, -0.2, 0.0, 1.1],
-    [-0.7, 0.7, -0.3, 0.2, 1e-9, 0.0],
-    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-])
+@pytest.mark.parametrize(
+    "qd",
+    [
+        [0.7, -0.7, 0.3, -0.2, 0.0, 1.1],
+        [-0.7, 0.7, -0.3, 0.2, 1e-9, 0.0],
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    ],
+)
 def test_friction_law_with_negative_gear_ratios(puma, qd):
     qd = np.array(qd)
     assert puma.links[0].G == -62.6111 and puma.links[2].G < 0
     expected = _table_friction(qd)
     assert np.allclose(ref.friction(puma, qd), expected, rtol=1e-14, atol=0)
     q, zero = puma.qn, np.zeros(6)
-    assert np.allclose(ref.rne(puma, q, qd, zero) - ref.rne(puma.nofriction(all=True), q, qd, zero),
-                       expected, rtol=1e-9, atol=1e-12)
+    assert np.allclose(
+        ref.rne(puma, q, qd, zero) - ref.rne(puma.nofriction(all=True), q, qd, zero), expected, rtol=1e-9, atol=1e-12
+    )
     assert np.all(ref.friction(puma, qd)[qd == 0] == 0.0)
 
 
@@ -125,7 +141,7 @@ def test_nofriction_removes_coulomb_then_viscous(puma):
     viscous = np.array([l["G"] ** 2 * l["B"] for l in PUMA_TABLE["links"]]) * qd
     assert np.allclose(ref.friction(puma.nofriction(), qd), viscous, rtol=1e-14, atol=0)
     assert np.all(ref.friction(puma.nofriction(all=True), qd) == 0.0)
-    assert np.abs(ref.friction(puma, qd) - viscous).min() > 1e-3          # Coulomb was there
+    assert np.abs(ref.friction(puma, qd) - viscous).min() > 1e-3  # Coulomb was there
 
 
 def test_rotor_inertia_is_on_the_diagonal_of_M(puma):

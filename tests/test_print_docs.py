@@ -12,5 +12,7 @@ def test_committed_twolink_equations_are_current():
     spec.loader.exec_module(print_docs)
     text, _ = print_docs.model_markdown("twolink")
     committed = (ROOT / "docs" / "equations" / "twolink.md").read_text()
-    assert text == committed, ("docs/equations/twolink.md is stale: regenerate it with "
-                               "`python scripts/print_docs.py` (all models) and commit docs/equations/")
+    assert text == committed, (
+        "docs/equations/twolink.md is stale: regenerate it with "
+        "`python scripts/print_docs.py` (all models) and commit docs/equations/"
+    )

@@ -51,11 +51,18 @@ def _overfull_boxes(tex: str, folder) -> list[float]:
 
     engine = shutil.which("pdflatex")
     if engine is None:
-        pytest.skip("pdflatex is not installed (Debian: apt-get install texlive-latex-base); "
-                    "test_every_printed_line_fits_its_width_budget guards the widths without TeX")
+        pytest.skip(
+            "pdflatex is not installed (Debian: apt-get install texlive-latex-base); "
+            "test_every_printed_line_fits_its_width_budget guards the widths without TeX"
+        )
     (folder / "eq.tex").write_text(tex)
-    run = subprocess.run([engine, "-interaction=nonstopmode", "-halt-on-error", "eq.tex"], cwd=folder,
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [engine, "-interaction=nonstopmode", "-halt-on-error", "eq.tex"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 0, run.stdout[-2000:]
     return [float(w) for w in re.findall(r"Overfull \\\\hbox \\(([\\d.]+)pt too wide\\)", run.stdout)]
 
@@ -86,6 +93,7 @@ def test_every_printed_line_fits_its_width_budget(fmt):
         assert max(measure(r) for r in rows) <= WIDTHS[fmt], max(rows, key=measure)
     # and the budget is what breaks them: the two-link tau1 needs several lines at 60 characters
     from symdyn.derivation.printing import wrap
+
     tau1 = dict(elements(derive(models.load("twolink", symbolic=True)), "tau"))["tau1"]
     lines = wrap("tau1", tau1, "text", width=60)
     assert len(lines) >= 4 and max(map(len, lines)) <= 60
@@ -98,7 +106,7 @@ def test_numbers_print_like_an_engineer_writes_them():
     dyn = derive(models.load("rrp"))
     text = closed_form(dyn, ("M",), "text", digits=4)
     assert "M33 = 6.5" in text and "0.25000" not in text and "e-" not in text
-    assert not re.search(r"\\d{12,}", text)          # no giant integers of factored rationals
+    assert not re.search(r"\\d{12,}", text)  # no giant integers of factored rationals
 
 
 def test_twolink_prints_eq_9_3_as_the_book_groups_it():
@@ -112,22 +120,29 @@ def test_twolink_prints_eq_9_3_as_the_book_groups_it():
     qd1, qd2 = dyn.qd
     qdd1, qdd2 = dyn.qdd
     C, S = sp.cos(q2), sp.sin(q2)
-    book = {   # outer factor → {trig monomial: coefficient}, as printed in the book
-        "M11": {m1: {1: a1**2 + 2 * a1 * c1 + c1**2}, m2: {1: a1**2 + (a2 + c2)**2, C: 2 * a1 * a2 + 2 * a1 * c2}},
-        "M12": {m2: {1: (a2 + c2)**2, C: a1 * (a2 + c2)}},
+    book = {  # outer factor → {trig monomial: coefficient}, as printed in the book
+        "M11": {m1: {1: a1**2 + 2 * a1 * c1 + c1**2}, m2: {1: a1**2 + (a2 + c2) ** 2, C: 2 * a1 * a2 + 2 * a1 * c2}},
+        "M12": {m2: {1: (a2 + c2) ** 2, C: a1 * (a2 + c2)}},
         "C1": {m2: {S: -2 * a1 * (a2 + c2)}},
         "C2": {m2: {S: -a1 * (a2 + c2)}},
         "g1": {g: {sp.cos(q1): a1 * m1 + a1 * m2 + c1 * m1, sp.cos(q1 + q2): a2 * m2 + c2 * m2}},
     }
     tau1 = dict(elements(dyn, "tau"))["tau1"]
-    by_rate = {t.as_independent(qdd1, qdd2, qd1, qd2)[1]: t.as_independent(qdd1, qdd2, qd1, qd2)[0]
-               for t in sp.Add.make_args(tau1)}
-    printed = {"M11": by_rate[qdd1], "M12": by_rate[qdd2], "C1": by_rate[qd1 * qd2], "C2": by_rate[qd2**2],
-               "g1": by_rate[1]}
+    by_rate = {
+        t.as_independent(qdd1, qdd2, qd1, qd2)[1]: t.as_independent(qdd1, qdd2, qd1, qd2)[0]
+        for t in sp.Add.make_args(tau1)
+    }
+    printed = {
+        "M11": by_rate[qdd1],
+        "M12": by_rate[qdd2],
+        "C1": by_rate[qd1 * qd2],
+        "C2": by_rate[qd2**2],
+        "g1": by_rate[1],
+    }
     printed["M11"] = dict(elements(dyn, "M"))["M11"]
     for name, groups in book.items():
         expr = printed[name]
-        outer = {}      # the printed outer factors: masses (M, C) or g (gravity), each once
+        outer = {}  # the printed outer factors: masses (M, C) or g (gravity), each once
         for term in sp.Add.make_args(expr):
             factor = [f for f in sp.Mul.make_args(term) if f in groups]
             assert len(factor) == 1, f"{name}: term {term} is not grouped by one of {list(groups)}"
@@ -153,7 +168,7 @@ def test_printed_gravity_of_the_puma_uses_the_natural_angle_q2_plus_q3(form):
     q2, q3, q4, q5 = dyn.q[1:5]
     assert g2.has(sp.cos(q2 + q3)) and g2.has(sp.sin(q2 + q3))
     assert not g2.has(sp.cos(q3)) and not g2.has(sp.sin(q3))
-    if form == "book":   # products of natural angles, no angle sums beyond q2 + q3
+    if form == "book":  # products of natural angles, no angle sums beyond q2 + q3
         assert g2.has(sp.sin(q5) * sp.cos(q4) * sp.cos(q2 + q3))
         assert not any(len(a.args[0].args) > 2 for a in g2.atoms(sp.sin, sp.cos))
     else:
@@ -228,6 +243,7 @@ def test_cli_reports_an_unknown_model_clearly(capsys):
 
 # --------------------------------------------------------------------------- 7-joint arms
 
+
 @pytest.fixture(scope="module")
 def panda():
     return derive(models.load("panda"))
@@ -249,10 +265,11 @@ def _printed(text: str) -> dict:
 
 def test_pandas_printed_gravity_equals_the_reference_gravity_load(panda):
     from symdyn.numeric import reference as ref
+
     printed = _printed(closed_form(panda, ("G",), digits=17))
     assert sorted(printed) == [f"G{i}" for i in range(1, 8)]
     for q in np.random.default_rng(3).uniform(-2, 2, (3, 7)):
-        values = {sp.Symbol(str(s)): v for s, v in zip(panda.q, q)}    # printed text: plain symbols
+        values = {sp.Symbol(str(s)): v for s, v in zip(panda.q, q)}  # printed text: plain symbols
         got = [float(printed[f"G{i}"].xreplace(values)) for i in range(1, 8)]
         np.testing.assert_allclose(got, ref.gravload(panda.robot, q), rtol=1e-12, atol=1e-12)
 
@@ -260,6 +277,7 @@ def test_pandas_printed_gravity_equals_the_reference_gravity_load(panda):
 def test_pandas_inertia_prints_in_named_intermediates_that_evaluate_to_the_reference(panda):
     from symdyn.derivation.printing import plan
     from symdyn.numeric import reference as ref
+
     layouts = plan(panda, ("G", "M"))
     assert [lay.layout for lay in layouts] == ["closed", "named"]
     assert "M of panda has 20814 terms in closed form, more than 4000" in layouts[1].note
@@ -267,8 +285,8 @@ def test_pandas_inertia_prints_in_named_intermediates_that_evaluate_to_the_refer
     assert text.startswith("# M of panda has 20814 terms")
     printed = _printed(text)
     q = np.array([0.3, -0.5, 0.2, -1.9, 0.4, 1.6, -0.7])
-    values = {sp.Symbol(str(s)): v for s, v in zip(panda.q, q)}        # printed text: plain symbols
-    for name, expr in printed.items():     # definitions first, each before its first use
+    values = {sp.Symbol(str(s)): v for s, v in zip(panda.q, q)}  # printed text: plain symbols
+    for name, expr in printed.items():  # definitions first, each before its first use
         values[sp.Symbol(name)] = float(expr.xreplace(values))
     M = ref.inertia(panda.robot, q)
     for i in range(7):
@@ -278,6 +296,10 @@ def test_pandas_inertia_prints_in_named_intermediates_that_evaluate_to_the_refer
 
 def test_a_closed_form_too_large_to_print_is_refused_with_the_alternative(panda):
     from symdyn.derivation.printing import plan
-    with pytest.raises(ValueError, match=r"M of panda has 20814 terms in closed form, more than 4000: .* "
-                                         r"--layout named"):
+
+    with pytest.raises(
+        ValueError,
+        match=r"M of panda has 20814 terms in closed form, more than 4000: .* "
+        r"--layout named",
+    ):
         plan(panda, ("M",), "closed")

@@ -32,11 +32,16 @@ class _Float:
     sub = staticmethod(lambda x, y: x - y)
     mul = staticmethod(lambda x, y: x * y)
     div = staticmethod(lambda x, y: x / y)
-    pow = staticmethod(lambda x, e: x ** e)
+    pow = staticmethod(lambda x, e: x**e)
 
     def call(self, name, x):
-        return {"sin": math.sin, "cos": math.cos, "sqrt": math.sqrt, "abs": abs,
-                "sign": lambda v: float((v > 0) - (v < 0))}[name](x)
+        return {
+            "sin": math.sin,
+            "cos": math.cos,
+            "sqrt": math.sqrt,
+            "abs": abs,
+            "sign": lambda v: float((v > 0) - (v < 0)),
+        }[name](x)
 
 
 def run(program, values: dict) -> list:
@@ -60,13 +65,26 @@ def _exact(expr):
     return float(expr.subs(VALUES).evalf(30))
 
 
-@pytest.mark.parametrize("expr, expected", [
-    (a - b, {"add": 1}), (a + b + c, {"add": 2}), (-a, {"neg": 1, "total": 0}),
-    (a * b * c, {"mul": 2}), (3 * a, {"mul": 1}), (sp.Rational(1, 3) * a, {"mul": 1}),
-    (a**2, {"mul": 1}), (a**3, {"mul": 2}), (a / b, {"div": 1}), (1 / (a * b), {"div": 1, "mul": 1}),
-    (a / b**2, {"div": 1, "mul": 1}), (sp.sin(a), {"fun": 1}), (sp.sign(a) * b, {"fun": 1, "mul": 1}),
-    (sp.sqrt(a), {"fun": 1}), (a - 2 * b, {"add": 1, "mul": 1}),
-])
+@pytest.mark.parametrize(
+    "expr, expected",
+    [
+        (a - b, {"add": 1}),
+        (a + b + c, {"add": 2}),
+        (-a, {"neg": 1, "total": 0}),
+        (a * b * c, {"mul": 2}),
+        (3 * a, {"mul": 1}),
+        (sp.Rational(1, 3) * a, {"mul": 1}),
+        (a**2, {"mul": 1}),
+        (a**3, {"mul": 2}),
+        (a / b, {"div": 1}),
+        (1 / (a * b), {"div": 1, "mul": 1}),
+        (a / b**2, {"div": 1, "mul": 1}),
+        (sp.sin(a), {"fun": 1}),
+        (sp.sign(a) * b, {"fun": 1, "mul": 1}),
+        (sp.sqrt(a), {"fun": 1}),
+        (a - 2 * b, {"add": 1, "mul": 1}),
+    ],
+)
 def test_op_count_rules(expr, expected):
     got = ops(expr)
     for kind, count in expected.items():
@@ -76,8 +94,12 @@ def test_op_count_rules(expr, expected):
 
 def test_program_computes_its_outputs():
     shared = sp.sin(q[0]) * qd[1] + sp.cos(q[1] + q[2]) ** 2
-    outs = sp.Matrix([[shared * qd[0] - sp.Rational(2, 7) * shared, qd[1] ** 2 / (1 + shared**2)],
-                      [sp.sign(qd[2]) * sp.Abs(q[0]) + shared, sp.cos(2 * q[1] - q[2]) * qd[0]]])
+    outs = sp.Matrix(
+        [
+            [shared * qd[0] - sp.Rational(2, 7) * shared, qd[1] ** 2 / (1 + shared**2)],
+            [sp.sign(qd[2]) * sp.Abs(q[0]) + shared, sp.cos(2 * q[1] - q[2]) * qd[0]],
+        ]
+    )
     p = make_program("f", [("q", q), ("qd", qd)], [("y", outs)])
     got = run(p, VALUES)
     assert got == pytest.approx([_exact(e) for e in outs], rel=1e-14, abs=1e-15)
@@ -86,9 +108,10 @@ def test_program_computes_its_outputs():
 def test_joint_cse_computes_a_shared_subexpression_once():
     shared = (q[0] + qd[0]) * (q[1] - qd[1])
     alone = make_program("f", [("q", q), ("qd", qd)], [("y", sp.Matrix([sp.sin(shared)]))]).op_count()["total"]
-    joint = make_program("f", [("q", q), ("qd", qd)],
-                         [("y", sp.Matrix([sp.sin(shared), sp.cos(shared)]))]).op_count()["total"]
-    assert joint == alone + 1   # the product is computed once; one more call
+    joint = make_program("f", [("q", q), ("qd", qd)], [("y", sp.Matrix([sp.sin(shared), sp.cos(shared)]))]).op_count()[
+        "total"
+    ]
+    assert joint == alone + 1  # the product is computed once; one more call
 
 
 def test_trig_of_sums_becomes_products_of_single_angles():
@@ -115,7 +138,7 @@ def test_definitions_keep_their_names_and_unused_ones_are_dropped():
     p = make_program("f", [("q", q), ("qd", qd)], [("y", sp.Matrix([v * w + alias, v]))], defs)
     names = [s.name for s, _ in p.assignments]
     assert "w2_z" in names and "v3_x" in names
-    assert "unused" not in names and "alias" not in names   # trivial definitions are inlined
+    assert "unused" not in names and "alias" not in names  # trivial definitions are inlined
     assert names.index("w2_z") < names.index("v3_x")
     assert run(p, VALUES) == pytest.approx([(0.7 - 0.4) ** 2 * math.cos(-1.1) - 0.0, 0.3 * math.cos(-1.1)])
 
@@ -139,12 +162,22 @@ def test_infix_text_never_merges_minus_signs():
 
 
 def test_program_is_the_same_under_any_hash_seed():
-    code = ("import sympy as sp; from symdyn.derivation.program import make_program; from symdyn.derivation.symbols import joint_symbols;"
-            "q, qd, _ = joint_symbols(3);"
-            "e = [sp.cos(q[0] + q[1]) * qd[k] ** 2 + sp.sin(q[2] - q[0]) * qd[(k + 1) % 3] * sp.cos(q[1])"
-            "     + sp.Rational(3, 7) * qd[k] * sp.sin(q[0]) for k in range(3)];"
-            "p = make_program('f', [('q', q), ('qd', qd)], [('y', sp.Matrix(e))]);"
-            "print(p.assignments, p.outputs)")
-    outs = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                           env={**os.environ, "PYTHONHASHSEED": seed}).stdout for seed in ("1", "2")}
+    code = (
+        "import sympy as sp; from symdyn.derivation.program import make_program; from symdyn.derivation.symbols import joint_symbols;"
+        "q, qd, _ = joint_symbols(3);"
+        "e = [sp.cos(q[0] + q[1]) * qd[k] ** 2 + sp.sin(q[2] - q[0]) * qd[(k + 1) % 3] * sp.cos(q[1])"
+        "     + sp.Rational(3, 7) * qd[k] * sp.sin(q[0]) for k in range(3)];"
+        "p = make_program('f', [('q', q), ('qd', qd)], [('y', sp.Matrix(e))]);"
+        "print(p.assignments, p.outputs)"
+    )
+    outs = {
+        subprocess.run(
+            [sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            check=True,
+            env={**os.environ, "PYTHONHASHSEED": seed},
+        ).stdout
+        for seed in ("1", "2")
+    }
     assert len(outs) == 1

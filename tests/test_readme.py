@@ -15,12 +15,14 @@ def test_the_readme_has_python_examples():
 
 
 def test_every_readme_python_block_runs_in_order(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)        # from another directory, as a user would
+    monkeypatch.chdir(tmp_path)  # from another directory, as a user would
     namespace: dict = {}
     for k, block in enumerate(python_blocks()):
         exec(compile(block, f"README.md python block {k + 1}", "exec"), namespace)
     np = namespace["np"]
-    np.testing.assert_allclose(namespace["f"].fdyn(namespace["q"], namespace["qd"], namespace["tau"]),
-                               namespace["qdd"], atol=1e-10)
-    np.testing.assert_allclose(namespace["g"].G([0.3, 0.2]),
-                               namespace["reference"].gravload(namespace["arm"], [0.3, 0.2]), rtol=1e-12)
+    np.testing.assert_allclose(
+        namespace["f"].fdyn(namespace["q"], namespace["qd"], namespace["tau"]), namespace["qdd"], atol=1e-10
+    )
+    np.testing.assert_allclose(
+        namespace["g"].G([0.3, 0.2]), namespace["reference"].gravload(namespace["arm"], [0.3, 0.2]), rtol=1e-12
+    )

@@ -18,8 +18,11 @@ from symdyn.bench.differential import check_arm, disagreements
 from symdyn.model.random_arms import robot_code
 
 #: The stages run per arm (see the module's docstring for why the 7-joint arms skip "derive").
-STAGES = {"panda": ("pinocchio", "targets"), "iiwa14": ("pinocchio", "targets"),
-          "ur5": ("pinocchio", "derive", "targets")}
+STAGES = {
+    "panda": ("pinocchio", "targets"),
+    "iiwa14": ("pinocchio", "targets"),
+    "ur5": ("pinocchio", "derive", "targets"),
+}
 
 
 @pytest.mark.parametrize("name", STAGES)
@@ -33,9 +36,11 @@ def test_shipped_arm_agrees_at_every_stage(name):
 
 #: The moving mass summed by hand from each URDF's <mass> values: the Panda's links 1-7 plus the
 #: hand (0.73 kg, merged through two fixed joints), the iiwa's links 1-7, the UR5's shoulder to wrist 3.
-MOVING_MASS = {"panda": 4.970684 + 0.646926 + 3.228604 + 3.587895 + 1.225946 + 1.666555 + 0.735522 + 0.73,
-               "iiwa14": 5.76 + 6.35 + 3.5 + 3.5 + 3.5 + 1.8 + 1.2,
-               "ur5": 3.7 + 8.393 + 2.275 + 1.219 + 1.219 + 0.1879}
+MOVING_MASS = {
+    "panda": 4.970684 + 0.646926 + 3.228604 + 3.587895 + 1.225946 + 1.666555 + 0.735522 + 0.73,
+    "iiwa14": 5.76 + 6.35 + 3.5 + 3.5 + 3.5 + 1.8 + 1.2,
+    "ur5": 3.7 + 8.393 + 2.275 + 1.219 + 1.219 + 0.1879,
+}
 
 
 @pytest.mark.parametrize("name, n", [("panda", 7), ("iiwa14", 7), ("ur5", 6)])
@@ -46,4 +51,4 @@ def test_shipped_arm_has_its_published_joints_and_mass(name, n):
     assert robot.n == n and robot.convention == "general"
     assert sum(float(link.m) for link in robot.links) == pytest.approx(mass, rel=1e-15)
     assert all(link.qlim is not None and link.effort_limit and link.velocity_limit for link in robot.links)
-    assert robot_code(robot)   # printable as constructor code
+    assert robot_code(robot)  # printable as constructor code

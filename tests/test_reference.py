@@ -51,7 +51,7 @@ def _tooled(robot):
 
 WRENCH_CASES = {
     "puma560_tool": lambda: _tooled(_puma()),
-    "puma560_mdh": lambda: models.load("puma560_mdh"),   # to_modified moves Tx(a6)Rx(α6) into the tool
+    "puma560_mdh": lambda: models.load("puma560_mdh"),  # to_modified moves Tx(a6)Rx(α6) into the tool
     "rrp_tool": lambda: _tooled(models.load("rrp")),
     "twolink": lambda: models.load("twolink"),
 }
@@ -77,15 +77,16 @@ def pinocchio_at(model, q, qd, qdd, tau):
     out = {k: [] for k in ("tau", "base", "M", "G", "Cqd", "dM", "ddq")}
     for x, v, a, t in zip(q, qd, qdd, tau):
         out["tau"].append(pin.rnea(model, data, x, v, a).copy())
-        pin.forwardKinematics(model, data, x)   # rnea leaves data.oMi stale; data.f[1] is kept
+        pin.forwardKinematics(model, data, x)  # rnea leaves data.oMi stale; data.f[1] is kept
         out["base"].append(data.oMi[1].act(data.f[1]).vector.copy())
         out["M"].append(_sym(pin.crba(model, data, x)))
         g = pin.computeGeneralizedGravity(model, data, x).copy()
         out["G"].append(g)
         out["Cqd"].append(pin.nonLinearEffects(model, data, x, v) - g)
         # Pinocchio's C satisfies Ṁ = C + Cᵀ, and is linear in q̇: q̇ = e_i gives ∂M/∂q_i
-        out["dM"].append(np.stack([(lambda C: C + C.T)(pin.computeCoriolisMatrix(model, data, x, e).copy())
-                                   for e in np.eye(n)]))
+        out["dM"].append(
+            np.stack([(lambda C: C + C.T)(pin.computeCoriolisMatrix(model, data, x, e).copy()) for e in np.eye(n)])
+        )
         out["ddq"].append(pin.aba(model, data, x, v, t).copy())
     return SimpleNamespace(**{k: np.array(v) for k, v in out.items()})
 
@@ -96,8 +97,9 @@ def case(request):
     q, qd, qdd = random_states(robot, N, seed=7)
     tau = np.random.default_rng(8).uniform(-30, 30, (N, robot.n))
     peer = pinocchio_at(peers.pinocchio_model(robot), q, qd, qdd, tau)
-    return SimpleNamespace(name=request.param, robot=robot, bare=robot.nofriction(all=True),
-                           q=q, qd=qd, qdd=qdd, tau=tau, peer=peer)
+    return SimpleNamespace(
+        name=request.param, robot=robot, bare=robot.nofriction(all=True), q=q, qd=qd, qdd=qdd, tau=tau, peer=peer
+    )
 
 
 def test_inverse_dynamics_matches_pinocchio(case):
@@ -126,7 +128,7 @@ def test_coriolis_times_velocity_matches_pinocchio(case):
 
 def test_coriolis_matrix_is_the_christoffel_matrix_of_pinocchios_mass_matrix(case):
     """Γ_kij = ½(∂_i M_kj + ∂_j M_ki − ∂_k M_ij) from Pinocchio's exact ∂M/∂q; C_kj = Σ_i Γ_kij q̇_i."""
-    dM = case.peer.dM                                    # dM[s, i, k, j] = ∂M_kj/∂q_i
+    dM = case.peer.dM  # dM[s, i, k, j] = ∂M_kj/∂q_i
     gamma = 0.5 * (np.einsum("sikj->skij", dM) + np.einsum("sjki->skij", dM) - np.einsum("skij->skij", dM))
     expected = np.einsum("skij,si->skj", gamma, case.qd)
     assert_close(ref.christoffel(case.robot, case.q), gamma, what="Christoffel symbols")
@@ -136,8 +138,11 @@ def test_coriolis_matrix_is_the_christoffel_matrix_of_pinocchios_mass_matrix(cas
 def test_forward_dynamics_matches_pinocchio_aba(case):
     c = case
     assert_close(ref.accel(c.bare, c.q, c.qd, c.tau), c.peer.ddq, what="qdd (frictionless)")
-    assert_close(ref.accel(c.robot, c.q, c.qd, c.tau + friction_law(c.robot, c.qd)), c.peer.ddq,
-                 what="qdd (friction added to the torque)")
+    assert_close(
+        ref.accel(c.robot, c.q, c.qd, c.tau + friction_law(c.robot, c.qd)),
+        c.peer.ddq,
+        what="qdd (friction added to the torque)",
+    )
 
 
 def test_base_wrench_matches_pinocchio_joint_force(case):
@@ -151,11 +156,12 @@ def test_base_wrench_matches_pinocchio_joint_force(case):
 
 # --------------------------------------------------------------------------- payloads as Pinocchio inertias
 
+
 def _with_payload(robot, inertia_of_payload):
     """Pinocchio model of `robot` with the last body's inertia rebuilt by `inertia_of_payload(old)`."""
     model = peers.pinocchio_model(robot)
     n = robot.n
-    place = model.frames[model.getFrameId(f"L{n}")].placement   # DH frame {n} in the joint frame
+    place = model.frames[model.getFrameId(f"L{n}")].placement  # DH frame {n} in the joint frame
     model.inertias[n] = inertia_of_payload(model.inertias[n], place)
     return model
 
@@ -180,6 +186,7 @@ def test_payload_matches_pinocchio_body_inertia(additive):
 
 
 # --------------------------------------------------------------------------- kinematics and end-effector wrench
+
 
 @pytest.fixture(scope="module", params=sorted(WRENCH_CASES))
 def tooled(request):
@@ -220,7 +227,7 @@ def test_end_effector_wrench_matches_pinocchio_external_force(tooled):
     t = tooled
     model = peers.pinocchio_model(t.robot)
     data = model.createData()
-    X = model.frames[model.getFrameId("tool")].placement       # tool in the last joint frame
+    X = model.frames[model.getFrameId("tool")].placement  # tool in the last joint frame
     n = t.robot.n
     tau = []
     for x, v, a, w in zip(t.q, t.qd, t.qdd, t.W):

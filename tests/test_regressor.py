@@ -60,8 +60,13 @@ def test_regrouped_recursion_has_the_same_dynamics_and_fewer_operations():
     robot = models.load("puma560")
     plain, grouped = derive(robot), derive(robot, regroup=True)
     q, qd, qdd = random_states(robot, 20, seed=5)
-    f = sp.lambdify(list(grouped.q) + list(grouped.qd) + list(grouped.qdd), grouped.named["tau"], "numpy",
-                    cse=lambda e: (list(grouped.definitions), e), docstring_limit=0)
+    f = sp.lambdify(
+        list(grouped.q) + list(grouped.qd) + list(grouped.qdd),
+        grouped.named["tau"],
+        "numpy",
+        cse=lambda e: (list(grouped.definitions), e),
+        docstring_limit=0,
+    )
     for state in zip(q, qd, qdd):
         tau = np.array(f(*np.concatenate(state)), dtype=float).ravel()
         assert np.abs(tau - ref.rne(robot, *state)).max() < 1e-11

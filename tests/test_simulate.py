@@ -19,15 +19,15 @@ def test_frictionless_collapse_conserves_energy(puma):
     traj = S.simulate(robot, 0.3, robot.qz, integrator=S.Adaptive(rtol=1e-10, atol=1e-10))
     E = S.total_energy(robot, traj)
     K = kinetic(robot, traj)
-    assert K.max() > 5         # the arm really falls: joules change form
+    assert K.max() > 5  # the arm really falls: joules change form
     assert np.abs(E - E[0]).max() <= 1e-6 * K.max()
 
 
 def test_viscous_collapse_loses_exactly_the_friction_work(puma):
-    robot = puma.nofriction()          # viscous friction only
+    robot = puma.nofriction()  # viscous friction only
     traj = S.simulate(robot, 0.3, robot.qz, integrator=S.Adaptive(rtol=1e-10, atol=1e-10, sample=1e-3))
     E = S.total_energy(robot, traj)
-    assert np.all(np.diff(E) <= 1e-9 * np.abs(E).max())       # monotone (to integration noise)
+    assert np.all(np.diff(E) <= 1e-9 * np.abs(E).max())  # monotone (to integration noise)
     power = np.einsum("ni,ni->n", traj.qd, ref.friction(robot, traj.qd))
     dissipated = simpson(power, x=traj.t)
     assert dissipated > 1.0
@@ -41,7 +41,7 @@ def test_fixed_step_rk4_agrees_with_adaptive(puma):
     adaptive = S.simulate(robot, 0.2, robot.qz, integrator=S.Adaptive(rtol=1e-10, atol=1e-10, sample=dt))
     np.testing.assert_allclose(fixed.t, adaptive.t, atol=1e-12)
     assert np.abs(fixed.q - adaptive.q).max() < 1e-7
-    assert np.abs(fixed.q[-1] - robot.qz).max() > 0.1      # and the motion is not trivial
+    assert np.abs(fixed.q[-1] - robot.qz).max() > 0.1  # and the motion is not trivial
 
 
 @pytest.mark.parametrize("robot_name", ["puma560", "pendulum"])
@@ -52,23 +52,23 @@ def test_generated_or_casadi_right_hand_side_agrees_with_the_reference(puma, two
     slow = S.simulate(robot, 0.05, q0, integrator=S.RK4(dt=5e-3), backend="reference")
     np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(fast.qd, slow.qd, rtol=0, atol=1e-10)
-    assert np.abs(fast.q[-1] - q0).max() > 1e-3                # and the arm moved
+    assert np.abs(fast.q[-1] - q0).max() > 1e-3  # and the arm moved
 
 
 def test_rk4_converges_at_fourth_order(twolink):
     robot = twolink
     q0 = np.array([0.2, 0.4])
     exact = S.simulate(robot, 0.3, q0, integrator=S.Adaptive(rtol=1e-12, atol=1e-12))
-    errors = [np.abs(S.simulate(robot, 0.3, q0, integrator=S.RK4(dt)).q[-1] - exact.q[-1]).max()
-              for dt in (0.03, 0.015)]
-    assert 12 < errors[0] / errors[1] < 20        # 2⁴ = 16
+    errors = [
+        np.abs(S.simulate(robot, 0.3, q0, integrator=S.RK4(dt)).q[-1] - exact.q[-1]).max() for dt in (0.03, 0.015)
+    ]
+    assert 12 < errors[0] / errors[1] < 20  # 2⁴ = 16
 
 
 def test_gravity_compensation_holds_the_arm_still(puma):
     robot = puma.nofriction(all=True)
     q0 = np.array([0.1, 0.6, -0.8, 0.2, 0.5, 0.3])
-    traj = S.simulate(robot, 0.2, q0, torque=lambda t, q, qd: ref.gravload(robot, q),
-                      integrator=S.RK4(dt=0.05))
+    traj = S.simulate(robot, 0.2, q0, torque=lambda t, q, qd: ref.gravload(robot, q), integrator=S.RK4(dt=0.05))
     assert np.abs(traj.q - q0).max() < 1e-12
 
 
@@ -83,14 +83,15 @@ def test_smooth_friction_matches_the_exact_law_away_from_rest(puma):
     link = puma.links[1]
     w = 0.01
     value = S.smooth_friction(puma, np.array([0, w, 0, 0, 0, 0]), width=w)[1]
-    assert value == pytest.approx(link.G ** 2 * link.B * w + abs(link.G) * link.Tc[0] * np.tanh(1.0), rel=1e-12)
+    assert value == pytest.approx(link.G**2 * link.B * w + abs(link.G) * link.Tc[0] * np.tanh(1.0), rel=1e-12)
 
 
 def sticky_pendulum(twolink, level=10.0):
     """Link 1 of the two-link arm alone (1 kg at 0.5 m, I_zz = 0.75 kg·m² about the COM, so M = 1 kg·m²)
     with a unit gear ratio and Coulomb friction `level` N·m above its largest gravity load (4.9 N·m)."""
-    link = dataclasses.replace(twolink.links[0], I=((0.375, 0, 0), (0, 0.375, 0), (0, 0, 0.75)), G=1,
-                               Tc=(level, -level))
+    link = dataclasses.replace(
+        twolink.links[0], I=((0.375, 0, 0), (0, 0.375, 0), (0, 0, 0.75)), G=1, Tc=(level, -level)
+    )
     return dataclasses.replace(twolink, name="pendulum", links=(link,), poses={})
 
 
@@ -98,8 +99,9 @@ def test_coulomb_friction_holds_a_pendulum_to_a_creep_of_width_times_atanh(twoli
     robot, width, level = sticky_pendulum(twolink), 0.05, 10.0
     q0 = np.array([0.3])
     fixed = S.simulate(robot, 0.1, q0, integrator=S.RK4(dt=2e-3), coulomb_width=width)
-    adaptive = S.simulate(robot, 0.1, q0, integrator=S.Adaptive(rtol=1e-10, atol=1e-10, sample=2e-3),
-                          coulomb_width=width)
+    adaptive = S.simulate(
+        robot, 0.1, q0, integrator=S.Adaptive(rtol=1e-10, atol=1e-10, sample=2e-3), coulomb_width=width
+    )
     assert np.abs(fixed.q - adaptive.q).max() < 1e-7
     # quasi-static: tanh(|q̇|/w)·Tc balances the gravity load, so q̇ = −w·atanh(G(q)/Tc)
     creep = -width * np.arctanh(ref.gravload(robot, fixed.q[-1]) / level)
@@ -115,14 +117,17 @@ def test_progress_reports_every_tenth(puma, capsys):
     assert lines[-1].startswith("fall: done in")
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"T": -1.0}, "positive finite time"),
-    ({"q0": np.zeros(5)}, "shape"),
-    ({"integrator": S.RK4(dt=2.0)}, "RK4 step"),
-    ({"coulomb_width": -0.1}, "width"),
-    ({"integrator": "euler"}, "integrator"),
-    ({"backend": "matlab"}, "unknown backend"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"T": -1.0}, "positive finite time"),
+        ({"q0": np.zeros(5)}, "shape"),
+        ({"integrator": S.RK4(dt=2.0)}, "RK4 step"),
+        ({"coulomb_width": -0.1}, "width"),
+        ({"integrator": "euler"}, "integrator"),
+        ({"backend": "matlab"}, "unknown backend"),
+    ],
+)
 def test_simulate_names_bad_arguments(twolink, kwargs, message):
     args = {"T": 1.0, "q0": np.zeros(2)} | kwargs
     with pytest.raises(ValueError, match=message):

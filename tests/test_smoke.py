@@ -16,7 +16,7 @@ def test_run_prints_the_book_numbers_and_checks_the_code_it_wrote(tmp_path, caps
     puma = models.load("puma560")
     g_qz = re.search(r"qz = .*\n  G\(q\)\s+= \[([^\]]*)\]", text).group(1).split()
     np.testing.assert_allclose([float(x) for x in g_qz], ref.gravload(puma, puma.qz), atol=1e-4)
-    assert abs(float(g_qz[1]) - 37.4837) < 1e-4   # G2(qz), as Corke prints it
+    assert abs(float(g_qz[1]) - 37.4837) < 1e-4  # G2(qz), as Corke prints it
     worst = float(re.search(rf"in {re.escape(str(out))} vs reference .*max \|error\| (\S+)", text).group(1))
     assert worst < 1e-12
     assert {p.name for p in out.iterdir()} >= {"puma560.c", "puma560.h", "puma560.py", "puma560.casadi"}
@@ -30,10 +30,17 @@ def test_run_exits_nonzero_when_the_code_it_wrote_is_wrong(tmp_path, capsys, mon
 
     right = np_emit.module_source
 
-    def wrong(b):   # G 1 % too large; a fault in the programs needs no second derivation
-        return right(dataclasses.replace(b, programs=tuple(
-            dataclasses.replace(p, outputs=tuple((o, m * 1.01) for o, m in p.outputs)) if p.name == "G" else p
-            for p in b.programs)))
+    def wrong(b):  # G 1 % too large; a fault in the programs needs no second derivation
+        return right(
+            dataclasses.replace(
+                b,
+                programs=tuple(
+                    dataclasses.replace(p, outputs=tuple((o, m * 1.01) for o, m in p.outputs)) if p.name == "G" else p
+                    for p in b.programs
+                ),
+            )
+        )
+
     monkeypatch.setattr(np_emit, "module_source", wrong)
     assert cli.main(["run", "--out", str(tmp_path / "puma")]) == 1
     assert "disagrees with the reference" in capsys.readouterr().err

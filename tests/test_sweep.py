@@ -14,7 +14,7 @@ import signal
 import socket
 import time
 
-import distributed   # the sweep extra, part of the test extra: pip install -e '.[test]'
+import distributed  # the sweep extra, part of the test extra: pip install -e '.[test]'
 import numpy as np
 import pytest
 
@@ -37,6 +37,7 @@ def results(rows) -> dict[str, dict[str, str]]:
 # The tests without the cluster come first: while a LocalCluster's scheduler thread lives in this
 # process, thousands of small calls into compiled code wait on the GIL it keeps taking.
 
+
 def test_monte_carlo_models_each_draw_exactly_and_reproduces_the_chapter_study():
     """Draws 0 (nominal) and masses and inertias x 1.1 and x 0.9 (COMs and friction kept) are the
     controller models of the study's computed-torque rows (`torque_control`, quick: T = 1 s):
@@ -48,21 +49,23 @@ def test_monte_carlo_models_each_draw_exactly_and_reproduces_the_chapter_study()
     robot = montecarlo.scene("puma560")[0]
     q, qd, qdd = np.random.default_rng(3).normal(size=(3, 6))
     wrong = montecarlo.controller_model("puma560", draws[1]["draw"])
-    assert np.allclose(wrong.tau(q, qd, qdd), ref.rne(montecarlo.perturbed(robot, draws[1]["draw"]), q, qd, qdd),
-                       rtol=0, atol=1e-10)
+    assert np.allclose(
+        wrong.tau(q, qd, qdd), ref.rne(montecarlo.perturbed(robot, draws[1]["draw"]), q, qd, qdd), rtol=0, atol=1e-10
+    )
 
     puma, plant = study.puma_scene()
     factors = np.array([1.0, 1.1, 0.9])
     traj = functools.partial(C.quintic, puma.qz, puma.qr, 1.0)
     ct = C.ComputedTorque(C.scaled(plant, puma, factors), traj, 100.0, 20.0)
-    tr = C.simulate(lambda t, q, qd, tau: plant.fdyn(q, qd, tau), ct, 1.5, np.tile(puma.qz, (3, 1)),
-                    dt=1e-3, period=1e-3)
-    rows = np.abs(traj(tr.t)[0][:, None, :] - tr.q).max(0)          # (3 models, 6 joints)
+    tr = C.simulate(
+        lambda t, q, qd, tau: plant.fdyn(q, qd, tau), ct, 1.5, np.tile(puma.qz, (3, 1)), dt=1e-3, period=1e-3
+    )
+    rows = np.abs(traj(tr.t)[0][:, None, :] - tr.q).max(0)  # (3 models, 6 joints)
     for f, expected in zip(factors, rows):
         item = dict(draws[0], draw={"m": [f] * 6, "r": [[1.0] * 3] * 6, "I": [f] * 6, "B": [1.0] * 6})
         got = montecarlo.tracking(item)
         assert np.allclose(got["joint_max_error"], expected, rtol=1e-8, atol=1e-12), (f, got, expected)
-    assert rows[0].max() == pytest.approx(0.320e-3, abs=1e-6)        # the study's 0.320 mrad at T = 1 s
+    assert rows[0].max() == pytest.approx(0.320e-3, abs=1e-6)  # the study's 0.320 mrad at T = 1 s
 
 
 def test_the_command_lists_runs_and_checks_its_options(tmp_path, capsys):
@@ -71,8 +74,26 @@ def test_the_command_lists_runs_and_checks_its_options(tmp_path, capsys):
     assert "trajectory-library" in listed and "monte-carlo" in listed
     assert cli.main(["sweep", "monte-carlo", "--N", "10", "--out", str(tmp_path)]) == 2
     assert "--N does not apply to the monte-carlo sweep" in capsys.readouterr().err
-    assert cli.main(["sweep", "monte-carlo", "--arm", "twolink", "--n", "2", "--T", "0.2", "--workers", "0",
-                     "--no-progress", "--out", str(tmp_path)]) == 0
+    assert (
+        cli.main(
+            [
+                "sweep",
+                "monte-carlo",
+                "--arm",
+                "twolink",
+                "--n",
+                "2",
+                "--T",
+                "0.2",
+                "--workers",
+                "0",
+                "--no-progress",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "2 of 2 tasks" in out and (tmp_path / "montecarlo_error.png").is_file()
 
@@ -81,7 +102,7 @@ def test_library_motions_are_re_simulated_with_the_reference(tmp_path):
     """verify=True: each motion's torque re-simulated with the reference reaches its goal with every
     limit held, and the summary says so; the Panda's scene is its URDF's limits (Franka's data sheet:
     87 / 12 N·m, 2.175 / 2.61 rad/s) and its motions are checked interval by interval."""
-    items = library.inputs(2, arm="twolink")   # N = 40; at 20 the first misses its goal by 0.47 rad
+    items = library.inputs(2, arm="twolink")  # N = 40; at 20 the first misses its goal by 0.47 rad
     outcome = engine.run(library.SWEEP, items, tmp_path, workers=0, progress=False)
     for row in outcome.rows:
         assert row["check"] == "1" and float(row["goal_error"]) < 1e-2 and float(row["limit_violation"]) <= 1e-6
@@ -112,8 +133,9 @@ def test_an_unreachable_scheduler_fails_within_seconds_naming_it(tmp_path, monke
 
 @pytest.fixture(scope="module")
 def client():
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                       silence_logs=50)
+    cluster = distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50
+    )
     with distributed.Client(cluster) as c:
         yield c
     cluster.close()
@@ -152,8 +174,9 @@ def test_a_task_that_raises_is_recorded_with_its_input(client, serial, tmp_path)
     outcome = engine.run(library.SWEEP, INPUTS[:2] + [bad], tmp_path, client=client, progress=False)
     got = results(outcome.rows)
     failed = got.pop(engine.task_id(bad))
-    assert re.match(r"ValueError: start pose must be 2 finite joint angles for twolink, got \[nan, 0\.0\]",
-                    failed["error"]), failed["error"]
+    assert re.match(
+        r"ValueError: start pose must be 2 finite joint angles for twolink, got \[nan, 0\.0\]", failed["error"]
+    ), failed["error"]
     assert failed["start"] == "[NaN,0.0]" and failed["index"] == "99" and failed["T"] == ""
     assert got == {k: serial[k] for k in got} and len(got) == 2
     assert outcome.errors == 1 and "1 row(s) record an error" in (tmp_path / "summary.txt").read_text()
@@ -170,7 +193,7 @@ def test_resume_after_an_interruption_gives_identical_results(client, serial, tm
     table = tmp_path / "results.csv"
     assert len(table.read_text().splitlines()) == 4
     assert "interrupted" in (tmp_path / "summary.txt").read_text()
-    with table.open("a") as fh:                      # a kill in the middle of writing a row
+    with table.open("a") as fh:  # a kill in the middle of writing a row
         fh.write('000007-deadbeef00,7,twolink,0,8,0,"[0.1')
     with pytest.raises(ValueError, match="already holds results: pass --resume"):
         engine.run(library.SWEEP, INPUTS, tmp_path, client=client, progress=False)

@@ -8,8 +8,7 @@ from symdyn.codegen import entry as codegen
 from tests.codegen_cases import MODELS, assert_close, cases, parameters
 
 
-@pytest.fixture(scope="module", params=[(m, t) for m in MODELS for t in ("c", "numpy")],
-                ids=lambda p: f"{p[0]}-{p[1]}")
+@pytest.fixture(scope="module", params=[(m, t) for m in MODELS for t in ("c", "numpy")], ids=lambda p: f"{p[0]}-{p[1]}")
 def model(request):
     name, target = request.param
     return codegen.load(name, target=target)

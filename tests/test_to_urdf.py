@@ -29,8 +29,11 @@ def _panda_text() -> str:
 def _states(robot, seed=0, count=12):
     rng = np.random.default_rng(seed)
     lo, hi = robot.qlim.T
-    return rng.uniform(lo, hi, (count, robot.n)), rng.uniform(-2, 2, (count, robot.n)), \
-        rng.uniform(-5, 5, (count, robot.n))
+    return (
+        rng.uniform(lo, hi, (count, robot.n)),
+        rng.uniform(-2, 2, (count, robot.n)),
+        rng.uniform(-5, 5, (count, robot.n)),
+    )
 
 
 def _as_read(x: float):
@@ -50,10 +53,16 @@ def _changed(robot: Robot, links=None, seed=1) -> Robot:
             continue
         k = 1 + 0.2 * rng.uniform(0.2, 1)
         I = np.array(link.I, dtype=float) * k + 1e-4 * np.eye(3)
-        out.append(dataclasses.replace(link, m=_as_read(float(link.m) * k),
-                                       r=tuple(_as_read(float(x) + 0.01) for x in link.r),
-                                       I=tuple(tuple(_as_read(x) for x in row) for row in I), B=float(link.B) + 0.5,
-                                       Tc=(0.3, -0.3)))
+        out.append(
+            dataclasses.replace(
+                link,
+                m=_as_read(float(link.m) * k),
+                r=tuple(_as_read(float(x) + 0.01) for x in link.r),
+                I=tuple(tuple(_as_read(x) for x in row) for row in I),
+                B=float(link.B) + 0.5,
+                Tc=(0.3, -0.3),
+            )
+        )
     return dataclasses.replace(robot, links=tuple(out))
 
 
@@ -87,14 +96,17 @@ def test_an_unchanged_urdf_arm_is_its_file_byte_for_byte():
 
 def test_changed_inertials_are_spliced_into_the_file_and_read_back_with_the_same_fingerprint():
     panda = models.load("panda")
-    changed = _changed(panda, links=range(6))   # links 1–6 carry nothing else
+    changed = _changed(panda, links=range(6))  # links 1–6 carry nothing else
     text = changed.to_urdf()
     back = from_urdf(text, name="panda")
     assert back.fingerprint() == changed.fingerprint()
     # the rest of the file is untouched: the chain's geometry, the limits, the hand
     original = _panda_text()
-    for keep in ('<joint name="panda_hand_joint" type="fixed">', 'effort="87.0" lower="-2.8973"',
-                 '<link name="panda_hand_tcp">'):
+    for keep in (
+        '<joint name="panda_hand_joint" type="fixed">',
+        'effort="87.0" lower="-2.8973"',
+        '<link name="panda_hand_tcp">',
+    ):
         assert keep in original and keep in text
     assert text.count("<inertial>") == original.count("<inertial>")
 
@@ -113,7 +125,7 @@ def test_a_link_carrying_a_fixed_body_gets_the_difference_and_reads_back_to_the_
     np.testing.assert_allclose(np.array(got.r, dtype=float), np.array(want.r, dtype=float), rtol=0, atol=1e-14)
     np.testing.assert_allclose(np.array(got.I, dtype=float), np.array(want.I, dtype=float), rtol=0, atol=1e-14)
     _assert_same_dynamics(changed, back)
-    assert text.count("<inertial>") == _panda_text().count("<inertial>")   # the hand's is still there
+    assert text.count("<inertial>") == _panda_text().count("<inertial>")  # the hand's is still there
     _assert_pinocchio_agrees(changed, text)
 
 
@@ -123,7 +135,7 @@ def test_a_link_lighter_than_what_rides_on_it_takes_the_whole_body_and_says_so()
     light = dataclasses.replace(panda, links=panda.links[:6] + (dataclasses.replace(last, m=0.2),))
     text = light.to_urdf()
     assert "could not be split from what rides on it (panda_link8, panda_hand, panda_hand_tcp)" in text
-    assert text.count("<inertial>") == _panda_text().count("<inertial>") - 1   # the hand's was removed
+    assert text.count("<inertial>") == _panda_text().count("<inertial>") - 1  # the hand's was removed
     assert 'name="panda_hand">\n  </link>' in text
     back = from_urdf(text, name="panda")
     _assert_same_dynamics(light, back)
@@ -139,8 +151,9 @@ def test_a_dh_robot_gets_a_fresh_chain_with_the_same_dynamics(name):
     if any(float(link.Jm) for link in robot.links):
         with pytest.warns(URDFWarning, match="rotor inertia"):
             robot.to_urdf()
-    urdf_able = dataclasses.replace(robot, links=tuple(
-        dataclasses.replace(link, Jm=0, Tc=(link.Tc[0], -link.Tc[0])) for link in robot.links))
+    urdf_able = dataclasses.replace(
+        robot, links=tuple(dataclasses.replace(link, Jm=0, Tc=(link.Tc[0], -link.Tc[0])) for link in robot.links)
+    )
     text = urdf_able.to_urdf()
     back = from_urdf(text)
     assert back.convention == "general" and back.n == robot.n
@@ -182,9 +195,13 @@ def test_a_massless_self_closing_link_gets_an_inertial_element():
 </robot>
 """
     robot = from_urdf(text)
-    heavier = dataclasses.replace(robot, links=(dataclasses.replace(robot.links[0], m=2.5, r=(0.1, 0.02, 0),
-                                                                    I=((0.02, 0, 0), (0, 0.03, 0), (0, 0, 0.04))),
-                                                robot.links[1]))
+    heavier = dataclasses.replace(
+        robot,
+        links=(
+            dataclasses.replace(robot.links[0], m=2.5, r=(0.1, 0.02, 0), I=((0.02, 0, 0), (0, 0.03, 0), (0, 0, 0.04))),
+            robot.links[1],
+        ),
+    )
     out = heavier.to_urdf(source=text)
     assert '<link name="l1">\n' in out and out.count("<inertial>") == 2
     back = from_urdf(out)

@@ -32,6 +32,7 @@ STATES = 200
 @pytest.fixture(scope="module")
 def torch():
     import torch
+
     return torch
 
 
@@ -49,8 +50,16 @@ def states(name):
 
 
 def arguments(f, q, qd, qdd, tau):
-    return {"M": (q,), "G": (q,), "Minv": (q,), "F": (qd,), "C": (q, qd), "Cqd": (q, qd),
-            "fdyn": (q, qd, tau), "fdyn_derivatives": (q, qd, tau)}.get(f, (q, qd, qdd))
+    return {
+        "M": (q,),
+        "G": (q,),
+        "Minv": (q,),
+        "F": (qd,),
+        "C": (q, qd),
+        "Cqd": (q, qd),
+        "fdyn": (q, qd, tau),
+        "fdyn_derivatives": (q, qd, tau),
+    }.get(f, (q, qd, qdd))
 
 
 def outputs(value):
@@ -95,8 +104,12 @@ def test_autograd_and_jacrev_equal_the_generated_derivatives(torch, name):
     q = q.clone().requires_grad_(True)
     w = torch.randn(q.shape, dtype=q.dtype, generator=torch.Generator().manual_seed(0))
     (f.tau(q, qd, qdd) * w).sum().backward()
-    assert_close(q.grad.numpy(), torch.einsum("ni,nij->nj", w, f.tau_derivatives(q.detach(), qd, qdd)[1]).numpy(),
-                 f"{name} autograd tau wrt q", rtol=1e-10)
+    assert_close(
+        q.grad.numpy(),
+        torch.einsum("ni,nij->nj", w, f.tau_derivatives(q.detach(), qd, qdd)[1]).numpy(),
+        f"{name} autograd tau wrt q",
+        rtol=1e-10,
+    )
 
 
 def test_vmap_of_every_function_equals_the_batch(torch):

@@ -29,16 +29,18 @@ def evaluate(p, point):
     gens = [point[s] for s in p.space.gens]
     total = 0.0
     for k, kind, coeff in p.items():
-        c = sum(float(x) * math.prod(g ** e for g, e in zip(gens, m)) for m, x in coeff.items())
+        c = sum(float(x) * math.prod(g**e for g, e in zip(gens, m)) for m, x in coeff.items())
         total += c * (math.cos if kind == "cos" else math.sin)(float(np.dot(k, theta)))
     return total
+
 
 # --------------------------------------------------------------------------- random polynomials
 
 coefficients = st.fractions(min_value=-5, max_value=5, max_denominator=7)
 monomials = st.tuples(st.integers(0, 2), st.integers(0, 2))
-terms = st.tuples(st.tuples(st.integers(-3, 3), st.integers(-3, 3)), st.sampled_from(["cos", "sin"]),
-                  coefficients, monomials)
+terms = st.tuples(
+    st.tuples(st.integers(-3, 3), st.integers(-3, 3)), st.sampled_from(["cos", "sin"]), coefficients, monomials
+)
 
 
 @st.composite
@@ -50,6 +52,7 @@ def trigpolys(draw):
 
 
 # --------------------------------------------------------------------------- identities
+
 
 @pytest.mark.parametrize("i", [0, 1])
 def test_sin_squared_plus_cos_squared_is_one(i):
@@ -65,7 +68,7 @@ def test_product_to_sum_formulas():
     assert sA * sB == half * (S.term([1, -1], "cos") - S.term([1, 1], "cos"))
     assert sA * B == half * (S.term([1, 1], "sin") + S.term([1, -1], "sin"))
     assert A * sB == half * (S.term([1, 1], "sin") - S.term([1, -1], "sin"))
-    assert A * B - sA * sB == S.term([1, 1], "cos")          # cos(q1 + q2)
+    assert A * B - sA * sB == S.term([1, 1], "cos")  # cos(q1 + q2)
 
 
 def test_frequency_vectors_are_canonical():
@@ -77,7 +80,7 @@ def test_frequency_vectors_are_canonical():
 
 
 def test_angle_derivative_is_exact():
-    p = S.term([2, 1], "sin", a)                               # a sin(2q1 + q2)
+    p = S.term([2, 1], "sin", a)  # a sin(2q1 + q2)
     assert p.diff(q1) == S.term([2, 1], "cos", 2 * a)
     assert p.diff(q2) == S.term([2, 1], "cos", a)
     assert S.term([2, 1], "cos", b).diff(q1) == S.term([2, 1], "sin", -2 * b)
@@ -105,6 +108,7 @@ def test_mixing_spaces_is_an_error():
 
 
 # --------------------------------------------------------------------------- properties
+
 
 @settings(max_examples=30, deadline=None)
 @given(trigpolys(), trigpolys(), trigpolys())
@@ -139,8 +143,9 @@ def test_to_expr_from_expr_round_trip(x):
     assert sp.expand(sp.diff(e, q1) - x.diff(q1).to_expr()) == 0
 
 
-atoms = st.sampled_from([sp.cos(q1), sp.sin(q2), sp.cos(q1 - 2 * q2), sp.sin(q1 + q2 + sp.pi / 2), a, b,
-                         sp.Rational(3, 4), sp.Integer(-2)])
+atoms = st.sampled_from(
+    [sp.cos(q1), sp.sin(q2), sp.cos(q1 - 2 * q2), sp.sin(q1 + q2 + sp.pi / 2), a, b, sp.Rational(3, 4), sp.Integer(-2)]
+)
 
 
 @st.composite
@@ -164,6 +169,7 @@ def test_from_expr_keeps_the_value_of_random_expressions(e):
 
 # --------------------------------------------------------------------------- sympy conversion
 
+
 def test_fold_writes_natural_angles():
     e = sp.cos(q1) * sp.cos(q2) - sp.sin(q1) * sp.sin(q2)
     assert fold(e, (q1, q2)) == sp.cos(q1 + q2)
@@ -180,10 +186,10 @@ def test_equal_compares_exact_trig_forms():
 def test_floats_become_exact_rationals_and_offsets_stay_exact():
     assert from_expr(0.5 * sp.cos(q1) + 0.25, S) == S.term([1, 0], "cos", sp.Rational(1, 2)) + sp.Rational(1, 4)
     T = TrigSpace((q1, q2), (), offsets=(0, sp.pi / 6))
-    p = from_expr(sp.cos(q2 + sp.pi / 6) ** 2, T)          # θ2 = q2 + π/6: exact
+    p = from_expr(sp.cos(q2 + sp.pi / 6) ** 2, T)  # θ2 = q2 + π/6: exact
     assert p == sp.Rational(1, 2) + T.term([0, 2], "cos", sp.Rational(1, 2))
     assert p.to_expr() == sp.cos(2 * q2 + sp.pi / 3) / 2 + sp.Rational(1, 2)
-    c = from_expr(sp.cos(q2), T)                            # cos(θ2 − π/6): constants of doubles
+    c = from_expr(sp.cos(q2), T)  # cos(θ2 − π/6): constants of doubles
     assert value(c.to_expr(), {q2: 0.4}) == pytest.approx(math.cos(0.4), rel=1e-15)
 
 
@@ -199,21 +205,24 @@ def test_shared_subtrees_are_converted_once():
     assert p == from_expr(a * (sp.cos(q1) + sp.sin(q2)) ** 24, space)
 
 
-@pytest.mark.parametrize("expr, culprit", [
-    (q1 * sp.cos(q1), "outside sin/cos"),
-    (sp.cos(q1 / 2), "non-integer multiple"),
-    (sp.cos(a), "integer combination of the angles"),
-    (sp.Symbol("z") * sp.cos(q1), "unknown symbol z"),
-    (1 / a, "power -1 of a non-constant"),
-    (sp.tan(q1), "unsupported function tan"),
-])
+@pytest.mark.parametrize(
+    "expr, culprit",
+    [
+        (q1 * sp.cos(q1), "outside sin/cos"),
+        (sp.cos(q1 / 2), "non-integer multiple"),
+        (sp.cos(a), "integer combination of the angles"),
+        (sp.Symbol("z") * sp.cos(q1), "unknown symbol z"),
+        (1 / a, "power -1 of a non-constant"),
+        (sp.tan(q1), "unsupported function tan"),
+    ],
+)
 def test_non_polynomial_input_names_the_culprit(expr, culprit):
     with pytest.raises(ValueError, match=culprit):
         from_expr(expr, S)
 
 
 def test_numeric_constants_fold_to_exact_values():
-    assert from_expr(sp.sqrt(4) * sp.cos(q1) + 2 ** -2, S) == S.term([1, 0], "cos", 2) + sp.Rational(1, 4)
+    assert from_expr(sp.sqrt(4) * sp.cos(q1) + 2**-2, S) == S.term([1, 0], "cos", 2) + sp.Rational(1, 4)
     assert from_expr(sp.sin(q1 + sp.pi) + sp.sin(q1), S).is_zero()
     assert np.isclose(value(from_expr(sp.sqrt(2) * a, S).to_expr(), POINT), math.sqrt(2) * 0.8, rtol=1e-15)
 

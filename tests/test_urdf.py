@@ -36,6 +36,7 @@ COUNT = 200
 
 # --------------------------------------------------------------------------- helpers
 
+
 def _keep(path: Path, links: set, out: Path) -> Path:
     """`path` with only `links` and the joints between them, written to `out`."""
     tree = ET.parse(path)
@@ -43,8 +44,10 @@ def _keep(path: Path, links: set, out: Path) -> Path:
     for element in list(root):
         if element.tag == "link" and element.get("name") not in links:
             root.remove(element)
-        if element.tag == "joint" and not {element.find("parent").get("link"),
-                                           element.find("child").get("link")} <= links:
+        if (
+            element.tag == "joint"
+            and not {element.find("parent").get("link"), element.find("child").get("link")} <= links
+        ):
             root.remove(element)
     tree.write(out)
     return out
@@ -75,8 +78,14 @@ def _assert_agrees_with_pinocchio(robot, pin_path: Path, tip: str, seed: int = 0
     data = model.createData()
     bare = robot.nofriction(all=True)
     q, qd, qdd, tau = _states(robot, seed)
-    ours = {"tau": ref.rne(bare, q, qd, qdd), "M": ref.inertia(bare, q), "G": ref.gravload(bare, q),
-            "C": ref.coriolis(bare, q, qd), "aba": ref.accel(bare, q, qd, tau), "tool": ref.fkine(bare, q)}
+    ours = {
+        "tau": ref.rne(bare, q, qd, qdd),
+        "M": ref.inertia(bare, q),
+        "G": ref.gravload(bare, q),
+        "C": ref.coriolis(bare, q, qd),
+        "aba": ref.accel(bare, q, qd, tau),
+        "tool": ref.fkine(bare, q),
+    }
     theirs = {k: [] for k in ours}
     frame = model.getFrameId(tip)
     for x, v, a, t in zip(q, qd, qdd, tau):
@@ -102,16 +111,28 @@ def _assert_agrees_with_pinocchio(robot, pin_path: Path, tip: str, seed: int = 0
 
 #: id → (file, from_urdf keywords, links Pinocchio keeps (None: the whole file), tip frame)
 CASES = {
-    "fixed joints (before, between, after; fixed side branch)":
-        ("fixed_joints.urdf", {"tip_link": "tool"}, None, "tool"),
+    "fixed joints (before, between, after; fixed side branch)": (
+        "fixed_joints.urdf",
+        {"tip_link": "tool"},
+        None,
+        "tool",
+    ),
     "rotated origins, axes -y, -x and generic": ("rotated_origins.urdf", {}, None, "l3"),
     "rotated inertial frames": ("rotated_inertials.urdf", {}, None, "l3"),
     "prismatic, continuous, no limits, massless link": ("prismatic_continuous.urdf", {}, None, "l3"),
     "mass 0 with inertia, merged": ("zero_mass_inertia.urdf", {"tip_link": "l2"}, None, "l2"),
-    "moving side branch excluded": ("branches.urdf", {"tip_link": "hand", "exclude": ["finger"]},
-                                    {"base", "l1", "l2", "camera", "l3", "l4", "hand"}, "hand"),
-    "sub-chain base_link..tip_link": ("branches.urdf", {"base_link": "l1", "tip_link": "l3", "exclude": ["finger", "l4"]},
-                                      {"l1", "l2", "camera", "l3"}, "l3"),
+    "moving side branch excluded": (
+        "branches.urdf",
+        {"tip_link": "hand", "exclude": ["finger"]},
+        {"base", "l1", "l2", "camera", "l3", "l4", "hand"},
+        "hand",
+    ),
+    "sub-chain base_link..tip_link": (
+        "branches.urdf",
+        {"base_link": "l1", "tip_link": "l3", "exclude": ["finger", "l4"]},
+        {"l1", "l2", "camera", "l3"},
+        "l3",
+    ),
 }
 
 
@@ -124,9 +145,14 @@ def test_urdf_chain_agrees_with_pinocchios_parser(case, tmp_path):
     _assert_agrees_with_pinocchio(robot, pin_path, tip, seed=len(case))
 
 
-@pytest.mark.parametrize("name, file, tip", [("panda", "panda.urdf", "panda_hand_tcp"),
-                                             ("iiwa14", "iiwa14.urdf", "iiwa_link_ee"),
-                                             ("ur5", "ur5.urdf", "tool0")])
+@pytest.mark.parametrize(
+    "name, file, tip",
+    [
+        ("panda", "panda.urdf", "panda_hand_tcp"),
+        ("iiwa14", "iiwa14.urdf", "iiwa_link_ee"),
+        ("ur5", "ur5.urdf", "tool0"),
+    ],
+)
 def test_shipped_arm_agrees_with_pinocchios_parser_of_its_urdf(name, file, tip):
     robot = models.load(name)
     assert robot.n == (6 if name == "ur5" else 7)
@@ -142,8 +168,11 @@ def test_shipped_arm_agrees_with_pinocchios_parser_of_its_urdf(name, file, tip):
 def test_the_moving_branch_changes_the_dynamics_so_leaving_it_out_is_tested(tmp_path):
     """Against the whole tree (finger included) the chain must disagree: the check can fail."""
     robot = Robot.from_urdf(HERE / "branches.urdf", tip_link="hand", exclude=["finger"])
-    whole = _keep(HERE / "branches.urdf", {"base", "l1", "l2", "camera", "l3", "l4", "hand", "finger"},
-                  tmp_path / "with_finger.urdf")
+    whole = _keep(
+        HERE / "branches.urdf",
+        {"base", "l1", "l2", "camera", "l3", "l4", "hand", "finger"},
+        tmp_path / "with_finger.urdf",
+    )
     with pytest.raises(AssertionError, match="moving joints"):
         _assert_agrees_with_pinocchio(robot, whole, "hand")
     no_camera = _keep(HERE / "branches.urdf", {"base", "l1", "l2", "l3", "l4", "hand"}, tmp_path / "no_cam.urdf")
@@ -175,17 +204,24 @@ def test_axes_that_are_not_unit_vectors_are_normalised_as_pinocchio_does(tmp_pat
 
 def test_a_mimic_joint_off_the_chain_that_follows_a_chain_joint_is_refused_unless_excluded(tmp_path):
     """Its body would move with the chain joint: it can be neither locked nor dropped silently."""
-    text = (HERE / "branches.urdf").read_text().replace(
-        '<limit lower="0" upper="0.8" effort="5" velocity="1"/>',
-        '<limit lower="0" upper="0.8" effort="5" velocity="1"/>\n    <mimic joint="j3"/>')
+    text = (
+        (HERE / "branches.urdf")
+        .read_text()
+        .replace(
+            '<limit lower="0" upper="0.8" effort="5" velocity="1"/>',
+            '<limit lower="0" upper="0.8" effort="5" velocity="1"/>\n    <mimic joint="j3"/>',
+        )
+    )
     assert "<mimic" in text
     with pytest.raises(URDFError, match=r"<joint name='finger_joint'>: mimics 'j3', which moves with the chain"):
         Robot.from_urdf(text, tip_link="hand")
-    assert Robot.from_urdf(text, tip_link="hand", exclude=["finger"]) == \
-        Robot.from_urdf(HERE / "branches.urdf", tip_link="hand", exclude=["finger"])
+    assert Robot.from_urdf(text, tip_link="hand", exclude=["finger"]) == Robot.from_urdf(
+        HERE / "branches.urdf", tip_link="hand", exclude=["finger"]
+    )
 
 
 # --------------------------------------------------------------------------- parsed values by hand
+
 
 def _exact(values):
     return [exact(x) for x in values]
@@ -212,12 +248,16 @@ def test_fixed_joints_after_the_last_joint_form_the_tool_and_carry_their_mass():
     assert _exact(np.array(robot.tool)[:3, 3]) == [R(22, 100), R(1, 100), R(2, 100)]
     c, s = np.cos(-0.5), np.sin(-0.5)
     Ry = np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0]])
-    np.testing.assert_allclose(np.array(robot.tool, dtype=float)[:3, :3],
-                               Ry @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        np.array(robot.tool, dtype=float)[:3, :3], Ry @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]), rtol=0, atol=1e-15
+    )
     link = robot.links[2]
     assert exact(link.m) == R(12, 10)
-    assert _exact(link.r) == [(R(8, 10) * R(5, 100) + R(4, 10) * R(13, 100)) / R(12, 10), 0,
-                              (R(8, 10) * R(1, 100) + R(4, 10) * R(2, 100)) / R(12, 10)]
+    assert _exact(link.r) == [
+        (R(8, 10) * R(5, 100) + R(4, 10) * R(13, 100)) / R(12, 10),
+        0,
+        (R(8, 10) * R(1, 100) + R(4, 10) * R(2, 100)) / R(12, 10),
+    ]
 
 
 def test_limits_effort_velocity_damping_and_friction_are_read():
@@ -227,7 +267,7 @@ def test_limits_effort_velocity_damping_and_friction_are_read():
     continuous, prismatic, unlimited = robot.links
     assert continuous.is_revolute and continuous.qlim is None
     assert (continuous.effort_limit, continuous.velocity_limit, continuous.B, continuous.Tc) == (None, None, 0, (0, 0))
-    assert continuous.m == 0 and continuous.I == ((0, 0, 0),) * 3        # l1 has no <inertial>
+    assert continuous.m == 0 and continuous.I == ((0, 0, 0),) * 3  # l1 has no <inertial>
     assert prismatic.joint == "prismatic" and prismatic.axis == (0.6, 0, 0.8)
     assert (prismatic.qlim, prismatic.effort_limit, prismatic.velocity_limit) == ((-0.2, 0.4), 200, 0.5)
     assert (prismatic.B, prismatic.Tc) == (3, (1.5, -1.5))
@@ -245,13 +285,13 @@ def test_damping_and_friction_enter_the_dynamics_as_viscous_and_coulomb_friction
 def test_an_axis_along_minus_y_and_quarter_turns_are_exact():
     robot = Robot.from_urdf(HERE / "zero_mass_inertia.urdf", tip_link="l2")
     assert robot.links[1].axis == (0, -1, 0)
-    assert all(isinstance(x, int) for row in robot.links[1].origin for x in row[:3])   # Ry(−π/2): 0, ±1
+    assert all(isinstance(x, int) for row in robot.links[1].origin for x in row[:3])  # Ry(−π/2): 0, ±1
     assert np.array(robot.links[1].origin)[:3, :3].tolist() == [[0, 0, -1], [0, 1, 0], [1, 0, 0]]
 
 
 def test_a_link_with_zero_mass_keeps_its_inertia_through_a_merge():
     link = Robot.from_urdf(HERE / "zero_mass_inertia.urdf", tip_link="l2").links[0]
-    c, s = np.cos(0.2), np.sin(0.2)   # about x by 0.2: Rx diag(0.1, 0.1, 0.2) Rxᵀ
+    c, s = np.cos(0.2), np.sin(0.2)  # about x by 0.2: Rx diag(0.1, 0.1, 0.2) Rxᵀ
     expected = np.diag([0.1, 0.1, 0.2])
     Rx = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
     assert link.m == 0
@@ -296,33 +336,83 @@ L2_INERTIA = '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/
 
 #: id → (edits of CHAIN, from_urdf keywords, the element the message names, a text on its line, what it says)
 REFUSALS = {
-    "floating joint": ({J2: '<joint name="j2" type="floating">'}, {}, "<joint name='j2'>", 'type="floating"',
-                       "'floating'"),
+    "floating joint": (
+        {J2: '<joint name="j2" type="floating">'},
+        {},
+        "<joint name='j2'>",
+        'type="floating"',
+        "'floating'",
+    ),
     "planar joint": ({J2: '<joint name="j2" type="planar">'}, {}, "<joint name='j2'>", 'type="planar"', "'planar'"),
-    "mimic joint": ({'<axis xyz="0 1 0"/>': '<axis xyz="0 1 0"/><mimic joint="j1"/>'}, {},
-                    "<joint name='j2'>", J2, "mimic"),
-    "negative mass": ({'<mass value="1"/>\n      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02"':
-                       '<mass value="-1"/>\n      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02"'}, {},
-                      "<mass>", 'value="-1"', "negative"),
-    "inertia not positive semidefinite": ({L2_INERTIA: L2_INERTIA.replace('izz="0.02"', 'izz="-0.02"')}, {},
-                                          "<inertia>", 'izz="-0.02"', "not positive semidefinite"),
-    "inertia violating the triangle inequality": ({L2_INERTIA: L2_INERTIA.replace('izz="0.02"', 'izz="0.04"')},
-                                                  {}, "<inertia>", 'izz="0.04"', "triangle inequality"),
-    "joint naming an unknown link": ({'<child link="l2"/>': '<child link="l9"/>'}, {}, "<child>", '"l9"',
-                                     "of joint 'j2' names unknown link 'l9'"),
-    "non-numeric xyz": ({'<origin xyz="0.3 0 0"/>': '<origin xyz="0.3 a 0"/>'}, {}, "<origin>", "0.3 a 0",
-                        "xyz='0.3 a 0' must be 3 finite numbers"),
-    "a cycle below the root": ({"</robot>": '<link name="a"/><link name="b"/>\n'
-                                '<joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint>\n'
-                                '<joint name="ba" type="fixed"><parent link="b"/><child link="a"/></joint>\n'
-                                '</robot>'}, {"tip_link": "a"}, "<joint name='ba'>", 'name="ba"', "form a cycle"),
+    "mimic joint": (
+        {'<axis xyz="0 1 0"/>': '<axis xyz="0 1 0"/><mimic joint="j1"/>'},
+        {},
+        "<joint name='j2'>",
+        J2,
+        "mimic",
+    ),
+    "negative mass": (
+        {
+            '<mass value="1"/>\n      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02"': '<mass value="-1"/>\n      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02"'
+        },
+        {},
+        "<mass>",
+        'value="-1"',
+        "negative",
+    ),
+    "inertia not positive semidefinite": (
+        {L2_INERTIA: L2_INERTIA.replace('izz="0.02"', 'izz="-0.02"')},
+        {},
+        "<inertia>",
+        'izz="-0.02"',
+        "not positive semidefinite",
+    ),
+    "inertia violating the triangle inequality": (
+        {L2_INERTIA: L2_INERTIA.replace('izz="0.02"', 'izz="0.04"')},
+        {},
+        "<inertia>",
+        'izz="0.04"',
+        "triangle inequality",
+    ),
+    "joint naming an unknown link": (
+        {'<child link="l2"/>': '<child link="l9"/>'},
+        {},
+        "<child>",
+        '"l9"',
+        "of joint 'j2' names unknown link 'l9'",
+    ),
+    "non-numeric xyz": (
+        {'<origin xyz="0.3 0 0"/>': '<origin xyz="0.3 a 0"/>'},
+        {},
+        "<origin>",
+        "0.3 a 0",
+        "xyz='0.3 a 0' must be 3 finite numbers",
+    ),
+    "a cycle below the root": (
+        {
+            "</robot>": '<link name="a"/><link name="b"/>\n'
+            '<joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint>\n'
+            '<joint name="ba" type="fixed"><parent link="b"/><child link="a"/></joint>\n'
+            "</robot>"
+        },
+        {"tip_link": "a"},
+        "<joint name='ba'>",
+        'name="ba"',
+        "form a cycle",
+    ),
     # l2's own inertia is impossible; merged with t (parallel axis) it would not be: refused before the merge
     "impossible inertia hidden by a merge": (
-        {L2_INERTIA: L2_INERTIA.replace('izz="0.02"', 'izz="-0.001"'),
-         "</robot>": '<joint name="f" type="fixed"><parent link="l2"/><child link="t"/><origin xyz="1 1 0"/>'
-                     '</joint>\n<link name="t"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" '
-                     'ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>\n</robot>'},
-        {}, "<inertia>", 'izz="-0.001"', "of link 'l2' is not positive semidefinite"),
+        {
+            L2_INERTIA: L2_INERTIA.replace('izz="0.02"', 'izz="-0.001"'),
+            "</robot>": '<joint name="f" type="fixed"><parent link="l2"/><child link="t"/><origin xyz="1 1 0"/>'
+            '</joint>\n<link name="t"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" '
+            'ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>\n</robot>',
+        },
+        {},
+        "<inertia>",
+        'izz="-0.001"',
+        "of link 'l2' is not positive semidefinite",
+    ),
 }
 
 
@@ -335,7 +425,7 @@ def test_a_urdf_the_model_cannot_take_is_refused_naming_the_element_and_line(cas
         text = text.replace(old, new)
     path = tmp_path / "bad.urdf"
     path.write_text(text)
-    line, = [i for i, s in enumerate(text.splitlines(), 1) if on_line in s]
+    (line,) = [i for i, s in enumerate(text.splitlines(), 1) if on_line in s]
     with pytest.raises(URDFError) as caught:
         Robot.from_urdf(path, **kwargs)
     message = str(caught.value)
@@ -347,12 +437,16 @@ def test_the_unedited_chain_of_the_refusal_tests_loads():
     assert robot.n == 2 and robot.name == "bad" and robot.links[1].axis == (0, 1, 0)
 
 
-@pytest.mark.parametrize("kwargs, says", [
-    ({"base_link": "nope", "tip_link": "hand"}, "base_link 'nope' is not a link of robot 'branches'"),
-    ({"tip_link": "nope"}, "tip_link 'nope' is not a link of robot 'branches'"),
-    ({}, "several leaves ['camera', 'fingertip', 'hand']; choose the chain's end with tip_link"),
-    ({"base_link": "l3", "tip_link": "l1"}, "tip_link 'l1' is not below base_link 'l3'"),
-], ids=["unknown base_link", "unknown tip_link", "several leaves", "tip not below base"])
+@pytest.mark.parametrize(
+    "kwargs, says",
+    [
+        ({"base_link": "nope", "tip_link": "hand"}, "base_link 'nope' is not a link of robot 'branches'"),
+        ({"tip_link": "nope"}, "tip_link 'nope' is not a link of robot 'branches'"),
+        ({}, "several leaves ['camera', 'fingertip', 'hand']; choose the chain's end with tip_link"),
+        ({"base_link": "l3", "tip_link": "l1"}, "tip_link 'l1' is not below base_link 'l3'"),
+    ],
+    ids=["unknown base_link", "unknown tip_link", "several leaves", "tip not below base"],
+)
 def test_a_chain_that_cannot_be_chosen_is_refused_naming_the_file(kwargs, says):
     path = HERE / "branches.urdf"
     with pytest.raises(URDFError) as caught:
@@ -361,7 +455,7 @@ def test_a_chain_that_cannot_be_chosen_is_refused_naming_the_file(kwargs, says):
 
 
 def test_malformed_xml_is_refused_with_its_line():
-    text = CHAIN.replace("</link>\n  <joint name=\"j2\"", "</lnk>\n  <joint name=\"j2\"")
+    text = CHAIN.replace('</link>\n  <joint name="j2"', '</lnk>\n  <joint name="j2"')
     with pytest.raises(URDFError, match=r"<urdf string>: not well-formed XML: mismatched tag: line 15"):
         Robot.from_urdf(text)
 
@@ -379,8 +473,10 @@ def test_an_impossible_inertia_on_a_locked_branch_is_refused_and_loads_once_excl
 
 # --------------------------------------------------------------------------- every stage
 
-@pytest.mark.parametrize("file, tip, seed", [("prismatic_continuous.urdf", None, 5),
-                                             ("zero_mass_inertia.urdf", "l2", 6)])
+
+@pytest.mark.parametrize(
+    "file, tip, seed", [("prismatic_continuous.urdf", None, 5), ("zero_mass_inertia.urdf", "l2", 6)]
+)
 def test_a_general_urdf_arm_agrees_at_every_stage(file, tip, seed):
     """Both derivations, the exact comparison and every generated target (one C compile each)."""
     robot = Robot.from_urdf(HERE / file, tip_link=tip)

@@ -13,7 +13,6 @@ import dataclasses
 import math
 import warnings
 
-import numpy as np
 import pytest
 
 import symdyn
@@ -32,7 +31,7 @@ TOL = 1e-10
 
 def _tree(**kwargs) -> Robot:
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", URDFWarning)   # the antenna's: tested on its own below
+        warnings.simplefilter("ignore", URDFWarning)  # the antenna's: tested on its own below
         return Robot.from_urdf(TREE, tip_link="tcp", **kwargs)
 
 
@@ -46,8 +45,14 @@ def _assert_agrees(robot, path, seed=0, count=200, **kwargs):
 
 LOCKS = {
     "every branch at its default": {},
-    "non-zero locks, a chain joint locked too": {"head_pan": 0.7, "head_tilt": -0.4, "slider": 0.05,
-                                                 "finger_left": 0.3, "wheel_joint": 1.0, "j3": 0.5},
+    "non-zero locks, a chain joint locked too": {
+        "head_pan": 0.7,
+        "head_tilt": -0.4,
+        "slider": 0.05,
+        "finger_left": 0.3,
+        "wheel_joint": 1.0,
+        "j3": 0.5,
+    },
 }
 
 
@@ -99,11 +104,12 @@ def test_a_locked_tree_passes_every_derivation_stage():
 
 # --------------------------------------------------------------------------- what is recorded
 
+
 def test_the_record_says_what_was_locked_at_which_value_into_which_body():
     robot = _tree()
     locks = {lock.joint: lock for lock in robot.urdf.locked}
     assert robot.urdf.joints == ("j1", "j2", "j3", "j4") and robot.n == 4
-    assert (locks["head_pan"].value, locks["head_pan"].why) == (0.2, "default")   # 0 is below its limits
+    assert (locks["head_pan"].value, locks["head_pan"].why) == (0.2, "default")  # 0 is below its limits
     assert locks["head_pan"].into == locks["head_tilt"].into == "l1"
     assert (locks["slider"].value, locks["slider"].into) == (0.0, "l2")
     assert locks["finger_right"].why == "mimic of finger_left"
@@ -114,9 +120,12 @@ def test_the_record_says_what_was_locked_at_which_value_into_which_body():
     assert locks["finger_right"].value == pytest.approx(-0.3 + 0.05)
     assert locks["j3"].on_chain and locks["j3"].into == "l2" and given.urdf.joints == ("j1", "j2", "j4")
     text = str(given)
-    for line in ("j3 = 0.5 -> l2 (given, a chain joint)", "finger_right = -0.25 -> l4 (mimic of finger_left)",
-                 "locked on the fixed base, no effect on the dynamics (1): wheel_joint = 0.0",
-                 "tree.urdf:87 joint 'j2' origin rpy[0]: -1.57079632679 -> -pi/2"):
+    for line in (
+        "j3 = 0.5 -> l2 (given, a chain joint)",
+        "finger_right = -0.25 -> l4 (mimic of finger_left)",
+        "locked on the fixed base, no effect on the dynamics (1): wheel_joint = 0.0",
+        "tree.urdf:87 joint 'j2' origin rpy[0]: -1.57079632679 -> -pi/2",
+    ):
         assert line in text, text
 
 
@@ -127,8 +136,10 @@ def test_a_defect_on_a_body_resting_on_the_base_is_a_warning_naming_it():
 
 
 def test_the_same_defect_on_a_body_in_the_dynamics_is_an_error_naming_its_line(tmp_path):
-    text = TREE.read_text().replace('<joint name="antenna_joint" type="fixed">\n    <parent link="base"/>',
-                                    '<joint name="antenna_joint" type="fixed">\n    <parent link="l1"/>')
+    text = TREE.read_text().replace(
+        '<joint name="antenna_joint" type="fixed">\n    <parent link="base"/>',
+        '<joint name="antenna_joint" type="fixed">\n    <parent link="l1"/>',
+    )
     path = tmp_path / "tree.urdf"
     path.write_text(text)
     with pytest.raises(URDFError, match=rf"{path}:39: <inertia> of link 'antenna' .*triangle"):
@@ -138,16 +149,21 @@ def test_the_same_defect_on_a_body_in_the_dynamics_is_an_error_naming_its_line(t
 
 # --------------------------------------------------------------------------- bad locks and exclusions
 
-@pytest.mark.parametrize("kwargs, says", [
-    ({"locked": {"nope": 0.1}}, "locked joint 'nope' is not a joint of robot 'tree'"),
-    ({"locked": {"head_pan": 1.5}}, "<joint name='head_pan'>: locked value 1.5 is outside its limits [0.2, 1.0]"),
-    ({"locked": {"finger_right": 0.1}}, "a mimic joint follows its leader 'finger_left'; lock the leader"),
-    ({"locked": {"tcp_joint": 0.1}}, "a fixed joint cannot be locked"),
-    ({"locked": {"slider": float("nan")}}, "locked value nan must be a finite number"),
-    ({"locked": {"head_tilt": 0.1}, "exclude": ["head"]}, "<joint name='head_tilt'>: locked, but it is not below"),
-    ({"exclude": ["l2"]}, "excluded link 'l2' is on the chain"),
-    ({"exclude": ["nope"]}, "excluded link 'nope' is not a link"),
-], ids=["unknown joint", "outside limits", "mimic", "fixed", "nan", "excluded", "exclude chain", "exclude unknown"])
+
+@pytest.mark.parametrize(
+    "kwargs, says",
+    [
+        ({"locked": {"nope": 0.1}}, "locked joint 'nope' is not a joint of robot 'tree'"),
+        ({"locked": {"head_pan": 1.5}}, "<joint name='head_pan'>: locked value 1.5 is outside its limits [0.2, 1.0]"),
+        ({"locked": {"finger_right": 0.1}}, "a mimic joint follows its leader 'finger_left'; lock the leader"),
+        ({"locked": {"tcp_joint": 0.1}}, "a fixed joint cannot be locked"),
+        ({"locked": {"slider": float("nan")}}, "locked value nan must be a finite number"),
+        ({"locked": {"head_tilt": 0.1}, "exclude": ["head"]}, "<joint name='head_tilt'>: locked, but it is not below"),
+        ({"exclude": ["l2"]}, "excluded link 'l2' is on the chain"),
+        ({"exclude": ["nope"]}, "excluded link 'nope' is not a link"),
+    ],
+    ids=["unknown joint", "outside limits", "mimic", "fixed", "nan", "excluded", "exclude chain", "exclude unknown"],
+)
 def test_a_lock_or_exclusion_that_cannot_be_done_names_the_culprit(kwargs, says):
     with pytest.raises(URDFError) as caught:
         _tree(**kwargs)
@@ -159,12 +175,15 @@ def test_base_and_tip_are_keyword_only():
         Robot.from_urdf(str(TREE), "l2")
 
 
-@pytest.mark.parametrize("text, says", [
-    ("", "the file is empty"),
-    ("   \n", "the file is empty"),
-    ('<robot name="r"/>', "<robot> has no <link>"),
-    ('<robot name="r"><link name="a"/><link name="b"/></robot>', "2 separate trees with roots ['a', 'b']"),
-])
+@pytest.mark.parametrize(
+    "text, says",
+    [
+        ("", "the file is empty"),
+        ("   \n", "the file is empty"),
+        ('<robot name="r"/>', "<robot> has no <link>"),
+        ('<robot name="r"><link name="a"/><link name="b"/></robot>', "2 separate trees with roots ['a', 'b']"),
+    ],
+)
 def test_an_empty_or_rootless_file_says_what_is_wrong(text, says, tmp_path):
     path = tmp_path / "r.urdf"
     path.write_text(text)
@@ -176,6 +195,7 @@ def test_an_empty_or_rootless_file_says_what_is_wrong(text, says, tmp_path):
 
 
 # --------------------------------------------------------------------------- the snapping rule
+
 
 def _quarter_turn(decimals: int | None, snap: bool = True) -> Robot:
     written = repr(-math.pi / 2) if decimals is None else f"{-math.pi / 2:.{decimals}f}"
@@ -189,15 +209,15 @@ def _quarter_turn(decimals: int | None, snap: bool = True) -> Robot:
 def test_a_quarter_turn_written_with_9_11_or_16_decimals_gives_one_exact_model():
     exact = _quarter_turn(None)
     assert not exact.urdf.snaps
-    assert exact.links[1].origin[1][1] == 0 and exact.links[1].origin[1][2] == 1   # Rx(-π/2), exactly
+    assert exact.links[1].origin[1][1] == 0 and exact.links[1].origin[1][2] == 1  # Rx(-π/2), exactly
     for decimals in (9, 11):
         robot = _quarter_turn(decimals)
         assert robot == exact and robot.fingerprint() == exact.fingerprint()
-        snap, = robot.urdf.snaps
+        (snap,) = robot.urdf.snaps
         assert snap.snapped == "-pi/2" and snap.change == abs(float(snap.value) + math.pi / 2) <= ANGLE_TOLERANCE
         assert robot.urdf.max_snap == snap.change
     six = _quarter_turn(6)
-    assert six != exact and not six.urdf.snaps   # 3.3e-7 from π/2: taken as written
+    assert six != exact and not six.urdf.snaps  # 3.3e-7 from π/2: taken as written
 
 
 def test_snap_false_keeps_the_files_numbers():
@@ -214,15 +234,16 @@ def test_the_rule_is_the_same_for_every_multiple_of_pi_and_for_axes():
         for error in (4e-10, -9e-10):
             snapped = snap_angle(target + error)
             assert snapped is not None and snapped.value == target and snapped.label == label
-        assert snap_angle(target + 2e-9) is None   # past the tolerance: as written
-        assert snap_angle(target) is None    # nothing to change
+        assert snap_angle(target + 2e-9) is None  # past the tolerance: as written
+        assert snap_angle(target) is None  # nothing to change
     assert snap_axis((0.0, 3e-10, -1.0)).value == (0, 0, -1)
     assert snap_axis((0.0, 0.6, 0.8)) is None
 
 
 def test_a_nearly_axis_aligned_axis_is_snapped_and_reported(tmp_path):
-    text = TREE.read_text().replace('<axis xyz="1 0 0"/>\n    <limit lower="-0.1"',
-                                    '<axis xyz="1 2e-10 0"/>\n    <limit lower="-0.1"')
+    text = TREE.read_text().replace(
+        '<axis xyz="1 0 0"/>\n    <limit lower="-0.1"', '<axis xyz="1 2e-10 0"/>\n    <limit lower="-0.1"'
+    )
     assert "2e-10" in text
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", URDFWarning)

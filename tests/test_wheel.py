@@ -24,15 +24,23 @@ def installed(tmp_path_factory):
     src = tmp / "src"
     shutil.copytree(ROOT / "symdyn", src / "symdyn", ignore=shutil.ignore_patterns("__pycache__", "generated"))
     shutil.copytree(ROOT / "generated", src / "generated")
-    os.symlink("../generated", src / "symdyn" / "generated")   # as in the checkout
+    os.symlink("../generated", src / "symdyn" / "generated")  # as in the checkout
     for name in ("pyproject.toml", "README.md"):
         shutil.copy2(ROOT / name, src / name)
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(tmp / "dist"), str(src)],
-                   check=True, capture_output=True, timeout=600)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(tmp / "dist"), str(src)],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
     wheel = next((tmp / "dist").glob("symdyn-*.whl"))
     site = tmp / "site"
-    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target", str(site), str(wheel)],
-                   check=True, capture_output=True, timeout=600)
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--target", str(site), str(wheel)],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
     env = dict(os.environ, PYTHONPATH=str(site), SYMDYN_CACHE_DIR=str(tmp / "cache"))
     return site, env, tmp
 
@@ -47,16 +55,18 @@ def test_the_wheel_runs_the_readme_from_another_directory(installed):
 
     # the first load of a shipped model derives nothing: NumPy imports the module the wheel carries
     # (measured here: 0.5-1.5 s from a cold interpreter, imports included; C would only compile)
-    code = ("import os, pathlib, time; t = time.perf_counter(); import symdyn; symdyn.load('puma560', 'numpy'); "
-            "print('first load', time.perf_counter() - t)\n"
-            "assert not list(pathlib.Path(os.environ['SYMDYN_CACHE_DIR']).rglob('*.pickle')), 'it derived'\n")
+    code = (
+        "import os, pathlib, time; t = time.perf_counter(); import symdyn; symdyn.load('puma560', 'numpy'); "
+        "print('first load', time.perf_counter() - t)\n"
+        "assert not list(pathlib.Path(os.environ['SYMDYN_CACHE_DIR']).rglob('*.pickle')), 'it derived'\n"
+    )
     code += "assert symdyn.__file__.startswith(%r), symdyn.__file__\n" % str(site)
     code += "\n".join(python_blocks())
     code += "\nprint('fdyn', float(np.abs(f.fdyn(q, qd, tau) - qdd).max()))"
     done = _run(["-c", code], env, tmp)
     assert done.returncode == 0, done.stderr
     assert float(done.stdout.split("fdyn")[-1]) < 1e-10
-    assert "generating" not in done.stderr, done.stderr   # the tour's loads use the wheel's code
+    assert "generating" not in done.stderr, done.stderr  # the tour's loads use the wheel's code
     assert not (site / "generated").exists() and (site / "symdyn" / "generated" / "puma560" / "puma560.c").is_file()
 
 

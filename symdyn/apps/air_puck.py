@@ -27,8 +27,17 @@ from ..numeric import reference as ref
 from ..numeric.backend import Model
 from .control import quintic
 
-__all__ = ["BASE_JOINTS", "puck_robot", "momentum", "centre_of_mass", "PassiveBase", "base_rate",
-           "ShapeLoop", "plan", "timed"]
+__all__ = [
+    "BASE_JOINTS",
+    "puck_robot",
+    "momentum",
+    "centre_of_mass",
+    "PassiveBase",
+    "base_rate",
+    "ShapeLoop",
+    "plan",
+    "timed",
+]
 
 BASE_JOINTS = 3
 
@@ -38,13 +47,20 @@ def puck_robot(mass: float = 20.0, radius: float = 0.25) -> Robot:
     and `radius` (m) under it, free in x, y and yaw.  Joints 1, 2 slide along world x and y
     (massless carriages: frame 0 is Ry(π/2), so z0 is world x), joint 3 turns about world z
     and carries the disc; frame 3 is the Puma's base frame (identity at q = 0)."""
-    disc = mass * radius ** 2 / 4
-    base = (Link(joint="prismatic", alpha=-math.pi / 2),
-            Link(joint="prismatic", theta=-math.pi / 2, alpha=math.pi / 2),
-            Link(m=mass, I=((disc, 0, 0), (0, disc, 0), (0, 0, 2 * disc))))
+    disc = mass * radius**2 / 4
+    base = (
+        Link(joint="prismatic", alpha=-math.pi / 2),
+        Link(joint="prismatic", theta=-math.pi / 2, alpha=math.pi / 2),
+        Link(m=mass, I=((disc, 0, 0), (0, disc, 0), (0, 0, 2 * disc))),
+    )
     puma = arms.load("puma560").nofriction()
-    return Robot("puma560_puck", base + puma.links, base=roty(math.pi / 2), gravity=puma.gravity,
-                 source=f"{puma.source}; base: {mass} kg disc of radius {radius} m on an air table")
+    return Robot(
+        "puma560_puck",
+        base + puma.links,
+        base=roty(math.pi / 2),
+        gravity=puma.gravity,
+        source=f"{puma.source}; base: {mass} kg disc of radius {radius} m on an air table",
+    )
 
 
 def momentum(M: np.ndarray, q, qd) -> np.ndarray:
@@ -65,8 +81,8 @@ def centre_of_mass(robot: Robot, q) -> np.ndarray:
     for i, link in enumerate(robot.links):
         if float(link.m) == 0:
             continue
-        sub = Robot("prefix", robot.links[:i + 1], base=robot.base, gravity=robot.gravity)
-        T = ref.fkine(sub, q[..., :i + 1])
+        sub = Robot("prefix", robot.links[: i + 1], base=robot.base, gravity=robot.gravity)
+        T = ref.fkine(sub, q[..., : i + 1])
         weighted = weighted + float(link.m) * (T[..., :3, :3] @ np.array(link.r, float) + T[..., :3, 3])
         total += float(link.m)
     return weighted / total
@@ -155,6 +171,7 @@ def plan(model: Model, start, goal, *, steps: int = 100, swing: float = 1.0):
 def timed(path: ShapeLoop, params, T: float) -> Callable:
     """The path in time, s = quintic(0 → 1 in T s): trajectory(t) → (q*, q̇*, q̈*) of the arm (6,),
     q̈* by a central difference (1e-5 s)."""
+
     def at(t):
         s, sd, _ = (x[0] for x in quintic(0.0, 1.0, T, t))
         q, dq = path(params, s)

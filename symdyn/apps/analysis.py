@@ -24,20 +24,39 @@ from ..numeric import reference
 from ..numeric.backend import Model
 
 __all__ = [
-    "EARTH_GRAVITY", "LUNAR_GRAVITY", "FULL_TURN", "model_functions",
-    "with_gravity", "inverted", "joint_grid", "Extreme", "Sweep", "gravity_load_map",
-    "inertia_map", "inertia_curve", "PayloadEffect", "payload_effect", "base_wrench",
-    "total_mass", "AXES", "cartesian_inertia", "dynamic_manipulability", "AccelerationEllipsoid",
-    "acceleration_ellipsoid", "JointTransferFunctions", "joint_transfer_functions",
+    "EARTH_GRAVITY",
+    "LUNAR_GRAVITY",
+    "FULL_TURN",
+    "model_functions",
+    "with_gravity",
+    "inverted",
+    "joint_grid",
+    "Extreme",
+    "Sweep",
+    "gravity_load_map",
+    "inertia_map",
+    "inertia_curve",
+    "PayloadEffect",
+    "payload_effect",
+    "base_wrench",
+    "total_mass",
+    "AXES",
+    "cartesian_inertia",
+    "dynamic_manipulability",
+    "AccelerationEllipsoid",
+    "acceleration_ellipsoid",
+    "JointTransferFunctions",
+    "joint_transfer_functions",
     "twolink_exercise_arm",
 ]
 
-EARTH_GRAVITY = 9.81    # m/s², the shipped models' g
-LUNAR_GRAVITY = 1.62    # m/s²
+EARTH_GRAVITY = 9.81  # m/s², the shipped models' g
+LUNAR_GRAVITY = 1.62  # m/s²
 FULL_TURN = (-math.pi, math.pi)
 
 
 # --------------------------------------------------------------------------- model evaluation
+
 
 def model_functions(robot: Robot, backend: str = "auto") -> Model:
     """M, G, C·q̇, … of a numeric robot (`symdyn.numeric.backend.model`): by default the
@@ -49,6 +68,7 @@ def model_functions(robot: Robot, backend: str = "auto") -> Model:
 
 
 # --------------------------------------------------------------------------- robot variants
+
 
 def with_gravity(robot: Robot, g: float) -> Robot:
     """The robot with its gravity vector rescaled to magnitude g (m/s²), direction kept."""
@@ -69,8 +89,10 @@ def inverted(robot: Robot) -> Robot:
 
 # --------------------------------------------------------------------------- sweeps
 
-def joint_grid(robot: Robot, joints: tuple[int, ...], resolution: int, *, pose=None,
-               span: tuple[float, float] = FULL_TURN) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+
+def joint_grid(
+    robot: Robot, joints: tuple[int, ...], resolution: int, *, pose=None, span: tuple[float, float] = FULL_TURN
+) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
     """Joint states over a regular grid of the given joints (0-based), the others at `pose`.
 
     Returns (axes, q): one 1-D array of `resolution` angles per swept joint
@@ -135,8 +157,9 @@ class Sweep:
         return tuple(out)
 
 
-def gravity_load_map(robot: Robot, *, joints=(1, 2), loads=None, resolution: int = 73,
-                     pose=None, span=FULL_TURN) -> Sweep:
+def gravity_load_map(
+    robot: Robot, *, joints=(1, 2), loads=None, resolution: int = 73, pose=None, span=FULL_TURN
+) -> Sweep:
     """Gravity load G_j(q) (N·m) of joints `loads` (default: the swept ones) over a grid of `joints`.
 
     Default: joints 2 and 3 of an arm (0-based 1, 2) over a full turn, others
@@ -148,8 +171,9 @@ def gravity_load_map(robot: Robot, *, joints=(1, 2), loads=None, resolution: int
     return Sweep(tuple(joints), axes, G[..., list(loads)], tuple(f"G{j + 1}" for j in loads))
 
 
-def inertia_map(robot: Robot, *, elements=((0, 0), (0, 1)), joints=(1, 2), resolution: int = 73,
-                pose=None, span=FULL_TURN) -> Sweep:
+def inertia_map(
+    robot: Robot, *, elements=((0, 0), (0, 1)), joints=(1, 2), resolution: int = 73, pose=None, span=FULL_TURN
+) -> Sweep:
     """Inertia-matrix elements M_ij (kg·m², 0-based (i, j)) over a grid of `joints` (default M11, M12 over q2, q3)."""
     axes, q = joint_grid(robot, joints, resolution, pose=pose, span=span)
     M = model_functions(robot).M(q)
@@ -157,14 +181,15 @@ def inertia_map(robot: Robot, *, elements=((0, 0), (0, 1)), joints=(1, 2), resol
     return Sweep(tuple(joints), axes, values, tuple(f"M{i + 1}{j + 1}" for i, j in elements))
 
 
-def inertia_curve(robot: Robot, *, element=(1, 1), joint: int = 2, resolution: int = 181,
-                  pose=None, span=FULL_TURN) -> Sweep:
+def inertia_curve(
+    robot: Robot, *, element=(1, 1), joint: int = 2, resolution: int = 181, pose=None, span=FULL_TURN
+) -> Sweep:
     """One inertia element against one joint angle (default M22 against q3), a 1-D `Sweep`."""
-    return inertia_map(robot, elements=(element,), joints=(joint,), resolution=resolution,
-                       pose=pose, span=span)
+    return inertia_map(robot, elements=(element,), joints=(joint,), resolution=resolution, pose=pose, span=span)
 
 
 # --------------------------------------------------------------------------- payload, base
+
 
 @dataclass(frozen=True)
 class PayloadEffect:
@@ -287,13 +312,14 @@ def acceleration_ellipsoid(robot: Robot, q, axes="translational") -> Acceleratio
     if q.shape != (robot.n,):
         raise ValueError(f"acceleration_ellipsoid takes one pose of shape ({robot.n},), got {q.shape}")
     J = reference.jacob0(robot, q)[_rows(axes)]
-    JMi = np.linalg.solve(model_functions(robot).M(q).T, J.T).T     # J M⁻¹
+    JMi = np.linalg.solve(model_functions(robot).M(q).T, J.T).T  # J M⁻¹
     A = JMi @ JMi.T
     eig, vec = np.linalg.eigh(A)
     return AccelerationEllipsoid(np.sqrt(np.clip(eig, 0, None)), vec, A)
 
 
 # --------------------------------------------------------------------------- joint dynamics
+
 
 @dataclass(frozen=True)
 class JointTransferFunctions:
@@ -339,18 +365,22 @@ def joint_transfer_functions(robot: Robot, q) -> JointTransferFunctions:
     G = np.array([float(link.G) for link in robot.links])
     if np.any(G == 0):
         missing = [j + 1 for j in np.flatnonzero(G == 0)]
-        raise ValueError(f"joint(s) {missing} of {robot.name!r} have gear ratio G = 0 (no motor model); "
-                         "a motor-side transfer function needs G != 0")
+        raise ValueError(
+            f"joint(s) {missing} of {robot.name!r} have gear ratio G = 0 (no motor model); "
+            "a motor-side transfer function needs G != 0"
+        )
     Jm = np.array([float(link.Jm) for link in robot.links])
     B = np.array([float(link.B) for link in robot.links])
-    M_link = np.diag(model_functions(robot).M(q)) - G ** 2 * Jm
-    return JointTransferFunctions(q, Jm, G, M_link, Jm + M_link / G ** 2, B)
+    M_link = np.diag(model_functions(robot).M(q)) - G**2 * Jm
+    return JointTransferFunctions(q, Jm, G, M_link, Jm + M_link / G**2, B)
 
 
 # --------------------------------------------------------------------------- the exercise arm
 
-def twolink_exercise_arm(m1: float = 0.45, m2: float = 0.35, r1: float = 0.08, r2: float = 0.08,
-                         a1: float = 0.16, a2: float = 0.16) -> Robot:
+
+def twolink_exercise_arm(
+    m1: float = 0.45, m2: float = 0.35, r1: float = 0.08, r2: float = 0.08, a1: float = 0.16, a2: float = 0.16
+) -> Robot:
     """The two-link arm of the chapter's exercise 3: m1 = 0.45 kg, m2 = 0.35 kg, COM r1 = r2 = 8 cm from each joint.
 
     The exercise gives no link lengths; we take a1 = a2 = 16 cm, putting each
@@ -362,6 +392,8 @@ def twolink_exercise_arm(m1: float = 0.45, m2: float = 0.35, r1: float = 0.08, r
 
     arm = arms.load("twolink")
     first, second = arm.links
-    links = (dataclasses.replace(first, a=a1, m=m1, r=(r1 - a1, 0, 0)),
-             dataclasses.replace(second, a=a2, m=m2, r=(r2 - a2, 0, 0)))
+    links = (
+        dataclasses.replace(first, a=a1, m=m1, r=(r1 - a1, 0, 0)),
+        dataclasses.replace(second, a=a2, m=m2, r=(r2 - a2, 0, 0)),
+    )
     return dataclasses.replace(arm, name="twolink_exercise3", links=links)

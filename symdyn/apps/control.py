@@ -27,12 +27,26 @@ from ..numeric import reference as ref
 from ..numeric.backend import Model
 from .simulate import StderrProgress
 
-__all__ = ["lspb", "quintic", "Trace", "simulate", "scale_inertia", "scaled",
-           "JointDrive", "VelocityLoop", "PositionLoop", "TorqueFeedforward", "ComputedTorque",
-           "Surface", "OperationalSpace", "SEA"]
+__all__ = [
+    "lspb",
+    "quintic",
+    "Trace",
+    "simulate",
+    "scale_inertia",
+    "scaled",
+    "JointDrive",
+    "VelocityLoop",
+    "PositionLoop",
+    "TorqueFeedforward",
+    "ComputedTorque",
+    "Surface",
+    "OperationalSpace",
+    "SEA",
+]
 
 
 # --------------------------------------------------------------------------- trajectories
+
 
 def _times(t) -> tuple[np.ndarray, bool]:
     a = np.asarray(t, dtype=float)
@@ -55,14 +69,13 @@ def lspb(q0, q1, T: float, t, V=None) -> tuple[np.ndarray, np.ndarray, np.ndarra
     ratio = np.abs(V[moving]) * T / np.abs(span[moving])
     if np.any((ratio <= 1) | (ratio > 2)):
         raise ValueError(f"lspb: cruise speed V = {V} must satisfy |q1-q0|/T < |V| <= 2|q1-q0|/T")
-    tb = np.full(span.shape, T / 3)                     # blend time (any value where span = 0)
+    tb = np.full(span.shape, T / 3)  # blend time (any value where span = 0)
     tb[moving] = T - span[moving] / V[moving]
     acc = V / tb
     raw, scalar = _times(t)
     tt = np.clip(raw, 0.0, T)[:, None]
     first, last = tt <= tb, tt >= T - tb
-    q = np.where(first, q0 + 0.5 * acc * tt ** 2,
-                 np.where(last, q1 - 0.5 * acc * (T - tt) ** 2, q0 + V * (tt - tb / 2)))
+    q = np.where(first, q0 + 0.5 * acc * tt**2, np.where(last, q1 - 0.5 * acc * (T - tt) ** 2, q0 + V * (tt - tb / 2)))
     qd = np.where(first, acc * tt, np.where(last, acc * (T - tt), V))
     qdd = np.where(first, acc, np.where(last, -acc, 0.0))
     qdd = np.where(((raw < 0) | (raw > T))[:, None], 0.0, qdd)
@@ -78,13 +91,14 @@ def quintic(q0, q1, T: float, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     tt, scalar = _times(t)
     s = np.clip(tt, 0.0, T)[:, None] / T
     span = q1 - q0
-    q = q0 + span * (10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5)
-    qd = span * (30 * s ** 2 - 60 * s ** 3 + 30 * s ** 4) / T
-    qdd = span * (60 * s - 180 * s ** 2 + 120 * s ** 3) / T ** 2
+    q = q0 + span * (10 * s**3 - 15 * s**4 + 6 * s**5)
+    qd = span * (30 * s**2 - 60 * s**3 + 30 * s**4) / T
+    qdd = span * (60 * s - 180 * s**2 + 120 * s**3) / T**2
     return (q[0], qd[0], qdd[0]) if scalar else (q, qd, qdd)
 
 
 # --------------------------------------------------------------------------- simulator
+
 
 @dataclass(frozen=True)
 class Trace:
@@ -109,8 +123,18 @@ def _rk4_step(accel, tau_of, t, q, qd, dt, tau0):
     return q + dt / 6 * (k1v + 2 * k2v + 2 * k3v + k4v), qd + dt / 6 * (k1a + 2 * k2a + 2 * k3a + k4a)
 
 
-def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, dt: float = 1e-3,
-             period: float | None = None, delay: int = 0, progress: str | None = None) -> Trace:
+def simulate(
+    accel: Callable,
+    controller: Callable,
+    T: float,
+    q0,
+    qd0=None,
+    *,
+    dt: float = 1e-3,
+    period: float | None = None,
+    delay: int = 0,
+    progress: str | None = None,
+) -> Trace:
     """Integrate a closed loop with fixed-step RK4 from (q0, qd0) over [0, T].
 
     accel(t, q, qd, tau) → q̈ is the plant and controller(t, q, qd) → tau
@@ -155,8 +179,10 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
         TAU[k] = np.broadcast_to(tau_of(t, q, qd), q.shape)
         q, qd = _rk4_step(accel, tau_of, t, q, qd, dt, TAU[k])
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
-            raise RuntimeError(f"simulate: the state became NaN or infinite at t = {t + dt:.4f} s; "
-                               f"try a smaller step dt (now {dt}) or gentler gains")
+            raise RuntimeError(
+                f"simulate: the state became NaN or infinite at t = {t + dt:.4f} s; "
+                f"try a smaller step dt (now {dt}) or gentler gains"
+            )
         if report is not None:
             report((k + 1) / K, t + dt, T)
     Q[K], QD[K], TAU[K] = q, qd, TAU[K - 1]
@@ -165,14 +191,17 @@ def simulate(accel: Callable, controller: Callable, T: float, q0, qd0=None, *, d
 
 # --------------------------------------------------------------------------- model variants
 
+
 def scale_inertia(robot: Robot, factor: float) -> Robot:
     """A copy of `robot` with every link's mass and inertia tensor multiplied by
     `factor` (COM positions and motor parameters unchanged): the perturbed
     model used to test robustness to ±10 % inertial-parameter error."""
     if not factor > 0:
         raise ValueError(f"scale_inertia: factor must be positive, got {factor!r}")
-    links = tuple(dataclasses.replace(l, m=l.m * factor, I=tuple(tuple(x * factor for x in row) for row in l.I))
-                  for l in robot.links)
+    links = tuple(
+        dataclasses.replace(l, m=l.m * factor, I=tuple(tuple(x * factor for x in row) for row in l.I))
+        for l in robot.links
+    )
     return dataclasses.replace(robot, links=links, name=f"{robot.name}*{factor:g}")
 
 
@@ -202,11 +231,20 @@ def scaled(base: Model, robot: Robot, factor) -> Model:
         bias = fv * (base.Cqd(q, qd) + base.G(q)) + base.F(qd)
         return np.linalg.solve(M(q), (np.asarray(tau_, float) - bias)[..., None])[..., 0]
 
-    return Model(n=base.n, tau=tau, M=M, Cqd=lambda q, qd: fv * base.Cqd(q, qd), G=lambda q: fv * base.G(q),
-                 F=base.F, fdyn=fdyn, source=f"{base.source}, link inertia x {factor}")
+    return Model(
+        n=base.n,
+        tau=tau,
+        M=M,
+        Cqd=lambda q, qd: fv * base.Cqd(q, qd),
+        G=lambda q: fv * base.G(q),
+        F=base.F,
+        fdyn=fdyn,
+        source=f"{base.source}, link inertia x {factor}",
+    )
 
 
 # --------------------------------------------------------------------------- independent joint control (§9.1)
+
 
 @dataclass(frozen=True)
 class JointDrive:
@@ -230,7 +268,7 @@ class JointDrive:
     @property
     def J(self) -> float:
         """Total inertia at the motor, J = Jm + Jl/G² (kg·m²)."""
-        return self.Jm + self.Jl / self.G ** 2
+        return self.Jm + self.Jl / self.G**2
 
     def friction(self, omega):
         """Motor friction Bm·ω + Tc⁺ (ω > 0) or Tc⁻ (ω < 0), 0 at rest (N·m)."""
@@ -257,8 +295,16 @@ class VelocityLoop:
     it further into saturation.  Call once per sample, in time order.
     """
 
-    def __init__(self, drive: JointDrive, Kv: float, Ki: float = 0.0, *, period: float = 1e-3,
-                 antiwindup: bool = False, tau_ff: float = 0.0):
+    def __init__(
+        self,
+        drive: JointDrive,
+        Kv: float,
+        Ki: float = 0.0,
+        *,
+        period: float = 1e-3,
+        antiwindup: bool = False,
+        tau_ff: float = 0.0,
+    ):
         self.drive, self.Kv, self.Ki, self.period = drive, Kv, Ki, period
         self.antiwindup, self.tau_ff = antiwindup, tau_ff
         self.integral = 0.0
@@ -279,8 +325,7 @@ class PositionLoop:
     clipped to ±qd_max.  trajectory(t) → (q*, q̇*, q̈*) (link side).  As a
     controller for `simulate` with the motor state (θ_m, ω) of shape (..., 1)."""
 
-    def __init__(self, inner: VelocityLoop, trajectory: Callable, Kp: float = 40.0, *,
-                 velocity_ff: bool = False):
+    def __init__(self, inner: VelocityLoop, trajectory: Callable, Kp: float = 40.0, *, velocity_ff: bool = False):
         self.inner, self.trajectory, self.Kp, self.velocity_ff = inner, trajectory, Kp, velocity_ff
 
     def __call__(self, t, theta, omega):
@@ -292,6 +337,7 @@ class PositionLoop:
 
 
 # --------------------------------------------------------------------------- arm controllers (§9.4)
+
 
 class TorqueFeedforward:
     """Eq. 9.11: τ = M(q*)q̈* + C(q*, q̇*)q̇* + G(q*) + F(q̇*) + Kv(q̇* − q̇) + Kp(q* − q).
@@ -332,6 +378,7 @@ class ComputedTorque:
 
 # --------------------------------------------------------------------------- operational space (§9.5)
 
+
 @dataclass(frozen=True)
 class Surface:
     """A horizontal compliant surface at height z (world, m) with stiffness k
@@ -370,9 +417,20 @@ class OperationalSpace:
     difference of J along q̇ (step 1e-6).  Stateless.
     """
 
-    def __init__(self, model: Model, robot: Robot, pose, force, sensor: Callable, *,
-                 force_axes=(False, False, True, False, False, False),
-                 Kp=100.0, Kv=20.0, Kf=4.0, Kvf=12.0):
+    def __init__(
+        self,
+        model: Model,
+        robot: Robot,
+        pose,
+        force,
+        sensor: Callable,
+        *,
+        force_axes=(False, False, True, False, False, False),
+        Kp=100.0,
+        Kv=20.0,
+        Kf=4.0,
+        Kvf=12.0,
+    ):
         self.model, self.robot, self.sensor = model, robot, sensor
         self.pose, self.force = np.asarray(pose, float), np.asarray(force, float)
         self.S_f = np.asarray(force_axes, dtype=float)
@@ -384,7 +442,9 @@ class OperationalSpace:
         J, Jp, Jm = ref.jacob0(self.robot, np.stack([q, q + h * qd, q - h * qd]))
         Jdqd = np.einsum("...ij,...j->...i", Jp - Jm, qd) / (2 * h)
         xd = np.einsum("...ij,...j->...i", J, qd)
-        err = np.concatenate([self.pose[:3, 3] - T[..., :3, 3], _orientation_error(self.pose[:3, :3], T[..., :3, :3])], -1)
+        err = np.concatenate(
+            [self.pose[:3, 3] - T[..., :3, 3], _orientation_error(self.pose[:3, :3], T[..., :3, :3])], -1
+        )
         S_p = 1.0 - self.S_f
         a = S_p * (self.Kp * err - self.Kv * xd) - self.S_f * self.Kvf * xd
         F_f = self.S_f * (self.force + self.Kf * (self.force - self.sensor(q)))
@@ -393,6 +453,7 @@ class OperationalSpace:
 
 
 # --------------------------------------------------------------------------- series-elastic actuator (§9.6)
+
 
 @dataclass(frozen=True)
 class SEA:
@@ -450,8 +511,11 @@ class SEA:
 
         def control(t, q, qd):
             u = np.zeros(np.shape(q))
-            u[..., 0] = np.clip(k1 * (goal - q[..., 0]) - k2 * qd[..., 0] + k3 * (goal - q[..., 1]) - k4 * qd[..., 1],
-                                -self.force_limit, self.force_limit)
+            u[..., 0] = np.clip(
+                k1 * (goal - q[..., 0]) - k2 * qd[..., 0] + k3 * (goal - q[..., 1]) - k4 * qd[..., 1],
+                -self.force_limit,
+                self.force_limit,
+            )
             return u
 
         return control

@@ -22,11 +22,18 @@ from ..numeric.backend import Model
 from .analysis import AXES, joint_transfer_functions
 from .control import OperationalSpace
 
-__all__ = ["IndependentJoints", "independent_gains", "force_ellipsoid", "major_axis_angle",
-           "InclinedSurface", "CircleOperationalSpace"]
+__all__ = [
+    "IndependentJoints",
+    "independent_gains",
+    "force_ellipsoid",
+    "major_axis_angle",
+    "InclinedSurface",
+    "CircleOperationalSpace",
+]
 
 
 # --------------------------------------------------------------------------- ex. 1e: six independent joints
+
 
 class IndependentJoints:
     """Every joint under its own loops, on the motor side (Fig. 9.13 per joint):
@@ -61,6 +68,7 @@ def independent_gains(robot: Robot, q, bandwidth: float = 300.0, integral: float
 
 # --------------------------------------------------------------------------- ex. 10: force ellipsoid
 
+
 @dataclass(frozen=True)
 class Ellipsoid:
     """Principal radii (k,) ascending and unit axes (k, k) as columns, world frame."""
@@ -89,6 +97,7 @@ def major_axis_angle(u, v) -> float:
 
 
 # --------------------------------------------------------------------------- ex. 11d: inclined surface
+
 
 @dataclass(frozen=True)
 class InclinedSurface:
@@ -135,7 +144,7 @@ class CircleOperationalSpace(OperationalSpace):
         Jdqd = (Jp - Jm) @ qd / (2 * h)
         xd = J @ qd
         R, R_goal = T[:3, :3], self.pose[:3, :3]
-        e_o = 0.5 * np.cross(R.T, R_goal.T).sum(0)          # ½(n×n* + o×o* + a×a*)
+        e_o = 0.5 * np.cross(R.T, R_goal.T).sum(0)  # ½(n×n* + o×o* + a×a*)
         err = np.concatenate([p_s[:3] - T[:3, 3], e_o])
         S_p = 1.0 - self.S_f
         a = S_p * (a_s + self.Kp * err + self.Kv * (v_s - xd)) - self.S_f * self.Kvf * xd

@@ -17,11 +17,19 @@ from scipy.optimize import brentq
 
 from .control import SEA, JointDrive
 
-__all__ = ["SampledVelocityLoop", "VoltageDrive", "current_loop", "bandwidth", "GuardedTouch", "sea_frequency_response",
-           "collision_steady_state"]
+__all__ = [
+    "SampledVelocityLoop",
+    "VoltageDrive",
+    "current_loop",
+    "bandwidth",
+    "GuardedTouch",
+    "sea_frequency_response",
+    "collision_steady_state",
+]
 
 
 # --------------------------------------------------------------------------- ex. 1b: root locus
+
 
 @dataclass(frozen=True)
 class SampledVelocityLoop:
@@ -65,6 +73,7 @@ class SampledVelocityLoop:
 
 
 # --------------------------------------------------------------------------- ex. 1c: voltage drive
+
 
 @dataclass(frozen=True)
 class VoltageDrive:
@@ -114,6 +123,7 @@ def bandwidth(num, den) -> float:
 
 # --------------------------------------------------------------------------- ex. 12: series-elastic actuator
 
+
 class GuardedTouch:
     """Touch an object at an unknown distance and settle at a force, through the spring of a `SEA`.
 
@@ -148,7 +158,7 @@ def sea_frequency_response(k: float, m_load: float, w, zeta: float = 0.05) -> np
     c = 2ζ√(k·m) (the book's SEA has none: ζ = 0 would make the peak infinite)."""
     wn = math.sqrt(k / m_load)
     s = 1j * np.asarray(w, float)
-    return (2 * zeta * wn * s + wn ** 2) / (s ** 2 + 2 * zeta * wn * s + wn ** 2)
+    return (2 * zeta * wn * s + wn**2) / (s**2 + 2 * zeta * wn * s + wn**2)
 
 
 def collision_steady_state(sea: SEA, K, force: float, goal: float = 1.0) -> np.ndarray:

@@ -23,9 +23,25 @@ from ..derivation.progress import reported
 from ..model import Robot
 from ..numeric import casadi_rnea, reference
 
-__all__ = ["METHODS", "SOURCES", "OCPError", "ArmFunctions", "Limits", "Cost", "Problem",
-           "Solution", "Check", "Tracker", "RTITracker", "dynamics", "motor_torque_limits", "solve", "resimulate", "verify",
-           "limit_violation"]
+__all__ = [
+    "METHODS",
+    "SOURCES",
+    "OCPError",
+    "ArmFunctions",
+    "Limits",
+    "Cost",
+    "Problem",
+    "Solution",
+    "Check",
+    "Tracker",
+    "RTITracker",
+    "dynamics",
+    "motor_torque_limits",
+    "solve",
+    "resimulate",
+    "verify",
+    "limit_violation",
+]
 
 METHODS = ("multiple-shooting", "trapezoidal", "hermite-simpson")
 SOURCES = ("symdyn", "plain")
@@ -42,6 +58,7 @@ class OCPError(RuntimeError):
 
 # --------------------------------------------------------------------------- dynamics sources
 
+
 @dataclass(frozen=True)
 class ArmFunctions:
     """CasADi dynamics of one arm: tau(q, qd, qdd) -> τ (needed by collocation) and
@@ -51,11 +68,11 @@ class ArmFunctions:
     fdyn: ca.Function | None
     source: str = "custom"
     compiled: bool = False
-    fdyn_sx: ca.Function | None = None   # the SX fdyn compiled ones come from: the shooting step's
+    fdyn_sx: ca.Function | None = None  # the SX fdyn compiled ones come from: the shooting step's
     #: (q, q̇, τ) → (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹) on SX when the source generates it (symdyn's
     #: `fdyn_derivatives`); else the shooting step takes CasADi's AD of fdyn_sx.
     fdyn_derivatives_sx: ca.Function | None = None
-    name: str = ""   # the arm's, for progress lines
+    name: str = ""  # the arm's, for progress lines
 
     def shooting_step(self, substeps: int) -> ca.Function:
         """(q, q̇, τ, h) → (q⁺, q̇⁺), `substeps` RK4 steps: compiled with explicit Jacobian and
@@ -86,8 +103,7 @@ class ArmFunctions:
         """The function `method` transcribes: fdyn for multiple shooting, else tau."""
         name = "fdyn" if method == "multiple-shooting" else "tau"
         if getattr(self, name) is None:
-            raise ValueError(f"{method} needs the {name} function, but this {self.source!r} "
-                             f"dynamics has none")
+            raise ValueError(f"{method} needs the {name} function, but this {self.source!r} dynamics has none")
         return getattr(self, name)
 
 
@@ -125,24 +141,29 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     if compiled:
         built = []
         for name, f in (("tau", tau), ("fdyn", fdyn)):
-            with reported(f"ocp {robot.name}: compiling {name} ({source}) with its Jacobian and Hessian "
-                          "(once, into the cache)"):
+            with reported(
+                f"ocp {robot.name}: compiling {name} ({source}) with its Jacobian and Hessian (once, into the cache)"
+            ):
                 built.append(compile_function(f))
         return ArmFunctions(*built, source, True, fdyn, derivatives, robot.name)
     return ArmFunctions(tau, fdyn, source, False, name=robot.name)
 
 
 @functools.lru_cache(maxsize=16)
-def _compiled_step(fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None,
-                   name: str = "") -> ca.Function:
+def _compiled_step(
+    fdyn: ca.Function, n: int, substeps: int, derivatives: ca.Function | None, name: str = ""
+) -> ca.Function:
     from .ocp_step import rk4_step
 
-    with reported(f"ocp {name or f'{n}-joint arm'}: compiling the multiple-shooting interval "
-                  f"({substeps} RK4 step{'s' * (substeps != 1)}, explicit derivatives; once, into the cache)"):
+    with reported(
+        f"ocp {name or f'{n}-joint arm'}: compiling the multiple-shooting interval "
+        f"({substeps} RK4 step{'s' * (substeps != 1)}, explicit derivatives; once, into the cache)"
+    ):
         return rk4_step(fdyn, n, substeps, derivatives)
 
 
 # --------------------------------------------------------------------------- the problem
+
 
 def motor_torque_limits(robot: Robot, motor_tau_max) -> np.ndarray:
     """Joint torque limits (n,) N·m from motor torque limits: τ_max,joint = τ_max,motor·|G|."""
@@ -243,8 +264,7 @@ class Problem:
         if not 0 < lo < hi:
             raise ValueError(f"T_bounds must be 0 < T_min < T_max, got {self.T_bounds!r}")
         if self.T is None and not self.cost.time > 0:
-            raise ValueError("a free final time (T=None) needs a positive time weight in the cost; "
-                             "otherwise give T")
+            raise ValueError("a free final time (T=None) needs a positive time weight in the cost; otherwise give T")
         n = np.size(self.q0)
         for name in ("q0", "qf", "qd0", "qdf"):
             v = getattr(self, name)
@@ -263,7 +283,8 @@ class Problem:
                 "limits.qd are None or infinite), so nothing bounds how fast the arm moves and T would "
                 f"collapse to T_bounds[0] = {lo:g} s; give limits: Limits(tau=..., qd=...), "
                 "Limits.for_robot(robot, tau=..., qd=...) or motor_tau=..., or read a URDF whose joints "
-                "have <limit effort=... velocity=...> (Robot.from_urdf; Limits.for_robot takes them)")
+                "have <limit effort=... velocity=...> (Robot.from_urdf; Limits.for_robot takes them)"
+            )
 
     @property
     def n(self) -> int:
@@ -272,11 +293,11 @@ class Problem:
     def boundary(self) -> tuple[np.ndarray, ...]:
         """q0, qd0, qf, qdf as float arrays (velocities default to rest)."""
         z = np.zeros(self.n)
-        return tuple(np.asarray(v if v is not None else z, dtype=float)
-                     for v in (self.q0, self.qd0, self.qf, self.qdf))
+        return tuple(np.asarray(v if v is not None else z, dtype=float) for v in (self.q0, self.qd0, self.qf, self.qdf))
 
 
 # --------------------------------------------------------------------------- the solution
+
 
 @dataclass(frozen=True)
 class Solution:
@@ -329,6 +350,7 @@ class Solution:
 
 # --------------------------------------------------------------------------- transcription
 
+
 def _rk4_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
     """(q, qd, tau, h) -> (q⁺, qd⁺): `substeps` RK4 steps of q̈ = fdyn(q, q̇, τ), τ held."""
     q, qd, tau, h = ca.MX.sym("q", n), ca.MX.sym("qd", n), ca.MX.sym("tau", n), ca.MX.sym("h")
@@ -351,8 +373,8 @@ def rk4_steps(f, x, h, substeps: int):
 def _quadratic_smoothness(a, b, c, h):
     """∫₀ʰ (dτ/dt)² dt, per joint, of the quadratic through a, b, c at 0, h/2, h."""
     A = (-3 * a + 4 * b - c) / h
-    B = (4 * a - 8 * b + 4 * c) / h ** 2
-    return A ** 2 * h + A * B * h ** 2 + B ** 2 * h ** 3 / 3
+    B = (4 * a - 8 * b + 4 * c) / h**2
+    return A**2 * h + A * B * h**2 + B**2 * h**3 / 3
 
 
 def _guess(problem: Problem, arm: ArmFunctions, T: float):
@@ -438,7 +460,7 @@ def _multiple_shooting(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handl
     qn, qdn = step(Q[:, :N], QD[:, :N], U, h)
     opti.subject_to([Q[:, 1:] == qn, QD[:, 1:] == qdn])
     w = _weighted(problem)
-    return cost.effort * h * ca.sum2(w(U ** 2)) + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h
+    return cost.effort * h * ca.sum2(w(U**2)) + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h
 
 
 def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: dict, h, guess):
@@ -461,8 +483,10 @@ def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: di
     if problem.method == "trapezoidal":
         opti.subject_to(Q[:, b] - Q[:, a] == h / 2 * (QD[:, a] + QD[:, b]))
         opti.subject_to(QD[:, b] - QD[:, a] == h / 2 * (QDD[:, a] + QDD[:, b]))
-        return (cost.effort * h / 2 * ca.sum2(w(U[:, a] ** 2) + w(U[:, b] ** 2))
-                + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h)
+        return (
+            cost.effort * h / 2 * ca.sum2(w(U[:, a] ** 2) + w(U[:, b] ** 2))
+            + cost.smoothness * ca.sum2(w(ca.diff(U, 1, 1) ** 2)) / h
+        )
     Qm, QDm, QDDm, Um = (opti.variable(n, N) for _ in range(4))
     for X, g in ((Qm, gq), (QDm, gqd), (QDDm, gqdd), (Um, gtau)):
         opti.set_initial(X, g[1::2].T)
@@ -474,8 +498,9 @@ def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: di
     opti.subject_to(QD[:, b] - QD[:, a] == h / 6 * (QDD[:, a] + 4 * QDDm + QDD[:, b]))
     opti.subject_to((ID.map(N)(Qm, QDm, QDDm) - Um) / ca.repmat(scale, 1, N) == 0)
     handles.update(Qm=Qm, QDm=QDm, QDDm=QDDm, Um=Um)
-    return (cost.effort * h / 6 * ca.sum2(w(U[:, a] ** 2) + 4 * w(Um ** 2) + w(U[:, b] ** 2))
-            + cost.smoothness * ca.sum2(w(_quadratic_smoothness(U[:, a], Um, U[:, b], h))))
+    return cost.effort * h / 6 * ca.sum2(w(U[:, a] ** 2) + 4 * w(Um**2) + w(U[:, b] ** 2)) + cost.smoothness * ca.sum2(
+        w(_quadratic_smoothness(U[:, a], Um, U[:, b], h))
+    )
 
 
 def _hint(problem: Problem, arm: ArmFunctions) -> str:
@@ -489,13 +514,23 @@ def _hint(problem: Problem, arm: ArmFunctions) -> str:
     for name, q in (("q0", q0), ("qf", qf)):
         g = np.array(arm.tau(q, z, z)).ravel()
         over = np.flatnonzero(np.abs(g) > lim)
-        notes += [f"joint {j + 1} needs {abs(g[j]):.3g} N·m to hold the arm at {name} "
-                  f"but its torque limit is {lim[j]:.3g} N·m" for j in over]
+        notes += [
+            f"joint {j + 1} needs {abs(g[j]):.3g} N·m to hold the arm at {name} "
+            f"but its torque limit is {lim[j]:.3g} N·m"
+            for j in over
+        ]
     return ("; hint: " + "; ".join(notes)) if notes else ""
 
 
-def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
-          max_iter: int = 3000, expand: bool = False, simple_bounds: bool = True) -> Solution:
+def solve(
+    problem: Problem,
+    arm: ArmFunctions,
+    *,
+    verbose: bool = False,
+    max_iter: int = 3000,
+    expand: bool = False,
+    simple_bounds: bool = True,
+) -> Solution:
     """Pose `problem` on the CasADi dynamics `arm` and solve it with IPOPT.
 
     expand=True expands the whole NLP into SX: faster iterations, much longer
@@ -510,30 +545,51 @@ def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
     opti = ca.Opti()
     handles, J = _pose(problem, arm, opti)
     opti.minimize(J)
-    opti.solver("ipopt", {"print_time": verbose, "record_time": True, "expand": expand,
-                          "detect_simple_bounds": simple_bounds},
-                {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter})
+    opti.solver(
+        "ipopt",
+        {"print_time": verbose, "record_time": True, "expand": expand, "detect_simple_bounds": simple_bounds},
+        {"print_level": 5 if verbose else 0, "sb": "yes", "max_iter": max_iter},
+    )
     start, cpu = time.perf_counter(), time.process_time()
     try:
         sol = opti.solve()
     except RuntimeError:
         st = opti.stats()
         status, iters = st.get("return_status", "unknown"), st.get("iter_count", 0)
-        raise OCPError(f"IPOPT found no {problem.method} solution: return status {status} after "
-                       f"{iters} iterations{_hint(problem, arm)}", status, iters) from None
+        raise OCPError(
+            f"IPOPT found no {problem.method} solution: return status {status} after "
+            f"{iters} iterations{_hint(problem, arm)}",
+            status,
+            iters,
+        ) from None
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     st = sol.stats()
     iters = int(st["iter_count"])
     evals = sum(v for k, v in st.items() if k.startswith("t_wall_nlp_"))
-    stats = {"status": st["return_status"], "success": bool(st["success"]), "iterations": iters,
-             "solve_wall": wall, "solve_cpu": cpu, "ipopt_wall": float(st["t_wall_total"]), "eval_wall": float(evals),
-             "setup_wall": wall - float(st["t_wall_total"]),
-             "per_iteration": float(st["t_wall_total"]) / max(iters, 1), "source": arm.source,
-             "compiled": arm.compiled}
+    stats = {
+        "status": st["return_status"],
+        "success": bool(st["success"]),
+        "iterations": iters,
+        "solve_wall": wall,
+        "solve_cpu": cpu,
+        "ipopt_wall": float(st["t_wall_total"]),
+        "eval_wall": float(evals),
+        "setup_wall": wall - float(st["t_wall_total"]),
+        "per_iteration": float(st["t_wall_total"]) / max(iters, 1),
+        "source": arm.source,
+        "compiled": arm.compiled,
+    }
     v = lambda x: np.atleast_2d(np.array(sol.value(x), dtype=float))  # noqa: E731
     T = float(sol.value(handles["T"]))
-    out = dict(method=problem.method, t=np.linspace(0, T, problem.N + 1), q=v(handles["Q"]).T,
-               qd=v(handles["QD"]).T, tau=v(handles["U"]).T, cost=float(sol.value(opti.f)), stats=stats)
+    out = dict(
+        method=problem.method,
+        t=np.linspace(0, T, problem.N + 1),
+        q=v(handles["Q"]).T,
+        qd=v(handles["QD"]).T,
+        tau=v(handles["U"]).T,
+        cost=float(sol.value(opti.f)),
+        stats=stats,
+    )
     if problem.method != "multiple-shooting":
         out["qdd"] = v(handles["QDD"]).T
     if problem.method == "hermite-simpson":
@@ -542,6 +598,7 @@ def solve(problem: Problem, arm: ArmFunctions, *, verbose: bool = False,
 
 
 # --------------------------------------------------------------------------- verification
+
 
 def resimulate(robot: Robot, solution: Solution, *, substeps: int = 10, restart: bool = False):
     """Open-loop simulation of the solution's torque with the reference forward dynamics
@@ -556,10 +613,12 @@ def resimulate(robot: Robot, solution: Solution, *, substeps: int = 10, restart:
         if restart:
             x = np.concatenate([solution.q[k], solution.qd[k]])
         h = (solution.t[k + 1] - solution.t[k]) / substeps
+
+        def f(x, s, k=k):
+            return np.concatenate([x[n:], reference.accel(robot, x[:n], x[n:], solution.interval_torque(k, s))])
+
         for j in range(substeps):
             s = j * h
-            f = lambda x, s: np.concatenate(  # noqa: E731
-                [x[n:], reference.accel(robot, x[:n], x[n:], solution.interval_torque(k, s))])
             k1 = f(x, s)
             k2 = f(x + h / 2 * k1, s + h / 2)
             k3 = f(x + h / 2 * k2, s + h / 2)
@@ -594,22 +653,35 @@ class Check:
 
     @property
     def ok(self) -> bool:
-        errors = ((self.goal_q_error, self.goal_qd_error) if self.replay == "open-loop"
-                  else (self.path_q_error, self.path_qd_error))
-        return (self.success and errors[0] <= self.tol_q and errors[1] <= self.tol_qd
-                and self.limit_violation <= self.tol_limits)
+        errors = (
+            (self.goal_q_error, self.goal_qd_error)
+            if self.replay == "open-loop"
+            else (self.path_q_error, self.path_qd_error)
+        )
+        return (
+            self.success
+            and errors[0] <= self.tol_q
+            and errors[1] <= self.tol_qd
+            and self.limit_violation <= self.tol_limits
+        )
 
     def describe(self) -> str:
         if self.replay == "open-loop":
-            replay = (f"open-loop re-simulation reaches the goal within {self.goal_q_error:.2e} rad "
-                      f"(tol {self.tol_q:g}) and {self.goal_qd_error:.2e} rad/s (tol {self.tol_qd:g}), "
-                      f"max deviation from the optimised path {self.path_q_error:.2e} rad")
+            replay = (
+                f"open-loop re-simulation reaches the goal within {self.goal_q_error:.2e} rad "
+                f"(tol {self.tol_q:g}) and {self.goal_qd_error:.2e} rad/s (tol {self.tol_qd:g}), "
+                f"max deviation from the optimised path {self.path_q_error:.2e} rad"
+            )
         else:
-            replay = (f"re-simulated interval by interval from each node: worst gap at the next node "
-                      f"{self.path_q_error:.2e} rad (tol {self.tol_q:g}) and {self.path_qd_error:.2e} rad/s "
-                      f"(tol {self.tol_qd:g})")
-        return (f"IPOPT {self.status}; {replay}; worst limit violation {self.limit_violation:.1e} "
-                f"(tol {self.tol_limits:g}): {'PASS' if self.ok else 'FAIL'}")
+            replay = (
+                f"re-simulated interval by interval from each node: worst gap at the next node "
+                f"{self.path_q_error:.2e} rad (tol {self.tol_q:g}) and {self.path_qd_error:.2e} rad/s "
+                f"(tol {self.tol_qd:g})"
+            )
+        return (
+            f"IPOPT {self.status}; {replay}; worst limit violation {self.limit_violation:.1e} "
+            f"(tol {self.tol_limits:g}): {'PASS' if self.ok else 'FAIL'}"
+        )
 
 
 def _violation(x: np.ndarray | None, lo, hi) -> float:
@@ -635,9 +707,17 @@ def limit_violation(problem: Problem, solution: Solution) -> float:
     return worst
 
 
-def verify(robot: Robot, problem: Problem, solution: Solution, *, tol_q: float = 1e-2,
-           tol_qd: float = 5e-2, tol_limits: float = 1e-6, substeps: int = 10,
-           replay: str = "open-loop") -> Check:
+def verify(
+    robot: Robot,
+    problem: Problem,
+    solution: Solution,
+    *,
+    tol_q: float = 1e-2,
+    tol_qd: float = 5e-2,
+    tol_limits: float = 1e-6,
+    substeps: int = 10,
+    replay: str = "open-loop",
+) -> Check:
     """Re-simulate with the reference dynamics and check the result and the limits: open loop
     from the start (the goal reached), or replay="intervals", each interval from the solution's
     node (every node reached: the check for arms whose open loop is unstable over the motion,
@@ -646,16 +726,25 @@ def verify(robot: Robot, problem: Problem, solution: Solution, *, tol_q: float =
         raise ValueError(f"unknown replay {replay!r}: expected 'open-loop' or 'intervals'")
     _, q, qd = resimulate(robot, solution, substeps=substeps, restart=replay == "intervals")
     _, _, qf, qdf = problem.boundary()
-    return Check(success=solution.stats["success"], status=solution.stats["status"],
-                 goal_q_error=float(np.abs(q[-1] - qf).max()),
-                 goal_qd_error=float(np.abs(qd[-1] - qdf).max()),
-                 path_q_error=float(np.abs(q - solution.q).max()),
-                 path_qd_error=float(np.abs(qd - solution.qd).max()),
-                 limit_violation=limit_violation(problem, solution),
-                 tol_q=tol_q, tol_qd=tol_qd, tol_limits=tol_limits, replay=replay, q=q, qd=qd)
+    return Check(
+        success=solution.stats["success"],
+        status=solution.stats["status"],
+        goal_q_error=float(np.abs(q[-1] - qf).max()),
+        goal_qd_error=float(np.abs(qd[-1] - qdf).max()),
+        path_q_error=float(np.abs(q - solution.q).max()),
+        path_qd_error=float(np.abs(qd - solution.qd).max()),
+        limit_violation=limit_violation(problem, solution),
+        tol_q=tol_q,
+        tol_qd=tol_qd,
+        tol_limits=tol_limits,
+        replay=replay,
+        q=q,
+        qd=qd,
+    )
 
 
 # --------------------------------------------------------------------------- receding horizon
+
 
 class Tracker:
     """Nonlinear MPC for trajectory tracking: one IPOPT problem built once, solved
@@ -671,9 +760,20 @@ class Tracker:
     on the decision variables, the first state fixed to the measurement by its bounds.
     """
 
-    def __init__(self, arm: ArmFunctions, limits: Limits, dt: float, horizon: int, *,
-                 w_q: float = 1e4, w_qd: float = 10.0, r: float = 1e-2, max_iter: int = 100,
-                 integrator: str = "euler", tol: float = 1e-4):
+    def __init__(
+        self,
+        arm: ArmFunctions,
+        limits: Limits,
+        dt: float,
+        horizon: int,
+        *,
+        w_q: float = 1e4,
+        w_qd: float = 10.0,
+        r: float = 1e-2,
+        max_iter: int = 100,
+        integrator: str = "euler",
+        tol: float = 1e-4,
+    ):
         n = arm.n
         if limits.tau is None or limits.qd is None:
             raise ValueError("the tracker needs torque and speed limits (Limits.tau and Limits.qd)")
@@ -681,24 +781,36 @@ class Tracker:
         N = horizon
         X, U, R = ca.MX.sym("X", 2 * n, N + 1), ca.MX.sym("U", n, N), ca.MX.sym("R", 2 * n, N + 1)
         fdyn = arm.need("multiple-shooting")
-        if integrator == "rk4":   # the compiled interval when the dynamics are compiled
+        if integrator == "rk4":  # the compiled interval when the dynamics are compiled
             qn, qdn = arm.shooting_step(1).map(N)(X[:n, :N], X[n:, :N], U, dt)
-        elif integrator == "euler":   # semi-implicit: q̇⁺ = q̇ + h q̈, q⁺ = q + h q̇⁺ (one fdyn per interval)
+        elif integrator == "euler":  # semi-implicit: q̇⁺ = q̇ + h q̈, q⁺ = q + h q̇⁺ (one fdyn per interval)
             qdn = X[n:, :N] + dt * fdyn.map(N)(X[:n, :N], X[n:, :N], U)
             qn = X[:n, :N] + dt * qdn
         else:
             raise ValueError(f"unknown integrator {integrator!r}: expected 'euler' or 'rk4'")
         e = X - R
         W = ca.DM(np.r_[np.full(n, w_q), np.full(n, w_qd)])
-        scale = ca.repmat(ca.DM(_finite_or_one(limits.tau, n)), 1, N)   # an unbounded joint: plain τ
+        scale = ca.repmat(ca.DM(_finite_or_one(limits.tau, n)), 1, N)  # an unbounded joint: plain τ
         J = ca.sum2(ca.sum1(W * e[:, 1:] ** 2)) + r * ca.sumsqr(U / scale)
         g = ca.vertcat(ca.vec(X[:n, 1:] - qn), ca.vec(X[n:, 1:] - qdn))
-        self._solver = ca.nlpsol("mpc", "ipopt", {"x": ca.vertcat(ca.vec(X), ca.vec(U)), "p": ca.vec(R),
-                                                  "f": J, "g": g},
-                                 {"print_time": False, "ipopt": {
-                                     "print_level": 0, "sb": "yes", "max_iter": max_iter, "tol": tol,
-                                     "warm_start_init_point": "yes", "mu_init": 1e-3,
-                                     "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6}})
+        self._solver = ca.nlpsol(
+            "mpc",
+            "ipopt",
+            {"x": ca.vertcat(ca.vec(X), ca.vec(U)), "p": ca.vec(R), "f": J, "g": g},
+            {
+                "print_time": False,
+                "ipopt": {
+                    "print_level": 0,
+                    "sb": "yes",
+                    "max_iter": max_iter,
+                    "tol": tol,
+                    "warm_start_init_point": "yes",
+                    "mu_init": 1e-3,
+                    "warm_start_bound_push": 1e-6,
+                    "warm_start_mult_bound_push": 1e-6,
+                },
+            },
+        )
         qlo, qhi = (np.full(n, -np.inf), np.full(n, np.inf)) if limits.q is None else limits.q.T
         xlo = np.tile(np.r_[qlo, -limits.qd], N + 1)
         self._lbx = np.r_[xlo, np.tile(-limits.tau, N)]
@@ -712,7 +824,7 @@ class Tracker:
         IPOPT iterations, status, success)."""
         n, N = self.n, self.N
         lbx, ubx = self._lbx.copy(), self._ubx.copy()
-        lbx[:2 * n] = ubx[:2 * n] = x
+        lbx[: 2 * n] = ubx[: 2 * n] = x
         args = dict(lbx=lbx, ubx=ubx, lbg=0, ubg=0, p=np.asarray(reference).T.ravel(order="F"))
         if self._warm is None:
             args["x0"] = np.r_[np.tile(x, N + 1), np.zeros(n * N)]
@@ -724,22 +836,27 @@ class Tracker:
         st = self._solver.stats()
         w, lam_x, lam_g = (np.array(sol[k]).ravel() for k in ("x", "lam_x", "lam_g"))
         self._warm = dict(x0=self._shift(w), lam_x0=self._shift(lam_x), lam_g0=_shift_block(lam_g, n, N))
-        tau = w[self._nx:self._nx + n]
-        return tau, {"wall": wall, "cpu": cpu, "iterations": int(st["iter_count"]),
-                     "status": st["return_status"], "success": bool(st["success"])}
+        tau = w[self._nx : self._nx + n]
+        return tau, {
+            "wall": wall,
+            "cpu": cpu,
+            "iterations": int(st["iter_count"]),
+            "status": st["return_status"],
+            "success": bool(st["success"]),
+        }
 
     def _shift(self, w: np.ndarray) -> np.ndarray:
         """The decision vector one interval later: states and torques moved one column
         left, the last one repeated."""
         n, N = self.n, self.N
-        X = w[:self._nx].reshape(N + 1, 2 * n)
-        U = w[self._nx:].reshape(N, n)
+        X = w[: self._nx].reshape(N + 1, 2 * n)
+        U = w[self._nx :].reshape(N, n)
         return np.r_[np.vstack([X[1:], X[-1:]]).ravel(), np.vstack([U[1:], U[-1:]]).ravel()]
 
 
 def _shift_block(lam_g: np.ndarray, n: int, N: int) -> np.ndarray:
     """Constraint multipliers (q rows then q̇ rows, N columns each) shifted one interval."""
-    q, qd = lam_g[:n * N].reshape(N, n), lam_g[n * N:].reshape(N, n)
+    q, qd = lam_g[: n * N].reshape(N, n), lam_g[n * N :].reshape(N, n)
     return np.r_[np.vstack([q[1:], q[-1:]]).ravel(), np.vstack([qd[1:], qd[-1:]]).ravel()]
 
 
@@ -786,9 +903,19 @@ class RTITracker:
     and converges to the NLP's solution (the one `Tracker` finds with IPOPT).
     """
 
-    def __init__(self, arm: ArmFunctions, limits: Limits, dt: float, horizon: int, *,
-                 w_q: float = 1e4, w_qd: float = 10.0, r: float = 1e-2, integrator: str = "euler",
-                 qp: str = "qpoases"):
+    def __init__(
+        self,
+        arm: ArmFunctions,
+        limits: Limits,
+        dt: float,
+        horizon: int,
+        *,
+        w_q: float = 1e4,
+        w_qd: float = 10.0,
+        r: float = 1e-2,
+        integrator: str = "euler",
+        qp: str = "qpoases",
+    ):
         n = arm.n
         if limits.tau is None or limits.qd is None:
             raise ValueError("the tracker needs torque and speed limits (Limits.tau and Limits.qd)")
@@ -798,12 +925,12 @@ class RTITracker:
         x, u = ca.MX.sym("x", nx), ca.MX.sym("tau", n)
         xn = step(x, u)
         lin = ca.Function("lin", [x, u], [xn, ca.jacobian(xn, x), ca.jacobian(xn, u)])
-        self._lin = lin.map(N)                      # (nx, N), (nx, N) → F, [A₀ … ], [B₀ … ]
-        self._W = np.tile(np.r_[np.full(n, w_q), np.full(n, w_qd)], N)            # (N·nx,)
-        self._R = np.tile(r / _finite_or_one(limits.tau, n) ** 2, N)              # (N·n,)
+        self._lin = lin.map(N)  # (nx, N), (nx, N) → F, [A₀ … ], [B₀ … ]
+        self._W = np.tile(np.r_[np.full(n, w_q), np.full(n, w_qd)], N)  # (N·nx,)
+        self._R = np.tile(r / _finite_or_one(limits.tau, n) ** 2, N)  # (N·n,)
         qlo, qhi = (np.full(n, -np.inf), np.full(n, np.inf)) if limits.q is None else np.asarray(limits.q, float).T
         xlo, xhi = np.tile(np.r_[qlo, -limits.qd], N), np.tile(np.r_[qhi, limits.qd], N)
-        self._rows = np.flatnonzero(np.isfinite(xlo) | np.isfinite(xhi))           # bounded state rows
+        self._rows = np.flatnonzero(np.isfinite(xlo) | np.isfinite(xhi))  # bounded state rows
         self._xlo, self._xhi = xlo[self._rows], xhi[self._rows]
         self._ulo, self._uhi = np.tile(-limits.tau, N), np.tile(limits.tau, N)
         nu = n * N
@@ -813,8 +940,10 @@ class RTITracker:
         if qp == "qpoases":
             opts.update(printLevel="none", sparse=False)
         elif qp == "osqp":
-            opts.update(warm_start_primal=True, osqp={"verbose": False, "eps_abs": 1e-7, "eps_rel": 1e-7,
-                                                      "polish": True, "max_iter": 10000})
+            opts.update(
+                warm_start_primal=True,
+                osqp={"verbose": False, "eps_abs": 1e-7, "eps_rel": 1e-7, "polish": True, "max_iter": 10000},
+            )
         self.qp_solver = qp
         self._qp = ca.conic("rti_qp", qp, {"h": ca.Sparsity.dense(nu, nu), "a": a_sp}, opts)
         self._X = self._U = None
@@ -840,9 +969,9 @@ class RTITracker:
             self._X = np.tile(ref[0], (N + 1, 1))
             self._U = np.zeros((N, n))
         F, A, B = (np.array(v) for v in self._lin(self._X[:-1].T, self._U.T))
-        A = A.reshape(nx, N, nx).transpose(1, 0, 2)          # (N, nx, nx)
-        B = B.reshape(nx, N, n).transpose(1, 0, 2)           # (N, nx, n)
-        d = F.T - self._X[1:]                                # defects (N, nx)
+        A = A.reshape(nx, N, nx).transpose(1, 0, 2)  # (N, nx, nx)
+        B = B.reshape(nx, N, n).transpose(1, 0, 2)  # (N, nx, n)
+        d = F.T - self._X[1:]  # defects (N, nx)
         G = np.zeros((N * nx, N * n))
         Phi = np.zeros((N * nx, nx))
         c = np.zeros(N * nx)
@@ -852,17 +981,26 @@ class RTITracker:
             if k == 0:
                 Phi[rows], c[rows] = A[0], d[0]
             else:
-                G[rows, :k * n] = A[k] @ G[prev, :k * n]
+                G[rows, : k * n] = A[k] @ G[prev, : k * n]
                 Phi[rows], c[rows] = A[k] @ Phi[prev], A[k] @ c[prev] + d[k]
-            G[rows, k * n:(k + 1) * n] = B[k]
+            G[rows, k * n : (k + 1) * n] = B[k]
             prev = rows
-        e = (self._X[1:] - ref[1:]).ravel() + c              # deviation from the reference at δx₀ = 0, δU = 0
+        e = (self._X[1:] - ref[1:]).ravel() + c  # deviation from the reference at δx₀ = 0, δU = 0
         WG = self._W[:, None] * G
         u = self._U.ravel()
         self._prep = dict(
-            H=2 * (G.T @ WG + np.diag(self._R)), g0=2 * (WG.T @ e + self._R * u), g1=2 * WG.T @ Phi,
-            A=G[self._rows], a0=self._X[1:].ravel()[self._rows] + c[self._rows], a1=Phi[self._rows],
-            lbx=self._ulo - u, ubx=self._uhi - u, G=G, Phi=Phi, c=c)
+            H=2 * (G.T @ WG + np.diag(self._R)),
+            g0=2 * (WG.T @ e + self._R * u),
+            g1=2 * WG.T @ Phi,
+            A=G[self._rows],
+            a0=self._X[1:].ravel()[self._rows] + c[self._rows],
+            a1=Phi[self._rows],
+            lbx=self._ulo - u,
+            ubx=self._uhi - u,
+            G=G,
+            Phi=Phi,
+            c=c,
+        )
         return time.perf_counter() - start
 
     def feedback(self, x: np.ndarray) -> tuple[np.ndarray, dict]:
@@ -873,17 +1011,28 @@ class RTITracker:
         wall, cpu = time.perf_counter(), time.process_time()
         p, n = self._prep, self.n
         dx0 = np.asarray(x, float) - self._X[0]
-        xs = p["a0"] + p["a1"] @ dx0                         # bounded states at δU = 0
-        sol = self._qp(h=p["H"], g=p["g0"] + p["g1"] @ dx0, a=p["A"],
-                       lba=self._xlo - xs, uba=self._xhi - xs, lbx=p["lbx"], ubx=p["ubx"])
+        xs = p["a0"] + p["a1"] @ dx0  # bounded states at δU = 0
+        sol = self._qp(
+            h=p["H"],
+            g=p["g0"] + p["g1"] @ dx0,
+            a=p["A"],
+            lba=self._xlo - xs,
+            uba=self._xhi - xs,
+            lbx=p["lbx"],
+            ubx=p["ubx"],
+        )
         du = np.array(sol["x"]).ravel()
         st = self._qp.stats()
         U = self._U + du.reshape(self.N, n)
-        self._U = np.clip(U, -self.limits.tau, self.limits.tau)   # the QP's bounds, exactly
+        self._U = np.clip(U, -self.limits.tau, self.limits.tau)  # the QP's bounds, exactly
         self._X = self._rollout(np.asarray(x, float), dx0, du)
         wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-        return self._U[0].copy(), {"feedback": wall, "feedback_cpu": cpu, "success": bool(st["success"]),
-                                   "status": str(st.get("return_status", ""))}
+        return self._U[0].copy(), {
+            "feedback": wall,
+            "feedback_cpu": cpu,
+            "success": bool(st["success"]),
+            "status": str(st.get("return_status", "")),
+        }
 
     def _rollout(self, x: np.ndarray, dx0: np.ndarray, du: np.ndarray) -> np.ndarray:
         """The new state guess (N+1, 2n): the measurement, then x̄ + δX of the linearised

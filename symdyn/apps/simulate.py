@@ -22,10 +22,18 @@ from ..model import Robot
 from ..numeric import backend as backends
 from ..numeric import reference
 
-__all__ = ["Adaptive", "RK4", "Trajectory", "COULOMB_WIDTH", "smooth_friction", "simulate",
-           "total_energy", "StderrProgress"]
+__all__ = [
+    "Adaptive",
+    "RK4",
+    "Trajectory",
+    "COULOMB_WIDTH",
+    "smooth_friction",
+    "simulate",
+    "total_energy",
+    "StderrProgress",
+]
 
-COULOMB_WIDTH = 0.01   # rad/s: Coulomb friction reaches tanh(1) = 76 % of Tc at |q̇| = 0.01 rad/s
+COULOMB_WIDTH = 0.01  # rad/s: Coulomb friction reaches tanh(1) = 76 % of Tc at |q̇| = 0.01 rad/s
 
 
 @dataclass(frozen=True)
@@ -77,7 +85,7 @@ def _smooth_friction_law(robot: Robot, width: float = COULOMB_WIDTH) -> Callable
     def F(qd) -> np.ndarray:
         qd = np.asarray(qd, dtype=float)
         coulomb = np.where(qd >= 0, Tc[:, 0], Tc[:, 1]) * np.tanh(np.abs(qd) / width)
-        return G ** 2 * B * qd + np.abs(G) * coulomb
+        return G**2 * B * qd + np.abs(G) * coulomb
 
     return F
 
@@ -97,10 +105,18 @@ class StderrProgress:
                 self.lines.done()
 
 
-def simulate(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *,
-             integrator: Adaptive | RK4 = Adaptive(), coulomb_width: float = COULOMB_WIDTH,
-             progress: Callable[[float, float, float], None] | None = None,
-             backend: str = "auto") -> Trajectory:
+def simulate(
+    robot: Robot,
+    T: float,
+    q0,
+    qd0=None,
+    torque: Callable | None = None,
+    *,
+    integrator: Adaptive | RK4 = Adaptive(),
+    coulomb_width: float = COULOMB_WIDTH,
+    progress: Callable[[float, float, float], None] | None = None,
+    backend: str = "auto",
+) -> Trajectory:
     """Integrate the forward dynamics from (q0, q̇0) over [0, T] s.
 
     torque(t, q, q̇) -> τ (n,) in N·m (or N), None for zero torque.  Friction
@@ -137,8 +153,15 @@ def simulate(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = Non
         t_eval = None
         if integrator.sample is not None:
             t_eval = np.linspace(0.0, T, int(round(T / integrator.sample)) + 1)
-        sol = solve_ivp(rhs, (0.0, float(T)), x0, method=integrator.method, rtol=integrator.rtol,
-                        atol=integrator.atol, t_eval=t_eval)
+        sol = solve_ivp(
+            rhs,
+            (0.0, float(T)),
+            x0,
+            method=integrator.method,
+            rtol=integrator.rtol,
+            atol=integrator.atol,
+            t_eval=t_eval,
+        )
         if not sol.success:
             raise RuntimeError(f"forward dynamics integration of {robot.name!r} failed: {sol.message}")
         t, x = sol.t, sol.y.T

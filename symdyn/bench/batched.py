@@ -46,20 +46,22 @@ SIZES = (10, 1000, 100_000, 1_000_000)
 #: The size the targets and the bounds are read at.
 AT = 100_000
 #: Issue 23's targets at N = 10⁵ on every core, ns per state (simd/T).
-TARGETS = {"puma560": {"tau": 15, "M": 10, "fdyn": 30, "tau_derivatives": 80},
-           "panda": {"tau": 25, "fdyn": 50, "tau_derivatives": 200}}
+TARGETS = {
+    "puma560": {"tau": 15, "M": 10, "fdyn": 30, "tau_derivatives": 80},
+    "panda": {"tau": 25, "fdyn": 50, "tau_derivatives": 200},
+}
 #: ... and Pinocchio's parallel batch / ours at equal threads.
 PIN_RATIO_TARGET = 30
 #: A vector sin/cos pair (`sincosv_` with its range test) is about 62 operations; a header's
 #: "fun" (a sin, cos or sign call) counts as half of one — a sign's select costs less.
 FUN_OPS = 31
 CEILINGS_C = Path(__file__).with_name("ceilings.c")
-INPUTS = {"tau": ("q", "qd", "qdd"), "M": ("q",), "fdyn": ("q", "qd", "tau"),
-          "tau_derivatives": ("q", "qd", "qdd")}
+INPUTS = {"tau": ("q", "qd", "qdd"), "M": ("q",), "fdyn": ("q", "qd", "tau"), "tau_derivatives": ("q", "qd", "qdd")}
 VARIANTS = ("loop", "simd/1", "simd/T", "pin/1", "pin/T", "casadi/T", "rtb")
 
 
 # --------------------------------------------------------------------------- the machine
+
 
 @dataclass(frozen=True)
 class Ceilings:
@@ -129,11 +131,15 @@ def function_costs(c_path: Path, signatures) -> dict[str, tuple[int, int]]:
     for m in re.finditer(r"^\s*\*\s+(\w+)\s+([^(\n]*)\((\d+) total\)", head, re.M):
         parts = {k: int(v) for v, k in re.findall(r"(\d+) (mul|add|div|fun)", m[2])}
         costs[m[1]] = parts.get("mul", 0) + parts.get("add", 0) + parts.get("div", 0) + FUN_OPS * parts.get("fun", 0)
-    return {s.name: (costs[s.name], 8 * (sum(k for _, k in s.inputs) + sum(int(np.prod(sh)) for _, sh in s.outputs)))
-            for s in signatures if s.name in costs}
+    return {
+        s.name: (costs[s.name], 8 * (sum(k for _, k in s.inputs) + sum(int(np.prod(sh)) for _, sh in s.outputs)))
+        for s in signatures
+        if s.name in costs
+    }
 
 
 # --------------------------------------------------------------------------- timing
+
 
 def _best(call, states: int, rounds: int = 5, budget: float = 0.1) -> float:
     """ns per state of call(): the best of `rounds` rounds of enough calls to last `budget` s."""
@@ -179,6 +185,7 @@ def _peers(robot, threads: int, log):
         import pinocchio as pin
 
         from .peers import pinocchio_model
+
         pool = (pin, pinocchio_model(bare), pin.ModelPool(pinocchio_model(bare), threads))
     except ImportError:
         log("Pinocchio (pin) is not installed: no pin rows (make bench installs it)")
@@ -186,13 +193,17 @@ def _peers(robot, threads: int, log):
         import casadi as ca
 
         from ..codegen.emit.clib import compiler
+
         folder = writable(cache_dir() / "bench" / f"casadi-rnea-{robot.fingerprint()[:16]}")
         lib = folder / "casadi_rnea.so"
         if not lib.exists():
             c = casadi_rnea_c(bare, folder)
             tmp = folder / f".casadi_rnea.{os.getpid()}.so"
-            subprocess.run([compiler(), "-O3", "-march=native", "-fPIC", "-shared", str(c), "-o", str(tmp)],
-                           check=True, capture_output=True)
+            subprocess.run(
+                [compiler(), "-O3", "-march=native", "-fPIC", "-shared", str(c), "-o", str(tmp)],
+                check=True,
+                capture_output=True,
+            )
             os.replace(tmp, lib)
         casadi = ca.external("casadi_rnea", str(lib))
     except (subprocess.CalledProcessError, RuntimeError) as exc:
@@ -201,8 +212,18 @@ def _peers(robot, threads: int, log):
     return pool, casadi, bot
 
 
-def run(robot, *, sizes=SIZES, functions=FUNCTIONS, threads: int | None = None, max_bytes: float = 4e8,
-        seed: int = 0, log=print, rounds: int = 5, budget: float = 0.1) -> Result:
+def run(
+    robot,
+    *,
+    sizes=SIZES,
+    functions=FUNCTIONS,
+    threads: int | None = None,
+    max_bytes: float = 4e8,
+    seed: int = 0,
+    log=print,
+    rounds: int = 5,
+    budget: float = 0.1,
+) -> Result:
     """Time every variant of `functions` of the C code of `robot` (`symdyn.load(robot, "c")`: the
     shipped code of a shipped arm, else generated once into the cache); each time the best of
     `rounds` rounds of calls lasting `budget` seconds."""
@@ -233,16 +254,20 @@ def run(robot, *, sizes=SIZES, functions=FUNCTIONS, threads: int | None = None, 
             out = outs[0] if len(outs) == 1 else outs
             ptrs = [ctypes.c_void_p(a.ctypes.data) for a in (*xs, *outs)]
             k = slice(0, min(size, 50))
-            want = {"tau": lambda: ref.rne(robot, x["q"][k], x["qd"][k], x["qdd"][k]),
-                    "M": lambda: ref.inertia(robot, x["q"][k]),
-                    "fdyn": lambda: ref.accel(robot, x["q"][k], x["qd"][k], x["tau"][k]),
-                    "tau_derivatives": lambda: ref.rne(robot, x["q"][k], x["qd"][k], x["qdd"][k])}[fname]()
+            want = {
+                "tau": lambda: ref.rne(robot, x["q"][k], x["qd"][k], x["qdd"][k]),
+                "M": lambda: ref.inertia(robot, x["q"][k]),
+                "fdyn": lambda: ref.accel(robot, x["q"][k], x["qd"][k], x["tau"][k]),
+                "tau_derivatives": lambda: ref.rne(robot, x["q"][k], x["qd"][k], x["qdd"][k]),
+            }[fname]()
             f(*xs, out=out, threads=threads)
             _agree(f"{name} {fname}", outs[0][k], want)
             best = lambda call: _best(call, size, rounds, budget)  # noqa: E731
-            t = {"loop": best(lambda: loop(ctypes.c_int(size), *ptrs)),
-                 "simd/1": best(lambda: f(*xs, out=out, threads=1)),
-                 "simd/T": best(lambda: f(*xs, out=out, threads=threads))}
+            t = {
+                "loop": best(lambda: loop(ctypes.c_int(size), *ptrs)),
+                "simd/1": best(lambda: f(*xs, out=out, threads=1)),
+                "simd/T": best(lambda: f(*xs, out=out, threads=threads)),
+            }
             t.update(_peer_times(fname, size, x, pool, casadi, bot, bare, threads, best))
             result.times[(fname, size)] = t
             log(f"  {name} {fname:16s} N={size:>8d}  " + "  ".join(f"{v} {ns:.1f}" for v, ns in t.items()))
@@ -257,29 +282,37 @@ def _peer_times(fname: str, size: int, x: dict, pool, casadi, bot, bare, threads
     if pool is not None and fname in ("tau", "fdyn"):
         pin, pmodel, models = pool
         second = "qdd" if fname == "tau" else "tau"
-        Q, V, A = (x[a].T for a in ("q", "qd", second))   # (n, N) Fortran views, no copies
+        Q, V, A = (x[a].T for a in ("q", "qd", second))  # (n, N) Fortran views, no copies
         R = np.zeros_like(Q, order="F")
         call = pin.rneaInParallel if fname == "tau" else pin.abaInParallel
-        want = (ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k]) if fname == "tau"
-                else ref.accel(bare, x["q"][k], x["qd"][k], x["tau"][k]))
+        want = (
+            ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k])
+            if fname == "tau"
+            else ref.accel(bare, x["q"][k], x["qd"][k], x["tau"][k])
+        )
         call(threads, models, Q, V, A, R)
         _agree(f"pin.{call.__name__}", R.T[k], want)
         t["pin/1"] = best(lambda: call(1, models, Q, V, A, R))
         t["pin/T"] = best(lambda: call(threads, models, Q, V, A, R))
     if casadi is not None and fname == "tau":
         import casadi as ca
+
         mapped = casadi.map(size, "thread", threads)
         args = [ca.DM(x[a].T) for a in ("q", "qd", "qdd")]
         _agree("CasADi map", np.array(mapped(*args)).T[k], ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k]))
         t["casadi/T"] = best(lambda: mapped(*args))
     if bot is not None and fname == "tau" and size <= 100_000:
-        _agree("Robotics Toolbox rne", bot.rne(x["q"][k], x["qd"][k], x["qdd"][k]),
-               ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k]))
+        _agree(
+            "Robotics Toolbox rne",
+            bot.rne(x["q"][k], x["qd"][k], x["qdd"][k]),
+            ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k]),
+        )
         t["rtb"] = best(lambda: bot.rne(x["q"], x["qd"], x["qdd"]))
     return t
 
 
 # --------------------------------------------------------------------------- report
+
 
 def _cell(ns) -> str:
     return "" if ns is None else f"{ns:.1f}" if ns < 1000 else f"{ns:,.0f}"
@@ -292,51 +325,90 @@ def rows(result: Result, ceil: Ceilings) -> tuple[list[list[str]], list[list[str
         ratio = t["pin/T"] / t["simd/T"] if "pin/T" in t else None
         target = TARGETS.get(result.model, {}).get(fname) if size == AT else None
         met = "" if target is None else ("yes" if t["simd/T"] <= target else "no")
-        timing.append([fname, f"{size:,}", *(_cell(t.get(v)) for v in VARIANTS),
-                       "" if ratio is None else f"{ratio:.0f}×", "" if target is None else f"≤ {target}", met])
+        timing.append(
+            [
+                fname,
+                f"{size:,}",
+                *(_cell(t.get(v)) for v in VARIANTS),
+                "" if ratio is None else f"{ratio:.0f}×",
+                "" if target is None else f"≤ {target}",
+                met,
+            ]
+        )
     bounds = []
     for fname in dict.fromkeys(f for f, _ in result.times):
         size = max(s for f, s in result.times if f == fname)
         ops, nbytes = result.costs[fname]
         compute, memory = ceil.bound_ns(ops, nbytes)
         ns = result.times[(fname, size)]["simd/T"]
-        bounds.append([fname, f"{size:,}", str(ops), str(nbytes), f"{compute:.1f}", f"{memory:.1f}",
-                       f"{max(compute, memory):.1f}", f"{ns:.1f}", f"{ns / max(compute, memory):.1f}×",
-                       f"{ops / ns:.1f}"])
+        bounds.append(
+            [
+                fname,
+                f"{size:,}",
+                str(ops),
+                str(nbytes),
+                f"{compute:.1f}",
+                f"{memory:.1f}",
+                f"{max(compute, memory):.1f}",
+                f"{ns:.1f}",
+                f"{ns / max(compute, memory):.1f}×",
+                f"{ops / ns:.1f}",
+            ]
+        )
     return timing, bounds
 
 
 TIMING_HEAD = ["function", "N", *VARIANTS, "pin/T ÷ simd/T", "target", "met"]
-BOUND_HEAD = ["function", "at N", "ops/state", "bytes/state", "compute ns", "memory ns", "bound ns",
-              "simd/T ns", "÷ bound", "Gop/s"]
+BOUND_HEAD = [
+    "function",
+    "at N",
+    "ops/state",
+    "bytes/state",
+    "compute ns",
+    "memory ns",
+    "bound ns",
+    "simd/T ns",
+    "÷ bound",
+    "Gop/s",
+]
 
 
 def ceiling_lines(ceil: Ceilings) -> list[str]:
-    return [f"ceilings (measured in this run): mul-add peak {ceil.ops[0] / 1e9:.1f} Gop/s on 1 thread, "
-            f"{ceil.ops[1] / 1e9:.1f} on {ceil.threads}; copy bandwidth {ceil.bandwidth[0] / 1e9:.1f} GB/s on 1 "
-            f"thread, {ceil.bandwidth[1] / 1e9:.1f} on {ceil.threads}",
-            f"ops/state: mul + add + div + {FUN_OPS} per sin/cos/sign call (the header's counts: after one joint "
-            "CSE, with the model's friction); bytes/state: inputs "
-            "+ outputs; bound = max(ops / peak, bytes / bandwidth) at T threads"]
+    return [
+        f"ceilings (measured in this run): mul-add peak {ceil.ops[0] / 1e9:.1f} Gop/s on 1 thread, "
+        f"{ceil.ops[1] / 1e9:.1f} on {ceil.threads}; copy bandwidth {ceil.bandwidth[0] / 1e9:.1f} GB/s on 1 "
+        f"thread, {ceil.bandwidth[1] / 1e9:.1f} on {ceil.threads}",
+        f"ops/state: mul + add + div + {FUN_OPS} per sin/cos/sign call (the header's counts: after one joint "
+        "CSE, with the model's friction); bytes/state: inputs "
+        "+ outputs; bound = max(ops / peak, bytes / bandwidth) at T threads",
+    ]
 
 
 def _text_table(head, body) -> str:
     widths = [max(len(r[i]) for r in [head, *body]) for i in range(len(head))]
-    return "\n".join("  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths)))
-                     for r in [head, *body])
+    return "\n".join(
+        "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in [head, *body]
+    )
 
 
 def _md_table(head, body) -> str:
-    return "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head),
-                      *("| " + " | ".join(r) + " |" for r in body)])
+    return "\n".join(
+        ["| " + " | ".join(head) + " |", "|" + "---|" * len(head), *("| " + " | ".join(r) + " |" for r in body)]
+    )
 
 
 def format_report(results: list[Result], ceil: Ceilings) -> str:
     parts = []
     for r in results:
         timing, bounds = rows(r, ceil)
-        parts += [f"{r.model} ({r.n} joints), ns per state, T = {r.threads} threads:", _text_table(TIMING_HEAD, timing),
-                  "", _text_table(BOUND_HEAD, bounds), *r.notes, ""]
+        parts += [
+            f"{r.model} ({r.n} joints), ns per state, T = {r.threads} threads:",
+            _text_table(TIMING_HEAD, timing),
+            "",
+            _text_table(BOUND_HEAD, bounds),
+            *r.notes,
+            "",
+        ]
     return "\n".join(parts + ceiling_lines(ceil))
 
 
@@ -344,15 +416,23 @@ def markdown_report(results: list[Result], ceil: Ceilings) -> str:
     parts = []
     for r in results:
         timing, bounds = rows(r, ceil)
-        parts += [f"**{r.model}** ({r.n} joints), ns per state, T = {r.threads} threads", "",
-                  _md_table(TIMING_HEAD, timing), "", _md_table(BOUND_HEAD, bounds), "",
-                  *(f"- {note}" for note in r.notes), ""]
+        parts += [
+            f"**{r.model}** ({r.n} joints), ns per state, T = {r.threads} threads",
+            "",
+            _md_table(TIMING_HEAD, timing),
+            "",
+            _md_table(BOUND_HEAD, bounds),
+            "",
+            *(f"- {note}" for note in r.notes),
+            "",
+        ]
     return "\n".join(parts + [f"- {line}" for line in ceiling_lines(ceil)]) + "\n"
 
 
 def plot(results: list[Result], path: Path) -> Path:
     """ns per state against N, log–log, one panel per arm and function, one line per variant."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -371,7 +451,7 @@ def plot(results: list[Result], path: Path) -> Path:
         ax.set_ylabel("ns per state", fontsize=8)
         ax.grid(True, which="both", lw=0.3)
         ax.tick_params(labelsize=7)
-    for ax in list(axes.flat)[len(panels):]:
+    for ax in list(axes.flat)[len(panels) :]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
     fig.tight_layout()

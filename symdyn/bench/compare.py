@@ -51,16 +51,30 @@ from . import pin_peer
 from .peers import casadi_rnea_c, toolbox_robot
 from .pin_peer import FD_RTOL, PeerUnavailable, central_jacobian, read_report
 
-__all__ = ["Row", "main", "configure_parser", "frictionless_sources", "random_states", "write_states",
-           "build_harness", "run_harness", "check_harness", "op_counts", "casadi_op_count", "TARGETS",
-           "format_table", "markdown_table"]
+__all__ = [
+    "Row",
+    "main",
+    "configure_parser",
+    "frictionless_sources",
+    "random_states",
+    "write_states",
+    "build_harness",
+    "run_harness",
+    "check_harness",
+    "op_counts",
+    "casadi_op_count",
+    "TARGETS",
+    "format_table",
+    "markdown_table",
+]
 
 MODEL = "puma560"
 #: Issue 15's targets for the 7-joint arms (speed-up ≥, keyed by the peer algorithm; "pin.rnea": the one
 #: call from Python).  The Puma's (issue 4's) are in the row tables; an arm not listed here has none.
-TARGETS = {arm: {"rnea": 4, "crba": 4, "aba": 4, "computeCoriolisMatrix": 2, "pin.rnea": 3}
-           for arm in ("panda", "iiwa14")}
-POOL = 1024                      # states cycled by the C harnesses (a power of two, as pin_bench.cpp)
+TARGETS = {
+    arm: {"rnea": 4, "crba": 4, "aba": 4, "computeCoriolisMatrix": 2, "pin.rnea": 3} for arm in ("panda", "iiwa14")
+}
+POOL = 1024  # states cycled by the C harnesses (a power of two, as pin_bench.cpp)
 HARNESS = Path(__file__).with_name("harness.c")
 CFLAGS = ("-O3", "-march=native")
 
@@ -113,6 +127,7 @@ class Row:
 
 
 # --------------------------------------------------------------------------- inputs
+
 
 def _digest(*parts: str | bytes) -> str:
     h = hashlib.sha256()
@@ -173,6 +188,7 @@ def op_counts(c_path: Path) -> dict[str, int]:
 
 # --------------------------------------------------------------------------- C level
 
+
 def casadi_op_count(robot) -> int:
     """Operations of the plain SX RNEA (symdyn.numeric.casadi_rnea, no friction) counted as symdyn counts
     its own (`op_counts`): every arithmetic or function instruction of CasADi's algorithm, negation free,
@@ -188,6 +204,7 @@ def casadi_op_count(robot) -> int:
 
 def _compiler() -> str:
     from ..codegen.emit.clib import compiler
+
     return compiler()
 
 
@@ -209,10 +226,20 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
         return binary
     for name, text in sources.items():
         write_atomic(folder / name, text)
-    cmd = [cc, *CFLAGS, f"-DMODEL={model}", f"-DNDOF={ndof[1]}", f'-DMODEL_HEADER="{h_path.name}"',
-           *(["-DWITH_CASADI"] if casadi_c is not None else []),
-           *(["-DWITH_DERIVATIVES"] if f"{model}_tau_derivatives(" in h_text else []), f"-I{folder}",
-           *(str(folder / n) for n in sources if n.endswith(".c")), "-o", str(folder / "harness.tmp"), "-lm"]
+    cmd = [
+        cc,
+        *CFLAGS,
+        f"-DMODEL={model}",
+        f"-DNDOF={ndof[1]}",
+        f'-DMODEL_HEADER="{h_path.name}"',
+        *(["-DWITH_CASADI"] if casadi_c is not None else []),
+        *(["-DWITH_DERIVATIVES"] if f"{model}_tau_derivatives(" in h_text else []),
+        f"-I{folder}",
+        *(str(folder / n) for n in sources if n.endswith(".c")),
+        "-o",
+        str(folder / "harness.tmp"),
+        "-lm",
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         raise RuntimeError(f"compiling the C harness failed ({' '.join(cmd)}):\n{run.stderr[-2000:]}")
@@ -222,8 +249,9 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
 
 def run_harness(binary: Path, states: Path, ncalls: int, reps: int, functions=()) -> tuple[dict, dict]:
     """({function: ns per call}, {function: outputs at state 3}) from one harness run."""
-    run = subprocess.run([str(binary), str(states), str(int(ncalls)), str(int(reps)), *functions],
-                         capture_output=True, text=True)
+    run = subprocess.run(
+        [str(binary), str(states), str(int(ncalls)), str(int(reps)), *functions], capture_output=True, text=True
+    )
     if run.returncode != 0:
         raise RuntimeError(f"{binary} failed ({run.returncode}): {run.stderr.strip()}")
     return read_report(run.stdout)
@@ -234,13 +262,18 @@ def check_harness(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float 
     derivatives' dtau/dq and dqdd/dq against central differences, to FD_RTOL); a RuntimeError
     if above rtol (timing wrong code would be worthless)."""
     q, qd, qdd, tau = q[k], qd[k], qdd[k], tau[k]
-    expected = {"tau": lambda: ref.rne(robot, q, qd, qdd),
-                "casadi_rnea": lambda: ref.rne(robot.nofriction(all=True), q, qd, qdd),
-                "M": lambda: ref.inertia(robot, q), "C": lambda: ref.coriolis(robot, q, qd),
-                "G": lambda: ref.gravload(robot, q), "Cqd": lambda: ref.coriolis(robot, q, qd) @ qd,
-                "fdyn": lambda: ref.accel(robot, q, qd, tau), "Minv": lambda: np.linalg.inv(ref.inertia(robot, q)),
-                "tau_derivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
-                "fdyn_derivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q)}
+    expected = {
+        "tau": lambda: ref.rne(robot, q, qd, qdd),
+        "casadi_rnea": lambda: ref.rne(robot.nofriction(all=True), q, qd, qdd),
+        "M": lambda: ref.inertia(robot, q),
+        "C": lambda: ref.coriolis(robot, q, qd),
+        "G": lambda: ref.gravload(robot, q),
+        "Cqd": lambda: ref.coriolis(robot, q, qd) @ qd,
+        "fdyn": lambda: ref.accel(robot, q, qd, tau),
+        "Minv": lambda: np.linalg.inv(ref.inertia(robot, q)),
+        "tau_derivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
+        "fdyn_derivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q),
+    }
     worst = 0.0
     for name, got in checks.items():
         want = np.ravel(expected[name]())
@@ -253,8 +286,10 @@ def check_harness(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float 
 
 #: Titles of the row groups: which code is compared with which, so no row passes for what it is not.
 C_PEER = "C level, same run: symdyn generated C vs Pinocchio C++ (symdyn/bench/pin_peer.cpp)"
-C_BASELINE = ("C level, same run, baseline (not a peer): symdyn generated C vs a plain recursive Newton–Euler "
-              "(symdyn.numeric.casadi_rnea) through CasADi's C code generator")
+C_BASELINE = (
+    "C level, same run, baseline (not a peer): symdyn generated C vs a plain recursive Newton–Euler "
+    "(symdyn.numeric.casadi_rnea) through CasADi's C code generator"
+)
 PY_ONE = "From Python, one call: symdyn C target vs Pinocchio's Python bindings"
 
 # (group, label, symdyn harness, symdyn function, peer label, pin_peer.cpp algorithm or casadi_rnea, target)
@@ -266,10 +301,24 @@ C_ROWS = (
     (C_PEER, "C", "bare", "C", "Pinocchio computeCoriolisMatrix", "computeCoriolisMatrix", 6),
     (C_PEER, "G", "bare", "G", "Pinocchio computeGeneralizedGravity", "computeGeneralizedGravity", None),
     (C_PEER, "Cqd", "bare", "Cqd", "Pinocchio nonLinearEffects (C q̇ + G)", "nonLinearEffects", None),
-    (C_PEER, "tau_derivatives (τ, ∂τ/∂q, ∂τ/∂q̇)", "bare", "tau_derivatives", "Pinocchio computeRNEADerivatives",
-     "computeRNEADerivatives", None),
-    (C_PEER, "fdyn_derivatives (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹)", "bare", "fdyn_derivatives",
-     "Pinocchio computeABADerivatives", "computeABADerivatives", None),
+    (
+        C_PEER,
+        "tau_derivatives (τ, ∂τ/∂q, ∂τ/∂q̇)",
+        "bare",
+        "tau_derivatives",
+        "Pinocchio computeRNEADerivatives",
+        "computeRNEADerivatives",
+        None,
+    ),
+    (
+        C_PEER,
+        "fdyn_derivatives (q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹)",
+        "bare",
+        "fdyn_derivatives",
+        "Pinocchio computeABADerivatives",
+        "computeABADerivatives",
+        None,
+    ),
     (C_PEER, "Minv", "bare", "Minv", "Pinocchio computeMinverse", "computeMinverse", None),
     (C_PEER, "tau +friction (shipped)", "shipped", "tau", "Pinocchio rnea (no friction)", "rnea", None),
     (C_PEER, "fdyn +friction (shipped)", "shipped", "fdyn", "Pinocchio aba (no friction)", "aba", None),
@@ -300,7 +349,7 @@ def c_level(robot, src: dict, states, args, log, missing: list, name: str = MODE
         casadi_c = casadi_rnea_c(robot, work / f"casadi-{_digest(bare.fingerprint())}")
     harnesses = {"bare": (build_harness(src["c"], src["h"], casadi_c), (), bare)}
     shipped = GENERATED / MODEL
-    if name == MODEL and (shipped / f"{MODEL}.c").exists():     # the with-friction rows are the Puma's
+    if name == MODEL and (shipped / f"{MODEL}.c").exists():  # the with-friction rows are the Puma's
         harnesses["shipped"] = (build_harness(shipped / f"{MODEL}.c", shipped / f"{MODEL}.h"), ("tau", "fdyn"), robot)
     elif name == MODEL:
         log(f"no {shipped}: the with-friction rows are left out")
@@ -328,7 +377,7 @@ def c_level(robot, src: dict, states, args, log, missing: list, name: str = MODE
 
     try:
         for r in range(args.rounds):
-            if peer is not None and r % 2:       # ABAB… → ABBA…: slow drifts of load cancel
+            if peer is not None and r % 2:  # ABAB… → ABBA…: slow drifts of load cancel
                 time_peer()
             for key, (binary, functions, model) in harnesses.items():
                 t, checks = run_harness(binary, states_file, args.calls, args.reps, functions)
@@ -351,12 +400,14 @@ def c_level(robot, src: dict, states, args, log, missing: list, name: str = MODE
                 target = TARGETS.get(name, {}).get(algo)
                 if algo == "casadi_rnea":
                     peer_label = f"{peer_label} ({casadi_op_count(robot)} ops)"
-            rows.append(Row(_title(group, name), label, samples(times[key], fn), peer_label, peer_ns,
-                            ops[key].get(fn), target))
+            rows.append(
+                Row(_title(group, name), label, samples(times[key], fn), peer_label, peer_ns, ops[key].get(fn), target)
+            )
     return rows
 
 
 # --------------------------------------------------------------------------- from Python
+
 
 def _paired_ns(ours, peer, number: int, repeat: int, per: int = 1) -> tuple[tuple, tuple]:
     """ns per call (divided by `per` states) of ours() and peer(), timed in alternation
@@ -428,15 +479,33 @@ def python_level(robot, src: dict, states, args, log, missing: list, name: str =
         one = lambda: pin.rnea(model, data, q1, qd1, qdd1)  # noqa: E731
         ours, peer = _paired_ns(lambda: fast_tau(q1, qd1, qdd1), one, 20000, 7)
         if name != MODEL:
-            return [Row(_title(PY_ONE, name), "tau (C target)", ours, "pin.rnea", peer, ops,
-                        TARGETS.get(name, {}).get("pin.rnea"))]
+            return [
+                Row(
+                    _title(PY_ONE, name),
+                    "tau (C target)",
+                    ours,
+                    "pin.rnea",
+                    peer,
+                    ops,
+                    TARGETS.get(name, {}).get("pin.rnea"),
+                )
+            ]
         rows.append(Row(PY_ONE, "tau (C target)", ours, "pin.rnea", peer, ops, 3))
         shipped = _shipped_model()
         if shipped is not None:
             _agree("symdyn.load(...).tau", shipped.tau(q1, qd1, qdd1), ref.rne(robot, q1, qd1, qdd1))
             ours, peer = _paired_ns(lambda: shipped.tau(q1, qd1, qdd1), one, 20000, 7)
-            rows.append(Row(PY_ONE, "tau +friction (symdyn.load)", ours, "pin.rnea (no friction)", peer,
-                            op_counts(GENERATED / MODEL / f"{MODEL}.c").get("tau"), None))
+            rows.append(
+                Row(
+                    PY_ONE,
+                    "tau +friction (symdyn.load)",
+                    ours,
+                    "pin.rnea (no friction)",
+                    peer,
+                    op_counts(GENERATED / MODEL / f"{MODEL}.c").get("tau"),
+                    None,
+                )
+            )
         many = lambda: pin.rneaInParallel(1, pool, Q, V, A)  # noqa: E731
         ours, peer = _paired_ns(lambda: fast_tau(q, qd, qdd), many, 3, 7, N)
         rows.append(Row(batch, "tau (C target)", ours, "pin.rneaInParallel, 1 thread", peer, ops, 4))
@@ -445,10 +514,12 @@ def python_level(robot, src: dict, states, args, log, missing: list, name: str =
         missing.append(f"Robotics Toolbox: not installed (roboticstoolbox-python): {pin_peer.HOW_TO_INSTALL}")
     else:
         import roboticstoolbox as rtb
+
         _agree("Robotics Toolbox rne", bot.rne(q, qd, qdd), want)
         ours, peer = _paired_ns(lambda: npmod.tau(q, qd, qdd), lambda: bot.rne(q, qd, qdd), 1, 5, N)
-        rows.append(Row(batch, "tau (NumPy target)", ours, f"Robotics Toolbox {rtb.__version__} rne (batched)",
-                        peer, ops, 3))
+        rows.append(
+            Row(batch, "tau (NumPy target)", ours, f"Robotics Toolbox {rtb.__version__} rne (batched)", peer, ops, 3)
+        )
     return rows
 
 
@@ -457,21 +528,33 @@ def python_level(robot, src: dict, states, args, log, missing: list, name: str =
 COLUMNS = ("function", "symdyn ns", "peer", "peer ns", "speed-up", "range", "ops", "target", "met")
 RIGHT = {1, 3, 4, 5, 6}
 #: What the ops column counts, printed with every table (a count that does not say what it counts misleads).
-OPS_NOTE = ("ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
-            "after one joint CSE; Newton–Euler on regrouped base parameters, C by Lagrange), without friction "
-            "unless the function says +friction")
+OPS_NOTE = (
+    "ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
+    "after one joint CSE; Newton–Euler on regrouped base parameters, C by Lagrange), without friction "
+    "unless the function says +friction"
+)
 #: The same for an arm beyond six joints' reach of Lagrange, and the CasADi baseline's count beside it.
-OPS_NOTE_ARM = ("ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
-                "after one joint CSE; Newton–Euler on regrouped base parameters, C = ∂(C q̇)/∂q̇ / 2 of it, as the "
-                "generated file's header says), without friction; the CasADi baseline's ops: the arithmetic and "
-                "sin/cos instructions of its SX algorithm, negation free")
+OPS_NOTE_ARM = (
+    "ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
+    "after one joint CSE; Newton–Euler on regrouped base parameters, C = ∂(C q̇)/∂q̇ / 2 of it, as the "
+    "generated file's header says), without friction; the CasADi baseline's ops: the arithmetic and "
+    "sin/cos instructions of its SX algorithm, negation free"
+)
 
 
 def _cells(row: Row) -> list[str]:
     spread = row.spread
-    return [row.function, f"{row.symdyn_ns:.1f}", row.peer, f"{row.peer_ns:.1f}", f"{row.ratio:.2f}×",
-            f"{spread[0]:.2f}–{spread[1]:.2f}" if spread else "", "" if row.ops is None else str(row.ops),
-            f"≥ {row.target}×" if row.target else "", row.met]
+    return [
+        row.function,
+        f"{row.symdyn_ns:.1f}",
+        row.peer,
+        f"{row.peer_ns:.1f}",
+        f"{row.ratio:.2f}×",
+        f"{spread[0]:.2f}–{spread[1]:.2f}" if spread else "",
+        "" if row.ops is None else str(row.ops),
+        f"≥ {row.target}×" if row.target else "",
+        row.met,
+    ]
 
 
 def _groups(rows: list[Row]) -> list[tuple[str, list[Row]]]:
@@ -489,8 +572,10 @@ def format_table(rows: list[Row], missing: list[str] = (), note: str = OPS_NOTE)
     for title, group in _groups(rows):
         cells = [list(COLUMNS)] + [_cells(r) for r in group]
         widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
-        lines = ["  ".join(c.rjust(w) if i in RIGHT else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
-                 for line in cells]
+        lines = [
+            "  ".join(c.rjust(w) if i in RIGHT else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
+            for line in cells
+        ]
         lines.insert(1, "  ".join("-" * w for w in widths))
         out += ["", title, *(line.rstrip() for line in lines)]
     out += ["", note, *missing]
@@ -501,8 +586,13 @@ def markdown_table(rows: list[Row], missing: list[str] = (), note: str = OPS_NOT
     """The same tables in Markdown: the title of each in bold above it."""
     out = []
     for title, group in _groups(rows):
-        out += ["", f"**{title}**", "", "| " + " | ".join(COLUMNS) + " |",
-                "|" + "|".join("---:" if i in RIGHT else "---" for i in range(len(COLUMNS))) + "|"]
+        out += [
+            "",
+            f"**{title}**",
+            "",
+            "| " + " | ".join(COLUMNS) + " |",
+            "|" + "|".join("---:" if i in RIGHT else "---" for i in range(len(COLUMNS))) + "|",
+        ]
         out += ["| " + " | ".join(_cells(r)) + " |" for r in group]
     out += ["", note + ".", *(f"\n{m}" for m in missing)]
     return "\n".join(out).strip("\n")
@@ -512,8 +602,11 @@ def machine() -> str:
     """CPU, compiler and peer versions, for the record."""
     cpu = platform.processor() or platform.machine()
     try:
-        cpu = next(l.split(":", 1)[1].strip() for l in Path("/proc/cpuinfo").read_text().splitlines()
-                   if l.startswith("model name"))
+        cpu = next(
+            l.split(":", 1)[1].strip()
+            for l in Path("/proc/cpuinfo").read_text().splitlines()
+            if l.startswith("model name")
+        )
     except (OSError, StopIteration):
         pass
     cc = shutil.which(os.environ.get("CC", "cc"))
@@ -529,34 +622,61 @@ def machine() -> str:
 
 # --------------------------------------------------------------------------- command line
 
+
 def configure_parser(p: argparse.ArgumentParser) -> None:
     """Arguments of `symdyn bench`."""
     from ..model import command_line
 
-    p.add_argument("--model", nargs="+", metavar="NAME", default=None,
-                   help=f"arms to compare, one report each: shipped ({', '.join(arms.NAMES)}; default {MODEL}) "
-                        "or URDF files (the URDF options below apply to each)")
+    p.add_argument(
+        "--model",
+        nargs="+",
+        metavar="NAME",
+        default=None,
+        help=f"arms to compare, one report each: shipped ({', '.join(arms.NAMES)}; default {MODEL}) "
+        "or URDF files (the URDF options below apply to each)",
+    )
     p.add_argument("--calls", type=int, default=1_000_000, help="C-level calls per repetition (default 10^6)")
-    p.add_argument("--pin-calls", type=int, default=100_000,
-                   help="Pinocchio C++ calls per repetition (default 10^5: its calls are ~10x slower, "
-                        "so each repetition still lasts > 0.1 s)")
+    p.add_argument(
+        "--pin-calls",
+        type=int,
+        default=100_000,
+        help="Pinocchio C++ calls per repetition (default 10^5: its calls are ~10x slower, "
+        "so each repetition still lasts > 0.1 s)",
+    )
     p.add_argument("--reps", type=int, default=9, help="repetitions per C harness run, median (default 9)")
-    p.add_argument("--rounds", type=int, default=3,
-                   help="alternating runs of the symdyn and Pinocchio harnesses, median (default 3)")
+    p.add_argument(
+        "--rounds",
+        type=int,
+        default=3,
+        help="alternating runs of the symdyn and Pinocchio harnesses, median (default 3)",
+    )
     p.add_argument("--batch", type=int, default=10_000, help="states per batched Python call (default 10^4)")
     p.add_argument("--seed", type=int, default=0, help="random states' seed (default 0)")
     p.add_argument("--no-pin", action="store_true", help="skip the Pinocchio C++ peer")
     p.add_argument("--no-casadi", action="store_true", help="skip the plain CasADi RNEA in C")
     p.add_argument("--no-python", action="store_true", help="skip the comparisons from Python")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown to FILE")
-    p.add_argument("--batched", action="store_true",
-                   help="also the batched section: ns per state at --sizes against the loop, Pinocchio's "
-                        "*InParallel, CasADi's map, the Toolbox and this machine's ceilings (shipped arms)")
+    p.add_argument(
+        "--batched",
+        action="store_true",
+        help="also the batched section: ns per state at --sizes against the loop, Pinocchio's "
+        "*InParallel, CasADi's map, the Toolbox and this machine's ceilings (shipped arms)",
+    )
     p.add_argument("--no-call", action="store_true", help="skip the per-call section (with --batched)")
-    p.add_argument("--sizes", nargs="+", type=float, default=None, metavar="N",
-                   help="batch sizes of the batched section (default 10 1e3 1e5 1e6)")
-    p.add_argument("--threads", type=int, default=None,
-                   help="threads of the batched section (default: the cores this process may use)")
+    p.add_argument(
+        "--sizes",
+        nargs="+",
+        type=float,
+        default=None,
+        metavar="N",
+        help="batch sizes of the batched section (default 10 1e3 1e5 1e6)",
+    )
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="threads of the batched section (default: the cores this process may use)",
+    )
     p.add_argument("--plot", metavar="PNG", help="with --batched: ns per state against N, log-log, to PNG")
     command_line.add_urdf_options(p)
     p.set_defaults(func=main)
@@ -570,9 +690,11 @@ def model_names(names) -> list[str]:
     names = list(dict.fromkeys(names or [MODEL]))
     unknown = [n for n in names if n not in arms.NAMES and not is_urdf(n)]
     if unknown:
-        raise ValueError(f"symdyn bench --model: unknown model{'s' if len(unknown) > 1 else ''} "
-                         f"{', '.join(map(repr, unknown))}: known models are {', '.join(arms.NAMES)}, "
-                         "or give a URDF file (a path ending in .urdf)")
+        raise ValueError(
+            f"symdyn bench --model: unknown model{'s' if len(unknown) > 1 else ''} "
+            f"{', '.join(map(repr, unknown))}: known models are {', '.join(arms.NAMES)}, "
+            "or give a URDF file (a path ending in .urdf)"
+        )
     return names
 
 
@@ -583,8 +705,10 @@ def _batched(robots: list, args, log) -> str:
     threads = args.threads or len(os.sched_getaffinity(0))
     log(f"batched section: measuring this machine's ceilings on 1 and {threads} threads")
     ceil = batched.ceilings(threads)
-    results = [batched.run(robot, sizes=args.sizes or batched.SIZES, threads=threads, seed=args.seed, log=log)
-               for robot in robots]
+    results = [
+        batched.run(robot, sizes=args.sizes or batched.SIZES, threads=threads, seed=args.seed, log=log)
+        for robot in robots
+    ]
     print(batched.format_report(results, ceil), flush=True)
     if args.plot:
         log(f"plot: {batched.plot(results, Path(args.plot))}")
@@ -604,8 +728,10 @@ def main(args=None) -> int:
     names = model_names(getattr(args, "model", None))
     log = lambda msg: print(msg, file=sys.stderr, flush=True)  # noqa: E731
     tables: list[str] = []
-    robots = [command_line.load(name, **command_line.urdf_options(args)) if command_line.is_urdf(name)
-              else arms.load(name) for name in names]
+    robots = [
+        command_line.load(name, **command_line.urdf_options(args)) if command_line.is_urdf(name) else arms.load(name)
+        for name in names
+    ]
     for name, robot in zip(names, robots) if not args.no_call else ():
         # a URDF file's arm is titled by its path; the peers build it from the same Robot
         states = random_states(robot.nofriction(all=True), args.batch, args.seed)
@@ -614,8 +740,10 @@ def main(args=None) -> int:
         these = c_level(robot, src, states, args, log, found, name)
         if not args.no_python:
             these += python_level(robot, src, states, args, log, found, name)
-        print(f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
-              f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions")
+        print(
+            f"{robot.name}, frictionless unless marked; ns per call (per state for batches), medians; "
+            f"speed-up = peer / symdyn, range = its lowest–highest over paired rounds or repetitions"
+        )
         note = OPS_NOTE if name == MODEL else OPS_NOTE_ARM
         print(format_table(these, found, note), flush=True)
         tables.append(markdown_table(these, found, note))
@@ -625,7 +753,9 @@ def main(args=None) -> int:
     if args.markdown:
         prog = "symdyn" if Path(sys.argv[0]).name == "symdyn" else f"python {sys.argv[0]}"
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-        text = (f"Measured with `{' '.join([prog, *sys.argv[1:]])}` on {machine()}; load average "
-                f"{load:.1f} at the end of the run.\n\n" + "\n\n".join(tables) + "\n")
+        text = (
+            f"Measured with `{' '.join([prog, *sys.argv[1:]])}` on {machine()}; load average "
+            f"{load:.1f} at the end of the run.\n\n" + "\n\n".join(tables) + "\n"
+        )
         Path(args.markdown).write_text(text)
     return 0

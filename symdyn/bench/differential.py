@@ -27,7 +27,18 @@ import sympy as sp
 from ..numeric import reference as ref
 from ..model import Robot
 
-__all__ = ["Finding", "STAGES", "check_arm", "disagreements", "evaluate", "friction_law", "pinocchio_at", "pinocchio_derivatives", "relative_error", "states"]
+__all__ = [
+    "Finding",
+    "STAGES",
+    "check_arm",
+    "disagreements",
+    "evaluate",
+    "friction_law",
+    "pinocchio_at",
+    "pinocchio_derivatives",
+    "relative_error",
+    "states",
+]
 
 STAGES = ("pinocchio", "derive", "exact", "targets", "identities")
 TARGETS = ("numpy", "c", "casadi")
@@ -130,14 +141,17 @@ def pinocchio_derivatives(model, robot: Robot, q, qd, qdd, tau) -> dict:
 
 # --------------------------------------------------------------------------- stages
 
+
 def _pinocchio(robot: Robot, q, qd, qdd, tau, floor: float) -> Iterable[tuple[str, float]]:
     from .peers import pinocchio_model
 
     bare = robot.nofriction(all=True)
     peer = pinocchio_at(pinocchio_model(robot), q, qd, qdd, tau)
     yield "tau (frictionless)", relative_error(ref.rne(bare, q, qd, qdd), peer["tau"], floor)
-    yield "tau (friction by its law)", relative_error(ref.rne(robot, q, qd, qdd),
-                                                      peer["tau"] + friction_law(robot, qd), floor)
+    yield (
+        "tau (friction by its law)",
+        relative_error(ref.rne(robot, q, qd, qdd), peer["tau"] + friction_law(robot, qd), floor),
+    )
     yield "M", relative_error(ref.inertia(robot, q), peer["M"], floor)
     yield "G", relative_error(ref.gravload(robot, q), peer["G"], floor)
     yield "C qd", relative_error(np.einsum("skj,sj->sk", ref.coriolis(robot, q, qd), qd), peer["Cqd"], floor)
@@ -149,16 +163,24 @@ def _expected(robot: Robot, q, qd, qdd) -> dict:
     """The reference value of every term at the states."""
     C = ref.coriolis(robot, q, qd)
     tau = ref.rne(robot, q, qd, qdd)
-    return {"tau": tau, "M": ref.inertia(robot, q), "C": C, "Cqd": np.einsum("skj,sj->sk", C, qd),
-            "G": ref.gravload(robot, q), "F": ref.friction(robot, qd)}
+    return {
+        "tau": tau,
+        "M": ref.inertia(robot, q),
+        "C": C,
+        "Cqd": np.einsum("skj,sj->sk", C, qd),
+        "G": ref.gravload(robot, q),
+        "F": ref.friction(robot, qd),
+    }
 
 
 def _derivations(robot: Robot) -> dict:
     from ..derivation.entry import derive
 
-    return {"newton-euler": derive(robot, "newton-euler"),
-            "newton-euler regrouped": derive(robot, "newton-euler", regroup=True),
-            "lagrange": derive(robot, "lagrange")}
+    return {
+        "newton-euler": derive(robot, "newton-euler"),
+        "newton-euler regrouped": derive(robot, "newton-euler", regroup=True),
+        "lagrange": derive(robot, "lagrange"),
+    }
 
 
 _FUNCTIONS = {sp.cos: np.cos, sp.sin: np.sin, sp.sign: np.sign, sp.Abs: np.abs}
@@ -189,7 +211,7 @@ def evaluate(exprs, definitions, values: dict) -> list:
             args = [memo[a] for a in deps]
             if e.is_Symbol:
                 memo[e] = args[0]
-            elif e.is_Number or e.is_NumberSymbol:   # 3, 1/2, pi
+            elif e.is_Number or e.is_NumberSymbol:  # 3, 1/2, pi
                 memo[e] = float(e)
             elif e.is_Add:
                 memo[e] = sum(args[1:], args[0])
@@ -230,20 +252,25 @@ def _exact(robot: Robot, points: int = 2, seed: int = 3) -> Iterable[tuple[str, 
     plain = dyns["newton-euler"]
     q, qd, qdd = plain.q, plain.qd, plain.qdd
     if not _in_joint_angles(dyns["lagrange"], q):
-        del dyns["lagrange"]   # cos(q + π/3) has no rational value: compared in floats only
+        del dyns["lagrange"]  # cos(q + π/3) has no rational value: compared in floats only
     inputs = [f(x) for x in q for f in (sp.cos, sp.sin)] + list(q) + list(qd) + list(qdd)
     terms = ("tau", "M", "G", "Cqd", "F")
     flat = lambda dyn: [x for t in terms for x in dyn.named.get(t, dyn.term(t))]  # noqa: E731
     signs = {sp.sign(v): sp.Dummy() for v in qd}
-    evaluators = {label: compile_exact([(s, e.xreplace(signs)) for s, e in dyn.definitions],
-                                       [x.xreplace(signs) for x in flat(dyn)], inputs + list(signs.values()))
-                  for label, dyn in dyns.items()}
+    evaluators = {
+        label: compile_exact(
+            [(s, e.xreplace(signs)) for s, e in dyn.definitions],
+            [x.xreplace(signs) for x in flat(dyn)],
+            inputs + list(signs.values()),
+        )
+        for label, dyn in dyns.items()
+    }
     rng = random.Random(seed)
     worst = dict.fromkeys((label for label in dyns if label != "newton-euler"), 0.0)
     for _ in range(points):
         point = random_rational_point(robot.n, rng)
         args = [Fraction(int(point[x].p), int(point[x].q)) for x in inputs]
-        args += [Fraction((v > 0) - (v < 0)) for v in args[3 * robot.n:4 * robot.n]]   # sgn q̇
+        args += [Fraction((v > 0) - (v < 0)) for v in args[3 * robot.n : 4 * robot.n]]  # sgn q̇
         expected = evaluators["newton-euler"](*args)
         for label in worst:
             got = evaluators[label](*args)
@@ -267,8 +294,7 @@ def _targets(robot: Robot, q, qd, qdd, tau, floor: float) -> Iterable[tuple[str,
     expected = _expected(robot, q, qd, qdd)
     expected["fdyn"] = ref.accel(robot, q, qd, tau)
     pi = np.array([float(v) for v in parameter_values(robot)])
-    args = {"tau": (q, qd, qdd), "M": (q,), "C": (q, qd), "Cqd": (q, qd), "G": (q,), "F": (qd,),
-            "fdyn": (q, qd, tau)}
+    args = {"tau": (q, qd, qdd), "M": (q,), "C": (q, qd), "Cqd": (q, qd), "G": (q,), "F": (qd,), "fdyn": (q, qd, tau)}
     for target in TARGETS:
         model = load(robot, target)
         for name in FUNCTIONS[:-1]:
@@ -301,8 +327,10 @@ def _identities(robot: Robot, q, qd, qdd, floor: float) -> Iterable[tuple[str, f
     yield "M positive definite (1 if not)", float(eig.min() <= 0)
     dM = _mass_matrix_rate(robot, q, qd)
     N = dM - 2 * C
-    yield "Mdot - 2C skew", relative_error(N + np.swapaxes(N, -1, -2), np.zeros_like(N),
-                                              floor=max(np.abs(dM).max(), np.abs(M).max()))
+    yield (
+        "Mdot - 2C skew",
+        relative_error(N + np.swapaxes(N, -1, -2), np.zeros_like(N), floor=max(np.abs(dM).max(), np.abs(M).max())),
+    )
     zero = np.zeros_like(q)
     yield "tau(q, 0, 0) = G + F(0)", relative_error(f.tau(q, zero, zero), f.G(q) + f.F(zero), floor)
     yield "fdyn(q, qd, tau(q, qd, qdd)) = qdd", relative_error(f.fdyn(q, qd, f.tau(q, qd, qdd)), qdd)
@@ -316,11 +344,13 @@ def check_arm(robot: Robot, *, count: int = 12, seed: int = 0, stages: Iterable[
     # torque-like quantities are compared relative to the arm's own scale, so a term that is
     # exactly zero (G with vertical axes) is not judged by its rounding noise alone
     floor = max(float(np.abs(ref.inertia(robot, q)).max()), float(np.abs(ref.rne(robot, q, qd, qdd)).max()), 1e-6)
-    runs = {"pinocchio": lambda: _pinocchio(robot, q, qd, qdd, tau, floor),
-            "derive": lambda: _derive(robot, q, qd, qdd, floor),
-            "exact": lambda: _exact(robot),
-            "targets": lambda: _targets(robot, q, qd, qdd, tau, floor),
-            "identities": lambda: _identities(robot, q, qd, qdd, floor)}
+    runs = {
+        "pinocchio": lambda: _pinocchio(robot, q, qd, qdd, tau, floor),
+        "derive": lambda: _derive(robot, q, qd, qdd, floor),
+        "exact": lambda: _exact(robot),
+        "targets": lambda: _targets(robot, q, qd, qdd, tau, floor),
+        "identities": lambda: _identities(robot, q, qd, qdd, floor),
+    }
     findings = []
     for stage in stages:
         start = time.perf_counter()
@@ -330,6 +360,13 @@ def check_arm(robot: Robot, *, count: int = 12, seed: int = 0, stages: Iterable[
                 start = time.perf_counter()
         except Exception as exc:  # noqa: BLE001 (a crash is a finding, reported with the arm)
             detail = "".join(traceback.format_exception_only(exc)).strip()
-            findings.append(Finding(stage, "crashed", float("inf"), time.perf_counter() - start,
-                                    f"{detail}\n{traceback.format_exc(limit=-3)}"))
+            findings.append(
+                Finding(
+                    stage,
+                    "crashed",
+                    float("inf"),
+                    time.perf_counter() - start,
+                    f"{detail}\n{traceback.format_exc(limit=-3)}",
+                )
+            )
     return findings

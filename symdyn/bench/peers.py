@@ -28,8 +28,7 @@ def _pin():
     try:
         import pinocchio
     except ImportError as exc:
-        raise ImportError("symdyn.bench.peers needs Pinocchio: pip install symdyn[test] "
-                          "(or pip install pin)") from exc
+        raise ImportError("symdyn.bench.peers needs Pinocchio: pip install symdyn[test] (or pip install pin)") from exc
     return pinocchio
 
 
@@ -86,7 +85,7 @@ def pinocchio_model(robot: Robot):
             parent, prev = j, body
             continue
         a, alpha, offset = float(link.a), float(link.alpha), float(link.offset)
-        dh_x = pin.SE3(_rot("x", alpha), np.array([a, 0.0, 0.0]))   # Tx(a)Rx(α) = Rx(α)Tx(a)
+        dh_x = pin.SE3(_rot("x", alpha), np.array([a, 0.0, 0.0]))  # Tx(a)Rx(α) = Rx(α)Tx(a)
         place = prev if robot.convention == "standard" else prev * dh_x
         joint = pin.JointModelRZ() if link.is_revolute else pin.JointModelPZ()
         j = model.addJoint(parent, joint, place, f"j{i}")
@@ -128,11 +127,28 @@ def toolbox_robot(robot):
         import roboticstoolbox as rtb
     except ImportError:
         return None
-    links = [rtb.RevoluteDH(d=float(l.d), a=float(l.a), alpha=float(l.alpha), offset=float(l.offset),
-                            m=float(l.m), r=np.array(l.r, float), I=np.array(l.I, float), Jm=float(l.Jm),
-                            G=float(l.G), B=float(l.B), Tc=np.array(l.Tc, float)) for l in robot.links]
+    links = [
+        rtb.RevoluteDH(
+            d=float(l.d),
+            a=float(l.a),
+            alpha=float(l.alpha),
+            offset=float(l.offset),
+            m=float(l.m),
+            r=np.array(l.r, float),
+            I=np.array(l.I, float),
+            Jm=float(l.Jm),
+            G=float(l.G),
+            B=float(l.B),
+            Tc=np.array(l.Tc, float),
+        )
+        for l in robot.links
+    ]
     from spatialmath import SE3
 
-    return rtb.DHRobot(links, name=robot.name, gravity=-np.array(robot.gravity, float),
-                       base=SE3(np.array(robot.base, float), check=False),
-                       tool=SE3(np.array(robot.tool, float), check=False))
+    return rtb.DHRobot(
+        links,
+        name=robot.name,
+        gravity=-np.array(robot.gravity, float),
+        base=SE3(np.array(robot.base, float), check=False),
+        tool=SE3(np.array(robot.tool, float), check=False),
+    )

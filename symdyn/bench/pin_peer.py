@@ -32,18 +32,49 @@ import numpy as np
 
 from ..derivation.cache import cache_dir, writable
 
-__all__ = ["SOURCE", "CXXFLAGS", "ALGORITHMS", "PeerUnavailable", "PeerJoint", "arm_joints", "write_arm",
-           "include_dirs", "cache_key", "peer_binary", "run_peer", "read_report", "central_jacobian", "check_peer"]
+__all__ = [
+    "SOURCE",
+    "CXXFLAGS",
+    "ALGORITHMS",
+    "PeerUnavailable",
+    "PeerJoint",
+    "arm_joints",
+    "write_arm",
+    "include_dirs",
+    "cache_key",
+    "peer_binary",
+    "run_peer",
+    "read_report",
+    "central_jacobian",
+    "check_peer",
+]
 
 SOURCE = Path(__file__).with_name("pin_peer.cpp")
 #: The flags of symdyn's own harness (-O3 -march=native), so neither side is favoured; the Boost
 #: defines are those Pinocchio's own build passes (its headers need the longer MPL lists).
-CXXFLAGS = ("-std=c++17", "-O3", "-march=native", "-DNDEBUG", "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
-            "-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
-            "-DBOOST_FUSION_INVOKE_MAX_ARITY=12")
+CXXFLAGS = (
+    "-std=c++17",
+    "-O3",
+    "-march=native",
+    "-DNDEBUG",
+    "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
+    "-DBOOST_MPL_LIMIT_LIST_SIZE=30",
+    "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
+    "-DBOOST_FUSION_INVOKE_MAX_ARITY=12",
+)
 #: What pin_peer.cpp times, in its order; see `check_peer` for what each is checked against.
-ALGORITHMS = ("rnea", "crba", "aba", "computeGeneralizedGravity", "nonLinearEffects", "computeCoriolisMatrix",
-              "crba_cholesky", "computeRNEADerivatives", "computeABADerivatives", "computeMinverse")
+ALGORITHMS = (
+    "rnea",
+    "crba",
+    "aba",
+    "computeGeneralizedGravity",
+    "nonLinearEffects",
+    "computeCoriolisMatrix",
+    "crba_cholesky",
+    "computeRNEADerivatives",
+    "computeABADerivatives",
+    "computeMinverse",
+)
 #: How to get every peer: the `bench` extra (pin, cmeel-eigen, roboticstoolbox-python).
 HOW_TO_INSTALL = "run `make bench`, which installs the bench extra (pip install -e '.[bench]')"
 
@@ -73,8 +104,19 @@ class PeerJoint:
     def line(self) -> str:
         """The joint's line of the arm file (floats written to round-trip exactly)."""
         I = self.inertia
-        numbers = [*self.axis, *np.ravel(self.placement), self.mass, *self.com,
-                   I[0][0], I[0][1], I[0][2], I[1][1], I[1][2], I[2][2], self.armature]
+        numbers = [
+            *self.axis,
+            *np.ravel(self.placement),
+            self.mass,
+            *self.com,
+            I[0][0],
+            I[0][1],
+            I[0][2],
+            I[1][1],
+            I[1][2],
+            I[2][2],
+            self.armature,
+        ]
         return " ".join(["R" if self.revolute else "P", *(repr(float(x) + 0.0) for x in numbers)])
 
 
@@ -90,20 +132,32 @@ def arm_joints(model) -> tuple[list[PeerJoint], np.ndarray]:
     for j in range(1, model.njoints):
         kind = model.joints[j].shortname().removeprefix("JointModel")
         if model.parents[j] != j - 1:
-            raise ValueError(f"joint {j} ({model.names[j]}) hangs from joint {model.parents[j]}: "
-                             "the C++ peer takes a serial chain only")
+            raise ValueError(
+                f"joint {j} ({model.names[j]}) hangs from joint {model.parents[j]}: "
+                "the C++ peer takes a serial chain only"
+            )
         if kind in _ALIGNED:
             revolute, k = _ALIGNED[kind]
             axis = tuple(np.eye(3)[k])
         elif kind in ("RevoluteUnaligned", "PrismaticUnaligned"):
             revolute, axis = kind == "RevoluteUnaligned", tuple(np.array(model.joints[j].extract().axis, float))
         else:
-            raise ValueError(f"joint {j} ({model.names[j]}) is a Pinocchio {kind} joint: the C++ peer "
-                             "takes revolute and prismatic joints only")
+            raise ValueError(
+                f"joint {j} ({model.names[j]}) is a Pinocchio {kind} joint: the C++ peer "
+                "takes revolute and prismatic joints only"
+            )
         Y = model.inertias[j]
-        joints.append(PeerJoint(revolute, axis, tuple(map(tuple, model.jointPlacements[j].homogeneous[:3])),
-                                float(Y.mass), tuple(Y.lever), tuple(map(tuple, Y.inertia)),
-                                float(model.armature[j - 1])))
+        joints.append(
+            PeerJoint(
+                revolute,
+                axis,
+                tuple(map(tuple, model.jointPlacements[j].homogeneous[:3])),
+                float(Y.mass),
+                tuple(Y.lever),
+                tuple(map(tuple, Y.inertia)),
+                float(model.armature[j - 1]),
+            )
+        )
     return joints, np.array(model.gravity.linear, dtype=float)
 
 
@@ -121,11 +175,14 @@ def write_arm(path: str | Path, joints: list[PeerJoint], gravity) -> Path:
 
 # --------------------------------------------------------------------------- build
 
+
 def _compiler() -> str:
     cxx = os.environ.get("CXX") or next((c for c in ("c++", "g++", "clang++") if shutil.which(c)), None)
     if cxx is None or shutil.which(cxx) is None:
-        raise PeerUnavailable(f"no C++ compiler found{f' (CXX={cxx})' if cxx else ''}: install g++ "
-                              "(Debian/Ubuntu: apt-get install g++) or set CXX")
+        raise PeerUnavailable(
+            f"no C++ compiler found{f' (CXX={cxx})' if cxx else ''}: install g++ "
+            "(Debian/Ubuntu: apt-get install g++) or set CXX"
+        )
     return cxx
 
 
@@ -134,15 +191,19 @@ def include_dirs() -> list[Path]:
     (Eigen also from Debian's libeigen3-dev), else PeerUnavailable saying what to install."""
     try:
         import cmeel
+
         pin_version = metadata.version("pin")
     except (ImportError, metadata.PackageNotFoundError):
         raise PeerUnavailable(f"Pinocchio is not installed (pin): {HOW_TO_INSTALL}") from None
     prefix = Path(cmeel.__file__).resolve().parent.parent / "cmeel.prefix" / "include"
     if not (prefix / "pinocchio" / "multibody.hpp").is_file():
-        raise PeerUnavailable(f"Pinocchio's C++ headers are not in {prefix} (pin {pin_version}): "
-                              "reinstall the wheel (pip install --force-reinstall pin)")
-    eigen = next((d for d in (prefix / "eigen3", Path("/usr/include/eigen3")) if (d / "Eigen" / "Core").is_file()),
-                 None)
+        raise PeerUnavailable(
+            f"Pinocchio's C++ headers are not in {prefix} (pin {pin_version}): "
+            "reinstall the wheel (pip install --force-reinstall pin)"
+        )
+    eigen = next(
+        (d for d in (prefix / "eigen3", Path("/usr/include/eigen3")) if (d / "Eigen" / "Core").is_file()), None
+    )
     if eigen is None:
         raise PeerUnavailable(f"Eigen's C++ headers are missing (cmeel-eigen): {HOW_TO_INSTALL}")
     return [prefix, eigen]
@@ -206,6 +267,7 @@ def peer_binary(log=lambda msg: print(msg, file=sys.stderr, flush=True)) -> Path
 
 # --------------------------------------------------------------------------- run
 
+
 def read_report(stdout: str) -> tuple[dict, dict]:
     """({name: ns per call}, {name: outputs at state 3}) from the "time NAME NS" and
     "check NAME v..." lines that harness.c and pin_peer.cpp print."""
@@ -222,8 +284,11 @@ def read_report(stdout: str) -> tuple[dict, dict]:
 
 def run_peer(binary: Path, arm: Path, states: Path, ncalls: int, reps: int, algorithms=()) -> tuple[dict, dict]:
     """Time Pinocchio on the arm and states files: ({algorithm: ns per call}, {algorithm: outputs at state 3})."""
-    run = subprocess.run([str(binary), str(arm), str(states), str(int(ncalls)), str(int(reps)), *algorithms],
-                         capture_output=True, text=True)
+    run = subprocess.run(
+        [str(binary), str(arm), str(states), str(int(ncalls)), str(int(reps)), *algorithms],
+        capture_output=True,
+        text=True,
+    )
     if run.returncode != 0:
         raise RuntimeError(f"{binary} failed ({run.returncode}): {run.stderr.strip()}")
     return read_report(run.stdout)
@@ -249,14 +314,18 @@ def check_peer(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1
     q, qd, qdd, tau = q[k], qd[k], qdd[k], tau[k]
     M, C, G = ref.inertia(robot, q), ref.coriolis(robot, q, qd), ref.gravload(robot, q)
     Minv, n = np.linalg.inv(M), robot.n
-    expected = {"rnea": lambda: ref.rne(robot, q, qd, qdd), "crba": lambda: M,
-                "aba": lambda: ref.accel(robot, q, qd, tau), "computeGeneralizedGravity": lambda: G,
-                "nonLinearEffects": lambda: C @ qd + G,
-                "computeCoriolisMatrix": lambda: C @ qd,   # Pinocchio's C need not be the Christoffel one; C q̇ is
-                "crba_cholesky": lambda: ref.accel(robot, q, qd, tau),
-                "computeRNEADerivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
-                "computeABADerivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q),
-                "computeMinverse": lambda: Minv}
+    expected = {
+        "rnea": lambda: ref.rne(robot, q, qd, qdd),
+        "crba": lambda: M,
+        "aba": lambda: ref.accel(robot, q, qd, tau),
+        "computeGeneralizedGravity": lambda: G,
+        "nonLinearEffects": lambda: C @ qd + G,
+        "computeCoriolisMatrix": lambda: C @ qd,  # Pinocchio's C need not be the Christoffel one; C q̇ is
+        "crba_cholesky": lambda: ref.accel(robot, q, qd, tau),
+        "computeRNEADerivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
+        "computeABADerivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q),
+        "computeMinverse": lambda: Minv,
+    }
     worst = 0.0
     for name, got in checks.items():
         if name == "computeCoriolisMatrix":
@@ -264,7 +333,9 @@ def check_peer(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1
         want = np.ravel(expected[name]())
         err = float(np.abs(np.ravel(got) - want).max() / max(1.0, np.abs(want).max()))
         if not err <= (FD_RTOL if name.endswith("Derivatives") else rtol):
-            raise RuntimeError(f"Pinocchio C++ peer: {name} at state {k} differs from symdyn's reference "
-                               f"by {err:.1e} (relative): not the same arm")
+            raise RuntimeError(
+                f"Pinocchio C++ peer: {name} at state {k} differs from symdyn's reference "
+                f"by {err:.1e} (relative): not the same arm"
+            )
         worst = max(worst, err)
     return worst

@@ -42,7 +42,8 @@ def _without(path: Path, links: tuple, folder: Path) -> Path:
         todo += below.get(name, [])
     for element in list(root):
         if (element.tag == "link" and element.get("name") in gone) or (
-                element.tag == "joint" and element.find("child").get("link") in gone):
+            element.tag == "joint" and element.find("child").get("link") in gone
+        ):
             root.remove(element)
     out = folder / Path(path).name
     tree.write(out)
@@ -81,8 +82,10 @@ def reduced_model(path, robot: Robot):
         file = _without(Path(path), record.excluded, Path(folder)) if record.excluded else Path(path)
         file = _snapped(file, Path(folder)) if record.snaps else file
         full = pin.buildModelFromUrdf(str(file))
-    if record.base_link != full.frames[full.getFrameId(record.base_link)].name or \
-            full.frames[full.getFrameId(record.base_link)].parentJoint != 0:
+    if (
+        record.base_link != full.frames[full.getFrameId(record.base_link)].name
+        or full.frames[full.getFrameId(record.base_link)].parentJoint != 0
+    ):
         raise ValueError(f"base_link {record.base_link!r} is not fixed to Pinocchio's world")
     q0 = pin.neutral(full)
     values = {lock.joint: lock.value for lock in record.locked}
@@ -94,7 +97,7 @@ def reduced_model(path, robot: Robot):
         lock.append(jid)
         value = values.get(name, 0.0)
         if joint.nq == 2:
-            q0[joint.idx_q:joint.idx_q + 2] = np.cos(value), np.sin(value)
+            q0[joint.idx_q : joint.idx_q + 2] = np.cos(value), np.sin(value)
         elif joint.nq == 1:
             q0[joint.idx_q] = value
     reduced = pin.buildReducedModel(full, lock, q0)

@@ -36,8 +36,10 @@ def argument(x, size, name, lead, function):
     if x.ndim == 0 or x.shape[-1] != size:
         raise ValueError(f"{function}(): {name} must have shape (..., {size}), got {x.shape}")
     if x.ndim - 1 > lead:
-        raise ValueError(f"{function}(): {name} has {x.ndim - 1} leading dimensions, at most {lead} (NumPy "
-                         f"arrays have at most {MAXDIMS} dimensions, the result's own included)")
+        raise ValueError(
+            f"{function}(): {name} has {x.ndim - 1} leading dimensions, at most {lead} (NumPy "
+            f"arrays have at most {MAXDIMS} dimensions, the result's own included)"
+        )
     if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
         raise ValueError(f"{function}(): {name} contains NaN or infinity")
     return x
@@ -52,8 +54,9 @@ def leading(function, names, arrays):
             shape = np.broadcast_shapes(*(x.shape[:-1] for x in arrays))
         except ValueError:
             shapes = ", ".join(f"{a} {x.shape[:-1]}" for a, x in zip(names, arrays))
-            raise ValueError(f"{function}(): the leading shapes of the arguments do not broadcast "
-                             f"together: {shapes}") from None
+            raise ValueError(
+                f"{function}(): the leading shapes of the arguments do not broadcast together: {shapes}"
+            ) from None
     return shape
 
 
@@ -67,25 +70,31 @@ def arguments(function: str, inputs, args: tuple, kwargs: dict, lead: int):
     names = [a for a, _ in inputs]
     if len(args) > len(inputs):
         plural = "s" if len(inputs) != 1 else ""
-        raise TypeError(f"{function}() takes {len(inputs)} positional argument{plural} but {len(args)} were "
-                        f"given ({', '.join(names)})")
+        raise TypeError(
+            f"{function}() takes {len(inputs)} positional argument{plural} but {len(args)} were "
+            f"given ({', '.join(names)})"
+        )
     given = dict(zip(names, args))
     for key, value in kwargs.items():
         if key not in names:
-            raise TypeError(f"{function}() got an unexpected keyword argument {key!r} (its arguments are "
-                            f"{', '.join(names)})")
+            raise TypeError(
+                f"{function}() got an unexpected keyword argument {key!r} (its arguments are {', '.join(names)})"
+            )
         if key in given:
             raise TypeError(f"{function}() got multiple values for argument {key!r}")
         given[key] = value
     missing = [a for a in names if a not in given]
     if missing:
         plural = "s" if len(missing) != 1 else ""
-        raise TypeError(f"{function}() missing {len(missing)} required positional argument{plural}: "
-                        + " and ".join(map(repr, missing)))
+        raise TypeError(
+            f"{function}() missing {len(missing)} required positional argument{plural}: "
+            + " and ".join(map(repr, missing))
+        )
     arrays = [argument(given[a], size, a, lead, function) for a, size in inputs]
     shape = leading(function, names, arrays)
-    return tuple(np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]) if x.shape[:-1] != shape else x)
-                 for x in arrays), shape
+    return tuple(
+        np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]) if x.shape[:-1] != shape else x) for x in arrays
+    ), shape
 
 
 def source() -> str:

@@ -23,16 +23,23 @@ import sympy as sp
 from ..derivation.program import Program
 from .functions import FunctionSpec, ldlt_factor, ldlt_inverse
 
-__all__ = ["forward", "reverse", "jacobian", "tau_derivatives_spec", "fdyn_derivatives_program", "minv_spec",
-           "christoffel_spec"]
+__all__ = [
+    "forward",
+    "reverse",
+    "jacobian",
+    "tau_derivatives_spec",
+    "fdyn_derivatives_program",
+    "minv_spec",
+    "christoffel_spec",
+]
 
 _DOCS = {
     "tau_derivatives": "Inverse dynamics and its derivatives (tau, dtau_dq, dtau_dqd): ({n},), ({n}, {n}), "
-                       "({n}, {n}), row i = d tau_i; dtau/dqdd = M. Coulomb friction's derivative is taken "
-                       "as 0, also at qd = 0.",
+    "({n}, {n}), row i = d tau_i; dtau/dqdd = M. Coulomb friction's derivative is taken "
+    "as 0, also at qd = 0.",
     "fdyn_derivatives": "Forward dynamics and its derivatives (qdd, dqdd_dq, dqdd_dqd, Minv): ({n},) and "
-                        "({n}, {n}) x 3, row i = d qdd_i; dqdd/dtau = Minv. Coulomb friction's derivative "
-                        "is taken as 0, also at qd = 0.",
+    "({n}, {n}) x 3, row i = d qdd_i; dqdd/dtau = Minv. Coulomb friction's derivative "
+    "is taken as 0, also at qd = 0.",
     "Minv": "Inverse joint-space inertia M(q)^-1, ({n}, {n}), from the unrolled LDL^T of M.",
 }
 
@@ -140,8 +147,7 @@ def _elimination_products(operands: dict, order: Sequence) -> int:
     return total
 
 
-def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "d", graph=None
-            ) -> tuple[list, list]:
+def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "d", graph=None) -> tuple[list, list]:
     """Reverse accumulation of a straight-line program's Jacobian: the intermediate
     vertices of its graph of local partials eliminated last to first, so each output's
     sensitivity to a definition s is summed once, named {stem}o{i}_{s}, and reused
@@ -218,10 +224,15 @@ def tau_derivatives_spec(tau: FunctionSpec) -> FunctionSpec:
     """(τ, ∂τ/∂q, ∂τ/∂q̇)(q, q̇, q̈) from the spec of τ, in one program."""
     defs, dq, dqd = _jacobians(tau)
     n = dq.rows
-    return FunctionSpec("tau_derivatives", tau.inputs,
-                        (("tau", tau.outputs[0][1]), ("dtau_dq", dq), ("dtau_dqd", dqd)),
-                        tuple(tau.definitions) + tuple(defs), _doc("tau_derivatives", n, _params(tau)),
-                        tau.origin, ("dtau_dq", "dtau_dqd"))
+    return FunctionSpec(
+        "tau_derivatives",
+        tau.inputs,
+        (("tau", tau.outputs[0][1]), ("dtau_dq", dq), ("dtau_dqd", dqd)),
+        tuple(tau.definitions) + tuple(defs),
+        _doc("tau_derivatives", n, _params(tau)),
+        tau.origin,
+        ("dtau_dq", "dtau_dqd"),
+    )
 
 
 def christoffel_spec(cqd: FunctionSpec) -> FunctionSpec:
@@ -233,18 +244,32 @@ def christoffel_spec(cqd: FunctionSpec) -> FunctionSpec:
     out = list(cqd.outputs[0][1])
     defs, rows = jacobian(cqd.definitions, out, list(qd), stem="DC")
     C = sp.ImmutableMatrix(len(out), len(qd), lambda i, j: rows[i][j] / 2)
-    return FunctionSpec("C", cqd.inputs, (("C", C),), tuple(cqd.definitions) + tuple(defs),
-                        f"Christoffel Coriolis/centripetal matrix C(q, qd), ({len(qd)}, {len(qd)}) row-major, "
-                        "as d(C qd)/d qd / 2." + cqd.doc.partition(".")[2],
-                        f"{cqd.origin}, C = d(C qd)/d qd / 2", ("C",))
+    return FunctionSpec(
+        "C",
+        cqd.inputs,
+        (("C", C),),
+        tuple(cqd.definitions) + tuple(defs),
+        f"Christoffel Coriolis/centripetal matrix C(q, qd), ({len(qd)}, {len(qd)}) row-major, "
+        "as d(C qd)/d qd / 2." + cqd.doc.partition(".")[2],
+        f"{cqd.origin}, C = d(C qd)/d qd / 2",
+        ("C",),
+    )
 
 
 def minv_spec(M: FunctionSpec) -> FunctionSpec:
     """M(q)⁻¹ from the spec of M: its LDLᵀ, then L⁻ᵀD⁻¹L⁻¹."""
     factor, L, iD = ldlt_factor(M.outputs[0][1])
     inv_defs, inv = ldlt_inverse(L, iD)
-    return FunctionSpec("Minv", M.inputs, (("Minv", inv),), tuple(M.definitions) + tuple(factor + inv_defs),
-                        _doc("Minv", inv.rows, _params(M)), M.origin, ("Minv",))
+    return FunctionSpec(
+        "Minv",
+        M.inputs,
+        (("Minv", inv),),
+        tuple(M.definitions) + tuple(factor + inv_defs),
+        _doc("Minv", inv.rows, _params(M)),
+        M.origin,
+        ("Minv",),
+    )
+
 
 class _Splice:
     """Straight-line programs appended one after another into one: each assignment
@@ -278,8 +303,9 @@ class _Splice:
         outputs' matrices in the spliced names."""
         rename = dict(rename)
         for sym, expr in program.assignments:
-            rename[sym] = self.name(expr.xreplace(rename), sym.name if sym.name not in self.taken
-                                    else prefix + sym.name)
+            rename[sym] = self.name(
+                expr.xreplace(rename), sym.name if sym.name not in self.taken else prefix + sym.name
+            )
         return [m.xreplace(rename) for _, m in program.outputs]
 
     def live(self, outputs) -> tuple:
@@ -302,14 +328,15 @@ def fdyn_derivatives_program(fdyn: Program, tau_derivatives: Program, minv: Prog
     joint CSE of the whole took ~2.7 s for ~3 % fewer operations.  τ, which
     tau_derivatives computes beside its Jacobians, is not an output: its
     assignments are dropped."""
-    q, qd = fdyn.inputs[0][1], fdyn.inputs[1][1]   # then tau (and p, a symbolic model's parameters)
+    q, qd = fdyn.inputs[0][1], fdyn.inputs[1][1]  # then tau (and p, a symbolic model's parameters)
     inputs = {s.name for _, syms in fdyn.inputs for s in syms} | {a for a, _ in fdyn.inputs}
     splice = _Splice(inputs | {"qdd", "dqdd_dq", "dqdd_dqd", "Minv", "fdyn_derivatives"})
     (qdd,) = splice.append(fdyn, {}, "f_")
     qdd = [splice.name(e, f"f_qdd{i + 1}") for i, e in enumerate(qdd)]
     tq, tqd, tqdd = (syms for _, syms in tau_derivatives.inputs[:3])
-    _, dq, dqd = splice.append(tau_derivatives, {**dict(zip(tq, q)), **dict(zip(tqd, qd)),
-                                                 **dict(zip(tqdd, qdd))}, "t_")
+    _, dq, dqd = splice.append(
+        tau_derivatives, {**dict(zip(tq, q)), **dict(zip(tqd, qd)), **dict(zip(tqdd, qdd))}, "t_"
+    )
     (inv,) = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_")
     n = len(qdd)
 
@@ -317,8 +344,13 @@ def fdyn_derivatives_program(fdyn: Program, tau_derivatives: Program, minv: Prog
         return sp.ImmutableMatrix(n, n, lambda i, k: splice.name(mat[i, k], f"{stem}{i + 1}_{k + 1}"))
 
     inv, dq, dqd = named("Minv", inv), named("dtau_dq", dq), named("dtau_dqd", dqd)
-    outputs = (("qdd", sp.ImmutableMatrix(qdd)), ("dqdd_dq", -(inv * dq)), ("dqdd_dqd", -(inv * dqd)),
-               ("Minv", inv))
-    return Program("fdyn_derivatives", fdyn.inputs, splice.live([m for _, m in outputs]), outputs,
-                   _doc("fdyn_derivatives", n, _params(fdyn)), fdyn.origin,
-                   frozenset(("dqdd_dq", "dqdd_dqd", "Minv")))
+    outputs = (("qdd", sp.ImmutableMatrix(qdd)), ("dqdd_dq", -(inv * dq)), ("dqdd_dqd", -(inv * dqd)), ("Minv", inv))
+    return Program(
+        "fdyn_derivatives",
+        fdyn.inputs,
+        splice.live([m for _, m in outputs]),
+        outputs,
+        _doc("fdyn_derivatives", n, _params(fdyn)),
+        fdyn.origin,
+        frozenset(("dqdd_dq", "dqdd_dqd", "Minv")),
+    )

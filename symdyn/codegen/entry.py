@@ -30,8 +30,18 @@ from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writa
 from ..model import Robot, arms
 from .emit import Bundle, identifier, is_intact, read_header, write_atomic
 
-__all__ = ["generate", "load", "generate_all", "bundle", "GeneratedModel", "TARGETS", "LOADS", "SHIPPED",
-           "GENERATED", "configure_parser"]
+__all__ = [
+    "generate",
+    "load",
+    "generate_all",
+    "bundle",
+    "GeneratedModel",
+    "TARGETS",
+    "LOADS",
+    "SHIPPED",
+    "GENERATED",
+    "configure_parser",
+]
 
 TARGETS = ("numpy", "c", "casadi", "array-api")
 #: What `load` takes: the targets, and the array-API module's functions on JAX or PyTorch arrays.
@@ -62,8 +72,12 @@ def _targets(target: str) -> tuple[str, ...]:
 
 def files(name: str, target: str) -> tuple[str, ...]:
     """The file names one target writes (or a loadable name reads) for model `name`."""
-    return {"numpy": (f"{name}.py",), "c": (f"{name}.c", f"{name}.h"), "casadi": (f"{name}.casadi",),
-            "array-api": (f"{name}_xp.py",)}[_WRITTEN.get(target, target)]
+    return {
+        "numpy": (f"{name}.py",),
+        "c": (f"{name}.c", f"{name}.h"),
+        "casadi": (f"{name}.casadi",),
+        "array-api": (f"{name}_xp.py",),
+    }[_WRITTEN.get(target, target)]
 
 
 def bundle(robot: Robot) -> Bundle:
@@ -78,7 +92,7 @@ def bundle(robot: Robot) -> Bundle:
     regroup = not robot.is_symbolic and generic_turns(robot) <= GENERIC_TURNS_MAX
     dyns = [derive(robot, "newton-euler", regroup=regroup)]
     origins = ["newton-euler, base parameters" if regroup else "newton-euler"]
-    if robot.n <= EXPANDED_MAX_JOINTS:   # Lagrange's expanded M can be the leanest; named, it never is
+    if robot.n <= EXPANDED_MAX_JOINTS:  # Lagrange's expanded M can be the leanest; named, it never is
         dyns.append(derive(robot, "lagrange"))
         origins.append("lagrange")
     try:
@@ -87,9 +101,17 @@ def bundle(robot: Robot) -> Bundle:
         raise ValueError(f"cannot generate code for {robot.name!r}: {exc}") from None
     used = sorted({p.origin for p in progs}, key=str)
     source, notes, command = _provenance_lines(robot)
-    return Bundle(name=identifier(robot.name), n=robot.n, version=__version__,
-                  fingerprint=robot.fingerprint(), programs=tuple(progs),
-                  derivation="; ".join(used), source=source, notes=notes, command=command)
+    return Bundle(
+        name=identifier(robot.name),
+        n=robot.n,
+        version=__version__,
+        fingerprint=robot.fingerprint(),
+        programs=tuple(progs),
+        derivation="; ".join(used),
+        source=source,
+        notes=notes,
+        command=command,
+    )
 
 
 def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
@@ -100,11 +122,14 @@ def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
     record = getattr(robot, "urdf", None)
     if _is_shipped(robot):
         return robot.source, (), robot.name
-    if record is None:   # built in Python: no name or file the command line knows rebuilds it
+    if record is None:  # built in Python: no name or file the command line knows rebuilds it
         return robot.source, (), ""
-    if not record.describes(robot):   # changed after reading (a payload, new parameters): no command rebuilds it
-        return (f"{robot.source}, changed after reading (the file alone does not rebuild it)",
-                tuple(record.lines()[1:]), "")
+    if not record.describes(robot):  # changed after reading (a payload, new parameters): no command rebuilds it
+        return (
+            f"{robot.source}, changed after reading (the file alone does not rebuild it)",
+            tuple(record.lines()[1:]),
+            "",
+        )
     lines = list(record.lines())
     command = record.command_args()
     if command.split(" ", 1)[0] != shlex.quote(record.file):
@@ -113,7 +138,7 @@ def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
         command += f" --name {shlex.quote(robot.name)}"
     in_folder = re.compile(r"[^\s'\"(\[]*[/\\]" + re.escape(record.file))
 
-    def local(line: str) -> str:   # a warning that quotes the file by its path names it alone
+    def local(line: str) -> str:  # a warning that quotes the file by its path names it alone
         return in_folder.sub(lambda _: record.file, line)
 
     return local(lines[0]), tuple(local(line) for line in lines[1:]), command
@@ -142,12 +167,16 @@ def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False
     targets = _targets(target)
     name = identifier(robot.name)
     if out_dir is None and not _is_shipped(robot):
-        raise ValueError(f"generate({robot.name!r}) needs out_dir: generated/ holds only the shipped "
-                         f"models ({', '.join(SHIPPED)}) with their shipped parameters")
+        raise ValueError(
+            f"generate({robot.name!r}) needs out_dir: generated/ holds only the shipped "
+            f"models ({', '.join(SHIPPED)}) with their shipped parameters"
+        )
     if out_dir is None and not in_checkout():
-        raise ValueError(f"generate({robot.name!r}) needs out_dir: this symdyn is an installed package, and "
-                         "generated/ belongs to a source checkout (load() keeps the shipped models' code "
-                         "in the cache)")
+        raise ValueError(
+            f"generate({robot.name!r}) needs out_dir: this symdyn is an installed package, and "
+            "generated/ belongs to a source checkout (load() keeps the shipped models' code "
+            "in the cache)"
+        )
     b = bundle(robot)
     out = Path(out_dir) if out_dir is not None else GENERATED / name
 
@@ -184,7 +213,7 @@ def publish(out: Path, write) -> list[Path]:
         if out.exists():
             shutil.rmtree(old, ignore_errors=True)
         else:
-            os.rename(old, out)   # killed between the two renames: the old set comes back
+            os.rename(old, out)  # killed between the two renames: the old set comes back
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.staging-", dir=out.parent))
     try:
         os.chmod(staging, 0o755)
@@ -209,13 +238,16 @@ def publish(out: Path, write) -> list[Path]:
 def generate_all(root=None) -> list[Path]:
     """Regenerate every target of the shipped models into root/<name>/ (default generated/)."""
     if root is None and not in_checkout():
-        raise ValueError("generate --all needs --out: this symdyn is an installed package, and generated/ "
-                         "belongs to a source checkout")
+        raise ValueError(
+            "generate --all needs --out: this symdyn is an installed package, and generated/ "
+            "belongs to a source checkout"
+        )
     root = Path(root) if root is not None else GENERATED
     return [p for name in SHIPPED for p in generate(name, "all", root / name)]
 
 
 # --------------------------------------------------------------------------- loading
+
 
 class GeneratedModel:
     """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
@@ -260,9 +292,11 @@ def _stale(path: Path, found: dict, robot: Robot, name: str) -> str | None:
     version, fp = found.get("symdyn-version"), found.get("model-fingerprint")
     if version == __version__ and fp == robot.fingerprint():
         return None
-    return (f"{path} is stale: it was generated by symdyn {version} for model fingerprint "
-            f"{(fp or '?')[:12]}…, but this is symdyn {__version__} and {robot.name!r} has fingerprint "
-            f"{robot.fingerprint()[:12]}…. {_regenerate(name)}")
+    return (
+        f"{path} is stale: it was generated by symdyn {version} for model fingerprint "
+        f"{(fp or '?')[:12]}…, but this is symdyn {__version__} and {robot.name!r} has fingerprint "
+        f"{robot.fingerprint()[:12]}…. {_regenerate(name)}"
+    )
 
 
 def _regenerate(name: str) -> str:
@@ -273,6 +307,7 @@ def _provenance(path: Path, target: str) -> tuple[dict, str]:
     """The header fields of a generated file and its sealed content (see `is_intact`)."""
     if target == "casadi":
         from .emit.casadi import read
+
         return read(path)
     text = path.read_text()
     return read_header(text), text
@@ -281,8 +316,9 @@ def _provenance(path: Path, target: str) -> tuple[dict, str]:
 def _intact(folder: Path, name: str, target: str) -> bool:
     """Whether every file of `target` is in `folder`, as generated."""
     try:
-        return all((folder / f).is_file() and is_intact(_provenance(folder / f, target)[1])
-                   for f in files(name, target))
+        return all(
+            (folder / f).is_file() and is_intact(_provenance(folder / f, target)[1]) for f in files(name, target)
+        )
     except (OSError, ValueError):
         return False
 
@@ -292,8 +328,10 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
     for path in paths:
         found, content = _provenance(path, target)
         if not is_intact(content):
-            raise RuntimeError(f"{path} was modified after symdyn generated it (its content does not match "
-                               f"the content-sha256 in its header). {_regenerate(name)}")
+            raise RuntimeError(
+                f"{path} was modified after symdyn generated it (its content does not match "
+                f"the content-sha256 in its header). {_regenerate(name)}"
+            )
         reason = _stale(path, found, robot, name)
         if reason:
             raise RuntimeError(reason)
@@ -303,18 +341,25 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
     if target in ("array-api", "jax", "torch"):
         from .emit import array_api
+
         module = _import_module(paths[0], f"_symdyn_generated_{name}_xp_{robot.fingerprint()[:12]}")
-        sys.modules.setdefault(module.__name__, module)   # torch.compile imports the globals' module by name
-        funcs = (array_api.jax_functions(module, jit) if target == "jax" else
-                 array_api.torch_functions(module) if target == "torch" else
-                 {f: getattr(module, f) for f in module.FUNCTIONS})
+        sys.modules.setdefault(module.__name__, module)  # torch.compile imports the globals' module by name
+        funcs = (
+            array_api.jax_functions(module, jit)
+            if target == "jax"
+            else array_api.torch_functions(module)
+            if target == "torch"
+            else {f: getattr(module, f) for f in module.FUNCTIONS}
+        )
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
     if target == "c":
         from .emit.clib import CompileOptions, load_library
+
         with progress.reported(f"symdyn: loading {name}'s C code (compiled once into the cache)"):
             lib = load_library(paths[0], paths[1], options or CompileOptions())
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
     from .emit.casadi import deserialize
+
     funcs = {f.name(): f for f in deserialize(paths[0])[1]}
     return CasadiModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
 
@@ -330,8 +375,7 @@ def _import_module(path: Path, module: str):
 COMPILED = ("tau", "fdyn")
 
 
-def load(name_or_robot, target: str = "c", *, options=None, folder=None, compiled=False,
-         jit=None) -> GeneratedModel:
+def load(name_or_robot, target: str = "c", *, options=None, folder=None, compiled=False, jit=None) -> GeneratedModel:
     """The generated functions of a model for `target` ("c", "numpy", "casadi", "jax", "torch"
     or "array-api").
 
@@ -354,8 +398,9 @@ def load(name_or_robot, target: str = "c", *, options=None, folder=None, compile
     if jit is not None and target != "jax":
         raise ValueError(f"jit= is an option of the JAX target, not of {target!r}")
     if compiled is not False and target != "casadi":
-        raise ValueError(f"compiled= is an option of the CasADi target, not of {target!r} "
-                         "(the C target is always compiled)")
+        raise ValueError(
+            f"compiled= is an option of the CasADi target, not of {target!r} (the C target is always compiled)"
+        )
     model = _load(name_or_robot, target, options, folder, True if jit is None else bool(jit))
     if compiled is False:
         return model
@@ -368,8 +413,10 @@ def _compile_casadi(model: "CasadiModel", names: tuple) -> "CasadiModel":
 
     unknown = [f for f in names if f not in model.functions]
     if unknown:
-        raise ValueError(f"{model.name} has no function {', '.join(map(repr, unknown))} to compile: it has "
-                         f"{', '.join(model.functions)}")
+        raise ValueError(
+            f"{model.name} has no function {', '.join(map(repr, unknown))} to compile: it has "
+            f"{', '.join(model.functions)}"
+        )
     numeric = {f: getattr(model, f) for f in model.functions}
     numeric.update({f: Numeric(compiled(numeric[f].function), numeric[f].shapes) for f in names})
     return CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
@@ -381,9 +428,11 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
     if folder is not None:
         missing = [f for f in files(name, target) if not (Path(folder) / f).is_file()]
         if missing:
-            raise FileNotFoundError(f"{folder} has no {', '.join(missing)}: generate it with "
-                                    f"symdyn generate {name} --target {_WRITTEN.get(target, target)} "
-                                    f"--out {folder}")
+            raise FileNotFoundError(
+                f"{folder} has no {', '.join(missing)}: generate it with "
+                f"symdyn generate {name} --target {_WRITTEN.get(target, target)} "
+                f"--out {folder}"
+            )
         return _load_folder(Path(folder), name, target, robot, options, jit)
     shipped = GENERATED / name
     if all((shipped / f).exists() for f in files(name, target)):
@@ -394,11 +443,14 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
             return _load_folder(shipped, name, target, robot, options, jit)
     folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
     if not _intact(folder, name, target):
-        with build_lock(folder):   # processes that want the same code (a cluster's workers) write it once
+        with build_lock(folder):  # processes that want the same code (a cluster's workers) write it once
             if not _intact(folder, name, target):
                 if name in SHIPPED and not in_checkout():
-                    print(f"symdyn: generating the code of {name} ({target}) into the cache, once: an "
-                          "installed symdyn carries no generated/", file=sys.stderr)
+                    print(
+                        f"symdyn: generating the code of {name} ({target}) into the cache, once: an "
+                        "installed symdyn carries no generated/",
+                        file=sys.stderr,
+                    )
                 folder = writable(folder)
                 with progress.reported(f"symdyn: generating the {target} code of {name}"):
                     generate(robot, _WRITTEN.get(target, target), folder)
@@ -407,6 +459,7 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
 
 # --------------------------------------------------------------------------- command line
 
+
 def configure_parser(p: argparse.ArgumentParser) -> None:
     """Arguments of `symdyn generate MODEL --target T [--out DIR]` / `symdyn generate --all`; MODEL
     is a shipped model's name or a URDF file with its options (`symdyn.model.command_line`)."""
@@ -414,8 +467,11 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
 
     command_line.add_arguments(p, nargs="?")
     p.add_argument("--target", default="all", choices=(*TARGETS, "all"), help="default: all")
-    p.add_argument("--out", help="output folder (default: generated/MODEL for the shipped models, "
-                                 "out/MODEL for the others, out/STEM for a URDF file STEM.urdf)")
+    p.add_argument(
+        "--out",
+        help="output folder (default: generated/MODEL for the shipped models, "
+        "out/MODEL for the others, out/STEM for a URDF file STEM.urdf)",
+    )
     p.add_argument("--all", action="store_true", help=f"regenerate generated/ ({', '.join(SHIPPED)})")
     p.add_argument("--casadi-c", action="store_true", help="also write CasADi's own C code")
     p.set_defaults(func=run_cli)

@@ -19,8 +19,16 @@ import sympy as sp
 from ..derivation.dynamics import Dynamics
 from ..derivation.program import Program, make_program
 
-__all__ = ["FunctionSpec", "candidates", "fdyn_spec", "regressor_spec", "ldlt_factor", "ldlt_solve", "ldlt_inverse",
-           "NAMES"]
+__all__ = [
+    "FunctionSpec",
+    "candidates",
+    "fdyn_spec",
+    "regressor_spec",
+    "ldlt_factor",
+    "ldlt_solve",
+    "ldlt_inverse",
+    "NAMES",
+]
 
 NAMES = ("tau", "M", "C", "Cqd", "G", "F", "fdyn")
 
@@ -32,10 +40,9 @@ _DOCS = {
     "G": "Gravity load G(q), ({n},): the joint torques that hold the arm still.",
     "F": "Joint friction F(qd) = G^2 B qd + |G| Tc(sign qd), ({n},).",
     "bias": "Bias torques C(q, qd) qd + G(q) + F(qd) = tau(q, qd, 0), ({n},).",
-    "fdyn": "Forward dynamics qdd = M(q)^-1 (tau - C(q, qd) qd - F(qd) - G(q)), ({n},), "
-            "by an unrolled LDL^T of M.",
+    "fdyn": "Forward dynamics qdd = M(q)^-1 (tau - C(q, qd) qd - F(qd) - G(q)), ({n},), by an unrolled LDL^T of M.",
     "Y": "Joint-torque regressor Y(q, qd, qdd), ({n}, {p}): tau = Y pi with the standard "
-         "parameters pi of symdyn.derivation.regressor.parameter_symbols.",
+    "parameters pi of symdyn.derivation.regressor.parameter_symbols.",
 }
 
 
@@ -54,8 +61,9 @@ class FunctionSpec:
     matrices: tuple = ()
 
     def program(self) -> Program:
-        return make_program(self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin,
-                            self.matrices)
+        return make_program(
+            self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin, self.matrices
+        )
 
 
 def _label(*indices: int, n: int) -> str:
@@ -91,9 +99,11 @@ def ldlt_factor(M: sp.Matrix) -> tuple[list, list, list]:
     for j in range(n):
         D = name("D", Ms[j][j] - sp.Add(*(W[j][k] * L[j][k] for k in range(j))), j)
         if D == 0:
-            raise ValueError(f"M(q) is singular for every q: pivot {j + 1} of its LDLᵀ is exactly 0 (joint "
-                             f"{j + 1} moves no mass and has no rotor inertia); forward dynamics is undefined. "
-                             "Give a link beyond that joint mass and inertia, or the joint a rotor (Jm and G)")
+            raise ValueError(
+                f"M(q) is singular for every q: pivot {j + 1} of its LDLᵀ is exactly 0 (joint "
+                f"{j + 1} moves no mass and has no rotor inertia); forward dynamics is undefined. "
+                "Give a link beyond that joint mass and inertia, or the joint a rotor (Jm and G)"
+            )
         iD[j] = name("iD", 1 / D, j)
         for i in range(j + 1, n):
             W[i][j] = name("W", Ms[i][j] - sp.Add(*(W[i][k] * L[j][k] for k in range(j))), i, j)
@@ -157,14 +167,25 @@ def candidates(dyn: Dynamics, origin: str | None = None) -> dict[str, FunctionSp
     for term in ("tau", "M", "C", "Cqd", "G", "F"):
         named = dyn.named.get(term)
         expr, defs = (dyn.term(term), ()) if named is None else (named, tuple(dyn.definitions))
-        out[term] = FunctionSpec(term, tuple(dyn.inputs(term)), ((term, expr),), defs,
-                                 _doc(term, dyn), origin, (term,) if term in ("M", "C") else ())
+        out[term] = FunctionSpec(
+            term,
+            tuple(dyn.inputs(term)),
+            ((term, expr),),
+            defs,
+            _doc(term, dyn),
+            origin,
+            (term,) if term in ("M", "C") else (),
+        )
     zero = {a: sp.S.Zero for a in dyn.qdd}
     tau = out["tau"]
     out["bias"] = FunctionSpec(
-        "bias", (("q", dyn.q), ("qd", dyn.qd), *_params(dyn)), (("bias", tau.outputs[0][1].xreplace(zero)),),
-        tuple((s, sp.sympify(e).xreplace(zero)) for s, e in tau.definitions), _doc("bias", dyn),
-        origin)
+        "bias",
+        (("q", dyn.q), ("qd", dyn.qd), *_params(dyn)),
+        (("bias", tau.outputs[0][1].xreplace(zero)),),
+        tuple((s, sp.sympify(e).xreplace(zero)) for s, e in tau.definitions),
+        _doc("bias", dyn),
+        origin,
+    )
     return out
 
 
@@ -184,13 +205,21 @@ def fdyn_spec(M: FunctionSpec, bias: FunctionSpec) -> FunctionSpec:
     params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
     origin = M.origin if M.origin == bias.origin else f"M: {M.origin}, bias: {bias.origin}"
     doc = _DOCS["fdyn"].format(n=n) + (f" p = ({', '.join(map(str, params[0][1]))})." if params else "")
-    return FunctionSpec("fdyn", (q, qd, tau, *params), (("qdd", sp.ImmutableMatrix(qdd)),),
-                        tuple(defs.items()), doc, origin)
+    return FunctionSpec(
+        "fdyn", (q, qd, tau, *params), (("qdd", sp.ImmutableMatrix(qdd)),), tuple(defs.items()), doc, origin
+    )
 
 
 def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
     """Y(q, q̇, q̈) (n × 14n) of a `symdyn.derivation.regressor.Regressor`, in its named columns."""
     n, cols = dyn.n, reg.columns
     Y = sp.ImmutableMatrix(n, len(cols), lambda i, k: cols[k][i])
-    return FunctionSpec("Y", (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)), (("Y", Y),),
-                        tuple(reg.tape.defs.items()), _doc("Y", dyn, p=len(cols)), "regressor", ("Y",))
+    return FunctionSpec(
+        "Y",
+        (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)),
+        (("Y", Y),),
+        tuple(reg.tape.defs.items()),
+        _doc("Y", dyn, p=len(cols)),
+        "regressor",
+        ("Y",),
+    )

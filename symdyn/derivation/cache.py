@@ -82,9 +82,11 @@ def warn_unwritable(exc: OSError) -> None:
     folder = str(cache_dir())
     if folder not in _WARNED:
         _WARNED.add(folder)
-        print(f"symdyn: warning: cache folder {folder} is not writable ({exc.strerror or exc}); going on "
-              "without the cache (set SYMDYN_CACHE_DIR to a writable folder to keep results)",
-              file=sys.stderr)
+        print(
+            f"symdyn: warning: cache folder {folder} is not writable ({exc.strerror or exc}); going on "
+            "without the cache (set SYMDYN_CACHE_DIR to a writable folder to keep results)",
+            file=sys.stderr,
+        )
 
 
 def writable(folder: Path) -> Path:
@@ -129,7 +131,7 @@ def _read(path: Path, entry_key: str) -> tuple[Any, str | None]:
 def _lookup(path: Path, entry_key: str, say: bool) -> tuple[Any, bool]:
     """(value, True) from the entry at `path`, or (None, False) — saying why an existing entry is
     not used when `say`."""
-    if not os.path.isfile(path):   # False, not an error, in an unreadable folder
+    if not os.path.isfile(path):  # False, not an error, in an unreadable folder
         return None, False
     try:
         value, reason = _read(path, entry_key)
@@ -151,6 +153,7 @@ def build_lock(path: Path):
     optimisation, never a reason to fail."""
     try:
         import fcntl
+
         folder = Path(tempfile.gettempdir()) / f"symdyn-locks-{os.getuid()}"
         folder.mkdir(mode=0o700, exist_ok=True)
         handle = open(folder / f"{hashlib.sha256(str(path).encode()).hexdigest()[:32]}.lock", "a")

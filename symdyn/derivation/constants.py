@@ -30,8 +30,17 @@ from fractions import Fraction
 import sympy as sp
 
 from .dynamics import Dynamics
-from .printing import CLOSED_LIMIT, DIGITS, FOLD_BUDGET, _display, latex_document, latex_name, latex_number, \
-    number, wrap
+from .printing import (
+    CLOSED_LIMIT,
+    DIGITS,
+    FOLD_BUDGET,
+    _display,
+    latex_document,
+    latex_name,
+    latex_number,
+    number,
+    wrap,
+)
 from .program import make_program
 from .regressor import FRICTION, INERTIAL, base_parameters, regressor
 from .simplify import angle_products, closed_size, group_parameters, natural_chains
@@ -88,9 +97,18 @@ class ConstantForm:
         if kind in ("G", "F"):
             return sp.ImmutableMatrix([by.get(f"{kind}{i + 1}", 0) for i in range(n)])
         if kind == "Cqd":
-            return sp.ImmutableMatrix([sp.Add(*(sp.Add(*e) * _rate(name, qd) for name, k, e in self.elements
-                                                if k in "bc" and name[1:].split("_")[0] == str(i + 1)))
-                                       for i in range(n)])
+            return sp.ImmutableMatrix(
+                [
+                    sp.Add(
+                        *(
+                            sp.Add(*e) * _rate(name, qd)
+                            for name, k, e in self.elements
+                            if k in "bc" and name[1:].split("_")[0] == str(i + 1)
+                        )
+                    )
+                    for i in range(n)
+                ]
+            )
         raise ValueError(f"unknown kind {kind!r}: expected M, Cqd, G or F")
 
     def term_count(self, kind: str) -> int:
@@ -107,8 +125,7 @@ class ConstantForm:
             outputs = [("tau", sp.Matrix(M * sp.Matrix(dyn.qdd) + Cqd + G + F))]
         else:
             outputs = [(kind, self._evaluated(kind))]
-        return make_program(kind, dyn.inputs("tau") if kind in ("tau", "Cqd") else dyn.inputs(kind),
-                            outputs).op_count()
+        return make_program(kind, dyn.inputs("tau") if kind in ("tau", "Cqd") else dyn.inputs(kind), outputs).op_count()
 
     def _evaluated(self, kind: str) -> sp.Matrix:
         values = {c.symbol: c.value if c.value is not None else c.definition for c in self.constants}
@@ -124,6 +141,7 @@ def _rate(name: str, qd) -> sp.Expr:
 
 
 # --------------------------------------------------------------------------- torques in parameters
+
 
 def _torques(dyn: Dynamics):
     """(space, τ without friction as TrigPolys, parameter symbols, their
@@ -143,10 +161,14 @@ def _torques(dyn: Dynamics):
     reg = regressor(robot)
     base = base_parameters(robot, reg)
     per = len(INERTIAL) + len(FRICTION)
-    kept = [(k, e, v) for k, e, v in zip(base.independent, base.expressions, base.values)
-            if k % per < len(INERTIAL) and v != 0]
-    symbols = [sp.Symbol(f"{reg.params[k]}R" if e != reg.params[k] else str(reg.params[k]), real=True)
-               for k, e, _ in kept]
+    kept = [
+        (k, e, v)
+        for k, e, v in zip(base.independent, base.expressions, base.values)
+        if k % per < len(INERTIAL) and v != 0
+    ]
+    symbols = [
+        sp.Symbol(f"{reg.params[k]}R" if e != reg.params[k] else str(reg.params[k]), real=True) for k, e, _ in kept
+    ]
     space = TrigSpace(angles, symbols + motion)
     memo = {}
     for s, e in reg.tape.defs.items():
@@ -183,6 +205,7 @@ def _power(unit: str, e: int) -> str:
 
 # --------------------------------------------------------------------------- the form
 
+
 def _abbreviation(atom: sp.Expr) -> sp.Symbol:
     """cos(q2 + q3) → C23, sin(q4) → S4 (indices joined by commas from joint 10 on)."""
     joints = [int(s.name[1:]) for s in sorted(atom.args[0].free_symbols, key=lambda s: int(s.name[1:]))]
@@ -199,10 +222,12 @@ def constant_form(dyn: Dynamics) -> ConstantForm:
     size = closed_size(dyn, "tau", FOLD_BUDGET)
     if size is None or size > CLOSED_LIMIT:
         how_big = f"more than {FOLD_BUDGET} terms in its intermediates" if size is None else f"{size} terms"
-        raise ValueError(f"the named-constant form of {dyn.robot.name} is not offered: its tau has {how_big} "
-                         f"(the form is made for arms up to {CLOSED_LIMIT}); print "
-                         f"`symdyn print {dyn.robot.name} --term G` (closed form) or `symdyn print "
-                         f"{dyn.robot.name}` (named intermediates where a term is larger)")
+        raise ValueError(
+            f"the named-constant form of {dyn.robot.name} is not offered: its tau has {how_big} "
+            f"(the form is made for arms up to {CLOSED_LIMIT}); print "
+            f"`symdyn print {dyn.robot.name} --term G` (closed form) or `symdyn print "
+            f"{dyn.robot.name}` (named intermediates where a term is larger)"
+        )
     robot, n = dyn.robot, dyn.n
     space, torques, params, info = _torques(dyn)
     q, qd, qdd = dyn.q, dyn.qd, dyn.qdd
@@ -224,16 +249,17 @@ def constant_form(dyn: Dynamics) -> ConstantForm:
                 if name is None:
                     continue
                 meta[name] = (i, rates)
-                pmono = sp.Mul(*(x ** e for x, e in zip(prismatic, rest)))
+                pmono = sp.Mul(*(x**e for x, e in zip(prismatic, rest)))
                 for term in sp.Add.make_args(products):
                     num, mono = term.as_coeff_Mul()
                     slot = acc.setdefault(name, {}).setdefault(mono * pmono, {})
                     key = exps[:P]
-                    slot[key] = slot.get(key, 0) + Fraction(int(c.numerator), int(c.denominator)) * \
-                        Fraction(int(num.p), int(num.q))
+                    slot[key] = slot.get(key, 0) + Fraction(int(c.numerator), int(c.denominator)) * Fraction(
+                        int(num.p), int(num.q)
+                    )
 
     abbreviations: dict = {}
-    named: dict = {}            # (units, normalized coefficient) -> [(scale, Constant)]
+    named: dict = {}  # (units, normalized coefficient) -> [(scale, Constant)]
     constants: list = []
     counters = {"I": 0, "g": 0}
     elements = []
@@ -245,8 +271,9 @@ def constant_form(dyn: Dynamics) -> ConstantForm:
             if not coeff:
                 continue
             unit = _units(*meta[name], tuple(sp.degree(mono, x) for x in prismatic), kinds)
-            factor, const = _name(coeff, unit, params, info, named, constants, counters,
-                                  "g" if kind == "G" else "I", masses)
+            factor, const = _name(
+                coeff, unit, params, info, named, constants, counters, "g" if kind == "G" else "I", masses
+            )
             if factor is None:
                 continue
             for atom in mono.atoms(sp.sin, sp.cos):
@@ -258,14 +285,19 @@ def constant_form(dyn: Dynamics) -> ConstantForm:
     tau = []
     for i in range(n):
         parts = [sp.Symbol(f"M{min(i, j) + 1}{max(i, j) + 1}") * qdd[j] for j in range(n)]
-        parts += [sp.Symbol(nm) * _rate(nm, qd) for nm, k, _ in elements
-                  if k in "bc" and nm[1:].split("_")[0] == str(i + 1)]
+        parts += [
+            sp.Symbol(nm) * _rate(nm, qd) for nm, k, _ in elements if k in "bc" and nm[1:].split("_")[0] == str(i + 1)
+        ]
         parts += [sp.Symbol(f"{k}{i + 1}") for k in ("G", "F") if any(nm == f"{k}{i + 1}" for nm, _, _ in elements)]
         tau.append((f"tau{i + 1}", tuple(parts)))
     order = sorted(abbreviations, key=lambda s: (s.name[0] == "S", len(s.name), s.name))
-    return ConstantForm(dyn=dyn, constants=tuple(constants),
-                        abbreviations=tuple((s, abbreviations[s]) for s in order),
-                        elements=tuple((nm, k, e) for nm, k, e in elements), tau=tuple(tau))
+    return ConstantForm(
+        dyn=dyn,
+        constants=tuple(constants),
+        abbreviations=tuple((s, abbreviations[s]) for s in order),
+        elements=tuple((nm, k, e) for nm, k, e in elements),
+        tau=tuple(tau),
+    )
 
 
 def _element(i: int, motion: tuple, n: int, n_prismatic: int) -> tuple[str, tuple, tuple]:
@@ -273,11 +305,11 @@ def _element(i: int, motion: tuple, n: int, n_prismatic: int) -> tuple[str, tupl
     (M_ij for q̈_j, b_ijk for q̇_j q̇_k, c_ij for q̇_j², G_i): its name (None
     below M's diagonal), its rate factors as (joint, derivative order), its
     prismatic exponents."""
-    pris, rates, accs = motion[:n_prismatic], motion[n_prismatic:n_prismatic + n], motion[n_prismatic + n:]
+    pris, rates, accs = motion[:n_prismatic], motion[n_prismatic : n_prismatic + n], motion[n_prismatic + n :]
     sep = "," if n >= 10 else ""
     if any(accs):
         j = accs.index(1)
-        if j < i:           # M is symmetric: its upper triangle comes from τ_i, q̈_j with j ≥ i
+        if j < i:  # M is symmetric: its upper triangle comes from τ_i, q̈_j with j ≥ i
             return None, (), pris
         return f"M{min(i, j) + 1}{sep}{max(i, j) + 1}", ((j, 2),), pris
     if any(rates):
@@ -302,16 +334,29 @@ def _units(i: int, rates: tuple, pris: tuple, kinds: list) -> str:
     return units((kg, m, s))
 
 
-def _name(coeff: dict, unit: str, params: list, info: dict, named: dict, constants: list, counters: dict,
-          stem: str, masses: tuple):
+def _name(
+    coeff: dict,
+    unit: str,
+    params: list,
+    info: dict,
+    named: dict,
+    constants: list,
+    counters: dict,
+    stem: str,
+    masses: tuple,
+):
     """(factor, Constant) with coefficient = factor·constant: an existing constant
     when the coefficient is a simple multiple of one, else a new one.  (None, None)
     when the coefficient's value is zero for this arm."""
     keys = sorted(coeff, reverse=True)
     lead = coeff[keys[0]]
     normal = tuple((e, coeff[e] / lead) for e in keys)
-    expr = sp.Add(*(sp.Rational(c.numerator, c.denominator) * sp.Mul(*(p ** x for p, x in zip(params, e)))
-                    for e, c in coeff.items()))
+    expr = sp.Add(
+        *(
+            sp.Rational(c.numerator, c.denominator) * sp.Mul(*(p**x for p, x in zip(params, e)))
+            for e, c in coeff.items()
+        )
+    )
     numeric = all(v is not None for _, v in info.values())
     value = sp.expand(expr.xreplace({p: v for p, (_, v) in info.items()})) if numeric else None
     if numeric and value == 0:
@@ -327,8 +372,9 @@ def _name(coeff: dict, unit: str, params: list, info: dict, named: dict, constan
         definition = group_parameters(sign * definition, set(params), masses)
     else:
         definition = sign * definition
-    const = Constant(sp.Symbol(f"{stem}{counters[stem]}", real=True), definition,
-                     None if value is None else sign * value, unit)
+    const = Constant(
+        sp.Symbol(f"{stem}{counters[stem]}", real=True), definition, None if value is None else sign * value, unit
+    )
     named.setdefault((unit, normal), []).append((lead * sign, const))
     constants.append(const)
     return sp.Integer(sign), const
@@ -360,13 +406,14 @@ def _friction(dyn: Dynamics, constants: list) -> list:
 
 # --------------------------------------------------------------------------- printing
 
+
 def _param_key(term: sp.Expr) -> tuple:
     """Order of a definition's terms: link by link, Khalil's parameter order within a link."""
     syms = sorted(term.free_symbols, key=str)
     if len(syms) != 1:
         return (0, 0, str(term))
     stem = syms[0].name.rstrip("0123456789")
-    index = syms[0].name[len(stem):]
+    index = syms[0].name[len(stem) :]
     order = (INERTIAL + FRICTION).index(stem) if stem in INERTIAL + FRICTION else len(INERTIAL + FRICTION)
     return (int(index) if index.isdigit() else 0, order, syms[0].name)
 
@@ -384,38 +431,54 @@ def render_form(form: ConstantForm, fmt: str = "text", *, digits: int = DIGITS) 
         if numeric:
             definition = sorted(sp.Add.make_args(c.definition), key=_param_key)
             value = _display(c.value)
-            lhs = (f"{c.symbol} = {number(float(value), digits)} {c.units} = " if fmt != "latex" else
-                   f"{latex_name(str(c.symbol))} &= {latex_number(float(value), digits)}\\,"
-                   f"\\mathrm{{{_latex_units(c.units)}}} = ")
+            lhs = (
+                f"{c.symbol} = {number(float(value), digits)} {c.units} = "
+                if fmt != "latex"
+                else f"{latex_name(str(c.symbol))} &= {latex_number(float(value), digits)}\\,"
+                f"\\mathrm{{{_latex_units(c.units)}}} = "
+            )
         else:
             definition = c.definition
-            lhs = (f"{c.symbol} [{c.units}] = " if fmt != "latex" else
-                   f"{latex_name(str(c.symbol))}\\;[\\mathrm{{{_latex_units(c.units)}}}] &= ")
+            lhs = (
+                f"{c.symbol} [{c.units}] = "
+                if fmt != "latex"
+                else f"{latex_name(str(c.symbol))}\\;[\\mathrm{{{_latex_units(c.units)}}}] &= "
+            )
         rows.append((str(c.symbol), definition, lhs))
     sections.append(("Named constants", rows))
     sections.append(("Abbreviations", [(str(s), e, None) for s, e in form.abbreviations]))
-    sections.append(("Inertia M (upper triangle), Coriolis b, centripetal c, gravity G, friction F",
-                     [(name, list(terms), None) for name, _, terms in form.elements]))
+    sections.append(
+        (
+            "Inertia M (upper triangle), Coriolis b, centripetal c, gravity G, friction F",
+            [(name, list(terms), None) for name, _, terms in form.elements],
+        )
+    )
     sections.append(("Joint torques", [(name, list(terms), None) for name, terms in form.tau]))
-    source = ("definitions in Khalil's standard link parameters (modified-DH link frames); "
-              "base parameters that are zero for this arm are left out" if numeric else
-              "definitions in the arm's symbols")
-    head = [f"{comment} {robot.name}: closed form in named constants (Armstrong, Khatib & Burdick 1986); "
-            f"{source}"]
+    source = (
+        "definitions in Khalil's standard link parameters (modified-DH link frames); "
+        "base parameters that are zero for this arm are left out"
+        if numeric
+        else "definitions in the arm's symbols"
+    )
+    head = [f"{comment} {robot.name}: closed form in named constants (Armstrong, Khatib & Burdick 1986); {source}"]
     if fmt == "latex":
         body = []
         for title, rows in sections:
             body.append(f"\\section*{{{title}}}")
-            lines = [line for name, e, lhs in rows
-                     for line in [" \\\\\n".join(wrap(name, _display_terms(e), fmt, digits=digits, lhs=lhs))]]
+            lines = [
+                line
+                for name, e, lhs in rows
+                for line in [" \\\\\n".join(wrap(name, _display_terms(e), fmt, digits=digits, lhs=lhs))]
+            ]
             body.append("\\begin{align*}\n" + " \\\\\n".join(lines) + "\n\\end{align*}")
         return "\n".join(head) + "\n" + latex_document("\n".join(body))
     out = list(head)
     for title, rows in sections:
         out.append(f"{comment} {title}")
         joiner = "\n\n" if fmt == "pretty" else "\n"
-        out.append(joiner.join("\n".join(wrap(name, _display_terms(e), fmt, digits=digits, lhs=lhs))
-                               for name, e, lhs in rows))
+        out.append(
+            joiner.join("\n".join(wrap(name, _display_terms(e), fmt, digits=digits, lhs=lhs)) for name, e, lhs in rows)
+        )
     return "\n".join(out)
 
 

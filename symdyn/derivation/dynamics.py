@@ -75,8 +75,14 @@ class Dynamics:
 
     def inputs(self, name: str) -> list:
         """The argument lists a term depends on: [("q", q), ("qd", qd), …]."""
-        args = {"M": ("q",), "C": ("q", "qd"), "Cqd": ("q", "qd"), "G": ("q",), "F": ("qd",),
-                "tau": ("q", "qd", "qdd")}[name]
+        args = {
+            "M": ("q",),
+            "C": ("q", "qd"),
+            "Cqd": ("q", "qd"),
+            "G": ("q",),
+            "F": ("qd",),
+            "tau": ("q", "qd", "qdd"),
+        }[name]
         out = [(a, getattr(self, a)) for a in args]
         return out + [("p", self.params)] if self.params else out
 
@@ -84,6 +90,7 @@ class Dynamics:
         """Operations of a term after CSE ({"mul", "add", …}); see `symdyn.derivation.simplify.op_counts`
         for every stage (raw, cse, folded, pruned)."""
         from .simplify import op_counts
+
         return op_counts(self, term, stages=(stage,))[stage]
 
     @property

@@ -39,8 +39,9 @@ def code_fingerprint() -> str:
     return digest.hexdigest()
 
 
-def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False, cache: bool = True,
-           progress: bool = False) -> Dynamics:
+def derive(
+    robot: Robot, method: str = "newton-euler", *, regroup: bool = False, cache: bool = True, progress: bool = False
+) -> Dynamics:
     """Closed-form M, C, G, F and τ of `robot` by `method` ("lagrange" or "newton-euler").
 
     regroup=True (Newton–Euler, numeric robots): run the recursion on the
@@ -53,16 +54,18 @@ def derive(robot: Robot, method: str = "newton-euler", *, regroup: bool = False,
     if not isinstance(robot, Robot):
         raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
     if regroup and (method != "newton-euler" or robot.is_symbolic):
-        raise ValueError("regroup=True needs method='newton-euler' and a numeric robot "
-                         f"(got {method!r}, symbols {sorted(map(str, robot.free_symbols))})")
+        raise ValueError(
+            "regroup=True needs method='newton-euler' and a numeric robot "
+            f"(got {method!r}, symbols {sorted(map(str, robot.free_symbols))})"
+        )
 
     def build() -> Dynamics:
         start = time.perf_counter()
-        if method == "lagrange" and robot.n <= EXPANDED_MAX_JOINTS:   # under a second for the Puma
+        if method == "lagrange" and robot.n <= EXPANDED_MAX_JOINTS:  # under a second for the Puma
             from .lagrange import derive as lagrange
 
             dyn = lagrange(robot)
-        elif method == "lagrange":   # the same method on named intermediates: seconds, not minutes
+        elif method == "lagrange":  # the same method on named intermediates: seconds, not minutes
             from .lagrange_dag import derive as lagrange_dag
 
             dyn = lagrange_dag(robot)

@@ -30,12 +30,15 @@ __all__ = ["space", "TrigDynamics", "trig_dynamics", "christoffel", "equations",
 
 # --------------------------------------------------------------------------- constants
 
+
 def _angle_constant(x, what: str) -> sp.Expr:
     """A constant angle for printing: k·π/m when a float is one (m ≤ 12), else exact."""
     if isinstance(x, sp.Basic):
         if x.free_symbols:
-            raise ValueError(f"{what} = {x} is symbolic: the Lagrange route needs constant angles "
-                             f"(substitute a value with robot.subs)")
+            raise ValueError(
+                f"{what} = {x} is symbolic: the Lagrange route needs constant angles "
+                f"(substitute a value with robot.subs)"
+            )
         return x
     for m in range(1, 13):
         k = round(x * m / math.pi)
@@ -47,8 +50,9 @@ def _angle_constant(x, what: str) -> sp.Expr:
 def _twist(x, what: str) -> tuple:
     """cos, sin of a constant angle in QQ (exact for multiples of π/2)."""
     if isinstance(x, sp.Basic) and x.free_symbols:
-        raise ValueError(f"{what} = {x} is symbolic: the Lagrange route needs constant angles "
-                         f"(substitute a value with robot.subs)")
+        raise ValueError(
+            f"{what} = {x} is symbolic: the Lagrange route needs constant angles (substitute a value with robot.subs)"
+        )
     return constant_cos_sin(x)
 
 
@@ -72,6 +76,7 @@ def space(robot: Robot) -> TrigSpace:
 
 # --------------------------------------------------------------------------- vectors and frames
 
+
 def _dot(u, v, S: TrigSpace) -> TrigPoly:
     """u·v of two 3-vectors of TrigPolys (zero entries skipped)."""
     return summation([a * b for a, b in zip(u, v) if a and b], S)
@@ -82,6 +87,7 @@ def _cross(u, v, S: TrigSpace) -> list:
         x = u[a] * v[b] if u[a] and v[b] else S.zero
         y = u[c] * v[e] if u[c] and v[e] else S.zero
         return x - y
+
     return [d(1, 2, 2, 1), d(2, 0, 0, 2), d(0, 1, 1, 0)]
 
 
@@ -113,9 +119,9 @@ class _Link:
     pre_p: list
     post_R: list
     post_p: list
-    cos: TrigPoly       # cos θ, sin θ (an angle, or constants for a prismatic joint)
+    cos: TrigPoly  # cos θ, sin θ (an angle, or constants for a prismatic joint)
     sin: TrigPoly
-    d: TrigPoly         # a constant, or q_i + offset for a prismatic joint
+    d: TrigPoly  # a constant, or q_i + offset for a prismatic joint
     revolute: bool
     m: TrigPoly
     r: list
@@ -127,13 +133,13 @@ def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
     const = S.const
     eye = [[QQ(int(a == b)) for b in range(3)] for a in range(3)]
     if robot.convention == "general":
-        robot = robot.to_modified()   # every axis along its link's z, exact placements
+        robot = robot.to_modified()  # every axis along its link's z, exact placements
     out, a_idx = [], 0
     for i, link in enumerate(robot.links):
         Rx = _rx(link.alpha, f"alpha of link {i + 1}")
         zero3 = [S.zero] * 3
         ax = [const(link.a), S.zero, S.zero]
-        if robot.convention == "general":   # origin · Rz(q) or origin · Tz(q)
+        if robot.convention == "general":  # origin · Rz(q) or origin · Tz(q)
             T = link.origin
             pre_R, pre_p = [[to_qq(x) for x in row[:3]] for row in T[:3]], [const(row[3]) for row in T[:3]]
             post_R, post_p = eye, zero3
@@ -149,8 +155,21 @@ def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
             ct, st = _twist(link.theta, f"theta of prismatic joint {i + 1}")
             c, s = const(ct), const(st)
             d = S.gen(q[i]) + const(link.offset)
-        out.append(_Link(pre_R, pre_p, post_R, post_p, c, s, d, link.is_revolute, const(link.m),
-                         [const(x) for x in link.r], _symmetric(link.I, const)))
+        out.append(
+            _Link(
+                pre_R,
+                pre_p,
+                post_R,
+                post_p,
+                c,
+                s,
+                d,
+                link.is_revolute,
+                const(link.m),
+                [const(x) for x in link.r],
+                _symmetric(link.I, const),
+            )
+        )
     return out
 
 
@@ -168,6 +187,7 @@ def _back(links: list[_Link], j: int, S: TrigSpace) -> tuple:
 
 
 # --------------------------------------------------------------------------- M and V
+
 
 def _body_jacobians(links: list[_Link], backs: list, i: int, S: TrigSpace) -> list:
     """[(v_j, ω_j)] for j = 0…i: COM-velocity and angular-velocity columns of link i
@@ -247,6 +267,7 @@ def _potential(robot: Robot, links: list[_Link], S: TrigSpace) -> TrigPoly:
 
 # --------------------------------------------------------------------------- results
 
+
 @dataclass(frozen=True)
 class TrigDynamics:
     """M, Γ, C, G and τ (without friction) of one robot as trig polynomials.
@@ -271,8 +292,10 @@ class TrigDynamics:
         """Ṁ = Σ_i ∂M/∂q_i q̇_i."""
         S, n = self.space, len(self.q)
         qd = [S.gen(x) for x in self.qd]
-        return tuple(tuple(summation([self.M[j][k].diff(self.q[i]) * qd[i] for i in range(n)], S)
-                           for k in range(n)) for j in range(n))
+        return tuple(
+            tuple(summation([self.M[j][k].diff(self.q[i]) * qd[i] for i in range(n)], S) for k in range(n))
+            for j in range(n)
+        )
 
 
 def _christoffel(M: list, q: tuple, S: TrigSpace) -> list:
@@ -306,24 +329,31 @@ def trig_dynamics(robot: Robot) -> TrigDynamics:
     qdd_ = [S.gen(x) for x in qdd]
     C = [[summation([Gam[k][i][j] * qd_[i] for i in range(n)], S) for j in range(n)] for k in range(n)]
     t3 = time.perf_counter()
-    tau = [summation([M[k][j] * qdd_[j] for j in range(n)] + [C[k][j] * qd_[j] for j in range(n)] + [G[k]], S)
-           for k in range(n)]
+    tau = [
+        summation([M[k][j] * qdd_[j] for j in range(n)] + [C[k][j] * qd_[j] for j in range(n)] + [G[k]], S)
+        for k in range(n)
+    ]
     t4 = time.perf_counter()
-    stats = {"time_M": t1 - t0, "time_G": t2 - t1, "time_Gamma_C": t3 - t2, "time_tau": t4 - t3,
-             "terms_M": sum(x.nterms for row in M for x in row),
-             "terms_G": sum(x.nterms for x in G),
-             "terms_Gamma": sum(x.nterms for a in Gam for b in a for x in b)}
+    stats = {
+        "time_M": t1 - t0,
+        "time_G": t2 - t1,
+        "time_Gamma_C": t3 - t2,
+        "time_tau": t4 - t3,
+        "terms_M": sum(x.nterms for row in M for x in row),
+        "terms_G": sum(x.nterms for x in G),
+        "terms_Gamma": sum(x.nterms for a in Gam for b in a for x in b),
+    }
     tup = lambda rows: tuple(tuple(r) for r in rows)  # noqa: E731
-    return TrigDynamics(S, q, qd, qdd, tup(M), tuple(tup(a) for a in Gam), tup(C), tuple(G), V,
-                        tuple(tau), stats)
+    return TrigDynamics(S, q, qd, qdd, tup(M), tuple(tup(a) for a in Gam), tup(C), tuple(G), V, tuple(tau), stats)
 
 
 def christoffel(robot: Robot) -> sp.ImmutableDenseNDimArray:
     """Christoffel symbols Γ[k, i, j] (n×n×n sympy array), indexed as `reference.christoffel`."""
     T = trig_dynamics(robot)
     n = robot.n
-    return sp.ImmutableDenseNDimArray([[[T.Gamma[k][i][j].to_expr() for j in range(n)] for i in range(n)]
-                                       for k in range(n)], (n, n, n))
+    return sp.ImmutableDenseNDimArray(
+        [[[T.Gamma[k][i][j].to_expr() for j in range(n)] for i in range(n)] for k in range(n)], (n, n, n)
+    )
 
 
 def _matrix(rows) -> sp.ImmutableMatrix:
@@ -352,8 +382,18 @@ def derive(robot: Robot) -> Dynamics:
     # 7-joint arm is a ~10⁵-operation tree that code generation cannot afford to CSE
     Cqd = sp.ImmutableMatrix(C_named * sp.Matrix(T.qd))
     named = {"C": C_named, "Cqd": Cqd, "tau": sp.ImmutableMatrix(M * sp.Matrix(T.qdd) + Cqd + G + F)}
-    return Dynamics(robot=robot, method="lagrange", q=T.q, qd=T.qd, qdd=T.qdd, F=F, definitions=definitions,
-                    named=named, stats=stats, expanded={"M": M, "C": C, "G": G, "tau": tau})
+    return Dynamics(
+        robot=robot,
+        method="lagrange",
+        q=T.q,
+        qd=T.qd,
+        qdd=T.qdd,
+        F=F,
+        definitions=definitions,
+        named=named,
+        stats=stats,
+        expanded={"M": M, "C": C, "G": G, "tau": tau},
+    )
 
 
 def _christoffel_program(T: "TrigDynamics", n: int) -> tuple[tuple, sp.ImmutableMatrix]:
@@ -369,6 +409,7 @@ def _christoffel_program(T: "TrigDynamics", n: int) -> tuple[tuple, sp.Immutable
                 sym = sp.Symbol(f"Gamma{k + 1}_{i + 1}{j + 1}", real=True)
                 definitions.append((sym, g.to_expr()))
                 names[k, i, j] = names[k, j, i] = sym
-    C = sp.ImmutableMatrix(n, n, lambda k, j: sp.Add(*(names[k, i, j] * T.qd[i] for i in range(n)
-                                                         if (k, i, j) in names)))
+    C = sp.ImmutableMatrix(
+        n, n, lambda k, j: sp.Add(*(names[k, i, j] * T.qd[i] for i in range(n) if (k, i, j) in names))
+    )
     return tuple(definitions), C

@@ -65,7 +65,7 @@ class _Derivatives:
             for i, a in enumerate(args):
                 da = self.of(a, l)
                 if da != 0:
-                    terms.append(sp.Mul(*args[:i], da, *args[i + 1:]))
+                    terms.append(sp.Mul(*args[:i], da, *args[i + 1 :]))
             return sp.Add(*terms)
         if expr.is_Pow and expr.exp.is_Number:
             db = self.of(expr.base, l)
@@ -84,8 +84,9 @@ class _Derivatives:
 
 def _mat(tape: Tape, A, B, label: str) -> sp.Matrix:
     """A·B, entries named."""
-    return sp.Matrix(3, 3, lambda i, j: tape.name(sum(A[i, k] * B[k, j] for k in range(3)),
-                                                  f"{label}_{AXES[i]}{AXES[j]}"))
+    return sp.Matrix(
+        3, 3, lambda i, j: tape.name(sum(A[i, k] * B[k, j] for k in range(3)), f"{label}_{AXES[i]}{AXES[j]}")
+    )
 
 
 def derive(robot: Robot) -> Dynamics:
@@ -93,7 +94,7 @@ def derive(robot: Robot) -> Dynamics:
     t0 = time.perf_counter()
     n = robot.n
     q, qd, qdd = joint_symbols(n)
-    frames = link_frames(robot.to_modified(), q)   # every joint axis along its link's z
+    frames = link_frames(robot.to_modified(), q)  # every joint axis along its link's z
     inertias = link_inertias(robot.to_modified())  # about the link origin, first moments h = m·r
     tape = Tape()
     R, o = sp.eye(3), sp.zeros(3, 1)
@@ -115,7 +116,7 @@ def derive(robot: Robot) -> Dynamics:
         cols = []
         for j in range(i + 1):
             revolute = frames[j].S[2] == 1
-            zj = Rt * axes[j]   # joint j's axis in link i's frame
+            zj = Rt * axes[j]  # joint j's axis in link i's frame
             w = [tape.name(x, f"w{k}_{j + 1}{AXES[a]}") for a, x in enumerate(zj)] if revolute else [0, 0, 0]
             if revolute:
                 v = sp.Matrix(w).cross(Rt * (origins[i] - origins[j]))
@@ -136,9 +137,11 @@ def derive(robot: Robot) -> Dynamics:
             M[a][b] = tape.name(M[a][b] + (Ia[a] if a == b else 0), f"M{a + 1}{b + 1}")
             M[b][a] = M[a][b]
     t1 = time.perf_counter()
-    g0 = sp.Matrix(gravity_in_base(robot))   # the base's upward acceleration, in frame {0}
-    V = sum((inertias[i].m * g0.dot(origins[i]) + g0.dot(rotations[i] * sp.Matrix(inertias[i].h))
-             for i in range(n)), sp.S.Zero)
+    g0 = sp.Matrix(gravity_in_base(robot))  # the base's upward acceleration, in frame {0}
+    V = sum(
+        (inertias[i].m * g0.dot(origins[i]) + g0.dot(rotations[i] * sp.Matrix(inertias[i].h)) for i in range(n)),
+        sp.S.Zero,
+    )
     d = _Derivatives(tape, q)
     G = [tape.name(d.of(V, l), f"G{l + 1}") for l in range(n)]
     t2 = time.perf_counter()
@@ -157,8 +160,22 @@ def derive(robot: Robot) -> Dynamics:
     Cqd = sp.ImmutableMatrix(C * sp.Matrix(qd))
     Gm = sp.ImmutableMatrix(G)
     named = {"M": Mm, "C": C, "Cqd": Cqd, "G": Gm, "F": F, "tau": Mm * sp.Matrix(qdd) + Cqd + Gm + F}
-    stats = {"time_M": t1 - t0, "time_G": t2 - t1, "time_Gamma_C": t3 - t2, "form": "named",
-             "names": len(tape.defs), "time_total": time.perf_counter() - t0}
-    return Dynamics(robot=robot, method="lagrange", q=q, qd=qd, qdd=qdd, F=F,
-                    definitions=tuple(tape.used_by(list(named["tau"]) + list(C) + list(Mm))), named=named,
-                    stats=stats)
+    stats = {
+        "time_M": t1 - t0,
+        "time_G": t2 - t1,
+        "time_Gamma_C": t3 - t2,
+        "form": "named",
+        "names": len(tape.defs),
+        "time_total": time.perf_counter() - t0,
+    }
+    return Dynamics(
+        robot=robot,
+        method="lagrange",
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        F=F,
+        definitions=tuple(tape.used_by(list(named["tau"]) + list(C) + list(Mm))),
+        named=named,
+        stats=stats,
+    )

@@ -26,8 +26,8 @@ from .symbols import exact, joint_symbols
 from .tape import Tape
 
 
-
 # --------------------------------------------------------------------------- small vector algebra
+
 
 def _cross(a, b):
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
@@ -54,6 +54,7 @@ def _dot(a, b):
 
 
 # --------------------------------------------------------------------------- inertial parameters
+
 
 @dataclass(frozen=True)
 class LinkInertia:
@@ -83,6 +84,7 @@ def link_inertias(robot: Robot) -> list[LinkInertia]:
 
 # --------------------------------------------------------------------------- the recursion
 
+
 @dataclass
 class Motion:
     """Angular velocity w and acceleration dw, the classical acceleration dV
@@ -106,13 +108,17 @@ def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "")
     g0 is the base's upward acceleration in frame {0} (Corke's gravity,
     rotated by the base); the base itself is at rest.
     """
-    w = [0, 0, 0]; dw = [0, 0, 0]; dV = list(g0); U = [0] * 9
+    w = [0, 0, 0]
+    dw = [0, 0, 0]
+    dV = list(g0)
+    U = [0] * 9
     out = []
     for i, f in enumerate(frames):
         k = i + 1
         if f.S != (0, 0, 1, 0, 0, 0) and f.S != (0, 0, 0, 0, 0, 1):
-            raise ValueError("the customized recursion needs modified-DH frames (joint axis = z); "
-                             "convert with robot.to_modified()")
+            raise ValueError(
+                "the customized recursion needs modified-DH frames (joint axis = z); convert with robot.to_modified()"
+            )
         revolute = f.S[2] == 1
         wI = tape.vector(_tmatvec(f.R, w), f"{tag}wi{k}")
         dwI = _tmatvec(f.R, dw)
@@ -128,10 +134,21 @@ def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "")
         wxy = tape.name(w[0] * w[1], f"{tag}w{k}xy")
         wxz = tape.name(w[0] * w[2], f"{tag}w{k}xz")
         wyz = tape.name(w[1] * w[2], f"{tag}w{k}yz")
-        U = [-(sq[1] + sq[2]), wxy - dw[2], wxz + dw[1],
-             wxy + dw[2], -(sq[0] + sq[2]), wyz - dw[0],
-             wxz - dw[1], wyz + dw[0], -(sq[0] + sq[1])]
-        U = [tape.name(u, f"{tag}U{k}_{r}{c}") for u, (r, c) in zip(U, [(r, c) for r in range(1, 4) for c in range(1, 4)])]
+        U = [
+            -(sq[1] + sq[2]),
+            wxy - dw[2],
+            wxz + dw[1],
+            wxy + dw[2],
+            -(sq[0] + sq[2]),
+            wyz - dw[0],
+            wxz - dw[1],
+            wyz + dw[0],
+            -(sq[0] + sq[1]),
+        ]
+        U = [
+            tape.name(u, f"{tag}U{k}_{r}{c}")
+            for u, (r, c) in zip(U, [(r, c) for r in range(1, 4) for c in range(1, 4)])
+        ]
         out.append(Motion(w, dw, dV, U))
     return out
 
@@ -146,8 +163,9 @@ def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, tag: str, k: int) -
     return n, f
 
 
-def backward(tape: Tape, frames: Sequence[LinkFrame], forces: list, qdd, inertias, tag: str = "",
-             last: int | None = None) -> list:
+def backward(
+    tape: Tape, frames: Sequence[LinkFrame], forces: list, qdd, inertias, tag: str = "", last: int | None = None
+) -> list:
     """Inward pass: joint forces τᵢ = Sᵢ·fᵢ (+ rotor inertia), forces
     transmitted to the parent; `forces[i]` is body i's own (n, f) or None."""
     n_links = len(frames)
@@ -237,6 +255,7 @@ def gravity_in_base(robot: Robot) -> list:
 
 # --------------------------------------------------------------------------- M, C, G, τ
 
+
 @dataclass(frozen=True)
 class Recursion:
     """The named programs of one Newton–Euler derivation: the tape and the
@@ -246,8 +265,9 @@ class Recursion:
     outputs: dict
 
 
-def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
-              progress: Progress | None = None) -> Recursion:
+def recursion(
+    robot: Robot, inertias: Sequence[LinkInertia] | None = None, progress: Progress | None = None
+) -> Recursion:
     """Run the customized recursion for τ, G (rest), C·q̇, the Christoffel
     symbols (unit velocities, symmetric split), and M by composite links."""
     n = robot.n
@@ -276,17 +296,16 @@ def recursion(robot: Robot, inertias: Sequence[LinkInertia] | None = None,
     for j in range(n):
         gamma[j, j] = h[j, j]
         for k in range(j + 1, n):
-            both = rnea(tape, frames, inertias, [a + b for a, b in zip(unit(j), unit(k))], zero, none,
-                        tag=f"h{j + 1}{k + 1}")
+            both = rnea(
+                tape, frames, inertias, [a + b for a, b in zip(unit(j), unit(k))], zero, none, tag=f"h{j + 1}{k + 1}"
+            )
             progress.step(f"Christoffel {j + 1}{k + 1}")
             gamma[j, k] = gamma[k, j] = [(b - x - y) / 2 for b, x, y in zip(both, h[j, j], h[k, k])]
     C = [[sp.Add(*(gamma[i, j][r] * qd[i] for i in range(n))) for j in range(n)] for r in range(n)]
-    return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C, "Cqd": Cqd,
-                                         "Gamma": gamma})
+    return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C, "Cqd": Cqd, "Gamma": gamma})
 
 
-def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
-           progress: bool = False) -> Dynamics:
+def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *, progress: bool = False) -> Dynamics:
     """Closed-form dynamics by Newton–Euler: M, C, G, F and τ written in the
     recursion's named intermediates (plain sympy matrices on request)."""
     n = robot.n
@@ -296,8 +315,21 @@ def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *,
     q, qd, qdd = joint_symbols(robot.n)
     F = friction_expr(robot, qd)
     outs = rec.outputs
-    named = {"M": sp.ImmutableMatrix(outs["M"]), "C": sp.ImmutableMatrix(outs["C"]),
-             "G": sp.ImmutableMatrix(outs["G"]), "Cqd": sp.ImmutableMatrix(outs["Cqd"]), "F": F,
-             "tau": sp.ImmutableMatrix(outs["tau"]) + F}
-    return Dynamics(robot=robot, method="newton-euler", q=q, qd=qd, qdd=qdd, F=F,
-                    definitions=tuple(rec.tape.defs.items()), named=named)
+    named = {
+        "M": sp.ImmutableMatrix(outs["M"]),
+        "C": sp.ImmutableMatrix(outs["C"]),
+        "G": sp.ImmutableMatrix(outs["G"]),
+        "Cqd": sp.ImmutableMatrix(outs["Cqd"]),
+        "F": F,
+        "tau": sp.ImmutableMatrix(outs["tau"]) + F,
+    }
+    return Dynamics(
+        robot=robot,
+        method="newton-euler",
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        F=F,
+        definitions=tuple(rec.tape.defs.items()),
+        named=named,
+    )

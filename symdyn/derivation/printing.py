@@ -105,12 +105,13 @@ class _Pretty(PrettyPrinter):
 def _latex_symbol(name: str) -> str | None:
     """qd2 → \\dot{q}_{2}, qdd2 → \\ddot{q}_{2}, tau1 → \\tau_{1}; None for other names."""
     for stem, tex in (("qdd", r"\ddot{q}"), ("qd", r"\dot{q}"), ("tau", r"\tau")):
-        if name.startswith(stem) and name[len(stem):].isdigit():
-            return f"{tex}_{{{name[len(stem):]}}}"
+        if name.startswith(stem) and name[len(stem) :].isdigit():
+            return f"{tex}_{{{name[len(stem) :]}}}"
     return None
 
 
 # --------------------------------------------------------------------------- line breaking
+
 
 @dataclass(frozen=True)
 class _Piece:
@@ -148,8 +149,11 @@ def _pieces(expr, fmt: str, printer, budget: float) -> list[_Piece]:
         parts = _pieces(sums[0], fmt, printer, budget)
         first, last = parts[0], parts[-1]
         parts[0] = _Piece(op, ((coeff, first.op),) + first.opens, first.term, first.closes)
-        parts[-1] = _Piece(parts[-1].op, parts[-1].opens, parts[-1].term, last.closes + 1) \
-            if len(parts) > 1 else _Piece(op, parts[0].opens, parts[0].term, parts[0].closes + 1)
+        parts[-1] = (
+            _Piece(parts[-1].op, parts[-1].opens, parts[-1].term, last.closes + 1)
+            if len(parts) > 1
+            else _Piece(op, parts[0].opens, parts[0].term, parts[0].closes + 1)
+        )
         out += parts
     return out
 
@@ -161,8 +165,10 @@ def _render_piece(piece: _Piece, fmt: str, printer, lead: bool = False):
     if fmt == "pretty":
         parts = [prettyForm(op if lead else op + " ")] if op else []
         for factor, sign in piece.opens:
-            parts += [printer._print(factor) if factor != 1 else prettyForm(""),
-                      prettyForm(("⋅(" if factor != 1 else "(") + sign)]
+            parts += [
+                printer._print(factor) if factor != 1 else prettyForm(""),
+                prettyForm(("⋅(" if factor != 1 else "(") + sign),
+            ]
         parts.append(printer._print(piece.term))
         parts.append(prettyForm(")" * piece.closes))
         return prettyForm(*stringPict.next(*parts))
@@ -186,8 +192,23 @@ def _piece_width(rendered, fmt: str) -> float:
 
 
 _COMMAND = re.compile(r"\\([a-zA-Z]+)")
-_WORDS = {"cos": 3, "sin": 3, "operatorname": 0, "cdot": 1, "left": 0, "right": 0, "bigl": 0.3, "bigr": 0.3,
-          "dot": 0, "ddot": 0, "quad": 2, "tau": 1, "pi": 1, "mathrm": 0, "colon": 0.5}
+_WORDS = {
+    "cos": 3,
+    "sin": 3,
+    "operatorname": 0,
+    "cdot": 1,
+    "left": 0,
+    "right": 0,
+    "bigl": 0.3,
+    "bigr": 0.3,
+    "dot": 0,
+    "ddot": 0,
+    "quad": 2,
+    "tau": 1,
+    "pi": 1,
+    "mathrm": 0,
+    "colon": 0.5,
+}
 
 
 def latex_width(tex: str) -> float:
@@ -195,7 +216,7 @@ def latex_width(tex: str) -> float:
     character counts 1, one in a sub- or superscript 0.7, + − = with their
     spacing 2, \\cos 3; commands that only place things (\\left, \\dot) 0."""
     width, i = 0.0, 0
-    scripts: list = []      # brace depths at which open sub/superscripts end
+    scripts: list = []  # brace depths at which open sub/superscripts end
     depth = 0
     while i < len(tex):
         ch = tex[i]
@@ -205,9 +226,9 @@ def latex_width(tex: str) -> float:
             width += (_WORDS.get(m.group(1), 1) if m else 0.5) * scale
             i = m.end() if m else i + 2
             continue
-        if ch in "^_" and tex[i + 1:i + 2] == "{":
+        if ch in "^_" and tex[i + 1 : i + 2] == "{":
             scripts.append(depth + 1)
-        elif ch in "^_":            # a one-character script
+        elif ch in "^_":  # a one-character script
             width += 0.7
             i += 2
             continue
@@ -225,8 +246,9 @@ def latex_width(tex: str) -> float:
     return width
 
 
-def wrap(name: str, expr, fmt: str = "text", *, width: float | None = None, digits: int = DIGITS,
-         lhs: str | None = None) -> list:
+def wrap(
+    name: str, expr, fmt: str = "text", *, width: float | None = None, digits: int = DIGITS, lhs: str | None = None
+) -> list:
     """name = expr broken into lines of at most `width` (the format's budget by
     default): text lines, LaTeX `align*` rows (`&=` and `&\\quad` aligned), or
     pretty-printed blocks.  expr may be an ordered list of terms; `lhs`
@@ -262,9 +284,11 @@ def wrap(name: str, expr, fmt: str = "text", *, width: float | None = None, digi
                 parts.append(_render_piece(piece, fmt, printer, k == 0 and j == 0))
             blocks.append(prettyForm(*stringPict.next(*parts)).render(wrap_line=False))
         return blocks
-    return [(head if k == 0 else cont) + " ".join(_render_piece(p, fmt, printer, k == 0 and j == 0)
-                                                  for j, p in enumerate(line))
-            for k, line in enumerate(lines)]
+    return [
+        (head if k == 0 else cont)
+        + " ".join(_render_piece(p, fmt, printer, k == 0 and j == 0) for j, p in enumerate(line))
+        for k, line in enumerate(lines)
+    ]
 
 
 def _printer(fmt: str, digits: int):
@@ -274,6 +298,7 @@ def _printer(fmt: str, digits: int):
 
 
 # --------------------------------------------------------------------------- elements and documents
+
 
 def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, form: str = "book") -> list:
     """[(name, expr)] for one term: M and C by (row, column), vectors by row;
@@ -295,15 +320,16 @@ def elements(dyn: Dynamics, term: str, *, prune_tol: float | None = None, form: 
 def latex_name(name: str) -> str:
     """M11 → M_{11}, tau2 → \\tau_{2}, b1_23 → b_{1,23}, Cqd1 → (C\\dot q)_{1}, w2_z → w_{2 z}."""
     stem = name.rstrip("0123456789_")
-    index = name[len(stem):].replace("_", ",")
-    if not index:       # a derivation's intermediate: w2_z → w_{2 z}
+    index = name[len(stem) :].replace("_", ",")
+    if not index:  # a derivation's intermediate: w2_z → w_{2 z}
         return sp.latex(sp.Symbol(name))
     stem = {"tau": r"\tau", "Cqd": r"(C\dot q)"}.get(stem, stem)
     return f"{stem}_{{{index}}}"
 
 
-def render(items: list, fmt: str = "text", *, digits: int = DIGITS, width: float | None = None,
-           document: bool = True) -> str:
+def render(
+    items: list, fmt: str = "text", *, digits: int = DIGITS, width: float | None = None, document: bool = True
+) -> str:
     """The elements [(name, expr or ordered terms)] as wrapped text lines,
     pretty-printed blocks or LaTeX `align*` rows (a complete document unless
     document=False)."""
@@ -319,8 +345,10 @@ def render(items: list, fmt: str = "text", *, digits: int = DIGITS, width: float
 
 def latex_document(body: str) -> str:
     """A complete article around display math (amsmath; long pages break between displays)."""
-    return ("\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n"
-            "\\begin{document}\n\\small\n" + body + "\n\\end{document}\n")
+    return (
+        "\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n"
+        "\\begin{document}\n\\small\n" + body + "\n\\end{document}\n"
+    )
 
 
 @dataclass(frozen=True)
@@ -354,14 +382,25 @@ def plan(dyn: Dynamics, terms, layout: str = "auto", *, limit: int = CLOSED_LIMI
         if size is not None and size <= limit:
             out.append(Layout(t, "closed"))
             continue
-        how_big = (f"more than {limit} terms in closed form (its intermediates alone hold more than {budget})"
-                   if size is None else f"{size} terms in closed form, more than {limit}")
+        how_big = (
+            f"more than {limit} terms in closed form (its intermediates alone hold more than {budget})"
+            if size is None
+            else f"{size} terms in closed form, more than {limit}"
+        )
         if layout == "closed":
-            raise ValueError(f"{t} of {dyn.robot.name} has {how_big}: writing it would take minutes and fill "
-                             f"pages; print it with --layout named (the {dyn.method} derivation's named "
-                             f"intermediates) or choose a smaller term")
-        out.append(Layout(t, "named", f"{t} of {dyn.robot.name} has {how_big}: printed in the {dyn.method} "
-                                      f"derivation's named intermediates, each defined once before its first use"))
+            raise ValueError(
+                f"{t} of {dyn.robot.name} has {how_big}: writing it would take minutes and fill "
+                f"pages; print it with --layout named (the {dyn.method} derivation's named "
+                f"intermediates) or choose a smaller term"
+            )
+        out.append(
+            Layout(
+                t,
+                "named",
+                f"{t} of {dyn.robot.name} has {how_big}: printed in the {dyn.method} "
+                f"derivation's named intermediates, each defined once before its first use",
+            )
+        )
     return out
 
 
@@ -380,15 +419,26 @@ def named_items(dyn: Dynamics, terms) -> list:
     return items
 
 
-def closed_form(dyn: Dynamics, terms=("M", "C", "G", "F", "tau"), fmt: str = "text",
-                prune_tol: float | None = None, form: str = "book", *, digits: int = DIGITS,
-                layouts: list[Layout] | None = None) -> str:
+def closed_form(
+    dyn: Dynamics,
+    terms=("M", "C", "G", "F", "tau"),
+    fmt: str = "text",
+    prune_tol: float | None = None,
+    form: str = "book",
+    *,
+    digits: int = DIGITS,
+    layouts: list[Layout] | None = None,
+) -> str:
     """Every requested term of `dyn`, rendered and wrapped: in closed form, or
     in named intermediates where `layouts` (default: `plan(dyn, terms)`) says
     so, after a comment saying why."""
     layouts = plan(dyn, terms) if layouts is None else layouts
-    items = [item for lay in layouts if lay.layout == "closed"
-             for item in elements(dyn, lay.term, prune_tol=prune_tol, form=form)]
+    items = [
+        item
+        for lay in layouts
+        if lay.layout == "closed"
+        for item in elements(dyn, lay.term, prune_tol=prune_tol, form=form)
+    ]
     named = [lay.term for lay in layouts if lay.layout == "named"]
     if named:
         items += named_items(dyn, named)

@@ -27,11 +27,56 @@ FUNCTIONS = {sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.sign: "sign", sp.Ab
 MAX_UNROLLED_POWER = 4
 
 # Names an intermediate must never take: they are taken in some emitted file.
-_RESERVED = {"np", "out", "shape", "n", "k", "const", "double", "int", "float", "return", "void",
-             "sin", "cos", "tan", "sqrt", "pow", "fabs", "sign", "abs", "math", "static", "inline",
-             "restrict", "signed", "unsigned", "char", "long", "short", "auto", "register", "for",
-             "if", "else", "while", "do", "case", "switch", "default", "break", "continue",
-             "goto", "struct", "union", "enum", "typedef", "sizeof", "volatile", "extern"}
+_RESERVED = {
+    "np",
+    "out",
+    "shape",
+    "n",
+    "k",
+    "const",
+    "double",
+    "int",
+    "float",
+    "return",
+    "void",
+    "sin",
+    "cos",
+    "tan",
+    "sqrt",
+    "pow",
+    "fabs",
+    "sign",
+    "abs",
+    "math",
+    "static",
+    "inline",
+    "restrict",
+    "signed",
+    "unsigned",
+    "char",
+    "long",
+    "short",
+    "auto",
+    "register",
+    "for",
+    "if",
+    "else",
+    "while",
+    "do",
+    "case",
+    "switch",
+    "default",
+    "break",
+    "continue",
+    "goto",
+    "struct",
+    "union",
+    "enum",
+    "typedef",
+    "sizeof",
+    "volatile",
+    "extern",
+}
 
 
 class Algebra(Protocol):
@@ -209,7 +254,7 @@ class Program:
                     lower(expr, counter)
             counts = dict(counter.counts)
             counts["total"] = sum(v for k, v in counts.items() if k != "neg")
-            object.__setattr__(self, "_op_count", counts)   # frozen: a cache, not a field
+            object.__setattr__(self, "_op_count", counts)  # frozen: a cache, not a field
         return dict(self.__dict__["_op_count"])
 
     def used_inputs(self) -> set:
@@ -224,8 +269,16 @@ class Program:
 
 # --------------------------------------------------------------------------- construction
 
-def make_program(name: str, inputs: Sequence, outputs: Sequence, definitions: Sequence = (),
-                 doc: str = "", origin: str = "", matrices: Sequence[str] = ()) -> Program:
+
+def make_program(
+    name: str,
+    inputs: Sequence,
+    outputs: Sequence,
+    definitions: Sequence = (),
+    doc: str = "",
+    origin: str = "",
+    matrices: Sequence[str] = (),
+) -> Program:
     """Build the program of one function by a joint CSE over all its outputs.
 
     inputs: [(argname, symbols)]; outputs: [(outname, Matrix)]; definitions:
@@ -249,20 +302,32 @@ def make_program(name: str, inputs: Sequence, outputs: Sequence, definitions: Se
     temps = sp.numbered_symbols("_cse", real=True)
     replacements, reduced = sp.cse(exprs, symbols=temps, order="none") if exprs else ([], [])
     nodes = dict(replacements)
-    nodes.update(zip(def_syms, reduced[:len(def_syms)]))
-    out_exprs = reduced[len(def_syms):]
+    nodes.update(zip(def_syms, reduced[: len(def_syms)]))
+    out_exprs = reduced[len(def_syms) :]
     nodes, out_exprs = _drop_aliases(nodes, out_exprs, set(def_syms))
 
     order = _evaluation_order(nodes, out_exprs)
-    taken = {s.name for s in input_syms} | {s.name for s in def_syms} | {a for a, _ in inputs} \
-        | {o for o, _ in outputs} | {name} | _RESERVED
+    taken = (
+        {s.name for s in input_syms}
+        | {s.name for s in def_syms}
+        | {a for a, _ in inputs}
+        | {o for o, _ in outputs}
+        | {name}
+        | _RESERVED
+    )
     rename = _names(order, nodes, set(def_syms), taken)
     assignments = tuple((rename.get(s, s), nodes[s].xreplace(rename)) for s in order)
     out_iter = iter(e.xreplace(rename) for e in out_exprs)
-    out = tuple((o, sp.ImmutableMatrix(m.rows, m.cols, [next(out_iter) for _ in range(len(m))]))
-                for o, m in outputs)
-    return Program(name=name, inputs=inputs, assignments=assignments, outputs=out, doc=doc, origin=origin,
-                   matrices=frozenset(matrices))
+    out = tuple((o, sp.ImmutableMatrix(m.rows, m.cols, [next(out_iter) for _ in range(len(m))])) for o, m in outputs)
+    return Program(
+        name=name,
+        inputs=inputs,
+        assignments=assignments,
+        outputs=out,
+        doc=doc,
+        origin=origin,
+        matrices=frozenset(matrices),
+    )
 
 
 def _nodes(exprs):
@@ -308,6 +373,7 @@ def _substitute(exprs: list, mapping: dict) -> list:
 
 # --------------------------------------------------------------------------- trigonometric lowering
 
+
 def _angle(arg: sp.Expr, index: dict) -> tuple | None:
     """Integer coefficients of arg over the input symbols, or None if it is not such a sum."""
     coeffs = [0] * len(index)
@@ -344,7 +410,7 @@ def _lower_trig(defs: dict, outs: list, inputs: list) -> tuple[dict, list]:
     if not wanted:
         return defs, outs
     taken = {s.name for s in defs} | {s.name for s in inputs}
-    built: dict = {}            # canonical angle (first nonzero > 0) → (cos, sin) exprs
+    built: dict = {}  # canonical angle (first nonzero > 0) → (cos, sin) exprs
     new_defs: dict = {}
 
     def canonical(a):
@@ -372,8 +438,14 @@ def _lower_trig(defs: dict, outs: list, inputs: list) -> tuple[dict, list]:
             i = next(i for i, k in enumerate(a) if k)
             built[a] = (sp.cos(inputs[i]), sp.sin(inputs[i]))
             return
-        split = next((b for b in sorted(built) if canonical(tuple(x - y for x, y in zip(a, b)))[0] in built
-                      and any(x != y for x, y in zip(a, b))), None)
+        split = next(
+            (
+                b
+                for b in sorted(built)
+                if canonical(tuple(x - y for x, y in zip(a, b)))[0] in built and any(x != y for x, y in zip(a, b))
+            ),
+            None,
+        )
         if split is None:
             i = next(i for i, k in enumerate(a) if k)
             split = tuple(int(j == i) * (1 if a[i] > 0 else -1) for j in range(len(a)))
@@ -393,8 +465,8 @@ def _lower_trig(defs: dict, outs: list, inputs: list) -> tuple[dict, list]:
     keys = list(defs)
     done = _substitute(list(defs.values()) + outs, mapping)
     out_defs = dict(new_defs)
-    out_defs.update(zip(keys, done[:len(keys)]))
-    return out_defs, done[len(keys):]
+    out_defs.update(zip(keys, done[: len(keys)]))
+    return out_defs, done[len(keys) :]
 
 
 def _needed(defs: dict, roots: list) -> dict:
@@ -413,8 +485,10 @@ def _check_free(name, inputs, outputs, defs) -> None:
     unknown = _symbols([e for _, m in outputs for e in m] + list(defs.values())) - known
     if unknown:
         names = ", ".join(sorted(map(str, unknown)))
-        raise ValueError(f"function {name!r} uses symbols that are neither inputs nor "
-                         f"definitions: {names} (a symbolic model parameter? substitute numbers)")
+        raise ValueError(
+            f"function {name!r} uses symbols that are neither inputs nor "
+            f"definitions: {names} (a symbolic model parameter? substitute numbers)"
+        )
 
 
 def _inline_trivial(defs: dict) -> tuple[dict, dict]:

@@ -65,8 +65,7 @@ def reported(what: str, after: float | None = None) -> Iterator[None]:
         tty = sys.stderr.isatty()
         print(f"{what} ...".ljust(60 if tty else 0), end="\r" if tty else "\n", file=sys.stderr, flush=True)
         while tty and not finished.wait(1.0):
-            print(f"{what} ... {time.perf_counter() - start:.0f} s".ljust(60), end="\r", file=sys.stderr,
-                  flush=True)
+            print(f"{what} ... {time.perf_counter() - start:.0f} s".ljust(60), end="\r", file=sys.stderr, flush=True)
 
     watcher = threading.Thread(target=watch, name="symdyn-progress", daemon=True)
     watcher.start()

@@ -53,8 +53,20 @@ def parameter_values(robot: Robot) -> tuple:
     robot = robot.to_modified()
     for link, I, Ia in zip(robot.links, link_inertias(robot), rotor_inertia(robot)):
         G, B, (tp, tn) = exact(link.G), exact(link.B), (exact(x) for x in link.Tc)
-        values += [I.Io[0, 0], I.Io[0, 1], I.Io[0, 2], I.Io[1, 1], I.Io[1, 2], I.Io[2, 2],
-                   *I.h, I.m, Ia, G**2 * B, sp.Abs(G) * (tp - tn) / 2, sp.Abs(G) * (tp + tn) / 2]
+        values += [
+            I.Io[0, 0],
+            I.Io[0, 1],
+            I.Io[0, 2],
+            I.Io[1, 1],
+            I.Io[1, 2],
+            I.Io[2, 2],
+            *I.h,
+            I.m,
+            Ia,
+            G**2 * B,
+            sp.Abs(G) * (tp - tn) / 2,
+            sp.Abs(G) * (tp + tn) / 2,
+        ]
     return tuple(sp.expand(v) for v in values)
 
 
@@ -81,7 +93,7 @@ class Regressor:
     Y: sp.ImmutableMatrix
     params: tuple
     tape: Tape
-    columns: tuple   # per parameter: n expressions in the tape's names
+    columns: tuple  # per parameter: n expressions in the tape's names
 
 
 def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
@@ -116,6 +128,7 @@ def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
 
 # --------------------------------------------------------------------------- exact evaluation
 
+
 def rational_angle(rng: random.Random) -> tuple[Fraction, Fraction]:
     """cos and sin of a random angle, both rational: ((1−t²)/(1+t²), 2t/(1+t²))."""
     t = Fraction(rng.randint(-40, 40), rng.randint(1, 40))
@@ -130,7 +143,7 @@ def random_rational_point(n: int, rng: random.Random, symbols=()) -> dict:
         c, s = rational_angle(rng)
         point[sp.cos(q[i])] = sp.Rational(c.numerator, c.denominator)
         point[sp.sin(q[i])] = sp.Rational(s.numerator, s.denominator)
-        point[q[i]] = sp.Rational(rng.randint(-30, 30), 10)   # prismatic joints: q itself
+        point[q[i]] = sp.Rational(rng.randint(-30, 30), 10)  # prismatic joints: q itself
         point[qd[i]] = sp.Rational(rng.randint(-30, 30), 7)
         point[qdd[i]] = sp.Rational(rng.randint(-30, 30), 11)
     for sym in symbols:
@@ -157,11 +170,18 @@ def compile_exact(definitions, outputs, inputs) -> Callable:
     rename = dict(zip(inputs, dummies))
     defs = [(s, e.xreplace(rename)) for s, e in tape.used_by(outputs)]
     outs = [sp.sympify(o).xreplace(rename) for o in outputs]
-    return sp.lambdify(dummies, outs, modules=[{"F": Fraction}], printer=_FractionPrinter,
-                       cse=lambda exprs: (defs, exprs), docstring_limit=0)
+    return sp.lambdify(
+        dummies,
+        outs,
+        modules=[{"F": Fraction}],
+        printer=_FractionPrinter,
+        cse=lambda exprs: (defs, exprs),
+        docstring_limit=0,
+    )
 
 
 # --------------------------------------------------------------------------- base parameters
+
 
 @dataclass(frozen=True)
 class BaseParameters:
@@ -189,14 +209,15 @@ def generic_turns(robot: Robot) -> int:
     """How many links of the robot's recursion frames turn by a generic constant rotation."""
     mdh = robot.to_modified()
     if mdh.convention == "general":
-        return sum(any(not sp.sympify(x).is_Integer for row in link.origin[:3] for x in row[:3])
-                   for link in mdh.links)
-    return sum(isinstance(exact_cos_sin(link.alpha)[0], float) for link in mdh.links
-               if not isinstance(link.alpha, sp.Basic))
+        return sum(any(not sp.sympify(x).is_Integer for row in link.origin[:3] for x in row[:3]) for link in mdh.links)
+    return sum(
+        isinstance(exact_cos_sin(link.alpha)[0], float) for link in mdh.links if not isinstance(link.alpha, sp.Basic)
+    )
 
 
-def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int | None = None,
-                    seed: int = 1) -> BaseParameters:
+def base_parameters(
+    robot: Robot, reg: Regressor | None = None, *, samples: int | None = None, seed: int = 1
+) -> BaseParameters:
     """Exact base parameters of a robot with numeric geometry.
 
     Only the inertial parameters (XX…M and the rotor inertia IA) are
@@ -208,12 +229,25 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
     fresh points; a sample that found a dependency the dynamics do not have
     is retried with more points.
     """
-    geometric = [x for link in robot.links for x in (link.a, link.d, link.alpha, link.theta, link.offset,
-                                                     *link.axis, *(x for row in link.origin or () for x in row))]
+    geometric = [
+        x
+        for link in robot.links
+        for x in (
+            link.a,
+            link.d,
+            link.alpha,
+            link.theta,
+            link.offset,
+            *link.axis,
+            *(x for row in link.origin or () for x in row),
+        )
+    ]
     geometric += [x for row in robot.base for x in row] + list(robot.gravity)
     if any(isinstance(x, sp.Basic) and x.free_symbols for x in geometric):
-        raise ValueError("base parameters need numeric geometry and gravity (a, d, α, θ, offset, origin, axis, base, "
-                         f"gravity); robot {robot.name!r} has symbols there")
+        raise ValueError(
+            "base parameters need numeric geometry and gravity (a, d, α, θ, offset, origin, axis, base, "
+            f"gravity); robot {robot.name!r} has symbols there"
+        )
     reg = reg or regressor(robot)
     n, p = robot.n, len(reg.params)
     per = len(INERTIAL) + len(FRICTION)
@@ -229,8 +263,10 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
         for _ in range(count):
             point = random_rational_point(n, rng)
             values = evaluate(*(Fraction(int(point[x].p), int(point[x].q)) for x in inputs))
-            out += [[QQ(values[c * n + i].numerator, values[c * n + i].denominator) for c in range(len(inertial))]
-                    for i in range(n)]
+            out += [
+                [QQ(values[c * n + i].numerator, values[c * n + i].denominator) for c in range(len(inertial))]
+                for i in range(n)
+            ]
         return out
 
     samples = samples or max(4, 2 * len(INERTIAL) + 2)
@@ -240,12 +276,13 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
         R = rref.to_Matrix()
         # every column is R's combination of the pivot columns: check at fresh points
         check = DomainMatrix(rows(3), (3 * n, len(inertial)), QQ).to_Matrix()
-        if check == check[:, list(pivots)] * R[:len(pivots), :]:
+        if check == check[:, list(pivots)] * R[: len(pivots), :]:
             break
         samples *= 2
     else:
-        raise RuntimeError(f"base parameters of {robot.name!r}: the rank analysis did not settle "
-                           f"after {samples} samples")
+        raise RuntimeError(
+            f"base parameters of {robot.name!r}: the rank analysis did not settle after {samples} samples"
+        )
     pi = reg.params
     exprs, independent = [], []
     for r, b in enumerate(pivots):
@@ -263,8 +300,9 @@ def base_parameters(robot: Robot, reg: Regressor | None = None, *, samples: int 
     regrouped = [sp.S.Zero] * p
     for b, v in zip(independent, values):
         regrouped[b] = v
-    return BaseParameters(params=pi, independent=tuple(independent), expressions=tuple(exprs),
-                          values=values, regrouped=tuple(regrouped))
+    return BaseParameters(
+        params=pi, independent=tuple(independent), expressions=tuple(exprs), values=values, regrouped=tuple(regrouped)
+    )
 
 
 def regrouped_inertias(robot: Robot, base: BaseParameters) -> list[LinkInertia]:
@@ -273,7 +311,7 @@ def regrouped_inertias(robot: Robot, base: BaseParameters) -> list[LinkInertia]:
     per = len(INERTIAL) + len(FRICTION)
     out = []
     for j in range(robot.n):
-        v = dict(zip(INERTIAL, base.regrouped[j * per:j * per + len(INERTIAL)]))
+        v = dict(zip(INERTIAL, base.regrouped[j * per : j * per + len(INERTIAL)]))
         Io = sp.Matrix([[v["XX"], v["XY"], v["XZ"]], [v["XY"], v["YY"], v["YZ"]], [v["XZ"], v["YZ"], v["ZZ"]]])
         out.append(LinkInertia(Io=Io, h=(v["MX"], v["MY"], v["MZ"]), m=v["M"], Ia=v["IA"]))
     return out

@@ -45,7 +45,7 @@ def parallel_chains(robot) -> list[tuple[int, ...]]:
     mdh = robot.to_modified()
     chains, run = [], []
     for j, link in enumerate(mdh.links):
-        if mdh.convention == "general":   # axes along z: parallel when the placement keeps z
+        if mdh.convention == "general":  # axes along z: parallel when the placement keeps z
             turned = link.origin[0][2] != 0 or link.origin[1][2] != 0
         else:
             turned = isinstance(link.alpha, sp.Basic) or exact_cos_sin(link.alpha)[1] != 0
@@ -76,8 +76,10 @@ def _decompose(k: tuple, chains: list) -> list[tuple[tuple[int, ...], int]]:
             for run, m in zip(runs, ms):
                 for i in run:
                     r[i] -= m
-            cost = (sum(1 for m in ms if m) + sum(1 for v in r.values() if v),
-                    sum(map(abs, ms)) + sum(map(abs, r.values())))
+            cost = (
+                sum(1 for m in ms if m) + sum(1 for v in r.values() if v),
+                sum(map(abs, ms)) + sum(map(abs, r.values())),
+            )
             if best is None or cost < best[0]:
                 best = (cost, ms, r)
         _, ms, r = best
@@ -190,8 +192,11 @@ def closed_size(dyn: Dynamics, term: str, budget: int | None = None) -> int | No
 def natural_chains(dyn: Dynamics) -> tuple:
     """The parallel chains of `dyn`'s robot as indices into its revolute angles."""
     angles = _angles(dyn)
-    return tuple(tuple(angles.index(dyn.q[i]) for i in c) for c in parallel_chains(dyn.robot)
-                 if all(dyn.q[i] in angles for i in c))
+    return tuple(
+        tuple(angles.index(dyn.q[i]) for i in c)
+        for c in parallel_chains(dyn.robot)
+        if all(dyn.q[i] in angles for i in c)
+    )
 
 
 def angle_products(k: tuple, kind: str, chains: tuple, angles: tuple) -> sp.Expr:
@@ -253,11 +258,11 @@ def _multiple_angle(m: int) -> tuple[dict, dict]:
         nxt_cos: dict = {}
         nxt_sin: dict = {}
         for (es, ec), x in cos_j.items():
-            _add(nxt_cos, es, ec + 1, x)            # cos jφ · C
-            _add_times_sin(nxt_sin, es, ec, x)      # cos jφ · S
+            _add(nxt_cos, es, ec + 1, x)  # cos jφ · C
+            _add_times_sin(nxt_sin, es, ec, x)  # cos jφ · S
         for (es, ec), x in sin_j.items():
-            _add_times_sin(nxt_cos, es, ec, -x)     # − sin jφ · S
-            _add(nxt_sin, es, ec + 1, x)            # sin jφ · C
+            _add_times_sin(nxt_cos, es, ec, -x)  # − sin jφ · S
+            _add(nxt_sin, es, ec + 1, x)  # sin jφ · C
         cos_j = {key: v for key, v in nxt_cos.items() if v}
         sin_j = {key: v for key, v in nxt_sin.items() if v}
     if m < 0:
@@ -309,7 +314,7 @@ def tidy(expr: sp.Expr, dyn: Dynamics, form: str = "book") -> sp.Expr:
     gravity = [s for v in dyn.robot.gravity for s in getattr(v, "free_symbols", ())]
     params = gravity + inertial_symbols(dyn)
     expanded = sp.expand(expr)
-    present = expanded.free_symbols     # collect substitutes for every product of rates: skip absent ones
+    present = expanded.free_symbols  # collect substitutes for every product of rates: skip absent ones
     by_rate = sp.collect(expanded, [r for r in rates if r.free_symbols <= present], evaluate=False)
     parts = []
     for rate in sorted(by_rate, key=lambda r: (r == 1, sp.default_sort_key(r))):
@@ -357,8 +362,9 @@ def group_parameters(expr: sp.Expr, symbolic: set, masses=()) -> sp.Expr:
     expr = sp.expand(expr)
     present = [m for m in masses if m in expr.free_symbols]
     terms = sp.Add.make_args(expr)
-    if present and all(sum(sp.degree(t, m) for m in present) == 1 and
-                       all(sp.degree(t, m) <= 1 for m in present) for t in terms):
+    if present and all(
+        sum(sp.degree(t, m) for m in present) == 1 and all(sp.degree(t, m) <= 1 for m in present) for t in terms
+    ):
         by_mass = sp.collect(expr, present, evaluate=False)
         return sp.Add(*(m * group_parameters(c, symbolic) for m, c in by_mass.items()))
     return _complete_squares(expr, syms)
@@ -381,6 +387,7 @@ def _complete_squares(expr: sp.Expr, syms: list) -> sp.Expr:
 
 # --------------------------------------------------------------------------- pruning
 
+
 @dataclass(frozen=True)
 class PruneReport:
     """What significance pruning did to one term."""
@@ -389,7 +396,7 @@ class PruneReport:
     tolerance: float
     dropped: int
     kept: int
-    worst_error: float      # max |pruned − full| over the samples, relative to the element scale
+    worst_error: float  # max |pruned − full| over the samples, relative to the element scale
     ops_before: dict
     ops_after: dict
 
@@ -436,6 +443,7 @@ def prune(dyn: Dynamics, term: str, tol: float, *, samples: int = 2000, seed: in
 
 
 # --------------------------------------------------------------------------- op counts
+
 
 def _count(name: str, inputs, exprs, definitions=()) -> dict:
     program = make_program(name, inputs, [(name, sp.Matrix(list(exprs)))], definitions)

@@ -41,13 +41,24 @@ from sympy.polys.rings import PolyElement, PolyRing
 
 from .symbols import exact, exact_cos_sin_of
 
-__all__ = ["TrigSpace", "TrigPoly", "from_expr", "to_expr", "fold", "equal", "space_for", "summation", "lincomb",
-           "constant_cos_sin", "to_qq"]
+__all__ = [
+    "TrigSpace",
+    "TrigPoly",
+    "from_expr",
+    "to_expr",
+    "fold",
+    "equal",
+    "space_for",
+    "summation",
+    "lincomb",
+    "constant_cos_sin",
+    "to_qq",
+]
 
 _BITS = 21
 _BASE = 1 << _BITS
 _HALF = _BASE >> 1
-_EBITS = 16                 # bits per generator exponent in a packed monomial
+_EBITS = 16  # bits per generator exponent in a packed monomial
 _EMASK = (1 << _EBITS) - 1
 
 
@@ -122,13 +133,13 @@ def _make(space: "TrigSpace", acc: dict, den: int) -> "TrigPoly":
 
 # --------------------------------------------------------------------------- the space
 
+
 class TrigSpace:
     """Where trig polynomials live: the angles θ_i = angles[i] + offsets[i] and
     the coefficient ring QQ[gens].  Two spaces are equal when their angles,
     offsets and generators are."""
 
-    def __init__(self, angles: Sequence[sp.Symbol], gens: Sequence[sp.Symbol] = (),
-                 offsets: Sequence | None = None):
+    def __init__(self, angles: Sequence[sp.Symbol], gens: Sequence[sp.Symbol] = (), offsets: Sequence | None = None):
         self.angles = tuple(angles)
         self.gens = tuple(gens)
         for s in self.angles + self.gens:
@@ -184,8 +195,11 @@ class TrigSpace:
             if value.ring != self.ring:
                 raise ValueError(f"coefficient {value} is from ring {value.ring}, expected {self.ring}")
             den = math.lcm(1, *(int(c.denominator) for c in value.values()))
-            return _make(self, {0: {self._pack(m): int(c.numerator) * (den // int(c.denominator))
-                                    for m, c in value.items()}}, den)
+            return _make(
+                self,
+                {0: {self._pack(m): int(c.numerator) * (den // int(c.denominator)) for m, c in value.items()}},
+                den,
+            )
         if isinstance(value, sp.Basic) and not value.is_Number:
             return from_expr(value, self)
         p, q = _ratio(value)
@@ -238,6 +252,7 @@ class TrigSpace:
 
 # --------------------------------------------------------------------------- the polynomials
 
+
 class TrigPoly:
     """Σ_k c_k cos(k·θ) + s_k sin(k·θ) with coefficients in space.ring; immutable.
 
@@ -251,7 +266,7 @@ class TrigPoly:
     def __init__(self, space: TrigSpace, terms: dict, den: int):
         self.space = space
         self.terms = terms  # {key: {packed monomial: numerator ≠ 0}}, never mutated after construction
-        self.den = den      # common positive denominator, lowest terms with the numerators
+        self.den = den  # common positive denominator, lowest terms with the numerators
 
     # ---- inspection
     def items(self) -> Iterable[tuple[tuple[int, ...], str, PolyElement]]:
@@ -346,8 +361,9 @@ class TrigPoly:
             x = cd[0]
             if x == 1 and c.den == 1:
                 return self
-            return _make(self.space, {k: {m: v * x for m, v in d.items()} for k, d in self.terms.items()},
-                         self.den * c.den)
+            return _make(
+                self.space, {k: {m: v * x for m, v in d.items()} for k, d in self.terms.items()}, self.den * c.den
+            )
         cl = list(cd.items())
         acc = {}
         for k, d in self.terms.items():
@@ -401,8 +417,10 @@ class TrigPoly:
         """Substitute constants (ints, floats → exact, QQ, sympy rationals) for some ring generators."""
         S = self.space
         subs = [(_EBITS * S._gen_index[s], *_ratio(v)) for s, v in values.items()]
-        top = {shift: max(((m >> shift) & _EMASK for d in self.terms.values() for m in d), default=0)
-               for shift, _, _ in subs}
+        top = {
+            shift: max(((m >> shift) & _EMASK for d in self.terms.values() for m in d), default=0)
+            for shift, _, _ in subs
+        }
         den = self.den * math.prod(q ** top[shift] for shift, _, q in subs)
         acc: dict = {}
         for key, d in self.terms.items():
@@ -410,7 +428,7 @@ class TrigPoly:
             for m, x in d.items():
                 for shift, p, q in subs:
                     e = (m >> shift) & _EMASK
-                    x *= p ** e * q ** (top[shift] - e)
+                    x *= p**e * q ** (top[shift] - e)
                     m -= e << shift
                 t[m] = t.get(m, 0) + x
         return _make(S, acc, den)
@@ -420,10 +438,12 @@ class TrigPoly:
         mine = self.space
         if space == mine:
             return self
-        if (space.angles, space.offsets) != (mine.angles, mine.offsets) or space.gens[:len(mine.gens)] != mine.gens:
-            raise ValueError(f"cannot embed a polynomial of {mine} into {space}: angles and offsets must "
-                             f"agree and the generators must extend {mine.gens}")
-        return TrigPoly(space, self.terms, self.den)   # packed monomials: new generators are higher bits
+        if (space.angles, space.offsets) != (mine.angles, mine.offsets) or space.gens[: len(mine.gens)] != mine.gens:
+            raise ValueError(
+                f"cannot embed a polynomial of {mine} into {space}: angles and offsets must "
+                f"agree and the generators must extend {mine.gens}"
+            )
+        return TrigPoly(space, self.terms, self.den)  # packed monomials: new generators are higher bits
 
     # ---- output
     def to_expr(self) -> sp.Expr:
@@ -431,8 +451,12 @@ class TrigPoly:
         S = self.space
         out = []
         for key in sorted(self.terms):
-            coeff = sp.Add(*[sp.Rational(x, self.den) * sp.Mul(*[g ** e for g, e in zip(S.gens, S._unpack(m)) if e])
-                             for m, x in self.terms[key].items()])
+            coeff = sp.Add(
+                *[
+                    sp.Rational(x, self.den) * sp.Mul(*[g**e for g, e in zip(S.gens, S._unpack(m)) if e])
+                    for m, x in self.terms[key].items()
+                ]
+            )
             code = key >> 1
             if code == 0:
                 out.append(coeff)
@@ -459,11 +483,11 @@ def _mul(A: TrigPoly, B: TrigPoly) -> TrigPoly:
                 k1 = (d if d >= 0 else -d) << 1
                 k2, g2 = s << 1, not sa
             else:
-                k1 = s << 1 | 1                      # s > 0: one factor is a sine, so its code is > 0
+                k1 = s << 1 | 1  # s > 0: one factor is a sine, so its code is > 0
                 if d == 0:
                     k2 = None
                 else:
-                    g2 = bool(sa)                    # sin a cos b: +sin d; cos a sin b: −sin d
+                    g2 = bool(sa)  # sin a cos b: +sin d; cos a sin b: −sin d
                     if d < 0:
                         d, g2 = -d, not g2
                     k2 = d << 1 | 1
@@ -539,12 +563,14 @@ def lincomb(pairs: Iterable[tuple[object, TrigPoly]], space: TrigSpace) -> TrigP
         elif num == -1 and den == 1:
             scaled.append(-p)
         else:
-            scaled.append(_make(space, {k: {m: num * x for m, x in d.items()} for k, d in p.terms.items()},
-                                den * p.den))
+            scaled.append(
+                _make(space, {k: {m: num * x for m, x in d.items()} for k, d in p.terms.items()}, den * p.den)
+            )
     return summation(scaled, space)
 
 
 # --------------------------------------------------------------------------- sympy → TrigPoly
+
 
 def _linear_arg(arg: sp.Expr, space: TrigSpace, where: sp.Expr) -> tuple[int, sp.Expr]:
     """Split the argument of sin/cos into an integer frequency code over the
@@ -561,8 +587,10 @@ def _linear_arg(arg: sp.Expr, space: TrigSpace, where: sp.Expr) -> tuple[int, sp
             if not rest.free_symbols:
                 const += term
                 continue
-            raise ValueError(f"{where}: the argument must be an integer combination of the angles "
-                             f"{space.angles} plus a constant; the term {term} is not")
+            raise ValueError(
+                f"{where}: the argument must be an integer combination of the angles "
+                f"{space.angles} plus a constant; the term {term} is not"
+            )
         if not (coeff.is_Integer or (coeff.is_Float and float(coeff).is_integer())):
             raise ValueError(f"{where}: angle {rest} has the non-integer multiple {coeff}")
         k[i] += int(coeff)
@@ -575,7 +603,7 @@ def _trig(func, arg: sp.Expr, space: TrigSpace, where: sp.Expr) -> TrigPoly:
     code, c = _linear_arg(arg, space, where)
     is_sin = func is sp.sin
     sign = 1
-    if code < 0:                       # cos(−x + c) = cos(x − c); sin(−x + c) = −sin(x − c)
+    if code < 0:  # cos(−x + c) = cos(x − c); sin(−x + c) = −sin(x − c)
         code, c = -code, -c
         sign = -1 if is_sin else 1
     cc, sc = constant_cos_sin(c) if c != 0 else (QQ(1), QQ(0))
@@ -583,13 +611,16 @@ def _trig(func, arg: sp.Expr, space: TrigSpace, where: sp.Expr) -> TrigPoly:
         return space.const(sign * (sc if is_sin else cc))
     # cos(x + c) = cos c cos x − sin c sin x;  sin(x + c) = cos c sin x + sin c cos x
     cos_coeff, sin_coeff = (sc, cc) if is_sin else (cc, -sc)
-    return (space.term(_decode(code, space.n), "cos", sign * cos_coeff)
-            + space.term(_decode(code, space.n), "sin", sign * sin_coeff))
+    return space.term(_decode(code, space.n), "cos", sign * cos_coeff) + space.term(
+        _decode(code, space.n), "sin", sign * sin_coeff
+    )
 
 
 def _not_poly(e: sp.Expr, space: TrigSpace, why: str) -> ValueError:
-    return ValueError(f"cannot write {e} as a trigonometric polynomial in the angles {space.angles} "
-                      f"with coefficients polynomial in {space.gens}: {why}")
+    return ValueError(
+        f"cannot write {e} as a trigonometric polynomial in the angles {space.angles} "
+        f"with coefficients polynomial in {space.gens}: {why}"
+    )
 
 
 def _constant_value(p: TrigPoly):
@@ -686,6 +717,7 @@ def to_expr(p: TrigPoly) -> sp.Expr:
 
 
 # --------------------------------------------------------------------------- conveniences
+
 
 def space_for(exprs: Iterable, angles: Sequence[sp.Symbol], offsets: Sequence | None = None) -> TrigSpace:
     """A space whose generators are the free symbols of `exprs` other than the angles (sorted by name)."""

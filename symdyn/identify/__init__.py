@@ -16,7 +16,7 @@ from .data import Data, load_data
 from .estimate import Identification, fit
 from .simulate import simulate
 
-try:   # excitation design lives in its own module (CasADi); re-exported once it is there
+try:  # excitation design lives in its own module (CasADi); re-exported once it is there
     excitation = import_module(f"{__name__}.excitation").excitation
 except ModuleNotFoundError as exc:
     if exc.name != f"{__name__}.excitation":
@@ -25,5 +25,6 @@ except ModuleNotFoundError as exc:
     def excitation(robot, **options):
         """Excitation design (symdyn.identify.excitation) is not part of this installation yet."""
         raise RuntimeError("symdyn.identify.excitation is not available in this installation")
+
 
 __all__ = ["excitation", "load_data", "Data", "fit", "Identification", "simulate"]

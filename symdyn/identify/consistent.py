@@ -48,9 +48,8 @@ from __future__ import annotations
 
 import dataclasses
 import time
-import warnings
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import Sequence
 
 import numpy as np
 import sympy as sp
@@ -60,7 +59,7 @@ from ..model import Robot
 
 __all__ = ["physical", "Consistent", "pseudo_inertia", "METHODS"]
 
-PER = len(INERTIAL) + len(FRICTION)   # 14 standard parameters per link
+PER = len(INERTIAL) + len(FRICTION)  # 14 standard parameters per link
 METHODS = ("sdp", "casadi")
 _BASE_CACHE: dict = {}
 
@@ -122,6 +121,7 @@ def _from_J(J: np.ndarray) -> list:
 
 # --------------------------------------------------------------------------- the problem's data
 
+
 def _base(robot: Robot) -> BaseParameters:
     key = robot.fingerprint()
     if key not in _BASE_CACHE:
@@ -148,8 +148,9 @@ def _prior_vector(robot: Robot, prior, names: list) -> np.ndarray:
     values = dict(zip(names, (float(v) for v in parameter_values(robot))))
     unknown = sorted(set(prior) - set(values))
     if unknown:
-        raise ValueError(f"prior names {unknown} are not standard parameters of {robot.name!r} "
-                         f"(they are {names[0]} … {names[-1]})")
+        raise ValueError(
+            f"prior names {unknown} are not standard parameters of {robot.name!r} (they are {names[0]} … {names[-1]})"
+        )
     values.update({k: float(v) for k, v in prior.items()})
     return np.array([values[k] for k in names])
 
@@ -165,17 +166,18 @@ def _scales(pi0: np.ndarray, n: int, beta: np.ndarray, P: np.ndarray) -> tuple[n
     L = min(max(L, 0.05), 2.0)
     s = np.empty(n * PER)
     for j in range(n):
-        s[j * PER:j * PER + 6] = ms[j] * L * L
-        s[j * PER + 6:j * PER + 9] = ms[j] * L
+        s[j * PER : j * PER + 6] = ms[j] * L * L
+        s[j * PER + 6 : j * PER + 9] = ms[j] * L
         s[j * PER + 9] = ms[j]
         s[j * PER + 10] = max(abs(blocks[j, 10]), 1e-2 * ms[j] * L * L)
-        for k in (11, 12, 13):   # friction: its own base parameter; its size from the data or the prior
+        for k in (11, 12, 13):  # friction: its own base parameter; its size from the data or the prior
             rows = np.nonzero(P[:, j * PER + k])[0]
             s[j * PER + k] = max(abs(blocks[j, k]), *(abs(beta[r]) for r in rows), 1e-3)
     return s, ms, L
 
 
 # --------------------------------------------------------------------------- solvers
+
 
 def _linear_map(n: int, ms: np.ndarray, L: float) -> np.ndarray:
     """π = T·x for x = per link the 10 upper entries of the scaled pseudo-inertia Ĵ and IA, FV, FS, FO
@@ -188,7 +190,7 @@ def _linear_map(n: int, ms: np.ndarray, L: float) -> np.ndarray:
             E = np.zeros((4, 4))
             E[a, b] = E[b, a] = 1.0
             J = ms[j] * np.outer(D, D) * E
-            T[j * PER:j * PER + 10, j * PER + u] = _from_J(J)
+            T[j * PER : j * PER + 10, j * PER + u] = _from_J(J)
         for k in range(10, 14):
             T[j * PER + k, j * PER + k] = 1.0
     return T
@@ -217,8 +219,9 @@ def _solve_clarabel(fit, reg, lam, n, x0, tol, nomotor):
     try:
         import clarabel
     except ImportError:
-        raise ImportError("method='sdp' needs Clarabel: pip install 'symdyn[identify]' "
-                          "(or use method='casadi')") from None
+        raise ImportError(
+            "method='sdp' needs Clarabel: pip install 'symdyn[identify]' (or use method='casadi')"
+        ) from None
     from scipy import sparse
 
     (R1, c1), (R2, c2) = fit, reg
@@ -284,7 +287,7 @@ def _solve_clarabel(fit, reg, lam, n, x0, tol, nomotor):
         x2, status2 = solve(lam, np.sqrt(best * (1 + SLACK) + 1e-14 * float(c1 @ c1)))
         if status2 in ("Solved", "AlmostSolved"):
             x, status = x2, status2
-        else:   # the fit's bound leaves the cone a sliver: stage 1 (its own tie-break) stands
+        else:  # the fit's bound leaves the cone a sliver: stage 1 (its own tie-break) stands
             status = f"{status} (stage 2: {status2}, stage 1 kept)"
     return x, status
 
@@ -293,17 +296,17 @@ def _log_cholesky_start(x0, n, nomotor):
     """θ of a start point: the log-Cholesky factor of each pseudo-inertia, nudged inside the cone."""
     th0 = np.zeros(n * PER)
     for j in range(n):
-        J = np.array(_upper_to_J(x0[j * PER:j * PER + 10]), dtype=float)
+        J = np.array(_upper_to_J(x0[j * PER : j * PER + 10]), dtype=float)
         w, V = np.linalg.eigh(J)
         J = (V * np.maximum(w, 1e-6 * max(w.max(), 1.0))) @ V.T
-        U = np.linalg.cholesky(J[::-1, ::-1])[::-1, ::-1]   # J = U Uᵀ, U upper triangular
+        U = np.linalg.cholesky(J[::-1, ::-1])[::-1, ::-1]  # J = U Uᵀ, U upper triangular
         k = 0
         for a in range(4):
             for b in range(a, 4):
                 th0[j * PER + k] = np.log(U[a, b]) if a == b else U[a, b]
                 k += 1
-        IA, FV, FS, FO = x0[j * PER + 10:j * PER + 14]
-        th0[j * PER + 10:j * PER + 14] = [max(IA, 0), max(FV, 0), max(FS, abs(FO)), FO] if j not in nomotor else 0
+        IA, FV, FS, FO = x0[j * PER + 10 : j * PER + 14]
+        th0[j * PER + 10 : j * PER + 14] = [max(IA, 0), max(FV, 0), max(FS, abs(FO)), FO] if j not in nomotor else 0
     return th0
 
 
@@ -315,7 +318,7 @@ def _solve_casadi(fit, reg, lam, n, x0, tol, nomotor):
     theta = ca.SX.sym("theta", n * PER)
     xs = []
     for j in range(n):
-        t = theta[j * PER:(j + 1) * PER]
+        t = theta[j * PER : (j + 1) * PER]
         U = ca.SX.zeros(4, 4)
         k = 0
         for a in range(4):
@@ -334,17 +337,24 @@ def _solve_casadi(fit, reg, lam, n, x0, tol, nomotor):
     for j in range(n):
         lbx[j * PER + 10] = lbx[j * PER + 11] = 0.0
     for j in nomotor:
-        lbx[j * PER + 10:j * PER + 14] = ubx[j * PER + 10:j * PER + 14] = 0.0
-    options = {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": tol, "ipopt.max_iter": 3000,
-               "ipopt.sb": "yes", "show_eval_warnings": False}
+        lbx[j * PER + 10 : j * PER + 14] = ubx[j * PER + 10 : j * PER + 14] = 0.0
+    options = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.tol": tol,
+        "ipopt.max_iter": 3000,
+        "ipopt.sb": "yes",
+        "show_eval_warnings": False,
+    }
     first = ca.nlpsol("consistent_fit", "ipopt", {"x": theta, "f": f + TIE * r, "g": friction}, options)
     sol = first(x0=_log_cholesky_start(x0, n, nomotor), lbx=lbx, ubx=ubx, lbg=0, ubg=np.inf)
     status = first.stats()["return_status"]
     if lam > 0:
         best = float(sol["f"])
         bound = best * (1 + SLACK) + 1e-14 * float(t1 @ t1)
-        second = ca.nlpsol("consistent_prior", "ipopt", {"x": theta, "f": f + lam * r,
-                                                          "g": ca.vertcat(friction, f)}, options)
+        second = ca.nlpsol(
+            "consistent_prior", "ipopt", {"x": theta, "f": f + lam * r, "g": ca.vertcat(friction, f)}, options
+        )
         sol = second(x0=sol["x"], lbx=lbx, ubx=ubx, lbg=0, ubg=np.r_[np.inf * np.ones(2 * n), bound])
         status = second.stats()["return_status"]
     xfun = ca.Function("x", [theta], [x])
@@ -353,9 +363,11 @@ def _solve_casadi(fit, reg, lam, n, x0, tol, nomotor):
 
 # --------------------------------------------------------------------------- back to a Robot
 
+
 def _frame_maps(robot: Robot) -> list:
     """Per link (R, p): a point x of the robot's own link frame is R·x + p in the regressor's
     (modified-DH) frame, read off `to_modified` itself so that the two never disagree."""
+
     def probe(v):
         links = tuple(dataclasses.replace(link, r=v, I=((0, 0, 0),) * 3, m=1) for link in robot.links)
         mdh = dataclasses.replace(robot, links=links).to_modified()
@@ -386,35 +398,54 @@ def _rounded_onto_physical(I: np.ndarray, scale: float) -> np.ndarray:
 def _robot_from(robot: Robot, pi: np.ndarray, maps: list) -> Robot:
     links = []
     for j, (link, (R, p)) in enumerate(zip(robot.links, maps)):
-        v = pi[j * PER:(j + 1) * PER]
+        v = pi[j * PER : (j + 1) * PER]
         Io = np.array([[v[0], v[1], v[2]], [v[1], v[3], v[4]], [v[2], v[4], v[5]]])
         h, m = v[6:9], v[9]
         if m > 0:
             c = h / m
             Ic = Io - m * (c @ c * np.eye(3) - np.outer(c, c))
             r = R.T @ (c - p)
-        else:   # no mass: no centre of mass; the inertia is the same about any point
+        else:  # no mass: no centre of mass; the inertia is the same about any point
             Ic, r, m = Io, np.zeros(3), 0.0
         I = _rounded_onto_physical(R.T @ Ic @ R, np.abs(Io).max())
         G = float(link.G)
         IA, FV, FS, FO = v[10:14]
         if G == 0:
             if max(abs(IA), abs(FV), abs(FS), abs(FO)) > 0:
-                raise ValueError(f"link {j + 1} has gear ratio 0 but identified motor parameters "
-                                 f"IA={IA}, FV={FV}, FS={FS}, FO={FO}: give the model its gear ratio")
+                raise ValueError(
+                    f"link {j + 1} has gear ratio 0 but identified motor parameters "
+                    f"IA={IA}, FV={FV}, FS={FS}, FO={FO}: give the model its gear ratio"
+                )
             motor = {}
         else:
             motor = {"Jm": IA / G**2, "B": FV / G**2, "Tc": ((FS + FO) / abs(G), (FO - FS) / abs(G))}
-        links.append(dataclasses.replace(link, m=float(m), r=tuple(float(x) for x in r),
-                                         I=tuple(tuple(float(x) for x in row) for row in I), **motor))
+        links.append(
+            dataclasses.replace(
+                link,
+                m=float(m),
+                r=tuple(float(x) for x in r),
+                I=tuple(tuple(float(x) for x in row) for row in I),
+                **motor,
+            )
+        )
     return dataclasses.replace(robot, links=tuple(links))
 
 
 # --------------------------------------------------------------------------- the entry point
 
-def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None, *, prior=None,
-             regularisation: float = 1e-3, method: str | None = None, base: BaseParameters | None = None,
-             tol: float = 1e-8) -> Consistent:
+
+def physical(
+    robot: Robot,
+    base_names: Sequence[str],
+    base_values,
+    base_cov=None,
+    *,
+    prior=None,
+    regularisation: float = 1e-3,
+    method: str | None = None,
+    base: BaseParameters | None = None,
+    tol: float = 1e-8,
+) -> Consistent:
     """Standard parameters for every link that reproduce the base parameters `base_values`
     (named `base_names`, the names of the standard parameters they are pivoted on: ZZ1,
     FV1, XX2, …, as `base_parameters(robot)` orders them or in any order) as closely as
@@ -432,6 +463,7 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
     if method is None:
         try:
             import clarabel  # noqa: F401
+
             method = "sdp"
         except ImportError:
             method = "casadi"
@@ -450,9 +482,12 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
     missing = sorted(set(pivots) - set(base_names), key=pivots.index)
     unknown = [b for b in base_names if b not in pivots]
     if missing or unknown:
-        raise ValueError(f"base parameters of {robot.name!r} are {', '.join(pivots)}; "
-                         + (f"missing {missing}" if missing else "") + ("; " if missing and unknown else "")
-                         + (f"not base parameters: {unknown}" if unknown else ""))
+        raise ValueError(
+            f"base parameters of {robot.name!r} are {', '.join(pivots)}; "
+            + (f"missing {missing}" if missing else "")
+            + ("; " if missing and unknown else "")
+            + (f"not base parameters: {unknown}" if unknown else "")
+        )
     if not np.all(np.isfinite(values)):
         bad = [b for b, v in zip(base_names, values) if not np.isfinite(v)]
         raise ValueError(f"base values of {bad} are not finite")
@@ -469,7 +504,7 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
             raise ValueError(f"base_cov must be {len(values)}×{len(values)}, got {C.shape}")
         C = C[np.ix_(order, order)]
         scale = np.array([s[k] for k in base.independent])
-        C = (C + C.T) / 2 + np.diag((1e-9 * scale) ** 2)   # noise-free σ = 0 must not divide by 0
+        C = (C + C.T) / 2 + np.diag((1e-9 * scale) ** 2)  # noise-free σ = 0 must not divide by 0
         W = np.linalg.inv(np.linalg.cholesky(C))
     else:
         W = np.diag([1 / s[k] for k in base.independent])
@@ -477,7 +512,7 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
 
     # the two terms, linear in x (the solvers' variables): ‖W(P T x − β̂)‖² and ‖Q S⁻¹(T x − π₀)‖²
     T = _linear_map(n, ms, L)
-    A = P * s   # P S
+    A = P * s  # P S
     Q = np.eye(len(s)) - np.linalg.pinv(A) @ A
     Q = (Q + Q.T) / 2
     fit = (W @ P @ T, W @ beta)
@@ -485,22 +520,27 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
     x0 = np.linalg.lstsq(T, pi0, rcond=None)[0]
 
     solve = _solve_clarabel if method == "sdp" else _solve_casadi
-    nomotor = [j for j, link in enumerate(robot.links) if float(link.G) == 0]   # no motor: IA = FV = FS = FO = 0
+    nomotor = [j for j, link in enumerate(robot.links) if float(link.G) == 0]  # no motor: IA = FV = FS = FO = 0
     x, status = solve(fit, reg, regularisation, n, x0, tol, nomotor)
 
     # onto the constraint set exactly (a solver's tolerance may leave −1e-10)
     for j in range(n):
-        Jm = np.array(_upper_to_J(x[j * PER:j * PER + 10]), dtype=float)
+        Jm = np.array(_upper_to_J(x[j * PER : j * PER + 10]), dtype=float)
         w, V = np.linalg.eigh(Jm)
         Jm = (V * np.maximum(w, 0)) @ V.T
-        x[j * PER:j * PER + 10] = [Jm[a, b] for a in range(4) for b in range(a, 4)]
-        IA, FV, FS, FO = x[j * PER + 10:j * PER + 14]
-        x[j * PER + 10:j * PER + 14] = [max(IA, 0), max(FV, 0), max(FS, abs(FO)), FO] if j not in nomotor else 0
+        x[j * PER : j * PER + 10] = [Jm[a, b] for a in range(4) for b in range(a, 4)]
+        IA, FV, FS, FO = x[j * PER + 10 : j * PER + 14]
+        x[j * PER + 10 : j * PER + 14] = [max(IA, 0), max(FV, 0), max(FS, abs(FO)), FO] if j not in nomotor else 0
     pi = T @ x
     achieved = P @ pi
-    margins = np.array([np.linalg.eigvalsh(pseudo_inertia(
-        [[v[0], v[1], v[2]], [v[1], v[3], v[4]], [v[2], v[4], v[5]]], v[6:9], v[9])).min()
-        for v in pi.reshape(n, PER)])
+    margins = np.array(
+        [
+            np.linalg.eigvalsh(
+                pseudo_inertia([[v[0], v[1], v[2]], [v[1], v[3], v[4]], [v[2], v[4], v[5]]], v[6:9], v[9])
+            ).min()
+            for v in pi.reshape(n, PER)
+        ]
+    )
     r = achieved - beta
     moved = float(np.linalg.norm(Wrel @ r) / max(np.linalg.norm(Wrel @ beta), 1e-300))
     sigmas = float(np.linalg.norm(W @ r)) if base_cov is not None else None
@@ -511,10 +551,21 @@ def physical(robot: Robot, base_names: Sequence[str], base_values, base_cov=None
     back[order] = beta
     got = np.empty_like(achieved)
     got[order] = achieved
-    return Consistent(robot=new, standard=dict(zip(names, pi.tolist())), base_names=tuple(base_names),
-                      target=back, achieved=got, margins=margins, moved=moved, sigmas=sigmas, method=method,
-                      seconds=seconds, status=str(status), regularisation=regularisation,
-                      scales=np.array([s[k] for k in base.independent])[np.argsort(order)])
+    return Consistent(
+        robot=new,
+        standard=dict(zip(names, pi.tolist())),
+        base_names=tuple(base_names),
+        target=back,
+        achieved=got,
+        margins=margins,
+        moved=moved,
+        sigmas=sigmas,
+        method=method,
+        seconds=seconds,
+        status=str(status),
+        regularisation=regularisation,
+        scales=np.array([s[k] for k in base.independent])[np.argsort(order)],
+    )
 
 
 def base_vector(robot: Robot, base: BaseParameters | None = None) -> tuple[list, np.ndarray]:

@@ -47,9 +47,9 @@ class Data:
     tau: np.ndarray
     decimate: int = 1
     source: str = "arrays"
-    differentiated: bool = False   # q̇ computed from q (then its sign at rest is noise: see fit's rest_speed)
+    differentiated: bool = False  # q̇ computed from q (then its sign at rest is noise: see fit's rest_speed)
     notes: tuple = field(default=())
-    truth: object = field(default=None, compare=False, repr=False)   # the true arm of simulated data
+    truth: object = field(default=None, compare=False, repr=False)  # the true arm of simulated data
 
     @property
     def n(self) -> int:
@@ -66,12 +66,15 @@ class Data:
                 col = f"column q{self.n + 1} is missing"
             else:
                 col = f"column q{robot.n + 1} is one too many"
-            raise ValueError(f"{self.source}: the data have {self.n} joints (q1…q{self.n}) but the model "
-                             f"{robot.name!r} has {robot.n}: {col}")
+            raise ValueError(
+                f"{self.source}: the data have {self.n} joints (q1…q{self.n}) but the model "
+                f"{robot.name!r} has {robot.n}: {col}"
+            )
         return self
 
 
 # --------------------------------------------------------------------------- reading
+
 
 def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
     """(column names, values (rows, columns)); errors name the line and column."""
@@ -92,7 +95,7 @@ def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
     except ValueError:
         values = None
     if values is None or (values.size and values.shape[1] != len(names)):
-        _locate_bad_cell(path, names)   # raises with the line and column
+        _locate_bad_cell(path, names)  # raises with the line and column
     if values.size == 0:
         raise ValueError(f"{path}: no data rows after the header")
     return names, values
@@ -104,14 +107,17 @@ def _locate_bad_cell(path: Path, names: list[str]) -> None:
             if line == 1 or not row:
                 continue
             if len(row) != len(names):
-                raise ValueError(f"{path}:{line}: data row {line - 1} has {len(row)} fields, the header "
-                                 f"{len(names)} ({', '.join(names)})")
+                raise ValueError(
+                    f"{path}:{line}: data row {line - 1} has {len(row)} fields, the header "
+                    f"{len(names)} ({', '.join(names)})"
+                )
             for name, cell in zip(names, row):
                 try:
                     float(cell)
                 except ValueError:
-                    raise ValueError(f"{path}:{line}: data row {line - 1}, column {name}: {cell.strip()!r} "
-                                     "is not a number") from None
+                    raise ValueError(
+                        f"{path}:{line}: data row {line - 1}, column {name}: {cell.strip()!r} is not a number"
+                    ) from None
     raise ValueError(f"{path}: cannot be read as comma-separated numbers under one header line")
 
 
@@ -126,8 +132,10 @@ def _read_npz(path: Path) -> tuple[list[str], np.ndarray]:
             elif a.ndim == 1:
                 cols[name] = a
             else:
-                raise ValueError(f"{path}: array {name!r} has shape {a.shape}; expected one column (N,) per "
-                                 "name, or (N, n) for q, qd, qdd, tau, i")
+                raise ValueError(
+                    f"{path}: array {name!r} has shape {a.shape}; expected one column (N,) per "
+                    "name, or (N, n) for q, qd, qdd, tau, i"
+                )
     lengths = {name: len(a) for name, a in cols.items()}
     if len(set(lengths.values())) > 1:
         N = lengths.get("t", max(lengths.values()))
@@ -147,8 +155,9 @@ def _joint_columns(names: list[str], kind: str) -> list[str]:
     return [name for _, name in found]
 
 
-def load_data(path, *, joints=None, torque_constant=None, cutoff: float | None = None, order: int = ORDER,
-              decimate: int = 1) -> Data:
+def load_data(
+    path, *, joints=None, torque_constant=None, cutoff: float | None = None, order: int = ORDER, decimate: int = 1
+) -> Data:
     """Read and preprocess measured motion from a CSV or NPZ file (see the module docstring).
 
     joints: the model (a Robot) or its joint count, checked against the file's.  torque_constant:
@@ -161,13 +170,33 @@ def load_data(path, *, joints=None, torque_constant=None, cutoff: float | None =
     if not path.is_file():
         raise ValueError(f"no data file {path}" + (": it is a folder" if path.is_dir() else ""))
     names, values = (_read_npz if path.suffix.lower() == ".npz" else _read_csv)(path)
-    return _from_columns(dict(zip(names, values.T)), source=str(path), joints=joints,
-                         torque_constant=torque_constant, cutoff=cutoff, order=order, decimate=decimate,
-                         first_line=1 if path.suffix.lower() != ".npz" else None)
+    return _from_columns(
+        dict(zip(names, values.T)),
+        source=str(path),
+        joints=joints,
+        torque_constant=torque_constant,
+        cutoff=cutoff,
+        order=order,
+        decimate=decimate,
+        first_line=1 if path.suffix.lower() != ".npz" else None,
+    )
 
 
-def from_arrays(t, q, tau=None, *, qd=None, qdd=None, current=None, torque_constant=None, joints=None,
-                cutoff: float | None = None, order: int = ORDER, decimate: int = 1, source: str = "arrays") -> Data:
+def from_arrays(
+    t,
+    q,
+    tau=None,
+    *,
+    qd=None,
+    qdd=None,
+    current=None,
+    torque_constant=None,
+    joints=None,
+    cutoff: float | None = None,
+    order: int = ORDER,
+    decimate: int = 1,
+    source: str = "arrays",
+) -> Data:
     """`load_data` for arrays in memory: t (N,), q (N, n) and tau (N, n) (or currents with a torque
     constant), qd and qdd (N, n) optional."""
     cols = {"t": np.asarray(t, dtype=float)}
@@ -176,8 +205,16 @@ def from_arrays(t, q, tau=None, *, qd=None, qdd=None, current=None, torque_const
             a = np.asarray(a, dtype=float)
             a = a[:, None] if a.ndim == 1 else a
             cols.update((f"{kind}{j + 1}", a[:, j]) for j in range(a.shape[1]))
-    return _from_columns(cols, source=source, joints=joints, torque_constant=torque_constant, cutoff=cutoff,
-                         order=order, decimate=decimate, first_line=None)
+    return _from_columns(
+        cols,
+        source=source,
+        joints=joints,
+        torque_constant=torque_constant,
+        cutoff=cutoff,
+        order=order,
+        decimate=decimate,
+        first_line=None,
+    )
 
 
 def _where(source: str, first_line: int | None, row: int) -> str:
@@ -187,8 +224,7 @@ def _where(source: str, first_line: int | None, row: int) -> str:
     return f"{source}:{row + first_line}: row {row}"
 
 
-def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, order, decimate,
-                  first_line) -> Data:
+def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, order, decimate, first_line) -> Data:
     names = list(cols)
     if "t" not in cols:
         raise ValueError(f"{source}: no column 't' (time in s); the columns are {', '.join(names)}")
@@ -200,8 +236,9 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
         present = _joint_columns(names, kind)
         for j in range(1, max(n, len(present)) + 1):
             if present and f"{kind}{j}" not in cols:
-                raise ValueError(f"{source}: column {kind}{j} is missing (found {', '.join(present)}; "
-                                 f"q1…q{n} give {n} joints)")
+                raise ValueError(
+                    f"{source}: column {kind}{j} is missing (found {', '.join(present)}; q1…q{n} give {n} joints)"
+                )
         if len(present) > n:
             raise ValueError(f"{source}: column {kind}{n + 1} is one too many: q1…q{n} give {n} joints")
     if joints is not None:
@@ -212,10 +249,14 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             raise ValueError(f"{source}: the data have {n} joints (q1…q{n}) but {label} has {expected}: {col}")
     if torque_constant is not None:
         if "i1" not in cols:
-            raise ValueError(f"{source}: a torque constant was given but there is no column i1 "
-                             f"(motor currents i1…i{n})")
-        K = np.broadcast_to(np.asarray(torque_constant, dtype=float), (n,)) if np.ndim(torque_constant) == 0 \
+            raise ValueError(
+                f"{source}: a torque constant was given but there is no column i1 (motor currents i1…i{n})"
+            )
+        K = (
+            np.broadcast_to(np.asarray(torque_constant, dtype=float), (n,))
+            if np.ndim(torque_constant) == 0
             else np.asarray(torque_constant, dtype=float)
+        )
         if K.shape != (n,) or not np.all(np.isfinite(K)):
             raise ValueError(f"torque constant: expected one number or {n} (one per joint), got {torque_constant!r}")
         tau_cols = [f"i{j + 1}" for j in range(n)]
@@ -225,19 +266,23 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             raise ValueError(f"{source}: column tau1 is missing: the joint torques tau1…tau{n}{extra}")
         K, tau_cols = np.ones(n), [f"tau{j + 1}" for j in range(n)]
     used = ["t", *qs] + [f"{k}{j + 1}" for k in ("qd", "qdd") if f"{k}1" in cols for j in range(n)] + tau_cols
-    for name in used:   # the first NaN or infinity, by row
+    for name in used:  # the first NaN or infinity, by row
         bad = np.flatnonzero(~np.isfinite(cols[name]))
         if bad.size:
-            raise ValueError(f"{_where(source, first_line, int(bad[0]) + 1)}, column {name}: "
-                             f"{cols[name][bad[0]]} (every value must be a finite number)")
+            raise ValueError(
+                f"{_where(source, first_line, int(bad[0]) + 1)}, column {name}: "
+                f"{cols[name][bad[0]]} (every value must be a finite number)"
+            )
     t = np.asarray(cols["t"], dtype=float)
     if len(t) < 2:
         raise ValueError(f"{source}: {len(t)} row(s); identification needs many samples")
     dt = np.diff(t)
     if np.any(dt <= 0):
         k = int(np.flatnonzero(dt <= 0)[0]) + 2
-        raise ValueError(f"{_where(source, first_line, k)}, column t: time {t[k - 1]!r} does not come after "
-                         f"the previous row's {t[k - 2]!r} (time must increase)")
+        raise ValueError(
+            f"{_where(source, first_line, k)}, column t: time {t[k - 1]!r} does not come after "
+            f"the previous row's {t[k - 2]!r} (time must increase)"
+        )
     stack = lambda kind: np.column_stack([cols[f"{kind}{j + 1}"] for j in range(n)]).astype(float)  # noqa: E731
     q = stack("q")
     qd = stack("qd") if "qd1" in cols else None
@@ -255,11 +300,15 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
     if cutoff is not None or needs_derivative:
         cutoff = min(DEFAULT_CUTOFF, 0.4 * rate) if cutoff is None else float(cutoff)
         if not 0 < cutoff < rate / 2:
-            raise ValueError(f"cutoff {cutoff} Hz: it must lie between 0 and the Nyquist frequency {rate / 2:g} Hz "
-                             f"of data sampled at {rate:g} Hz")
+            raise ValueError(
+                f"cutoff {cutoff} Hz: it must lie between 0 and the Nyquist frequency {rate / 2:g} Hz "
+                f"of data sampled at {rate:g} Hz"
+            )
         q, qd, qdd = (lowpass(x, cutoff, rate, order) if x is not None else None for x in (q, qd, qdd))
-        notes.append(f"q{', given qd/qdd' if not needs_derivative else ''} low-passed: Butterworth order {order}, "
-                     f"{cutoff:g} Hz, zero phase (filtfilt) at {rate:g} Hz")
+        notes.append(
+            f"q{', given qd/qdd' if not needs_derivative else ''} low-passed: Butterworth order {order}, "
+            f"{cutoff:g} Hz, zero phase (filtfilt) at {rate:g} Hz"
+        )
         if qd is None:
             qd = np.gradient(q, t, axis=0, edge_order=2)
             notes.append("qd by central differences of the filtered q")
@@ -268,15 +317,26 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             notes.append("qdd by central differences of qd")
         edge = int(np.ceil(EDGE / cutoff * rate))
         if len(t) <= 2 * edge + 1:
-            raise ValueError(f"{source}: {len(t)} samples are too few to filter at {cutoff:g} Hz: the first and last "
-                             f"{edge} carry the filter's edge transients")
+            raise ValueError(
+                f"{source}: {len(t)} samples are too few to filter at {cutoff:g} Hz: the first and last "
+                f"{edge} carry the filter's edge transients"
+            )
         keep = slice(edge, len(t) - edge)
         t, q, qd, qdd, tau = t[keep], q[keep], qd[keep], qdd[keep], tau[keep]
         notes.append(f"the first and last {edge} samples dropped ({EDGE:g}/cutoff: the filter's edge transients)")
     if decimate > 1:
         notes.append(f"tau and Y decimated by {decimate} through one filter (parallel filtering) in fit")
-    return Data(t=t, q=q, qd=qd, qdd=qdd, tau=tau, decimate=int(decimate), source=source, notes=tuple(notes),
-                differentiated=differentiated)
+    return Data(
+        t=t,
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        tau=tau,
+        decimate=int(decimate),
+        source=source,
+        notes=tuple(notes),
+        differentiated=differentiated,
+    )
 
 
 def _uniform_rate(t: np.ndarray, source: str, first_line) -> float:
@@ -286,9 +346,11 @@ def _uniform_rate(t: np.ndarray, source: str, first_line) -> float:
     off = np.abs(dt - step) > 1e-3 * step
     if off.any():
         k = int(np.flatnonzero(off)[0]) + 2
-        raise ValueError(f"{_where(source, first_line, k)}, column t: the time step {dt[k - 2]:g} s differs from "
-                         f"the median step {step:g} s; filtering, differentiation and decimation need uniformly "
-                         "sampled data (resample it, or give qd and qdd)")
+        raise ValueError(
+            f"{_where(source, first_line, k)}, column t: the time step {dt[k - 2]:g} s differs from "
+            f"the median step {step:g} s; filtering, differentiation and decimation need uniformly "
+            "sampled data (resample it, or give qd and qdd)"
+        )
     return 1.0 / step
 
 
@@ -308,8 +370,10 @@ def _stages(factor: int) -> list[int]:
     while rest > 1:
         d = next((d for d in range(13, 1, -1) if rest % d == 0), None)
         if d is None:
-            raise ValueError(f"decimate {factor}: it has a prime factor {rest} above 13; choose a factor "
-                             "whose prime factors are at most 13 (e.g. 10, 12, 20)")
+            raise ValueError(
+                f"decimate {factor}: it has a prime factor {rest} above 13; choose a factor "
+                "whose prime factors are at most 13 (e.g. 10, 12, 20)"
+            )
         stages.append(d)
         rest //= d
     return stages
@@ -331,6 +395,7 @@ def parallel_decimate(Y: np.ndarray, tau: np.ndarray, factor: int, t: np.ndarray
 
 
 # --------------------------------------------------------------------------- writing
+
 
 def write_csv(path, data: Data, *, derivatives: bool = True) -> Path:
     """Write `data` as CSV: t, q1…qn, (qd1…qdn, qdd1…qddn when `derivatives`), tau1…taun."""

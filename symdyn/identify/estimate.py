@@ -73,8 +73,10 @@ class BaseEstimate:
     def table(self) -> str:
         lines = [f"{'parameter':>10} {'value':>14} {'σ':>11} {'σ %':>9}  stands for"]
         for k, name in enumerate(self.names):
-            lines.append(f"{name:>10} {self.values[k]:>14.6g} {self.std[k]:>11.3g} {self.relative[k]:>9.3g}  "
-                         f"{self.expressions[k]}")
+            lines.append(
+                f"{name:>10} {self.values[k]:>14.6g} {self.std[k]:>11.3g} {self.relative[k]:>9.3g}  "
+                f"{self.expressions[k]}"
+            )
         return "\n".join(lines)
 
 
@@ -91,10 +93,12 @@ class Validation:
     relative: np.ndarray
 
     def lines(self) -> list[str]:
-        return [f"validation on {self.source} ({len(self.t)} samples):",
-                "  rms error per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
-                "  relative error per joint (rms error / rms torque): "
-                + ", ".join(f"{100 * x:.2f} %" for x in self.relative)]
+        return [
+            f"validation on {self.source} ({len(self.t)} samples):",
+            "  rms error per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
+            "  relative error per joint (rms error / rms torque): "
+            + ", ".join(f"{100 * x:.2f} %" for x in self.relative),
+        ]
 
 
 class _Regressor:
@@ -105,7 +109,7 @@ class _Regressor:
 
         source = _geometry(robot)
         entry = (source if isinstance(source, str) else source.fingerprint(), target)
-        if entry not in _MODELS:   # loaded once per process (a NumPy module compiles its source on import)
+        if entry not in _MODELS:  # loaded once per process (a NumPy module compiles its source on import)
             _MODELS[entry] = load(source, target)
         self.model = _MODELS[entry]
         self.target = target
@@ -120,7 +124,7 @@ class _Regressor:
         for s in range(0, N, chunk):
             e = min(s + chunk, N)
             if buffer is not None:
-                Y = self.model.Y(q[s:e], qd[s:e], qdd[s:e], out=buffer[:e - s])
+                Y = self.model.Y(q[s:e], qd[s:e], qdd[s:e], out=buffer[: e - s])
             else:
                 Y = np.asarray(self.model.Y(q[s:e], qd[s:e], qdd[s:e]), dtype=float)
             yield s, np.take(Y, self.columns, axis=2)
@@ -128,13 +132,13 @@ class _Regressor:
     def full(self, q, qd, qdd) -> np.ndarray:
         out = np.empty((len(q), self.n, len(self.columns)))
         for s, Yb in self.chunks(q, qd, qdd):
-            out[s:s + len(Yb)] = Yb
+            out[s : s + len(Yb)] = Yb
         return out
 
     def predict(self, beta, q, qd, qdd) -> np.ndarray:
         out = np.empty((len(q), self.n))
         for s, Yb in self.chunks(q, qd, qdd):
-            out[s:s + len(Yb)] = Yb @ beta
+            out[s : s + len(Yb)] = Yb @ beta
         return out
 
 
@@ -164,10 +168,15 @@ _GEOMETRY: dict = {}
 def _geometry_key(robot: Robot) -> str:
     import dataclasses
 
-    bare = tuple(dataclasses.replace(link, m=0, r=(0, 0, 0), I=((0, 0, 0),) * 3, Jm=0, B=0, Tc=(0, 0), G=1,
-                                     qlim=None, physical=True) for link in robot.links)
-    return dataclasses.replace(robot, links=bare, tool=((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1)),
-                               urdf=None).fingerprint()
+    bare = tuple(
+        dataclasses.replace(
+            link, m=0, r=(0, 0, 0), I=((0, 0, 0),) * 3, Jm=0, B=0, Tc=(0, 0), G=1, qlim=None, physical=True
+        )
+        for link in robot.links
+    )
+    return dataclasses.replace(
+        robot, links=bare, tool=((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1)), urdf=None
+    ).fingerprint()
 
 
 def regressor_rows(robot: Robot, q, qd, qdd, *, target: str = "c") -> np.ndarray:
@@ -194,20 +203,24 @@ def _solve(G: np.ndarray, w: np.ndarray, names):
     the singular values of the weighted regressor with unit columns; a ValueError naming the base
     parameters the data do not excite or do not separate."""
     b = G.shape[1] - 1
-    Gw = np.tensordot(1 / w ** 2, G, axes=1)
+    Gw = np.tensordot(1 / w**2, G, axes=1)
     A, g = Gw[:b, :b], Gw[:b, b]
     scale = np.sqrt(np.diag(A))
     if np.any(scale == 0):
         dead = [names[k] for k in np.flatnonzero(scale == 0)]
-        raise ValueError(f"the data do not excite the base parameter(s) {', '.join(dead)}: their regressor "
-                         "columns are zero along the whole motion (does every joint move, both ways?)")
+        raise ValueError(
+            f"the data do not excite the base parameter(s) {', '.join(dead)}: their regressor "
+            "columns are zero along the whole motion (does every joint move, both ways?)"
+        )
     lam, V = np.linalg.eigh(A / np.outer(scale, scale))
     if lam[0] < RANK_TOL * lam[-1]:
         v = V[:, 0]
         worst = [names[k] for k in np.argsort(-np.abs(v))[:4] if abs(v[k]) > 0.1]
-        raise ValueError(f"the data do not separate the base parameters {', '.join(worst)} (condition number "
-                         f"{np.sqrt(lam[-1] / max(lam[0], 1e-300)):.3g} with unit columns): a richer motion is "
-                         "needed (does every joint move, both ways, with varied speed?)")
+        raise ValueError(
+            f"the data do not separate the base parameters {', '.join(worst)} (condition number "
+            f"{np.sqrt(lam[-1] / max(lam[0], 1e-300)):.3g} with unit columns): a richer motion is "
+            "needed (does every joint move, both ways, with varied speed?)"
+        )
     inv = (V / lam) @ V.T / np.outer(scale, scale)
     return inv @ g, inv, np.sqrt(np.maximum(lam[::-1], 0))
 
@@ -253,7 +266,7 @@ def _joint_noise(G: np.ndarray, N) -> np.ndarray:
         x = V[:, keep] @ ((V[:, keep].T @ (g[seen] / scale[seen])) / lam[keep])
         beta = np.zeros(b)
         beta[seen] = x / scale[seen]
-        rss = _rss(G[j:j + 1], beta)[0]
+        rss = _rss(G[j : j + 1], beta)[0]
         sigma[j] = np.sqrt(rss / max(N[j] - int(keep.sum()), 1))
     return sigma
 
@@ -273,12 +286,17 @@ def _openblas() -> tuple:
         import ctypes
 
         with open("/proc/self/maps") as maps:
-            paths = sorted({line.split()[-1] for line in maps
-                            if "openblas" in line.lower() and line.split()[-1].startswith("/")})
+            paths = sorted(
+                {line.split()[-1] for line in maps if "openblas" in line.lower() and line.split()[-1].startswith("/")}
+            )
         for path in paths:
             lib = ctypes.CDLL(path)
-            for prefix, suffix in (("scipy_openblas", "64_"), ("scipy_openblas", ""), ("openblas", "64_"),
-                                   ("openblas", "")):
+            for prefix, suffix in (
+                ("scipy_openblas", "64_"),
+                ("scipy_openblas", ""),
+                ("openblas", "64_"),
+                ("openblas", ""),
+            ):
                 get = getattr(lib, f"{prefix}_get_num_threads{suffix}", None)
                 put = getattr(lib, f"{prefix}_set_num_threads{suffix}", None)
                 if get is not None and put is not None:
@@ -305,9 +323,17 @@ def _blas_threads(count: int | None):
             put(old)
 
 
-def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, *, target: str = "c",
-        blas_threads: int | None = 1, consistent_options: dict | None = None,
-        rest_speed: float | None = None) -> "Identification":
+def fit(
+    robot: Robot,
+    data: Data,
+    method: str = "wls",
+    consistent: bool = True,
+    *,
+    target: str = "c",
+    blas_threads: int | None = 1,
+    consistent_options: dict | None = None,
+    rest_speed: float | None = None,
+) -> "Identification":
     """Identify the base parameters of `robot`'s geometry from `data` (a `Data`, or a CSV/NPZ file
     read by `load_data` with its defaults; see the module docstring).
 
@@ -351,17 +377,21 @@ def fit(robot: Robot, data: Data, method: str = "wls", consistent: bool = True, 
         options = dict(consistent_options or {})
         started = time.perf_counter()
         # residuals at rounding level (exact data): the covariance is rounding noise and weighs nothing
-        scale = max(np.sqrt(np.mean(data.tau ** 2)), 1e-300)
+        scale = max(np.sqrt(np.mean(data.tau**2)), 1e-300)
         cov = None if np.all(result.rms <= 1e-9 * scale) else result.base.covariance
         try:
-            result.consistent = physical.physical(robot, result.base.names, result.base.values, cov, prior=robot,
-                                                  base=result.map.exact, **options)
+            result.consistent = physical.physical(
+                robot, result.base.names, result.base.values, cov, prior=robot, base=result.map.exact, **options
+            )
         except Exception as exc:  # noqa: BLE001 (a solver's failure must not lose the estimate)
             import warnings
 
             result.consistent_error = f"{type(exc).__name__}: {exc}"
-            warnings.warn(f"no physically consistent parameters ({result.consistent_error}); the least-squares "
-                          "estimate stands", RuntimeWarning, stacklevel=2)
+            warnings.warn(
+                f"no physically consistent parameters ({result.consistent_error}); the least-squares estimate stands",
+                RuntimeWarning,
+                stacklevel=2,
+            )
         result.consistent_seconds = time.perf_counter() - started
     return result
 
@@ -382,65 +412,79 @@ def _fit(robot: Robot, data: Data, method: str, target: str, rest_speed: float =
     keep = _moving(robot, data, rest_speed)
     if data.decimate > 1:
         Yb, tau, _ = parallel_decimate(reg.full(data.q, data.qd, data.qdd), data.tau, data.decimate, data.t)
-        keep = keep[::data.decimate][:len(tau)] if keep is not None else None   # the decimated samples' speeds
-    elif data.N * n * b * 8 <= KEEP_BYTES:   # evaluated once, read by both passes
+        keep = keep[:: data.decimate][: len(tau)] if keep is not None else None  # the decimated samples' speeds
+    elif data.N * n * b * 8 <= KEEP_BYTES:  # evaluated once, read by both passes
         Yb, tau = reg.full(data.q, data.qd, data.qdd), data.tau
-    else:   # evaluated again for the second pass, never all in memory
+    else:  # evaluated again for the second pass, never all in memory
         Yb, tau = None, data.tau
-    if keep is not None:   # a joint's equations at rest become zero rows, which no sum sees
+    if keep is not None:  # a joint's equations at rest become zero rows, which no sum sees
         tau = np.where(keep, tau, 0.0)
         if Yb is not None:
             Yb[~keep] = 0.0
     if Yb is not None:
 
         def blocks():
-            return ((Yb[s:s + CHUNK], tau[s:s + CHUNK]) for s in range(0, len(tau), CHUNK))
+            return ((Yb[s : s + CHUNK], tau[s : s + CHUNK]) for s in range(0, len(tau), CHUNK))
     else:
 
         def blocks():
             for s, Y in reg.chunks(data.q, data.qd, data.qdd):
                 if keep is not None:
-                    Y[~keep[s:s + len(Y)]] = 0.0
-                yield Y, tau[s:s + len(Y)]
+                    Y[~keep[s : s + len(Y)]] = 0.0
+                yield Y, tau[s : s + len(Y)]
+
     N = len(tau)
     counts = keep.sum(axis=0) if keep is not None else np.full(n, N)
     if counts.sum() <= b:
-        raise ValueError(f"{N} samples of {n} joints give {counts.sum()} equations (joints at rest left out) "
-                         f"for {b} base parameters; record a longer motion")
+        raise ValueError(
+            f"{N} samples of {n} joints give {counts.sum()} equations (joints at rest left out) "
+            f"for {b} base parameters; record a longer motion"
+        )
     G = _gram(blocks(), n, b)
     names = bmap.names
     ones = np.ones(n)
     beta, inv, S = _solve(G, ones, names)
     rss, h = _residuals(blocks(), beta, n)
-    delta = inv @ h.sum(axis=0)                    # refinement: ordinary least squares to rounding
+    delta = inv @ h.sum(axis=0)  # refinement: ordinary least squares to rounding
     beta = beta + delta
     rss, h = _step(G, rss, h, delta)
     rss = np.maximum(rss, 0.0)
     sigma = _joint_noise(G, counts)
     if method == "wls":
         # the noise of joint j, floored where the data are exact (the weights do not matter there)
-        floor = 1e-8 * max(np.sqrt(np.mean(tau ** 2, axis=0)).max(), 1e-300)
+        floor = 1e-8 * max(np.sqrt(np.mean(tau**2, axis=0)).max(), 1e-300)
         w = np.maximum(sigma, floor)
         _, inv, S = _solve(G, w, names)
-        delta = inv @ (h / (w ** 2)[:, None]).sum(axis=0)
+        delta = inv @ (h / (w**2)[:, None]).sum(axis=0)
         beta = beta + delta
         rss, h = _step(G, rss, h, delta)
         rss = np.maximum(rss, 0.0)
     else:
         w = ones
-    s2 = float(np.sum(rss / w ** 2) / max(counts.sum() - b, 1))
+    s2 = float(np.sum(rss / w**2) / max(counts.sum() - b, 1))
     cov = s2 * inv
     std = np.sqrt(np.diag(cov))
     with np.errstate(divide="ignore", invalid="ignore"):
         relative = np.where(beta != 0, 100 * std / np.abs(beta), np.inf)
-    ev = np.linalg.eigvalsh(np.tensordot(1 / w ** 2, G, axes=1)[:b, :b])
-    estimate = BaseEstimate(names=names, values=beta, std=std, relative=relative, covariance=cov,
-                            expressions=bmap.expressions)
+    ev = np.linalg.eigvalsh(np.tensordot(1 / w**2, G, axes=1)[:b, :b])
+    estimate = BaseEstimate(
+        names=names, values=beta, std=std, relative=relative, covariance=cov, expressions=bmap.expressions
+    )
     seconds = time.perf_counter() - start
-    result = Identification(prior=robot, base=estimate, condition=float(np.sqrt(ev[-1] / max(ev[0], 1e-300))),
-                            scaled_condition=float(S[0] / S[-1]), rms=np.sqrt(rss / np.maximum(counts, 1)), sigma=w if method == "wls"
-                            else sigma, method=method, samples=N, data=data, seconds=seconds, target=target,
-                            map=bmap)
+    result = Identification(
+        prior=robot,
+        base=estimate,
+        condition=float(np.sqrt(ev[-1] / max(ev[0], 1e-300))),
+        scaled_condition=float(S[0] / S[-1]),
+        rms=np.sqrt(rss / np.maximum(counts, 1)),
+        sigma=w if method == "wls" else sigma,
+        method=method,
+        samples=N,
+        data=data,
+        seconds=seconds,
+        target=target,
+        map=bmap,
+    )
     return result
 
 
@@ -450,9 +494,11 @@ def _consistent_module():
     except ModuleNotFoundError as exc:
         if exc.name != f"{__package__}.consistent":
             raise
-        raise RuntimeError("consistent=True needs symdyn.identify.consistent (physically consistent "
-                           "parameters), which this installation lacks; fit(..., consistent=False) gives the "
-                           "least-squares estimate alone") from None
+        raise RuntimeError(
+            "consistent=True needs symdyn.identify.consistent (physically consistent "
+            "parameters), which this installation lacks; fit(..., consistent=False) gives the "
+            "least-squares estimate alone"
+        ) from None
     return consistent
 
 
@@ -489,14 +535,18 @@ class Identification:
         if self.consistent is not None:
             return self.consistent.robot
         if self.consistent_error is not None:
-            raise ValueError(f"the physically consistent step failed ({self.consistent_error}); the least-squares "
-                             "estimate (.base) stands")
+            raise ValueError(
+                f"the physically consistent step failed ({self.consistent_error}); the least-squares "
+                "estimate (.base) stands"
+            )
         pi = self.standard()
         try:
             return with_standard(self.prior, pi, name=f"{self.prior.name}_identified")
         except ValueError as exc:
-            raise ValueError(f"the least-squares estimate is no physical robot ({exc}); fit with consistent=True "
-                             "for physically consistent parameters") from None
+            raise ValueError(
+                f"the least-squares estimate is no physical robot ({exc}); fit with consistent=True "
+                "for physically consistent parameters"
+            ) from None
 
     def standard(self) -> np.ndarray:
         """Standard parameters π (14n,) reproducing β̂: the consistent ones, else the prior's
@@ -529,32 +579,39 @@ class Identification:
         data.check_joints(self.prior)
         predicted = self.predict(data.q, data.qd, data.qdd)
         rms = np.sqrt(np.mean((predicted - data.tau) ** 2, axis=0))
-        scale = np.sqrt(np.mean(data.tau ** 2, axis=0))
+        scale = np.sqrt(np.mean(data.tau**2, axis=0))
         with np.errstate(divide="ignore", invalid="ignore"):
             relative = np.where(scale > 0, rms / scale, np.inf)
-        return Validation(source=data.source, t=data.t, measured=data.tau, predicted=predicted, rms=rms,
-                          relative=relative)
+        return Validation(
+            source=data.source, t=data.t, measured=data.tau, predicted=predicted, rms=rms, relative=relative
+        )
 
     # ---- report
     def summary(self, validation: Validation | None = None) -> str:
         d = self.data
-        lines = [f"identification of {self.prior.name} ({self.prior.n} joints) by {self.method.upper()}",
-                 *(f"  {note}" for note in d.notes),
-                 f"{self.samples} samples × {self.prior.n} joints, {len(self.base)} base parameters, "
-                 f"least squares in {self.seconds:.3f} s",
-                 f"condition number of the {'weighted ' if self.method == 'wls' else ''}base regressor: "
-                 f"{self.condition:.4g} ({self.scaled_condition:.4g} with unit columns)",
-                 "residual rms per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
-                 ("noise σ per joint (WLS weights 1/σ): " if self.method == "wls" else "noise σ per joint: ")
-                 + ", ".join(f"{x:.4g}" for x in self.sigma), "", "base parameters (σ from the estimate's covariance):",
-                 self.base.table()]
+        lines = [
+            f"identification of {self.prior.name} ({self.prior.n} joints) by {self.method.upper()}",
+            *(f"  {note}" for note in d.notes),
+            f"{self.samples} samples × {self.prior.n} joints, {len(self.base)} base parameters, "
+            f"least squares in {self.seconds:.3f} s",
+            f"condition number of the {'weighted ' if self.method == 'wls' else ''}base regressor: "
+            f"{self.condition:.4g} ({self.scaled_condition:.4g} with unit columns)",
+            "residual rms per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
+            ("noise σ per joint (WLS weights 1/σ): " if self.method == "wls" else "noise σ per joint: ")
+            + ", ".join(f"{x:.4g}" for x in self.sigma),
+            "",
+            "base parameters (σ from the estimate's covariance):",
+            self.base.table(),
+        ]
         if self.consistent is not None:
             c = self.consistent
-            lines += ["", f"physically consistent standard parameters ({getattr(c, 'method', '?')}, "
-                      f"{self.consistent_seconds:.2f} s): the base parameters moved by {c.moved:.3g} (relative)"
-                      + (f", {c.sigmas:.3g} σ" if getattr(c, "sigmas", None) is not None else ""),
-                      "smallest eigenvalue of each link's pseudo-inertia: "
-                      + ", ".join(f"{x:.3g}" for x in c.margins)]
+            lines += [
+                "",
+                f"physically consistent standard parameters ({getattr(c, 'method', '?')}, "
+                f"{self.consistent_seconds:.2f} s): the base parameters moved by {c.moved:.3g} (relative)"
+                + (f", {c.sigmas:.3g} σ" if getattr(c, "sigmas", None) is not None else ""),
+                "smallest eigenvalue of each link's pseudo-inertia: " + ", ".join(f"{x:.3g}" for x in c.margins),
+            ]
             if hasattr(c, "table"):
                 lines.append(c.table())
         if self.consistent_error is not None:
@@ -565,29 +622,42 @@ class Identification:
 
     def parameters(self) -> dict:
         """What parameters.json holds: base parameters with σ, standard parameters, fit facts."""
-        out = {"model": self.prior.name, "method": self.method, "samples": self.samples,
-               "condition": self.condition, "scaled_condition": self.scaled_condition,
-               "rms": self.rms.tolist(), "sigma": self.sigma.tolist(),
-               "base": [{"name": k, "value": float(v), "std": float(s), "relative_std_percent": float(r),
-                         "stands_for": e}
-                        for k, v, s, r, e in zip(self.base.names, self.base.values, self.base.std,
-                                                 self.base.relative, self.base.expressions)]}
+        out = {
+            "model": self.prior.name,
+            "method": self.method,
+            "samples": self.samples,
+            "condition": self.condition,
+            "scaled_condition": self.scaled_condition,
+            "rms": self.rms.tolist(),
+            "sigma": self.sigma.tolist(),
+            "base": [
+                {"name": k, "value": float(v), "std": float(s), "relative_std_percent": float(r), "stands_for": e}
+                for k, v, s, r, e in zip(
+                    self.base.names, self.base.values, self.base.std, self.base.relative, self.base.expressions
+                )
+            ],
+        }
         names = standard_names(self.prior.n)
         prior = standard_vector(self.prior)
         try:
             standard = self.standard()
         except ValueError:
             standard = None
-        out["standard"] = [{"name": k, "prior": float(p), **({"value": float(v)} if standard is not None else {})}
-                           for k, p, v in zip(names, prior, standard if standard is not None else prior)]
+        out["standard"] = [
+            {"name": k, "prior": float(p), **({"value": float(v)} if standard is not None else {})}
+            for k, p, v in zip(names, prior, standard if standard is not None else prior)
+        ]
         out["standard_frames"] = "the regressor's link frames (modified DH / joint axis along z)"
         if self.consistent is not None:
-            out["consistent"] = {"margins": [float(x) for x in self.consistent.margins],
-                                 "moved": float(self.consistent.moved)}
+            out["consistent"] = {
+                "margins": [float(x) for x in self.consistent.margins],
+                "moved": float(self.consistent.moved),
+            }
         return out
 
-    def write(self, out_dir, validation: Validation | Data | None = None, *, figures: bool = True,
-              urdf_source=None) -> list[Path]:
+    def write(
+        self, out_dir, validation: Validation | Data | None = None, *, figures: bool = True, urdf_source=None
+    ) -> list[Path]:
         """Write summary.txt, parameters.json, identified.urdf (a model read from a URDF: that file with
         the identified inertials, `urdf_source` its path or text where the robot's record does not
         reach it) and the figures (fit.png, validation.png, parameters.png; with matplotlib) into
@@ -646,8 +716,14 @@ class Identification:
         plt = pyplot()
         paths = []
         d = self.data
-        fit_view = Validation(source=d.source, t=d.t, measured=d.tau, predicted=self.predict(d.q, d.qd, d.qdd),
-                              rms=self.rms, relative=self.rms)
+        fit_view = Validation(
+            source=d.source,
+            t=d.t,
+            measured=d.tau,
+            predicted=self.predict(d.q, d.qd, d.qdd),
+            rms=self.rms,
+            relative=self.rms,
+        )
         for name, v in (("fit", fit_view), ("validation", validation)):
             if v is None:
                 continue
@@ -658,8 +734,7 @@ class Identification:
                 ax.plot(v.t, v.predicted[:, j], lw=0.9, color="C0", label="predicted")
                 ax.set_ylabel(f"τ{j + 1}")
                 if name == "validation":
-                    ax.set_title(f"joint {j + 1}: rms error {v.rms[j]:.3g} ({100 * v.relative[j]:.1f} %)",
-                                 fontsize=8)
+                    ax.set_title(f"joint {j + 1}: rms error {v.rms[j]:.3g} ({100 * v.relative[j]:.1f} %)", fontsize=8)
             axes[0, 0].legend(fontsize=7, loc="upper right")
             axes[-1, 0].set_xlabel("t (s)")
             fig.suptitle(f"{self.prior.name}: {name} ({v.source})", fontsize=9)
@@ -670,7 +745,9 @@ class Identification:
         ax.set_yscale("log")
         ax.set_xticks(range(len(self.base)), self.base.names, rotation=90, fontsize=6)
         ax.set_ylabel("relative σ (%)")
-        ax.set_title(f"{self.prior.name}: base parameters' relative standard deviation "
-                     f"(condition {self.condition:.3g})", fontsize=9)
+        ax.set_title(
+            f"{self.prior.name}: base parameters' relative standard deviation (condition {self.condition:.3g})",
+            fontsize=9,
+        )
         paths.append(save(fig, out, "parameters"))
         return paths

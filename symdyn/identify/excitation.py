@@ -77,9 +77,18 @@ class ExcitationLimits:
             return out
 
         qlim = np.asarray(q if q is not None else model.q, dtype=float).reshape(robot.n, 2)
-        return cls(q=qlim, qd=pick(qd, model.qd, DEFAULT_QD), qdd=pick(qdd, None, DEFAULT_QDD),
-                   tau=(np.broadcast_to(np.asarray(tau, float), (robot.n,)).copy() if tau is not None
-                        else np.full(robot.n, np.inf) if model.tau is None else np.asarray(model.tau, float)))
+        return cls(
+            q=qlim,
+            qd=pick(qd, model.qd, DEFAULT_QD),
+            qdd=pick(qdd, None, DEFAULT_QDD),
+            tau=(
+                np.broadcast_to(np.asarray(tau, float), (robot.n,)).copy()
+                if tau is not None
+                else np.full(robot.n, np.inf)
+                if model.tau is None
+                else np.asarray(model.tau, float)
+            ),
+        )
 
     def as_dict(self) -> dict:
         return {k: np.asarray(getattr(self, k)).tolist() for k in ("q", "qd", "qdd", "tau")}
@@ -145,17 +154,30 @@ class Excitation:
         """q, qd, qdd (len(t), n) at times t (s)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         Bq, Bqd, Bqdd = _basis(t, self.period, self.harmonics)
-        ab = np.hstack([self.a, self.b]).T   # (2L, n)
+        ab = np.hstack([self.a, self.b]).T  # (2L, n)
         return self.q0 + Bq @ ab, Bqd @ ab, Bqdd @ ab
 
     def to_dict(self) -> dict:
-        return {"robot": self.robot, "period": self.period, "harmonics": self.harmonics,
-                "criterion": self.criterion, "a": self.a.tolist(), "b": self.b.tolist(), "q0": self.q0.tolist(),
-                "condition": self.condition, "logdet": self.logdet, "random_condition": self.random_condition,
-                "random_logdet": self.random_logdet, "design_samples": self.samples,
-                "limits": self.limits.as_dict(), "seconds": self.seconds, "iterations": self.iterations,
-                "status": self.status, "base_parameters": list(self.base_names),
-                "peak_torque": None if self.peak_torque is None else self.peak_torque.tolist()}
+        return {
+            "robot": self.robot,
+            "period": self.period,
+            "harmonics": self.harmonics,
+            "criterion": self.criterion,
+            "a": self.a.tolist(),
+            "b": self.b.tolist(),
+            "q0": self.q0.tolist(),
+            "condition": self.condition,
+            "logdet": self.logdet,
+            "random_condition": self.random_condition,
+            "random_logdet": self.random_logdet,
+            "design_samples": self.samples,
+            "limits": self.limits.as_dict(),
+            "seconds": self.seconds,
+            "iterations": self.iterations,
+            "status": self.status,
+            "base_parameters": list(self.base_names),
+            "peak_torque": None if self.peak_torque is None else self.peak_torque.tolist(),
+        }
 
     def write(self, out_dir, rate: float = 100.0) -> list[Path]:
         """excitation.csv (t, q1…qn, qd1…qdn, qdd1…qddn at `rate` Hz, one period),
@@ -165,14 +187,24 @@ class Excitation:
         out.mkdir(parents=True, exist_ok=True)
         t, q, qd, qdd = self.sample(rate)
         n = self.n
-        header = ["t"] + [f"q{i + 1}" for i in range(n)] + [f"qd{i + 1}" for i in range(n)] \
+        header = (
+            ["t"]
+            + [f"q{i + 1}" for i in range(n)]
+            + [f"qd{i + 1}" for i in range(n)]
             + [f"qdd{i + 1}" for i in range(n)]
+        )
         paths = [out / "excitation.csv", out / "excitation.json"]
-        _atomic(paths[0], ",".join(header) + "\n" + "\n".join(
-            ",".join(f"{x:.17g}" for x in row) for row in np.column_stack([t, q, qd, qdd])) + "\n")
+        _atomic(
+            paths[0],
+            ",".join(header)
+            + "\n"
+            + "\n".join(",".join(f"{x:.17g}" for x in row) for row in np.column_stack([t, q, qd, qdd]))
+            + "\n",
+        )
         _atomic(paths[1], json.dumps(self.to_dict(), indent=1) + "\n")
         try:
             import matplotlib
+
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
         except ImportError:
@@ -185,9 +217,12 @@ class Excitation:
             ax.grid(alpha=0.3)
         axes[0].legend(fontsize=7, ncol=min(n, 4))
         axes[-1].set_xlabel("t (s)")
-        fig.suptitle(f"{self.robot}: excitation, {self.harmonics} harmonics, T = {self.period:g} s\n"
-                     f"cond {self.condition:.4g} (random start of the family {self.random_condition:.4g}), "
-                     f"criterion {self.criterion}", fontsize=10)
+        fig.suptitle(
+            f"{self.robot}: excitation, {self.harmonics} harmonics, T = {self.period:g} s\n"
+            f"cond {self.condition:.4g} (random start of the family {self.random_condition:.4g}), "
+            f"criterion {self.criterion}",
+            fontsize=10,
+        )
         fig.tight_layout()
         paths.append(out / "excitation.png")
         fig.savefig(paths[-1], dpi=120)
@@ -203,16 +238,17 @@ def _atomic(path: Path, text: str) -> None:
 
 # --------------------------------------------------------------------------- the optimisation
 
+
 def _spectral(W: np.ndarray, criterion: str):
     """The criterion and its gradient with respect to W, from the eigenvalues λ = σ² of the
     small Gram matrix WᵀW (a tall SVD costs ten times more where BLAS threads compete for cores)."""
     lam, V = np.linalg.eigh(W.T @ W)
     if lam[0] <= 0:
         return np.inf, np.zeros_like(W)
-    if criterion == "cond":   # log σ_max − log σ_min; ∂λ/∂W = 2 W v vᵀ
+    if criterion == "cond":  # log σ_max − log σ_min; ∂λ/∂W = 2 W v vᵀ
         f = 0.5 * (math.log(lam[-1]) - math.log(lam[0]))
         G = W @ (np.outer(V[:, -1], V[:, -1]) / lam[-1] - np.outer(V[:, 0], V[:, 0]) / lam[0])
-    else:   # −log det(WᵀW) per parameter
+    else:  # −log det(WᵀW) per parameter
         p = len(lam)
         f = -float(np.sum(np.log(lam))) / p
         G = -2 * W @ ((V / lam) @ V.T) / p
@@ -279,7 +315,7 @@ def _criterion_callbacks(Wf, Wrev, nx: int, criterion: str):
             return True
 
         def get_jacobian(self, name, inames, onames, opts):
-            self.gradient = Gradient(name, opts)   # kept alive with its owner
+            self.gradient = Gradient(name, opts)  # kept alive with its owner
             return self.gradient
 
     return Criterion("excitation_criterion")
@@ -307,14 +343,23 @@ def _lift(B: np.ndarray, n: int, L: int, offset: bool):
 def _rest_projection(n: int, L: int) -> np.ndarray:
     """A (2L × 2L) projector onto the coefficients of one joint that start and end at rest."""
     C = np.zeros((2, 2 * L))
-    C[0, :L] = 1.0                       # Σ a_l = 0: q̇(0) = 0
-    C[1, L:] = np.arange(1, L + 1)       # Σ l b_l = 0: q̈(0) = 0
+    C[0, :L] = 1.0  # Σ a_l = 0: q̇(0) = 0
+    C[1, L:] = np.arange(1, L + 1)  # Σ l b_l = 0: q̈(0) = 0
     return np.eye(2 * L) - np.linalg.pinv(C) @ C
 
 
-def excitation(robot: Robot, period: float = 10.0, harmonics: int = 5, *, criterion: str = "cond",
-               rate: float | None = None, seed: int = 0, limits: ExcitationLimits | None = None,
-               max_iter: int = 200, model=None) -> Excitation:
+def excitation(
+    robot: Robot,
+    period: float = 10.0,
+    harmonics: int = 5,
+    *,
+    criterion: str = "cond",
+    rate: float | None = None,
+    seed: int = 0,
+    limits: ExcitationLimits | None = None,
+    max_iter: int = 200,
+    model=None,
+) -> Excitation:
     """An optimised periodic excitation of `robot` (module docstring).
 
     period: T (s); harmonics: L; criterion: "cond" (log condition number of the stacked
@@ -351,7 +396,7 @@ def excitation(robot: Robot, period: float = 10.0, harmonics: int = 5, *, criter
     K = int(round(period * rate)) if rate else max(10 * L, 3 * -(-p // n))
     t = np.arange(K) * period / K
     Bq, Bqd, Bqdd = _basis(t, period, L)
-    Kd = 40 * L   # dense grid of the linear limits: a harmonic overshoots its samples by < 0.4 %
+    Kd = 40 * L  # dense grid of the linear limits: a harmonic overshoots its samples by < 0.4 %
     td = np.arange(Kd) * period / Kd
     Dq, Dqd, Dqdd = _basis(td, period, L)
 
@@ -362,12 +407,12 @@ def excitation(robot: Robot, period: float = 10.0, harmonics: int = 5, *, criter
     # constraint Jacobian is a constant IPOPT gets at the cost of a copy, not of an AD sweep
     Aq, Aqd, Aqdd = (_lift(B, n, L, q0) for B, q0 in ((Bq, True), (Bqd, False), (Bqdd, False)))
     Q, QD, QDD = (ca.reshape(ca.mtimes(A, x), n, K) for A in (Aq, Aqd, Aqdd))
-    Yall = Yfun.map(K)(Q, QD, QDD)   # n × (14n·K)
+    Yall = Yfun.map(K)(Q, QD, QDD)  # n × (14n·K)
     per = Yfun.size2_out(0)
     W = ca.vertcat(*(Yall[:, [k * per + c for c in cols]] for k in range(K)))
     Wf = ca.Function("W", [x], [W])
     Wrev = Wf.reverse(1)
-    tau = taufun.map(K)(Q, QD, QDD)   # n × K
+    tau = taufun.map(K)(Q, QD, QDD)  # n × K
 
     crit = _criterion_callbacks(Wf, Wrev, nx, criterion)
 
@@ -377,57 +422,80 @@ def excitation(robot: Robot, period: float = 10.0, harmonics: int = 5, *, criter
     qlo, qhi = lo + MARGIN * span, hi - MARGIN * span
     rest = np.zeros((2 * n, nx))
     for i in range(n):
-        rest[i, i * 2 * L:i * 2 * L + L] = 1.0                                # Σ a_l = 0
-        rest[n + i, i * 2 * L + L:(i + 1) * 2 * L] = np.arange(1, L + 1)      # Σ l b_l = 0
+        rest[i, i * 2 * L : i * 2 * L + L] = 1.0  # Σ a_l = 0
+        rest[n + i, i * 2 * L + L : (i + 1) * 2 * L] = np.arange(1, L + 1)  # Σ l b_l = 0
     linear = [_lift(D, n, L, q0) for D, q0 in ((Dq, True), (Dqd, False), (Dqdd, False))] + [ca.DM(rest)]
     g_parts = [ca.mtimes(ca.vertcat(*linear), x)]
-    lbg = [np.concatenate([np.tile(qlo, Kd), np.tile(-limits.qd * (1 - MARGIN), Kd),
-                           np.tile(-limits.qdd * (1 - MARGIN), Kd), np.zeros(2 * n)])]
-    ubg = [np.concatenate([np.tile(qhi, Kd), np.tile(limits.qd * (1 - MARGIN), Kd),
-                           np.tile(limits.qdd * (1 - MARGIN), Kd), np.zeros(2 * n)])]
+    lbg = [
+        np.concatenate(
+            [
+                np.tile(qlo, Kd),
+                np.tile(-limits.qd * (1 - MARGIN), Kd),
+                np.tile(-limits.qdd * (1 - MARGIN), Kd),
+                np.zeros(2 * n),
+            ]
+        )
+    ]
+    ubg = [
+        np.concatenate(
+            [
+                np.tile(qhi, Kd),
+                np.tile(limits.qd * (1 - MARGIN), Kd),
+                np.tile(limits.qdd * (1 - MARGIN), Kd),
+                np.zeros(2 * n),
+            ]
+        )
+    ]
     bounded = np.isfinite(limits.tau)
     tauf = ca.Function("tau", [x], [tau])
 
     # the random start of the family: rest-projected, scaled inside every limit
     rng = np.random.default_rng(seed)
     proj = _rest_projection(n, L)
-    coef = np.column_stack([proj @ (rng.standard_normal(2 * L) / np.r_[np.arange(1, L + 1), np.arange(1, L + 1)])
-                            for _ in range(n)])   # (2L, n)
+    coef = np.column_stack(
+        [proj @ (rng.standard_normal(2 * L) / np.r_[np.arange(1, L + 1), np.arange(1, L + 1)]) for _ in range(n)]
+    )  # (2L, n)
     mid = np.clip((qlo + qhi) / 2, qlo, qhi)
     dq, dqd, dqdd = Dq @ coef, Dqd @ coef, Dqdd @ coef
     room = np.minimum(qhi - mid, mid - qlo)
-    scale = 0.8 * min(np.min(room / np.maximum(np.abs(dq).max(0), 1e-12)),
-                      np.min(limits.qd / np.maximum(np.abs(dqd).max(0), 1e-12)),
-                      np.min(limits.qdd / np.maximum(np.abs(dqdd).max(0), 1e-12)))
+    scale = 0.8 * min(
+        np.min(room / np.maximum(np.abs(dq).max(0), 1e-12)),
+        np.min(limits.qd / np.maximum(np.abs(dqd).max(0), 1e-12)),
+        np.min(limits.qdd / np.maximum(np.abs(dqdd).max(0), 1e-12)),
+    )
 
     def pack(c, qm):
         return np.r_[c.ravel("F"), qm]
 
     x_start = pack(scale * coef, mid)
-    for _ in range(30):   # torques inside their limits (gravity alone may need a smaller motion)
+    for _ in range(30):  # torques inside their limits (gravity alone may need a smaller motion)
         peak = np.abs(np.asarray(tauf(x_start))).max(1)
         if np.all(peak <= 0.9 * limits.tau):
             break
-        x_start = pack(0.7 * x_start[:2 * L * n].reshape(2 * L, n, order="F"), mid)
+        x_start = pack(0.7 * x_start[: 2 * L * n].reshape(2 * L, n, order="F"), mid)
     else:
-        raise ValueError(f"{robot.name}: even a small motion about the middle of the joint ranges needs more than "
-                         f"90 % of the torque limits {limits.tau.tolist()}: give larger limits")
+        raise ValueError(
+            f"{robot.name}: even a small motion about the middle of the joint ranges needs more than "
+            f"90 % of the torque limits {limits.tau.tolist()}: give larger limits"
+        )
 
     def measure(xv):
         W = np.asarray(Wf(xv))
         lam = np.linalg.eigvalsh(W.T @ W)
-        return (float(np.sqrt(lam[-1] / lam[0])) if lam[0] > 0 else np.inf,
-                float(np.sum(np.log(np.maximum(lam, 1e-300)))))
+        return (
+            float(np.sqrt(lam[-1] / lam[0])) if lam[0] > 0 else np.inf,
+            float(np.sum(np.log(np.maximum(lam, 1e-300)))),
+        )
 
     random_condition, random_logdet = measure(x_start)
 
-    fine = np.linspace(0, period, 20 * K + 1)   # the torque check after the solve
+    fine = np.linspace(0, period, 20 * K + 1)  # the torque check after the solve
     Fq, Fqd, Fqdd = _basis(fine, period, L)
     tau_fine = taufun.map(len(fine))
 
     def peak_torque(xv):
-        c = xv[:2 * L * n].reshape(2 * L, n, order="F")
-        return np.abs(np.asarray(tau_fine((Fq @ c + xv[2 * L * n:]).T, (Fqd @ c).T, (Fqdd @ c).T))).max(1)
+        c = xv[: 2 * L * n].reshape(2 * L, n, order="F")
+        return np.abs(np.asarray(tau_fine((Fq @ c + xv[2 * L * n :]).T, (Fqd @ c).T, (Fqdd @ c).T))).max(1)
 
     # "cond" from the D-optimal design instead of the random start was measured: no faster
     # (Panda 216 against 200 iterations, Puma 91 against 31), so one stage
@@ -443,14 +511,26 @@ def excitation(robot: Robot, period: float = 10.0, harmonics: int = 5, *, criter
             ub.append(lim)
         xv, iterations, statuses = x_start, 0, []
         for stage in stages:
-            solver = ca.nlpsol("excitation", "ipopt", {"x": x, "f": crits[stage](x), "g": g},
-                               {"ipopt.print_level": PRINT, "print_time": False, "ipopt.sb": "yes",
-                                "ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": max_iter,
-                                "ipopt.tol": 1e-6, "show_eval_warnings": False,
-                                # the condition number is not smooth (its extreme σ trade places): stop
-                                # once it stagnates rather than let the line search crawl
-                                "ipopt.acceptable_tol": 1e20, "ipopt.acceptable_constr_viol_tol": 1e-9,
-                                "ipopt.acceptable_obj_change_tol": 1e-3, "ipopt.acceptable_iter": 8})
+            solver = ca.nlpsol(
+                "excitation",
+                "ipopt",
+                {"x": x, "f": crits[stage](x), "g": g},
+                {
+                    "ipopt.print_level": PRINT,
+                    "print_time": False,
+                    "ipopt.sb": "yes",
+                    "ipopt.hessian_approximation": "limited-memory",
+                    "ipopt.max_iter": max_iter,
+                    "ipopt.tol": 1e-6,
+                    "show_eval_warnings": False,
+                    # the condition number is not smooth (its extreme σ trade places): stop
+                    # once it stagnates rather than let the line search crawl
+                    "ipopt.acceptable_tol": 1e20,
+                    "ipopt.acceptable_constr_viol_tol": 1e-9,
+                    "ipopt.acceptable_obj_change_tol": 1e-3,
+                    "ipopt.acceptable_iter": 8,
+                },
+            )
             sol = solver(x0=xv, lbg=np.concatenate(lb), ubg=np.concatenate(ub))
             stats = solver.stats()
             iterations += int(stats.get("iter_count", 0))
@@ -461,35 +541,59 @@ def excitation(robot: Robot, period: float = 10.0, harmonics: int = 5, *, criter
             break
         tighten *= 0.9
     else:
-        raise RuntimeError(f"{robot.name}: the excitation's torques exceed the limits between design samples "
-                           "even with a 30 % margin: raise rate=")
+        raise RuntimeError(
+            f"{robot.name}: the excitation's torques exceed the limits between design samples "
+            "even with a 30 % margin: raise rate="
+        )
     if not _feasible(xv, limits, period, L, n):
-        xv = x_start   # IPOPT gave up outside the limits: the random start is the best feasible point known
+        xv = x_start  # IPOPT gave up outside the limits: the random start is the best feasible point known
     condition, logdet = measure(xv)
     if condition > random_condition:
         xv, (condition, logdet) = x_start, (random_condition, random_logdet)
-    coef = xv[:2 * L * n].reshape(2 * L, n, order="F")
-    return Excitation(robot=robot.name, period=float(period), harmonics=L, a=coef[:L].T.copy(), b=coef[L:].T.copy(),
-                      q0=xv[2 * L * n:].copy(), criterion=criterion, condition=condition, logdet=logdet,
-                      random_condition=random_condition, random_logdet=random_logdet, samples=K, limits=limits,
-                      start=(x_start[:2 * L * n].reshape(2 * L, n, order="F")[:L].T.copy(),
-                             x_start[:2 * L * n].reshape(2 * L, n, order="F")[L:].T.copy(), x_start[2 * L * n:].copy()),
-                      seconds=time.perf_counter() - start_time, iterations=iterations,
-                      status="; ".join(statuses), base_names=tuple(str(base.params[c]) for c in cols),
-                      peak_torque=peak_torque(xv))
+    coef = xv[: 2 * L * n].reshape(2 * L, n, order="F")
+    return Excitation(
+        robot=robot.name,
+        period=float(period),
+        harmonics=L,
+        a=coef[:L].T.copy(),
+        b=coef[L:].T.copy(),
+        q0=xv[2 * L * n :].copy(),
+        criterion=criterion,
+        condition=condition,
+        logdet=logdet,
+        random_condition=random_condition,
+        random_logdet=random_logdet,
+        samples=K,
+        limits=limits,
+        start=(
+            x_start[: 2 * L * n].reshape(2 * L, n, order="F")[:L].T.copy(),
+            x_start[: 2 * L * n].reshape(2 * L, n, order="F")[L:].T.copy(),
+            x_start[2 * L * n :].copy(),
+        ),
+        seconds=time.perf_counter() - start_time,
+        iterations=iterations,
+        status="; ".join(statuses),
+        base_names=tuple(str(base.params[c]) for c in cols),
+        peak_torque=peak_torque(xv),
+    )
 
 
 def _feasible(xv, limits: ExcitationLimits, period: float, L: int, n: int) -> bool:
     """Whether the position, speed and acceleration limits hold on a fine grid."""
     t = np.linspace(0, period, 200 * L + 1)
     Bq, Bqd, Bqdd = _basis(t, period, L)
-    c = xv[:2 * L * n].reshape(2 * L, n, order="F")
-    q, qd, qdd = Bq @ c + xv[2 * L * n:], Bqd @ c, Bqdd @ c
-    return bool(np.all(q >= limits.q[:, 0]) and np.all(q <= limits.q[:, 1]) and np.all(np.abs(qd) <= limits.qd)
-                and np.all(np.abs(qdd) <= limits.qdd))
+    c = xv[: 2 * L * n].reshape(2 * L, n, order="F")
+    q, qd, qdd = Bq @ c + xv[2 * L * n :], Bqd @ c, Bqdd @ c
+    return bool(
+        np.all(q >= limits.q[:, 0])
+        and np.all(q <= limits.q[:, 1])
+        and np.all(np.abs(qd) <= limits.qd)
+        and np.all(np.abs(qdd) <= limits.qdd)
+    )
 
 
 # --------------------------------------------------------------------------- command line
+
 
 def configure_parser(p) -> None:
     """`symdyn identify excite MODEL --period 10 --harmonics 5 --out DIR`."""
@@ -498,11 +602,19 @@ def configure_parser(p) -> None:
     add_arguments(p)
     p.add_argument("--period", type=float, default=10.0, help="the trajectory's period T in s (default 10)")
     p.add_argument("--harmonics", type=int, default=5, help="Fourier harmonics per joint (default 5)")
-    p.add_argument("--criterion", choices=CRITERIA, default="cond",
-                   help="cond: the base regressor's condition number (default); logdet: D-optimal")
+    p.add_argument(
+        "--criterion",
+        choices=CRITERIA,
+        default="cond",
+        help="cond: the base regressor's condition number (default); logdet: D-optimal",
+    )
     p.add_argument("--rate", type=float, default=100.0, help="the CSV's sample rate in Hz (default 100)")
-    p.add_argument("--design-rate", type=float, default=None,
-                   help="the optimisation grid in Hz (default: enough for the harmonics and the parameters)")
+    p.add_argument(
+        "--design-rate",
+        type=float,
+        default=None,
+        help="the optimisation grid in Hz (default: enough for the harmonics and the parameters)",
+    )
     p.add_argument("--seed", type=int, default=0, help="the random start (default 0)")
     p.add_argument("--max-iter", type=int, default=200, help="IPOPT's iteration limit (default 200)")
     p.add_argument("--out", required=True, help="folder for excitation.csv, excitation.json, excitation.png")
@@ -513,12 +625,21 @@ def run_cli(args) -> int:
     from ..model.command_line import from_args
 
     robot = from_args(args)
-    exc = excitation(robot, period=args.period, harmonics=args.harmonics, criterion=args.criterion,
-                     rate=args.design_rate, seed=args.seed, max_iter=args.max_iter)
+    exc = excitation(
+        robot,
+        period=args.period,
+        harmonics=args.harmonics,
+        criterion=args.criterion,
+        rate=args.design_rate,
+        seed=args.seed,
+        max_iter=args.max_iter,
+    )
     paths = exc.write(args.out, rate=args.rate)
-    print(f"{robot.name}: {exc.harmonics} harmonics, period {exc.period:g} s, criterion {exc.criterion}: "
-          f"condition number {exc.condition:.4g} (random start of the same family {exc.random_condition:.4g}), "
-          f"{exc.iterations} iterations, {exc.seconds:.1f} s ({exc.status})")
+    print(
+        f"{robot.name}: {exc.harmonics} harmonics, period {exc.period:g} s, criterion {exc.criterion}: "
+        f"condition number {exc.condition:.4g} (random start of the same family {exc.random_condition:.4g}), "
+        f"{exc.iterations} iterations, {exc.seconds:.1f} s ({exc.status})"
+    )
     for path in paths:
         print(f"wrote {path}")
     return 0

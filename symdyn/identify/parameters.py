@@ -85,8 +85,13 @@ def base_map(robot: Robot) -> BaseMap:
                     coeff, sym = term.as_independent(*base.params, as_Add=False)
                     syms = (sym,)
                 P[b, index[syms[0]]] += float(coeff)
-        return BaseMap(names=tuple(str(base.params[k]) for k in base.independent), columns=tuple(base.independent),
-                       P=P, expressions=tuple(str(e) for e in base.expressions), exact=base)
+        return BaseMap(
+            names=tuple(str(base.params[k]) for k in base.independent),
+            columns=tuple(base.independent),
+            P=P,
+            expressions=tuple(str(e) for e in base.expressions),
+            exact=base,
+        )
 
     entry = key(robot.fingerprint(), __version__, code_fingerprint())
     if entry not in _MAPS:
@@ -94,7 +99,7 @@ def base_map(robot: Robot) -> BaseMap:
     return _MAPS[entry]
 
 
-_MAPS: dict = {}   # this process's maps, by cache key: a fit in a loop reads the cache file once
+_MAPS: dict = {}  # this process's maps, by cache key: a fit in a loop reads the cache file once
 
 
 def _recursion_rotation(robot: Robot, j: int) -> tuple[np.ndarray, np.ndarray]:
@@ -125,7 +130,7 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
         raise ValueError(f"expected {PER_LINK * robot.n} standard parameters for {robot.name!r}, got shape {pi.shape}")
     links = []
     for j, link in enumerate(robot.links):
-        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M, IA, FV, FS, FO = pi[PER_LINK * j:PER_LINK * (j + 1)]
+        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M, IA, FV, FS, FO = pi[PER_LINK * j : PER_LINK * (j + 1)]
         Io = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
         h = np.array([MX, MY, MZ])
         if M > 0:
@@ -134,8 +139,10 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
         elif M == 0 and not h.any():
             r, Ic = np.zeros(3), Io
         else:
-            raise ValueError(f"link {j + 1} of {robot.name!r}: mass M{j + 1} = {M:.6g} with first moments "
-                             f"(MX, MY, MZ) = {tuple(np.round(h, 12))} is no physical body")
+            raise ValueError(
+                f"link {j + 1} of {robot.name!r}: mass M{j + 1} = {M:.6g} with first moments "
+                f"(MX, MY, MZ) = {tuple(np.round(h, 12))} is no physical body"
+            )
         R, p = _recursion_rotation(robot, j)
         r_own = R.T @ (r - p) if M > 0 else np.zeros(3)
         I_own = R.T @ Ic @ R
@@ -145,8 +152,15 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
             G = 1.0
         motor = dict(Jm=IA / G**2, B=FV / G**2, Tc=((FO + FS) / abs(G), (FO - FS) / abs(G))) if G else {}
         eig = np.linalg.eigvalsh(I_own)
-        links.append(dataclasses.replace(link, m=float(M), r=tuple(float(x) for x in r_own),
-                                         I=tuple(tuple(float(x) for x in row) for row in I_own),
-                                         G=link.G if G == float(link.G) else G,
-                                         physical=bool(eig[0] + eig[1] >= eig[2] * (1 - 1e-9)), **motor))
+        links.append(
+            dataclasses.replace(
+                link,
+                m=float(M),
+                r=tuple(float(x) for x in r_own),
+                I=tuple(tuple(float(x) for x in row) for row in I_own),
+                G=link.G if G == float(link.G) else G,
+                physical=bool(eig[0] + eig[1] >= eig[2] * (1 - 1e-9)),
+                **motor,
+            )
+        )
     return dataclasses.replace(robot, links=tuple(links), name=name or robot.name)

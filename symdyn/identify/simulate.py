@@ -23,8 +23,16 @@ import numpy as np
 from ..model import Robot
 from .data import Data, from_arrays, write_csv
 
-__all__ = ["simulate", "perturbed", "fourier", "Trajectory", "read_trajectory", "write", "write_truth",
-           "write_trajectory"]
+__all__ = [
+    "simulate",
+    "perturbed",
+    "fourier",
+    "Trajectory",
+    "read_trajectory",
+    "write",
+    "write_truth",
+    "write_trajectory",
+]
 
 
 @dataclass(frozen=True)
@@ -55,34 +63,50 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
         if np.linalg.eigvalsh(S)[0] >= -1e-12 * max(np.trace(I), 1e-300):
             S = D @ S @ D
             I_new = np.trace(S) * np.eye(3) - S
-        else:   # published data that break the triangle inequality (Link(physical=False)): its principal moments
+        else:  # published data that break the triangle inequality (Link(physical=False)): its principal moments
             lam, V = np.linalg.eigh(I)
             I_new = (V * (lam * np.diag(D))) @ V.T
-        links.append(dataclasses.replace(
-            link, m=float(link.m) * u(), r=tuple(float(x) * f for x, f in zip(link.r, u(3))),
-            I=tuple(tuple(float(x) for x in row) for row in (I_new + I_new.T) / 2),
-            Jm=float(link.Jm) * u(), B=float(link.B) * u(), Tc=tuple(float(x) * f for x, f in zip(link.Tc, u(2)))))
+        links.append(
+            dataclasses.replace(
+                link,
+                m=float(link.m) * u(),
+                r=tuple(float(x) * f for x, f in zip(link.r, u(3))),
+                I=tuple(tuple(float(x) for x in row) for row in (I_new + I_new.T) / 2),
+                Jm=float(link.Jm) * u(),
+                B=float(link.B) * u(),
+                Tc=tuple(float(x) * f for x, f in zip(link.Tc, u(2))),
+            )
+        )
     return dataclasses.replace(robot, links=tuple(links), name=f"{robot.name}_perturbed")
 
 
 def _trajectory(trajectory, n: int) -> Trajectory:
     if isinstance(trajectory, (str, Path)):
         trajectory = read_trajectory(trajectory)
-    elif hasattr(trajectory, "sample") and not hasattr(trajectory, "t"):   # an optimised Excitation: 100 Hz
+    elif hasattr(trajectory, "sample") and not hasattr(trajectory, "t"):  # an optimised Excitation: 100 Hz
         trajectory = Trajectory(*trajectory.sample(100.0))
     try:
         t, q, qd, qdd = (np.asarray(getattr(trajectory, k), dtype=float) for k in ("t", "q", "qd", "qdd"))
     except AttributeError:
-        raise ValueError("a trajectory has t, q, qd and qdd (a Trajectory, Data or CSV file), got "
-                         f"{type(trajectory).__name__}") from None
+        raise ValueError(
+            f"a trajectory has t, q, qd and qdd (a Trajectory, Data or CSV file), got {type(trajectory).__name__}"
+        ) from None
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
         if x.ndim != 2 or x.shape != (len(t), n):
             raise ValueError(f"trajectory {name} must have shape ({len(t)}, {n}), got {x.shape}")
     return Trajectory(t, q, qd, qdd)
 
 
-def simulate(robot: Robot, trajectory, *, perturb: float = 0.2, noise=0.0, quantisation=0.0, seed: int = 0,
-             truth: Robot | None = None) -> Data:
+def simulate(
+    robot: Robot,
+    trajectory,
+    *,
+    perturb: float = 0.2,
+    noise=0.0,
+    quantisation=0.0,
+    seed: int = 0,
+    truth: Robot | None = None,
+) -> Data:
     """Measurement-like data along `trajectory` (a Trajectory, Data, or a CSV/NPZ file with t, q, qd,
     qdd) from `robot` perturbed by `perturbed(robot, perturb, seed)` (or the given `truth`).
 
@@ -103,8 +127,15 @@ def simulate(robot: Robot, trajectory, *, perturb: float = 0.2, noise=0.0, quant
     res = _per_joint(quantisation, n, "quantisation")
     tau = tau + rng.standard_normal(tau.shape) * noise
     q = np.where(res > 0, np.round(traj.q / np.where(res > 0, res, 1)) * res, traj.q)
-    data = from_arrays(traj.t, q, tau, qd=traj.qd, qdd=traj.qdd, joints=robot,
-                       source=f"simulated {truth.name} (perturb ±{perturb:g}, seed {seed})")
+    data = from_arrays(
+        traj.t,
+        q,
+        tau,
+        qd=traj.qd,
+        qdd=traj.qdd,
+        joints=robot,
+        source=f"simulated {truth.name} (perturb ±{perturb:g}, seed {seed})",
+    )
     notes = data.notes + (f"torque noise σ {noise.tolist()}, encoder resolution {res.tolist()}",)
     return dataclasses.replace(data, notes=notes, truth=truth)
 
@@ -117,8 +148,17 @@ def _per_joint(x, n: int, what: str) -> np.ndarray:
     return a
 
 
-def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: float = 100.0, seed: int = 0,
-            fill: float = 0.6, periods: int = 1, rest: float = 0.0) -> Trajectory:
+def fourier(
+    robot: Robot,
+    *,
+    period: float = 10.0,
+    harmonics: int = 5,
+    rate: float = 100.0,
+    seed: int = 0,
+    fill: float = 0.6,
+    periods: int = 1,
+    rest: float = 0.0,
+) -> Trajectory:
     """A random finite Fourier series per joint (Swevers et al. 1997), seeded:
     q_j(t) = c_j + Σ_k a_jk/(kω) sin(kωt) − b_jk/(kω) cos(kωt), ω = 2π/period, scaled so that q_j
     spans `fill` of its joint range around the range's middle; sampled at `rate` Hz over `periods`.
@@ -136,10 +176,9 @@ def fourier(robot: Robot, *, period: float = 10.0, harmonics: int = 5, rate: flo
     # the window: 1, then a septic ramp to 0 over the last `rest` seconds (continuous up to the jerk, which
     # a low-pass differentiator would otherwise smear over tenths of a second)
     u = np.clip((t - (t[-1] + 1 / rate - rest)) / rest, 0, 1) if rest > 0 else np.zeros_like(t)
-    win = 1 - (35 * u ** 4 - 84 * u ** 5 + 70 * u ** 6 - 20 * u ** 7)
-    wd = -(140 * u ** 3 - 420 * u ** 4 + 420 * u ** 5 - 140 * u ** 6) / rest if rest > 0 else np.zeros_like(t)
-    wdd = -(420 * u ** 2 - 1680 * u ** 3 + 2100 * u ** 4 - 840 * u ** 5) / rest ** 2 if rest > 0 \
-        else np.zeros_like(t)
+    win = 1 - (35 * u**4 - 84 * u**5 + 70 * u**6 - 20 * u**7)
+    wd = -(140 * u**3 - 420 * u**4 + 420 * u**5 - 140 * u**6) / rest if rest > 0 else np.zeros_like(t)
+    wdd = -(420 * u**2 - 1680 * u**3 + 2100 * u**4 - 840 * u**5) / rest**2 if rest > 0 else np.zeros_like(t)
     for j in range(robot.n):
         a, b = rng.standard_normal(harmonics) / k, rng.standard_normal(harmonics) / k
         s, c = np.sin(np.outer(t, k * w)), np.cos(np.outer(t, k * w))
@@ -175,8 +214,16 @@ def read_trajectory(path) -> Trajectory:
     cols.update((f"tau{j + 1}", zeros) for j in range(len(qs)))
     from .data import _from_columns
 
-    data = _from_columns(cols, source=str(path), joints=None, torque_constant=None, cutoff=None, order=4,
-                         decimate=1, first_line=1 if path.suffix.lower() != ".npz" else None)
+    data = _from_columns(
+        cols,
+        source=str(path),
+        joints=None,
+        torque_constant=None,
+        cutoff=None,
+        order=4,
+        decimate=1,
+        first_line=1 if path.suffix.lower() != ".npz" else None,
+    )
     return Trajectory(data.t, data.q, data.qd, data.qdd)
 
 
@@ -186,8 +233,14 @@ def write_trajectory(path, trajectory: Trajectory) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     n = trajectory.q.shape[1]
     header = ["t"] + [f"{k}{j + 1}" for k in ("q", "qd", "qdd") for j in range(n)]
-    np.savetxt(path, np.column_stack([trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd]), delimiter=",",
-               header=",".join(header), comments="", fmt="%.17g")
+    np.savetxt(
+        path,
+        np.column_stack([trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd]),
+        delimiter=",",
+        header=",".join(header),
+        comments="",
+        fmt="%.17g",
+    )
     return path
 
 
@@ -207,10 +260,22 @@ def write_truth(path, truth: Robot, *, robot: Robot | None = None) -> Path:
 
     pi = standard_vector(truth)
     bmap = base_map(robot if robot is not None else truth)
-    doc = {"model": truth.name, "standard": dict(zip(standard_names(truth.n), pi.tolist())),
-           "base": dict(zip(bmap.names, (bmap.P @ pi).tolist())),
-           "links": [{"m": float(l.m), "r": [float(x) for x in l.r], "I": [[float(x) for x in row] for row in l.I],
-                      "Jm": float(l.Jm), "B": float(l.B), "Tc": [float(x) for x in l.Tc], "G": float(l.G)}
-                     for l in truth.links]}
+    doc = {
+        "model": truth.name,
+        "standard": dict(zip(standard_names(truth.n), pi.tolist())),
+        "base": dict(zip(bmap.names, (bmap.P @ pi).tolist())),
+        "links": [
+            {
+                "m": float(l.m),
+                "r": [float(x) for x in l.r],
+                "I": [[float(x) for x in row] for row in l.I],
+                "Jm": float(l.Jm),
+                "B": float(l.B),
+                "Tc": [float(x) for x in l.Tc],
+                "G": float(l.G),
+            }
+            for l in truth.links
+        ],
+    }
     Path(path).write_text(json.dumps(doc, indent=1) + "\n")
     return Path(path)

@@ -19,7 +19,7 @@ import numpy as np
 __all__ = ["STUDIES", "run", "loop"]
 
 #: 17-bit encoder (rad per count).
-ENCODER = 2 * np.pi / 2 ** 17
+ENCODER = 2 * np.pi / 2**17
 #: Torque noise, as a fraction of each joint's rms torque along the excitation.
 NOISE = 0.02
 RATE = 500.0
@@ -44,24 +44,28 @@ def loop(name: str, out_dir: Path, *, period: float = 10.0, harmonics: int = 5, 
         exc = excitation(robot, period=period, harmonics=harmonics, seed=seed)
         exc.write(out / "excitation", rate=RATE)
         traj = Trajectory(*exc.sample(RATE))
-        lines.append(f"excitation: {harmonics} harmonics, period {period:g} s, optimised in {exc.seconds:.1f} s "
-                     f"({exc.status}): condition number {exc.condition:.4g} (random start {exc.random_condition:.4g})")
+        lines.append(
+            f"excitation: {harmonics} harmonics, period {period:g} s, optimised in {exc.seconds:.1f} s "
+            f"({exc.status}): condition number {exc.condition:.4g} (random start {exc.random_condition:.4g})"
+        )
     except (ImportError, RuntimeError, ValueError) as exc_error:
         traj = fourier(robot, period=period, harmonics=harmonics, rate=RATE, seed=seed, rest=0.5)
         lines.append(f"excitation: none optimised ({exc_error}); a fixed random Fourier trajectory instead")
     excite_seconds = time.perf_counter() - start
     truth = perturbed(robot, 0.2, seed)
     clean = simulate(robot, traj, truth=truth)
-    noise = NOISE * np.sqrt(np.mean(clean.tau ** 2, axis=0))
+    noise = NOISE * np.sqrt(np.mean(clean.tau**2, axis=0))
     data = simulate(robot, traj, truth=truth, noise=noise, quantisation=ENCODER, seed=seed)
     path = write(out / "data.csv", data, derivatives=False, robot=robot)
     check_traj = fourier(robot, period=period, harmonics=harmonics, rate=RATE, seed=seed + 100, fill=0.4)
     write_trajectory(out / "validation-trajectory.csv", check_traj)
     check = simulate(robot, check_traj, truth=truth, noise=noise, quantisation=ENCODER, seed=seed + 1)
     check_path = write(out / "validation.csv", check, derivatives=False, robot=robot)
-    lines.append(f"simulated: every inertial and friction parameter ±20 % (seed {seed}), encoder "
-                 f"{ENCODER:.3g} rad, torque noise σ = {NOISE:.0%} of each joint's rms torque: "
-                 + ", ".join(f"{x:.3g}" for x in noise))
+    lines.append(
+        f"simulated: every inertial and friction parameter ±20 % (seed {seed}), encoder "
+        f"{ENCODER:.3g} rad, torque noise σ = {NOISE:.0%} of each joint's rms torque: "
+        + ", ".join(f"{x:.3g}" for x in noise)
+    )
     measured = load_data(path, joints=robot)
     held_out = load_data(check_path, joints=robot)
     result = fit(robot, measured, "wls", consistent=True)
@@ -71,16 +75,17 @@ def loop(name: str, out_dir: Path, *, period: float = 10.0, harmonics: int = 5, 
     z = (result.base.values - true) / result.base.std
     rel = np.abs(result.base.values - true) / np.maximum(np.abs(true), 1e-12)
     inside = np.mean(np.abs(z) <= 1.96)
-    lines += [f"fit: {result.samples} samples, WLS in {result.seconds:.2f} s, consistent parameters in "
-              f"{result.consistent_seconds:.2f} s; condition number {result.condition:.4g}",
-              f"base parameters vs the truth: {inside:.0%} inside their 95 % intervals; median relative error "
-              f"{np.median(rel):.2g}, median relative σ {np.median(result.base.relative):.2g} %",
-              "residual rms per joint: " + ", ".join(f"{x:.3g}" for x in result.rms),
-              *validation.lines(),
-              f"consistent model: base parameters moved by {result.consistent.moved:.3g}; smallest pseudo-inertia "
-              f"eigenvalue {min(result.consistent.margins):.3g}",
-              f"excitation (or fallback) {excite_seconds:.1f} s; details in summary.txt, parameters.json and the "
-              "figures"]
+    lines += [
+        f"fit: {result.samples} samples, WLS in {result.seconds:.2f} s, consistent parameters in "
+        f"{result.consistent_seconds:.2f} s; condition number {result.condition:.4g}",
+        f"base parameters vs the truth: {inside:.0%} inside their 95 % intervals; median relative error "
+        f"{np.median(rel):.2g}, median relative σ {np.median(result.base.relative):.2g} %",
+        "residual rms per joint: " + ", ".join(f"{x:.3g}" for x in result.rms),
+        *validation.lines(),
+        f"consistent model: base parameters moved by {result.consistent.moved:.3g}; smallest pseudo-inertia "
+        f"eigenvalue {min(result.consistent.margins):.3g}",
+        f"excitation (or fallback) {excite_seconds:.1f} s; details in summary.txt, parameters.json and the figures",
+    ]
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(max(6, 0.12 * len(z)), 3))
     ax.bar(range(len(z)), z, color=np.where(np.abs(z) <= 1.96, "C0", "C3"))
@@ -95,10 +100,14 @@ def loop(name: str, out_dir: Path, *, period: float = 10.0, harmonics: int = 5, 
 
 
 STUDIES = {
-    "identify-puma": ("identification loop on the Puma 560: excite, simulate, fit, validate",
-                      lambda out: loop("puma560", out)),
-    "identify-panda": ("identification loop on the Panda: excite, simulate, fit, validate",
-                       lambda out: loop("panda", out)),
+    "identify-puma": (
+        "identification loop on the Puma 560: excite, simulate, fit, validate",
+        lambda out: loop("puma560", out),
+    ),
+    "identify-panda": (
+        "identification loop on the Panda: excite, simulate, fit, validate",
+        lambda out: loop("panda", out),
+    ),
 }
 
 

@@ -11,5 +11,20 @@ Robot.from_urdf = staticmethod(from_urdf)
 #: `robot.to_urdf(path=None, *, source=…)`: the URDF text with the robot's inertials (`urdf.writer`).
 Robot.to_urdf = to_urdf
 
-__all__ = ["Link", "Robot", "CONVENTIONS", "JOINT_TYPES", "IDENTITY", "exact_cos_sin", "rotx", "roty", "rotz",
-           "transl", "placement", "from_urdf", "to_urdf", "URDFError", "URDFWarning"]
+__all__ = [
+    "Link",
+    "Robot",
+    "CONVENTIONS",
+    "JOINT_TYPES",
+    "IDENTITY",
+    "exact_cos_sin",
+    "rotx",
+    "roty",
+    "rotz",
+    "transl",
+    "placement",
+    "from_urdf",
+    "to_urdf",
+    "URDFError",
+    "URDFWarning",
+]

@@ -18,36 +18,65 @@ from pathlib import Path
 from . import arms
 from .robot import Robot
 
-__all__ = ["add_arguments", "add_urdf_options", "load", "from_args", "urdf_options", "is_urdf", "parse_locks",
-           "URDF_OPTIONS"]
+__all__ = [
+    "add_arguments",
+    "add_urdf_options",
+    "load",
+    "from_args",
+    "urdf_options",
+    "is_urdf",
+    "parse_locks",
+    "URDF_OPTIONS",
+]
 
 #: The options that only a URDF file takes (argparse dest → option).
-URDF_OPTIONS = {"tip": "--tip", "base": "--base", "lock": "--lock", "exclude": "--exclude", "no_snap": "--no-snap",
-                "name": "--name"}
+URDF_OPTIONS = {
+    "tip": "--tip",
+    "base": "--base",
+    "lock": "--lock",
+    "exclude": "--exclude",
+    "no_snap": "--no-snap",
+    "name": "--name",
+}
 
 
 def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> None:
     """MODEL (a shipped name or a .urdf file) and the URDF options."""
-    p.add_argument("model", nargs=nargs, metavar="MODEL",
-                   help=f"a shipped model ({', '.join(arms.NAMES)}) or a URDF file (a path ending in .urdf)")
+    p.add_argument(
+        "model",
+        nargs=nargs,
+        metavar="MODEL",
+        help=f"a shipped model ({', '.join(arms.NAMES)}) or a URDF file (a path ending in .urdf)",
+    )
     add_urdf_options(p)
 
 
 def add_urdf_options(p: argparse.ArgumentParser) -> None:
     """--tip, --base, --lock, --exclude, --no-snap, --name: how a URDF file becomes a chain."""
-    urdf = p.add_argument_group("URDF files", "how a URDF MODEL becomes a chain (a shipped model takes none "
-                                "of these)")
+    urdf = p.add_argument_group("URDF files", "how a URDF MODEL becomes a chain (a shipped model takes none of these)")
     urdf.add_argument("--tip", metavar="LINK", help="the chain's last link (default: the tree's only leaf)")
     urdf.add_argument("--base", metavar="LINK", help="the chain's first link, fixed (default: the root)")
-    urdf.add_argument("--lock", metavar="JOINT=VALUE", action="append", default=[],
-                      help="hold an off-chain or chain joint at VALUE (rad or m), its subtree merged into the "
-                           "link it rides on; repeatable (default: 0, or the limit nearest 0)")
-    urdf.add_argument("--exclude", metavar="LINK", action="append", default=[],
-                      help="leave LINK and its subtree out (a gripper, a camera); repeatable")
-    urdf.add_argument("--no-snap", action="store_true",
-                      help="keep the file's numbers as written (default: snap 1.5708 to pi/2 and the like)")
-    urdf.add_argument("--name", help="the model's name, which names the generated files "
-                                     "(default: the file's stem)")
+    urdf.add_argument(
+        "--lock",
+        metavar="JOINT=VALUE",
+        action="append",
+        default=[],
+        help="hold an off-chain or chain joint at VALUE (rad or m), its subtree merged into the "
+        "link it rides on; repeatable (default: 0, or the limit nearest 0)",
+    )
+    urdf.add_argument(
+        "--exclude",
+        metavar="LINK",
+        action="append",
+        default=[],
+        help="leave LINK and its subtree out (a gripper, a camera); repeatable",
+    )
+    urdf.add_argument(
+        "--no-snap",
+        action="store_true",
+        help="keep the file's numbers as written (default: snap 1.5708 to pi/2 and the like)",
+    )
+    urdf.add_argument("--name", help="the model's name, which names the generated files (default: the file's stem)")
 
 
 def is_urdf(model: str) -> bool:
@@ -66,37 +95,54 @@ def parse_locks(items) -> dict:
         except ValueError:
             value = None
         if value is None or not math.isfinite(value):
-            raise ValueError(f"--lock {item}: expected JOINT=VALUE with VALUE a finite number in rad or m, "
-                             f"e.g. --lock {joint or 'finger_joint'}=0.02")
+            raise ValueError(
+                f"--lock {item}: expected JOINT=VALUE with VALUE a finite number in rad or m, "
+                f"e.g. --lock {joint or 'finger_joint'}=0.02"
+            )
         if joint in locks and locks[joint] != value:
             raise ValueError(f"--lock {item}: joint {joint!r} is already locked at {locks[joint]!r}")
         locks[joint] = value
     return locks
 
 
-def load(model: str, *, symbolic: bool = False, tip: str | None = None, base: str | None = None, lock=(),
-         exclude=(), no_snap: bool = False, name: str | None = None) -> Robot:
+def load(
+    model: str,
+    *,
+    symbolic: bool = False,
+    tip: str | None = None,
+    base: str | None = None,
+    lock=(),
+    exclude=(),
+    no_snap: bool = False,
+    name: str | None = None,
+) -> Robot:
     """The robot MODEL names: a shipped arm (its symbolic variant where it has one and `symbolic`),
     or the chain of a URDF file read by `Robot.from_urdf` with the URDF options."""
-    given = {opt for dest, opt in URDF_OPTIONS.items()
-             if {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}[dest]}
+    given = {
+        opt
+        for dest, opt in URDF_OPTIONS.items()
+        if {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}[dest]
+    }
     locks = parse_locks(lock)
     if not is_urdf(model):
         if model not in arms.NAMES:
-            raise ValueError(f"unknown model {model!r}: it is neither a shipped model ({', '.join(arms.NAMES)}) "
-                             "nor a URDF file (a path ending in .urdf)")
+            raise ValueError(
+                f"unknown model {model!r}: it is neither a shipped model ({', '.join(arms.NAMES)}) "
+                "nor a URDF file (a path ending in .urdf)"
+            )
         if given:
             raise ValueError(f"{', '.join(sorted(given))} apply to a URDF file, not to the shipped model {model!r}")
         if symbolic:
             try:
                 return arms.load(model, symbolic=True)
-            except ValueError:   # numeric only (read from its URDF)
+            except ValueError:  # numeric only (read from its URDF)
                 pass
         return arms.load(model)
     path = Path(model)
     if not path.is_file():
-        raise ValueError(f"no URDF file {model}" + (": it is a folder" if path.is_dir() else
-                                                    f" (looked in {path.resolve().parent})"))
+        raise ValueError(
+            f"no URDF file {model}" + (": it is a folder" if path.is_dir() else f" (looked in {path.resolve().parent})")
+        )
     options = {"base_link": base, "tip_link": tip}
     # only what was asked for, so that a reader without an option still reads the plain chain
     if locks:

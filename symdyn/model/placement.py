@@ -16,7 +16,16 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-__all__ = ["exact_cos_sin", "exact", "exact_cos_sin_of", "rpy_rotation", "placement", "axis_rotation", "exact_rotation", "rational_rotation"]
+__all__ = [
+    "exact_cos_sin",
+    "exact",
+    "exact_cos_sin_of",
+    "rpy_rotation",
+    "placement",
+    "axis_rotation",
+    "exact_rotation",
+    "rational_rotation",
+]
 
 
 def exact_cos_sin(angle) -> tuple:
@@ -34,7 +43,7 @@ def exact_cos_sin(angle) -> tuple:
     value = float(angle)
     quarter = value / (math.pi / 2)
     k = round(quarter)
-    if abs(quarter - k) <= 4 * 2.0 ** -52 * max(1, abs(k)):
+    if abs(quarter - k) <= 4 * 2.0**-52 * max(1, abs(k)):
         return ((1, 0), (0, 1), (-1, 0), (0, -1))[k % 4]
     return math.cos(value), math.sin(value)
 
@@ -74,9 +83,11 @@ def _mul(A, B) -> list:
 def _axis_rot(axis: str, angle) -> list:
     c, s = exact_cos_sin_of(angle)
     o, z = sp.S.One, sp.S.Zero
-    return {"x": [[o, z, z], [z, c, -s], [z, s, c]],
-            "y": [[c, z, s], [z, o, z], [-s, z, c]],
-            "z": [[c, -s, z], [s, c, z], [z, z, o]]}[axis]
+    return {
+        "x": [[o, z, z], [z, c, -s], [z, s, c]],
+        "y": [[c, z, s], [z, o, z], [-s, z, c]],
+        "z": [[c, -s, z], [s, c, z], [z, z, o]],
+    }[axis]
 
 
 def rpy_rotation(rpy: Sequence) -> list:
@@ -132,11 +143,13 @@ def rational_rotation(R) -> list:
     else:
         z = math.sqrt(1 + 2 * M[2, 2] - t[0]) / 2
         q = ((M[1, 0] - M[0, 1]) / (4 * z), (M[0, 2] + M[2, 0]) / (4 * z), (M[1, 2] + M[2, 1]) / (4 * z), z)
-    W, X, Y, Z = (int(round(v * 2 ** 52)) for v in q)
+    W, X, Y, Z = (int(round(v * 2**52)) for v in q)
     N = sp.Integer(W * W + X * X + Y * Y + Z * Z)
-    return [[(W * W + X * X - Y * Y - Z * Z) / N, 2 * (X * Y - W * Z) / N, 2 * (X * Z + W * Y) / N],
-            [2 * (X * Y + W * Z) / N, (W * W - X * X + Y * Y - Z * Z) / N, 2 * (Y * Z - W * X) / N],
-            [2 * (X * Z - W * Y) / N, 2 * (Y * Z + W * X) / N, (W * W - X * X - Y * Y + Z * Z) / N]]
+    return [
+        [(W * W + X * X - Y * Y - Z * Z) / N, 2 * (X * Y - W * Z) / N, 2 * (X * Z + W * Y) / N],
+        [2 * (X * Y + W * Z) / N, (W * W - X * X + Y * Y - Z * Z) / N, 2 * (Y * Z - W * X) / N],
+        [2 * (X * Z - W * Y) / N, 2 * (Y * Z + W * X) / N, (W * W - X * X - Y * Y + Z * Z) / N],
+    ]
 
 
 def exact_rotation(R: Sequence) -> list:

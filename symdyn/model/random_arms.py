@@ -47,7 +47,7 @@ class ArmOptions:
     point_mass: float = 0.15
     motor: float = 0.6
     symbolic: float = 0.15
-    general: float = 0.0    # arms in the general convention (URDF-like origin and axis); 0 keeps old seeds
+    general: float = 0.0  # arms in the general convention (URDF-like origin and axis); 0 keeps old seeds
 
 
 def _rotation(rng: random.Random) -> np.ndarray:
@@ -55,9 +55,13 @@ def _rotation(rng: random.Random) -> np.ndarray:
     w, x, y, z = (rng.gauss(0, 1) for _ in range(4))
     s = math.sqrt(w * w + x * x + y * y + z * z)
     w, x, y, z = w / s, x / s, y / s, z / s
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _transform(R: np.ndarray, p) -> tuple:
@@ -93,7 +97,7 @@ def _link(rng: random.Random, o: ArmOptions, last: bool) -> Link:
     motor = massless or point or rng.random() < o.motor
     G = rng.choice((-1, 1)) * rng.uniform(1.0, 100.0) if motor else 1.0
     Jm = rng.uniform(1e-5, 1e-3) if motor else 0.0
-    if motor and abs(G) * abs(G) * Jm < 1e-3:   # rotor inertia large enough to keep M well conditioned
+    if motor and abs(G) * abs(G) * Jm < 1e-3:  # rotor inertia large enough to keep M well conditioned
         Jm = 1e-3 / (G * G)
     B = rng.uniform(0, 1e-3) if motor and rng.random() < 0.7 else 0.0
     Tc = (rng.uniform(0, 0.5), -rng.uniform(0, 0.5)) if motor and rng.random() < 0.7 else (0.0, 0.0)
@@ -101,12 +105,26 @@ def _link(rng: random.Random, o: ArmOptions, last: bool) -> Link:
         lo = rng.uniform(-0.5, 0.3)
         qlim = (lo, lo + rng.uniform(0.2, 0.8))
         theta = rng.choice((0.0, math.pi / 2, rng.uniform(-math.pi, math.pi)))
-        return Link(joint="prismatic", theta=theta, a=_length(rng), alpha=alpha, offset=offset, qlim=qlim,
-                    m=m, r=r, I=I, Jm=Jm, B=B, Tc=Tc, G=G)
+        return Link(
+            joint="prismatic",
+            theta=theta,
+            a=_length(rng),
+            alpha=alpha,
+            offset=offset,
+            qlim=qlim,
+            m=m,
+            r=r,
+            I=I,
+            Jm=Jm,
+            B=B,
+            Tc=Tc,
+            G=G,
+        )
     lo = rng.uniform(-math.pi, 0)
     qlim = (lo, lo + rng.uniform(0.5, 2 * math.pi)) if rng.random() < 0.7 else None
-    return Link(d=_length(rng), a=_length(rng), alpha=alpha, offset=offset, qlim=qlim,
-                m=m, r=r, I=I, Jm=Jm, B=B, Tc=Tc, G=G)
+    return Link(
+        d=_length(rng), a=_length(rng), alpha=alpha, offset=offset, qlim=qlim, m=m, r=r, I=I, Jm=Jm, B=B, Tc=Tc, G=G
+    )
 
 
 def _general(rng: random.Random, link: Link) -> Link:
@@ -136,7 +154,7 @@ def _base(rng: random.Random) -> tuple:
     choice = rng.random()
     if choice < 0.4:
         return IDENTITY
-    if choice < 0.6:   # upside down
+    if choice < 0.6:  # upside down
         return _transform(np.diag([1.0, -1.0, -1.0]), (0.0, 0.0, rng.uniform(0, 2)))
     return _transform(_rotation(rng), [rng.uniform(-1, 1) for _ in range(3)])
 
@@ -169,10 +187,15 @@ def random_arm(seed: int, options: ArmOptions = ArmOptions(), *, n: int | None =
     convention = rng.choice(("standard", "modified"))
     if general:
         links, convention = [_general(rng, link) for link in links], "general"
-    robot = Robot(f"arm{seed}", tuple(links), convention=convention,
-                  gravity=_gravity(rng), base=_base(rng),
-                  tool=IDENTITY if rng.random() < 0.5 else _transform(_rotation(rng), [rng.uniform(-0.2, 0.2) for _ in range(3)]),
-                  source=f"symdyn.model.random_arms.random_arm({seed})")
+    robot = Robot(
+        f"arm{seed}",
+        tuple(links),
+        convention=convention,
+        gravity=_gravity(rng),
+        base=_base(rng),
+        tool=IDENTITY if rng.random() < 0.5 else _transform(_rotation(rng), [rng.uniform(-0.2, 0.2) for _ in range(3)]),
+        source=f"symdyn.model.random_arms.random_arm({seed})",
+    )
     if rng.random() < 0.3 and (robot.links[-1].Jm or any(any(row) for row in robot.links[-1].I)):
         p = [rng.uniform(-0.2, 0.2) for _ in range(3)]
         robot = robot.payload(rng.uniform(0.1, 3.0), p, additive=rng.random() < 0.5)
@@ -190,6 +213,7 @@ def degenerate_arm(seed: int) -> Robot:
 
 # --------------------------------------------------------------------------- printing
 
+
 def _num(x) -> str:
     if isinstance(x, float):
         return repr(x)
@@ -206,12 +230,19 @@ def robot_code(robot: Robot) -> str:
     defaults = Link()
     lines = ["Robot(", f"    {robot.name!r},", "    ("]
     for link in robot.links:
-        args = [f"{f.name}={_num(getattr(link, f.name))}" for f in dataclasses.fields(link)
-                if _num(getattr(link, f.name)) != _num(getattr(defaults, f.name))]
+        args = [
+            f"{f.name}={_num(getattr(link, f.name))}"
+            for f in dataclasses.fields(link)
+            if _num(getattr(link, f.name)) != _num(getattr(defaults, f.name))
+        ]
         lines.append(f"        Link({', '.join(args)}),")
     lines.append("    ),")
-    for name, default in (("convention", "standard"), ("gravity", (0, 0, 9.81)), ("base", IDENTITY),
-                          ("tool", IDENTITY)):
+    for name, default in (
+        ("convention", "standard"),
+        ("gravity", (0, 0, 9.81)),
+        ("base", IDENTITY),
+        ("tool", IDENTITY),
+    ):
         value = getattr(robot, name)
         if _num(value) != _num(default):
             lines.append(f"    {name}={_num(value)},")

@@ -29,6 +29,7 @@ Number = Any  # int, float or sympy expression
 
 # --------------------------------------------------------------------------- exact trig
 
+
 def rotx(angle: Number) -> tuple:
     """4×4 homogeneous rotation about x (exact for multiples of π/2)."""
     c, s = exact_cos_sin(angle)
@@ -56,6 +57,7 @@ IDENTITY = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
 
 
 # --------------------------------------------------------------------------- helpers
+
 
 def _is_symbolic(x: Number) -> bool:
     return isinstance(x, sp.Basic) and not x.is_Number
@@ -106,8 +108,7 @@ def _matrix(m: Sequence, rows: int, cols: int, what: str) -> tuple:
     if len(rows_) != rows or any(len(r) != cols for r in rows_):
         shape = f"{len(rows_)}×{'/'.join(str(len(r)) for r in rows_)}"
         raise ValueError(f"{what} must be a {rows}×{cols} matrix, got {shape}")
-    return tuple(tuple(_scalar(x, f"{what}[{i},{j}]") for j, x in enumerate(r))
-                 for i, r in enumerate(rows_))
+    return tuple(tuple(_scalar(x, f"{what}[{i},{j}]") for j, x in enumerate(r)) for i, r in enumerate(rows_))
 
 
 def _canonical(x: Any) -> str:
@@ -122,6 +123,7 @@ def _canonical(x: Any) -> str:
 
 
 # --------------------------------------------------------------------------- Link
+
 
 @dataclass(frozen=True)
 class Link:
@@ -227,9 +229,11 @@ def _check_link_physics(link: Link, i: int) -> None:
         if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
             raise ValueError(f"inertia of {label} is not positive semidefinite: eigenvalues {eig.tolist()}")
         if link.physical and eig[0] + eig[1] < eig[2] * (1 - 1e-9):
-            raise ValueError(f"inertia of {label} is physically impossible: its principal moments "
-                             f"{eig.tolist()} violate the triangle inequality (I1 + I2 ≥ I3); "
-                             "for published data known to violate it, pass Link(..., physical=False)")
+            raise ValueError(
+                f"inertia of {label} is physically impossible: its principal moments "
+                f"{eig.tolist()} violate the triangle inequality (I1 + I2 ≥ I3); "
+                "for published data known to violate it, pass Link(..., physical=False)"
+            )
     for name in ("Jm", "B"):
         v = getattr(link, name)
         if not _is_symbolic(v) and v < 0:
@@ -240,8 +244,10 @@ def _check_link_physics(link: Link, i: int) -> None:
     if not _is_symbolic(link.G) and link.G == 0:
         motor = [link.Jm, link.B, *link.Tc]
         if any(_is_symbolic(x) or x != 0 for x in motor):
-            raise ValueError(f"gear ratio of {label} is 0 but it has motor parameters "
-                             f"(Jm, B, Tc) = ({link.Jm}, {link.B}, {link.Tc}); give the ratio G")
+            raise ValueError(
+                f"gear ratio of {label} is 0 but it has motor parameters "
+                f"(Jm, B, Tc) = ({link.Jm}, {link.B}, {link.Tc}); give the ratio G"
+            )
 
 
 def _check_link_convention(link: Link, i: int, convention: str, robot: str) -> None:
@@ -249,16 +255,21 @@ def _check_link_convention(link: Link, i: int, convention: str, robot: str) -> N
     if convention == "general":
         for name in ("a", "alpha", "d", "theta"):
             if _is_symbolic(getattr(link, name)) or getattr(link, name) != 0:
-                raise ValueError(f"link {i + 1} of robot {robot!r} sets DH parameter {name} = "
-                                 f"{getattr(link, name)}, but the robot uses the general convention: "
-                                 "place its joint by origin (and axis) instead")
+                raise ValueError(
+                    f"link {i + 1} of robot {robot!r} sets DH parameter {name} = "
+                    f"{getattr(link, name)}, but the robot uses the general convention: "
+                    "place its joint by origin (and axis) instead"
+                )
     elif link.is_general:
-        raise ValueError(f"link {i + 1} of robot {robot!r} sets origin or axis, which only the general "
-                         f"convention reads, but the robot uses {convention} DH; "
-                         "pass convention='general'")
+        raise ValueError(
+            f"link {i + 1} of robot {robot!r} sets origin or axis, which only the general "
+            f"convention reads, but the robot uses {convention} DH; "
+            "pass convention='general'"
+        )
 
 
 # --------------------------------------------------------------------------- Robot
+
 
 @dataclass(frozen=True)
 class Robot:
@@ -311,8 +322,10 @@ class Robot:
         """A summary a person reads: joints, convention, source and, for a URDF robot,
         what was locked, excluded and snapped (`robot.urdf`)."""
         kinds = "".join("R" if link.is_revolute else "P" for link in self.links)
-        lines = [f"Robot {self.name!r}: {self.n} joints ({kinds}), {self.convention} convention"
-                 + (f", {self.source}" if self.source else "")]
+        lines = [
+            f"Robot {self.name!r}: {self.n} joints ({kinds}), {self.convention} convention"
+            + (f", {self.source}" if self.source else "")
+        ]
         return "\n".join(lines + (self.urdf.lines() if self.urdf is not None else []))
 
     # ---- basic facts
@@ -353,8 +366,7 @@ class Robot:
         raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     def _params(self) -> tuple:
-        return (self.convention, self.gravity, self.base, self.tool,
-                tuple(link._params() for link in self.links))
+        return (self.convention, self.gravity, self.base, self.tool, tuple(link._params() for link in self.links))
 
     def fingerprint(self) -> str:
         """SHA-256 of every parameter that affects the dynamics (not name or poses)."""
@@ -363,19 +375,22 @@ class Robot:
     def require_numeric(self, what: str = "this operation") -> None:
         if self.is_symbolic:
             names = ", ".join(sorted(str(s) for s in self.free_symbols))
-            raise ValueError(f"{what} needs a numeric robot, but {self.name!r} has symbolic "
-                             f"parameters {names}; substitute values with robot.subs({{...}})")
+            raise ValueError(
+                f"{what} needs a numeric robot, but {self.name!r} has symbolic "
+                f"parameters {names}; substitute values with robot.subs({{...}})"
+            )
 
     # ---- variants
     def subs(self, values: Mapping) -> "Robot":
         """Substitute values for symbolic parameters; returns a new robot."""
         by_name = {str(s): s for s in self.free_symbols}  # "a1" names the real Symbol a1
-        mapping = {by_name.get(k, sp.Symbol(k)) if isinstance(k, str) else k: sp.sympify(v)
-                   for k, v in values.items()}
+        mapping = {by_name.get(k, sp.Symbol(k)) if isinstance(k, str) else k: sp.sympify(v) for k, v in values.items()}
         unknown = [k for k in mapping if k not in self.free_symbols]
         if unknown:
-            raise KeyError(f"robot {self.name!r} has no parameter(s) {unknown}; "
-                           f"its symbols are {sorted(map(str, self.free_symbols))}")
+            raise KeyError(
+                f"robot {self.name!r} has no parameter(s) {unknown}; "
+                f"its symbols are {sorted(map(str, self.free_symbols))}"
+            )
 
         def sub(x):
             if isinstance(x, sp.Basic):
@@ -385,16 +400,19 @@ class Robot:
                 return tuple(sub(e) for e in x)
             return x
 
-        links = tuple(dataclasses.replace(link, **{f.name: sub(getattr(link, f.name))
-                                                   for f in dataclasses.fields(link) if f.name != "joint"})
-                      for link in self.links)
-        return dataclasses.replace(self, links=links, gravity=sub(self.gravity),
-                                   base=sub(self.base), tool=sub(self.tool))
+        links = tuple(
+            dataclasses.replace(
+                link, **{f.name: sub(getattr(link, f.name)) for f in dataclasses.fields(link) if f.name != "joint"}
+            )
+            for link in self.links
+        )
+        return dataclasses.replace(
+            self, links=links, gravity=sub(self.gravity), base=sub(self.base), tool=sub(self.tool)
+        )
 
     def nofriction(self, all: bool = False) -> "Robot":  # noqa: A002 (Toolbox name)
         """Remove Coulomb friction; with `all=True` remove viscous friction too."""
-        links = tuple(dataclasses.replace(link, Tc=(0, 0), B=0 if all else link.B)
-                      for link in self.links)
+        links = tuple(dataclasses.replace(link, Tc=(0, 0), B=0 if all else link.B) for link in self.links)
         return dataclasses.replace(self, links=links)
 
     def payload(self, m: Number, p: Sequence = (0, 0, 0), *, additive: bool = False) -> "Robot":
@@ -434,15 +452,22 @@ class Robot:
             c, s = exact_cos_sin(link.alpha)
             R = ((1, 0, 0), (0, c, -s), (0, s, c))
             r = tuple((link.a if i == 0 else 0) + sum(R[i][k] * link.r[k] for k in range(3)) for i in range(3))
-            upper = {(i, j): sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
-                     for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
+            upper = {
+                (i, j): sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
+                for i in range(3)
+                for j in range(i, 3)
+            }  # computed once per pair: exactly symmetric
             I = tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))
             links.append(dataclasses.replace(link, a=prev_a, alpha=prev_alpha, r=r, I=I))
             prev_a, prev_alpha = link.a, link.alpha
         tool = _matmul4(_matmul4(transl(prev_a, 0, 0), rotx(prev_alpha)), self.tool)
-        return dataclasses.replace(self, links=tuple(links), convention="modified", tool=tool,
-                                   name=f"{self.name}_mdh" if not self.name.endswith("_mdh") else self.name)
-
+        return dataclasses.replace(
+            self,
+            links=tuple(links),
+            convention="modified",
+            tool=tool,
+            name=f"{self.name}_mdh" if not self.name.endswith("_mdh") else self.name,
+        )
 
     def _axes_along_z(self) -> "Robot":
         """A general robot with every joint axis along its link's z and exact,
@@ -460,13 +485,18 @@ class Robot:
             turns = (prev, R0, Ra)
             generic = sum(not all(isinstance(x, int) or x.is_Integer for row in M for x in row) for M in turns)
             if generic <= 1 or any(_is_symbolic(x) for x in (*_walk(T), *link.r, *_walk(link.I))):
-                R = [[sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3))
-                      for j in range(3)] for i in range(3)]
+                R = [
+                    [sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3)) for j in range(3)]
+                    for i in range(3)
+                ]
                 p = [sum(prev[k][i] * exact(T[k][3]) for k in range(3)) for i in range(3)]
                 r = tuple(sum(Ra[k][i] * exact(link.r[k]) for k in range(3)) for i in range(3))
-                upper = {(i, j): sum(Ra[k][i] * exact(link.I[k][l]) * Ra[l][j] for k in range(3) for l in range(3))
-                         for i in range(3) for j in range(i, 3)}   # computed once per pair: exactly symmetric
-            else:   # several generic turns: their exact product grows to hundreds of digits, so the
+                upper = {
+                    (i, j): sum(Ra[k][i] * exact(link.I[k][l]) * Ra[l][j] for k in range(3) for l in range(3))
+                    for i in range(3)
+                    for j in range(i, 3)
+                }  # computed once per pair: exactly symmetric
+            else:  # several generic turns: their exact product grows to hundreds of digits, so the
                 # composed rotation is made exact once, and vectors and inertias are read as decimals
                 P, Q, A = (np.array(M, dtype=float) for M in turns)
                 R = rational_rotation(P.T @ Q @ A)

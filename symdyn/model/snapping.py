@@ -30,9 +30,9 @@ DENOMINATORS = (1, 2, 3, 4, 6, 8, 12)
 class Snapped:
     """A value replaced by its exact neighbour: what it became, its label and the change."""
 
-    value: object      # the new float angle or axis tuple
-    label: str         # "pi/2", "-3pi/4", "0", "axis -y"
-    change: float      # largest absolute change
+    value: object  # the new float angle or axis tuple
+    label: str  # "pi/2", "-3pi/4", "0", "axis -y"
+    change: float  # largest absolute change
 
 
 def _pi_label(k: int, d: int) -> str:
@@ -48,7 +48,7 @@ def snap_angle(angle: float) -> Snapped | None:
     for d in DENOMINATORS:
         k = round(angle * d / math.pi)
         g = math.gcd(k, d)
-        if g > 1:   # k·π/d in lowest terms was seen with a smaller denominator
+        if g > 1:  # k·π/d in lowest terms was seen with a smaller denominator
             continue
         target = k * math.pi / d
         change = abs(angle - target)

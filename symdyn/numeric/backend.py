@@ -50,8 +50,9 @@ def _reference_model(robot: Robot) -> Model:
         n=robot.n,
         tau=lambda q, qd, qdd: ref.rne(robot, q, qd, qdd),
         M=lambda q: ref.inertia(robot, q),
-        Cqd=lambda q, qd: ref.rne(robot, q, qd, np.zeros_like(np.asarray(q, float)), gravity=(0, 0, 0))
-        - ref.friction(robot, qd),
+        Cqd=lambda q, qd: (
+            ref.rne(robot, q, qd, np.zeros_like(np.asarray(q, float)), gravity=(0, 0, 0)) - ref.friction(robot, qd)
+        ),
         G=lambda q: ref.gravload(robot, q),
         F=lambda qd: ref.friction(robot, qd),
         fdyn=lambda q, qd, tau: ref.accel(robot, q, qd, tau),
@@ -62,26 +63,30 @@ def _reference_model(robot: Robot) -> Model:
 def _batched_casadi(fn, n: int) -> Callable:
     """A casadi.Function of n-vectors as a NumPy function batched over leading
     axes (CasADi maps a call with N columns over the columns)."""
+
     def call(*args):
         arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
         batch = arrays[0].shape[:-1]
         N = int(np.prod(batch, dtype=int))
         out = np.array(fn(*(a.reshape(N, n).T for a in arrays)))
-        if out.shape[1] == N:                                  # a vector per state
+        if out.shape[1] == N:  # a vector per state
             return out.T.reshape(batch + (out.shape[0],))
-        rows, cols = out.shape[0], out.shape[1] // N            # a matrix per state
+        rows, cols = out.shape[0], out.shape[1] // N  # a matrix per state
         return out.reshape(rows, N, cols).transpose(1, 0, 2).reshape(batch + (rows, cols))
+
     return call
 
 
 def _broadcasting(fn) -> Callable:
     """fn with its array arguments broadcast against each other and made
     contiguous (the generated C target takes equal leading shapes only)."""
+
     def call(*args):
         arrays = [np.asarray(a, dtype=float) for a in args]
         if any(a.shape != arrays[0].shape for a in arrays):
             arrays = np.broadcast_arrays(*arrays)
         return fn(*(np.ascontiguousarray(a) for a in arrays))
+
     return call
 
 
@@ -163,6 +168,13 @@ def refriction(base: Model, robot: Robot) -> Model:
     def swap(qd, tau):
         return np.asarray(tau, float) - F(qd) + base.F(qd)
 
-    return Model(n=base.n, tau=lambda q, qd, qdd: base.tau(q, qd, qdd) - base.F(qd) + F(qd), M=base.M,
-                 Cqd=base.Cqd, G=base.G, F=F, fdyn=lambda q, qd, tau: base.fdyn(q, qd, swap(qd, tau)),
-                 source=f"{base.source}, friction of {robot.name}")
+    return Model(
+        n=base.n,
+        tau=lambda q, qd, qdd: base.tau(q, qd, qdd) - base.F(qd) + F(qd),
+        M=base.M,
+        Cqd=base.Cqd,
+        G=base.G,
+        F=F,
+        fdyn=lambda q, qd, tau: base.fdyn(q, qd, swap(qd, tau)),
+        source=f"{base.source}, friction of {robot.name}",
+    )

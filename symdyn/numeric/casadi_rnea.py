@@ -38,7 +38,7 @@ def _constants(robot: Robot) -> list[dict]:
     for link in robot.links:
         Rx = _rx(link.alpha)
         ax = np.array([float(link.a), 0.0, 0.0])
-        if robot.convention == "general":   # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
+        if robot.convention == "general":  # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
             T, Ra = np.array(link.origin or np.eye(4), dtype=float), rotation_z_to(np.array(link.axis, dtype=float))
             pre_R, pre_p, post_R, post_p = T[:3, :3] @ Ra, T[:3, 3], Ra.T, np.zeros(3)
         elif robot.convention == "standard":
@@ -53,12 +53,26 @@ def _constants(robot: Robot) -> list[dict]:
         m = float(link.m)
         r = np.array(link.r, dtype=float)
         Ic = np.array(link.I, dtype=float)
-        out.append(dict(pre_R=pre_R, pre_p=pre_p, post_R=post_R, post_p=post_p, S=S, m=m, h=m * r,
-                        Io=Ic + m * (r @ r * np.eye(3) - np.outer(r, r)),
-                        armature=float(link.G) ** 2 * float(link.Jm), G=float(link.G),
-                        B=float(link.B), Tc=tuple(float(x) for x in link.Tc),
-                        revolute=link.is_revolute, theta=float(link.theta), d=float(link.d),
-                        offset=float(link.offset)))
+        out.append(
+            dict(
+                pre_R=pre_R,
+                pre_p=pre_p,
+                post_R=post_R,
+                post_p=post_p,
+                S=S,
+                m=m,
+                h=m * r,
+                Io=Ic + m * (r @ r * np.eye(3) - np.outer(r, r)),
+                armature=float(link.G) ** 2 * float(link.Jm),
+                G=float(link.G),
+                B=float(link.B),
+                Tc=tuple(float(x) for x in link.Tc),
+                revolute=link.is_revolute,
+                theta=float(link.theta),
+                d=float(link.d),
+                offset=float(link.offset),
+            )
+        )
     return out
 
 
@@ -101,8 +115,12 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
         Io, h = ca.DM(k["Io"]), ca.DM(k["h"])
         L = ca.mtimes(Io, w) + ca.cross(h, v)
         P = k["m"] * v + ca.cross(w, h)
-        forces.append([ca.mtimes(Io, dw) + ca.cross(h, dv) + ca.cross(w, L) + ca.cross(v, P),
-                       k["m"] * dv + ca.cross(dw, h) + ca.cross(w, P)])
+        forces.append(
+            [
+                ca.mtimes(Io, dw) + ca.cross(h, dv) + ca.cross(w, L) + ca.cross(v, P),
+                k["m"] * dv + ca.cross(dw, h) + ca.cross(w, P),
+            ]
+        )
         frames.append((R, p))
     tau = [None] * robot.n
     for i in range(robot.n - 1, -1, -1):
@@ -137,8 +155,9 @@ def rnea_function(robot: Robot, *, friction: bool = True) -> ca.Function:
 def _mass(robot: Robot, q: ca.SX) -> ca.SX:
     """M(q) (n×n SX), column j from the RNEA with q̈ = e_j, q̇ = 0, no gravity or friction."""
     zero = ca.SX.zeros(robot.n)
-    cols = [_rnea(robot, q, zero, ca.SX(ca.DM(np.eye(robot.n)[j])), gravity=False, friction=False)
-            for j in range(robot.n)]
+    cols = [
+        _rnea(robot, q, zero, ca.SX(ca.DM(np.eye(robot.n)[j])), gravity=False, friction=False) for j in range(robot.n)
+    ]
     return ca.horzcat(*cols)
 
 
@@ -164,11 +183,12 @@ def functions(robot: Robot, *, friction: bool = True) -> SimpleNamespace:
     zero = ca.SX.zeros(n)
     G = _rnea(robot, q, zero, zero, gravity=True, friction=False)
     Cqd = _rnea(robot, q, qd, zero, gravity=False, friction=False)
-    F = ca.vertcat(*(_friction(k, qd[i]) if friction else ca.SX(0)
-                     for i, k in enumerate(_constants(robot))))
+    F = ca.vertcat(*(_friction(k, qd[i]) if friction else ca.SX(0) for i, k in enumerate(_constants(robot))))
     return SimpleNamespace(
-        tau=rnea_function(robot, friction=friction), M=mass_function(robot),
+        tau=rnea_function(robot, friction=friction),
+        M=mass_function(robot),
         G=ca.Function("G", [q], [G], ["q"], ["G"]),
         Cqd=ca.Function("Cqd", [q, qd], [Cqd], ["q", "qd"], ["Cqd"]),
         F=ca.Function("F", [qd], [F], ["qd"], ["F"]),
-        fdyn=fdyn_function(robot, friction=friction))
+        fdyn=fdyn_function(robot, friction=friction),
+    )

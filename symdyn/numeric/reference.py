@@ -26,38 +26,51 @@ from scipy.integrate import solve_ivp
 
 from ..model import Robot, exact_cos_sin
 
-__all__ = ["rne", "inertia", "coriolis", "christoffel", "gravload", "friction", "friction_law", "accel",
-           "fdyn", "fkine", "jacob0", "energy"]
+__all__ = [
+    "rne",
+    "inertia",
+    "coriolis",
+    "christoffel",
+    "gravload",
+    "friction",
+    "friction_law",
+    "accel",
+    "fdyn",
+    "fkine",
+    "jacob0",
+    "energy",
+]
 
 
 # --------------------------------------------------------------------------- the chain
+
 
 @dataclass(frozen=True)
 class _Chain:
     """Numeric arrays of a robot, in the shape the recursion wants."""
 
     n: int
-    revolute: np.ndarray   # (n,) bool
-    theta: np.ndarray      # constant θ (prismatic) or 0
-    d: np.ndarray          # constant d (revolute) or 0
+    revolute: np.ndarray  # (n,) bool
+    theta: np.ndarray  # constant θ (prismatic) or 0
+    d: np.ndarray  # constant d (revolute) or 0
     offset: np.ndarray
-    pre_R: np.ndarray      # (n, 3, 3)
-    pre_p: np.ndarray      # (n, 3)
+    pre_R: np.ndarray  # (n, 3, 3)
+    pre_p: np.ndarray  # (n, 3)
     post_R: np.ndarray
     post_p: np.ndarray
-    S: np.ndarray          # (n, 6) joint axis (ω, v) in body coordinates
-    m: np.ndarray          # (n,)
-    h: np.ndarray          # (n, 3) first moment m·r
-    Io: np.ndarray         # (n, 3, 3) inertia about the body origin
-    armature: np.ndarray   # (n,) G²·Jm
+    S: np.ndarray  # (n, 6) joint axis (ω, v) in body coordinates
+    m: np.ndarray  # (n,)
+    h: np.ndarray  # (n, 3) first moment m·r
+    Io: np.ndarray  # (n, 3, 3) inertia about the body origin
+    armature: np.ndarray  # (n,) G²·Jm
     G: np.ndarray
     B: np.ndarray
-    Tc: np.ndarray         # (n, 2)
+    Tc: np.ndarray  # (n, 2)
     base_R: np.ndarray
     base_p: np.ndarray
     tool_R: np.ndarray
     tool_p: np.ndarray
-    gravity: np.ndarray    # (3,) Corke's convention, world
+    gravity: np.ndarray  # (3,) Corke's convention, world
 
 
 def _rx(alpha) -> np.ndarray:
@@ -91,16 +104,22 @@ def _chain(robot: Robot) -> _Chain:
     pre_R, pre_p, post_R, post_p, S = [], [], [], [], []
     for link in robot.links:
         Rx = _rx(link.alpha)
-        if robot.convention == "general":   # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
+        if robot.convention == "general":  # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
             T, Ra = np.array(link.origin or np.eye(4), dtype=float), rotation_z_to(np.array(link.axis, dtype=float))
-            pre_R.append(T[:3, :3] @ Ra); pre_p.append(T[:3, 3])
-            post_R.append(Ra.T); post_p.append(np.zeros(3))
+            pre_R.append(T[:3, :3] @ Ra)
+            pre_p.append(T[:3, 3])
+            post_R.append(Ra.T)
+            post_p.append(np.zeros(3))
         elif robot.convention == "standard":
-            pre_R.append(np.eye(3)); pre_p.append(np.zeros(3))
-            post_R.append(Rx); post_p.append(np.array([f(link.a), 0.0, 0.0]))
+            pre_R.append(np.eye(3))
+            pre_p.append(np.zeros(3))
+            post_R.append(Rx)
+            post_p.append(np.array([f(link.a), 0.0, 0.0]))
         else:
-            pre_R.append(Rx); pre_p.append(np.array([f(link.a), 0.0, 0.0]))  # Rx(α)·Tx(a)
-            post_R.append(np.eye(3)); post_p.append(np.zeros(3))
+            pre_R.append(Rx)
+            pre_p.append(np.array([f(link.a), 0.0, 0.0]))  # Rx(α)·Tx(a)
+            post_R.append(np.eye(3))
+            post_p.append(np.zeros(3))
         z = np.array([0.0, 0.0, 1.0])
         Rt = post_R[-1].T
         if link.is_revolute:
@@ -120,12 +139,22 @@ def _chain(robot: Robot) -> _Chain:
         theta=np.array([0.0 if l.is_revolute else f(l.theta) for l in robot.links]),
         d=np.array([f(l.d) if l.is_revolute else 0.0 for l in robot.links]),
         offset=np.array([f(l.offset) for l in robot.links]),
-        pre_R=np.array(pre_R), pre_p=np.array(pre_p), post_R=np.array(post_R), post_p=np.array(post_p),
-        S=np.array(S), m=m, h=m[:, None] * r, Io=Io,
-        armature=G ** 2 * np.array([f(l.Jm) for l in robot.links]), G=G,
+        pre_R=np.array(pre_R),
+        pre_p=np.array(pre_p),
+        post_R=np.array(post_R),
+        post_p=np.array(post_p),
+        S=np.array(S),
+        m=m,
+        h=m[:, None] * r,
+        Io=Io,
+        armature=G**2 * np.array([f(l.Jm) for l in robot.links]),
+        G=G,
         B=np.array([f(l.B) for l in robot.links]),
         Tc=np.array([[f(x) for x in l.Tc] for l in robot.links]),
-        base_R=base[:3, :3], base_p=base[:3, 3], tool_R=tool[:3, :3], tool_p=tool[:3, 3],
+        base_R=base[:3, :3],
+        base_p=base[:3, 3],
+        tool_R=tool[:3, :3],
+        tool_p=tool[:3, 3],
         gravity=np.array([f(x) for x in robot.gravity]),
     )
 
@@ -134,7 +163,7 @@ def _link_transforms(c: _Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rotation (..., n, 3, 3) and origin (..., n, 3) of each body in its parent."""
     theta = np.where(c.revolute, q + c.offset, c.theta)
     d = np.where(c.revolute, c.d, q + c.offset)
-    Rj = _rz(theta)                                             # (..., n, 3, 3)
+    Rj = _rz(theta)  # (..., n, 3, 3)
     R = c.pre_R @ Rj @ c.post_R
     pj = np.einsum("...ij,...j->...i", Rj, c.post_p)
     pj = pj + d[..., None] * np.array([0.0, 0.0, 1.0])
@@ -143,6 +172,7 @@ def _link_transforms(c: _Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------- input checks
+
 
 def _state(c: _Chain, x, name: str) -> np.ndarray:
     """A float array of shape (..., n), finite, or a ValueError naming `name`."""
@@ -193,7 +223,8 @@ def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
     or one per state (..., 3)."""
     R, p = _link_transforms(c, q)
     batch = q.shape[:-1]
-    w = np.zeros(batch + (3,)); v = np.zeros(batch + (3,))
+    w = np.zeros(batch + (3,))
+    v = np.zeros(batch + (3,))
     dw = np.zeros(batch + (3,))
     dv = np.broadcast_to(np.einsum("ji,...j->...i", c.base_R, g_up_world), batch + (3,)).copy()
     forces = []
@@ -237,6 +268,7 @@ def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
 
 # --------------------------------------------------------------------------- public API
 
+
 def friction(robot: Robot, qd) -> np.ndarray:
     """Joint friction F(q̇) (..., n): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest."""
     return friction_law(robot)(_state(_chain(robot), qd, "qd"))
@@ -246,7 +278,7 @@ def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
     """q̇ ↦ `friction(robot, q̇)` with the robot's constants read once and no
     input checks: for inner loops (simulators, model adapters)."""
     c = _chain(robot)
-    viscous, gain, up, down = c.G ** 2 * c.B, np.abs(c.G), c.Tc[:, 0], c.Tc[:, 1]
+    viscous, gain, up, down = c.G**2 * c.B, np.abs(c.G), c.Tc[:, 0], c.Tc[:, 1]
 
     def F(qd) -> np.ndarray:
         qd = np.asarray(qd, dtype=float)
@@ -290,7 +322,7 @@ def inertia(robot: Robot, q) -> np.ndarray:
     """Joint-space inertia M(q) (..., n, n), rotor term G²·Jm on the diagonal."""
     c = _chain(robot)
     q = _state(c, q, "q")
-    qs = np.repeat(q[..., None, :], c.n, axis=-2)             # (..., n copies, n)
+    qs = np.repeat(q[..., None, :], c.n, axis=-2)  # (..., n copies, n)
     eye = np.broadcast_to(np.eye(c.n), qs.shape)
     cols = _rne_nofriction(c, qs, np.zeros_like(qs), eye, np.zeros(3))
     return np.swapaxes(cols, -1, -2)
@@ -362,15 +394,30 @@ class SingularInertia(ValueError):
     """M(q) is singular: forward dynamics is undefined (names the joint when one has no inertia)."""
 
     def __init__(self, robot: Robot, joint: int | None):
-        where = (f"joint {joint + 1} moves no mass and has no rotor inertia (M[{joint + 1},{joint + 1}] = 0)"
-                 if joint is not None else "its joints' motions are not independent there")
-        super().__init__(f"the joint-space inertia M(q) of {robot.name!r} is singular: {where}; forward "
-                         "dynamics is undefined. Give a link beyond that joint mass and inertia, or the "
-                         "joint a rotor (Jm and G)")
+        where = (
+            f"joint {joint + 1} moves no mass and has no rotor inertia (M[{joint + 1},{joint + 1}] = 0)"
+            if joint is not None
+            else "its joints' motions are not independent there"
+        )
+        super().__init__(
+            f"the joint-space inertia M(q) of {robot.name!r} is singular: {where}; forward "
+            "dynamics is undefined. Give a link beyond that joint mass and inertia, or the "
+            "joint a rotor (Jm and G)"
+        )
 
 
-def fdyn(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *,
-         rtol: float = 1e-10, atol: float = 1e-10, t_eval=None, method: str = "DOP853"):
+def fdyn(
+    robot: Robot,
+    T: float,
+    q0,
+    qd0=None,
+    torque: Callable | None = None,
+    *,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    t_eval=None,
+    method: str = "DOP853",
+):
     """Integrate the forward dynamics from (q0, qd0) over [0, T] with scipy.
 
     torque(t, q, qd) -> τ (n,), or None for zero torque.  Returns (t, q, qd)
@@ -386,26 +433,26 @@ def fdyn(robot: Robot, T: float, q0, qd0=None, torque: Callable | None = None, *
     zero = np.zeros(c.n)
 
     def rhs(t, x):
-        q, qd = x[:c.n], x[c.n:]
+        q, qd = x[: c.n], x[c.n :]
         tau = zero if torque is None else _state(c, torque(t, q, qd), "torque(t, q, qd)")
         return np.concatenate([qd, accel(robot, q, qd, tau)])
 
-    sol = solve_ivp(rhs, (0.0, float(T)), np.concatenate([q0, qd0]), method=method,
-                    rtol=rtol, atol=atol, t_eval=t_eval)
+    sol = solve_ivp(rhs, (0.0, float(T)), np.concatenate([q0, qd0]), method=method, rtol=rtol, atol=atol, t_eval=t_eval)
     if not sol.success:
         raise RuntimeError(f"forward dynamics integration failed: {sol.message}")
-    return sol.t, sol.y[:c.n].T, sol.y[c.n:].T
+    return sol.t, sol.y[: c.n].T, sol.y[c.n :].T
 
 
 def _frames(c: _Chain, q):
     """World rotation and origin of each body frame: (..., n, 3, 3), (..., n, 3)."""
     R, p = _link_transforms(c, q)
-    Rw, pw = c.base_R, c.base_p                 # broadcast against the batch by the first product
+    Rw, pw = c.base_R, c.base_p  # broadcast against the batch by the first product
     Rs, ps = [], []
     for i in range(c.n):
         pw = pw + np.einsum("...ij,...j->...i", Rw, p[..., i, :])
         Rw = Rw @ R[..., i, :, :]
-        Rs.append(Rw); ps.append(pw)
+        Rs.append(Rw)
+        ps.append(pw)
     return np.stack(Rs, -3), np.stack(ps, -2)
 
 

@@ -40,10 +40,21 @@ from typing import Callable, Iterable, Sequence
 from urllib.parse import urlsplit
 
 from ..derivation.cache import write_atomic
-from .table import Table, TableError, encode
+from .table import Table, TableError
 
-__all__ = ["Sweep", "Outcome", "SchedulerUnreachable", "SweepInterrupted", "META", "run", "task_id",
-           "execute", "connect", "describe_error", "CONNECT_TIMEOUT_S"]
+__all__ = [
+    "Sweep",
+    "Outcome",
+    "SchedulerUnreachable",
+    "SweepInterrupted",
+    "META",
+    "run",
+    "task_id",
+    "execute",
+    "connect",
+    "describe_error",
+    "CONNECT_TIMEOUT_S",
+]
 
 #: Columns every table ends with: the error (empty when the task succeeded), where and how long it ran,
 #: and whether its process had run this task function before (warm = 0 marks a first task: its import
@@ -79,7 +90,7 @@ class Sweep:
     input_columns: tuple[str, ...]
     result_columns: tuple[str, ...]
     report: Callable[[list[dict], Path], list[str]] | None = None
-    options: dict = field(default_factory=dict)   # option name -> (default, help) for the CLI
+    options: dict = field(default_factory=dict)  # option name -> (default, help) for the CLI
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -141,16 +152,23 @@ def execute(task: Callable[[dict], dict], tid: str, item: dict) -> dict:
     start, cpu = time.perf_counter(), time.process_time()
     try:
         result, error = dict(task(item)), ""
-    except Exception as exc:   # recorded in the row; the sweep goes on
+    except Exception as exc:  # recorded in the row; the sweep goes on
         result, error = {}, describe_error(exc)
     _RAN.add(name)
-    return {"task_id": tid, **item, **result, "error": error,
-            "worker": f"{socket.gethostname()}:{os.getpid()}",
-            "wall_s": round(time.perf_counter() - start, 6), "cpu_s": round(time.process_time() - cpu, 6),
-            "warm": warm}
+    return {
+        "task_id": tid,
+        **item,
+        **result,
+        "error": error,
+        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "wall_s": round(time.perf_counter() - start, 6),
+        "cpu_s": round(time.process_time() - cpu, 6),
+        "warm": warm,
+    }
 
 
 # --------------------------------------------------------------------------- the cluster
+
 
 def scheduler_address(scheduler: str | None) -> str | None:
     """The address to use: `scheduler`, else $DASK_SCHEDULER_ADDRESS, else None (a local cluster)."""
@@ -167,14 +185,17 @@ def _probe(address: str) -> None:
     except ValueError:
         host = port = None
     if not host or not port:
-        raise SchedulerUnreachable(f"cannot read a host and port in the scheduler address {address!r} "
-                                   "(expected e.g. tcp://10.0.0.5:8786)")
+        raise SchedulerUnreachable(
+            f"cannot read a host and port in the scheduler address {address!r} (expected e.g. tcp://10.0.0.5:8786)"
+        )
     try:
         socket.create_connection((host, port), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as exc:
-        raise SchedulerUnreachable(f"no Dask scheduler answers at {address}: "
-                                   f"{exc.strerror or exc} (start one with `dask scheduler`, or leave "
-                                   "--scheduler and DASK_SCHEDULER_ADDRESS unset for a local cluster)") from None
+        raise SchedulerUnreachable(
+            f"no Dask scheduler answers at {address}: "
+            f"{exc.strerror or exc} (start one with `dask scheduler`, or leave "
+            "--scheduler and DASK_SCHEDULER_ADDRESS unset for a local cluster)"
+        ) from None
 
 
 def connect(scheduler: str | None = None, workers: int | None = None):
@@ -185,19 +206,23 @@ def connect(scheduler: str | None = None, workers: int | None = None):
         import dask
         from distributed import Client, LocalCluster
     except ImportError:
-        raise RuntimeError("symdyn sweeps need Dask: pip install 'symdyn[sweep]' "
-                           "(or pip install 'dask[distributed]')") from None
+        raise RuntimeError(
+            "symdyn sweeps need Dask: pip install 'symdyn[sweep]' (or pip install 'dask[distributed]')"
+        ) from None
     address = scheduler_address(scheduler)
     if address and workers is not None:
-        raise ValueError(f"--workers sizes a local cluster; the cluster at {address} has its own workers "
-                         "(leave --workers out, or unset --scheduler and DASK_SCHEDULER_ADDRESS)")
+        raise ValueError(
+            f"--workers sizes a local cluster; the cluster at {address} has its own workers "
+            "(leave --workers out, or unset --scheduler and DASK_SCHEDULER_ADDRESS)"
+        )
     if address:
         _probe(address)
         try:
             client = Client(address, timeout=CONNECT_TIMEOUT_S)
         except (OSError, TimeoutError) as exc:
-            raise SchedulerUnreachable(f"no Dask scheduler answers at {address}: "
-                                       f"{' '.join(str(exc).split())}") from None
+            raise SchedulerUnreachable(
+                f"no Dask scheduler answers at {address}: {' '.join(str(exc).split())}"
+            ) from None
         n = len(client.scheduler_info()["workers"])
         return client, f"Dask scheduler {address} ({n} workers at the start)"
     workers = workers or os.cpu_count() or 1
@@ -213,18 +238,27 @@ def connect(scheduler: str | None = None, workers: int | None = None):
     # we do not open), and MALLOC_TRIM_THRESHOLD_=65536 in the workers' environment (~15 %: glibc
     # hands freed memory back to the system and maps it again at every solve); BLAS and OpenMP
     # stay at one thread, as Dask sets them
-    environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
-               if k != "MALLOC_TRIM_THRESHOLD_"}
+    environ = {
+        k: v
+        for k, v in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+        if k != "MALLOC_TRIM_THRESHOLD_"
+    }
     try:
-        with dask.config.set({"distributed.worker.profile.enabled": False,
-                              "distributed.nanny.pre-spawn-environ": environ}):
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+        with dask.config.set(
+            {"distributed.worker.profile.enabled": False, "distributed.nanny.pre-spawn-environ": environ}
+        ):
+            cluster = LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
     client = Client(cluster)
-    client._symdyn_cluster = cluster   # closed with the client (see _close)
+    client._symdyn_cluster = cluster  # closed with the client (see _close)
     return client, f"local Dask cluster, {workers} worker process{'es' * (workers != 1)}, 1 thread each"
 
 
@@ -236,6 +270,7 @@ def _close(client) -> None:
 
 
 # --------------------------------------------------------------------------- progress
+
 
 class Progress:
     """One line on stderr: done/total, errors, rate, time left (redrawn in place on a
@@ -257,10 +292,11 @@ class Progress:
         self.last, self.step = now, step
         rate = self.ran / max(now - self.start, 1e-9)
         left = (self.total - self.done) / rate if rate > 0 else float("nan")
-        line = (f"{self.label}: {self.done}/{self.total} done, {self.errors} error{'s' * (self.errors != 1)}, "
-                f"{rate:.2f} tasks/s, {left:.0f} s left")
-        print(("\r" + line + "   ") if self.tty else line, end="" if self.tty else "\n", file=sys.stderr,
-              flush=True)
+        line = (
+            f"{self.label}: {self.done}/{self.total} done, {self.errors} error{'s' * (self.errors != 1)}, "
+            f"{rate:.2f} tasks/s, {left:.0f} s left"
+        )
+        print(("\r" + line + "   ") if self.tty else line, end="" if self.tty else "\n", file=sys.stderr, flush=True)
 
     def close(self) -> None:
         if self.enabled and self.tty and self.ran:
@@ -269,14 +305,17 @@ class Progress:
 
 # --------------------------------------------------------------------------- the driver
 
+
 def _check(sweep: Sweep, inputs: Sequence[dict]) -> list[tuple[str, dict]]:
     items, seen = [], {}
     allowed = set(sweep.input_columns)
     for k, item in enumerate(inputs):
         extra = set(item) - allowed
         if extra:
-            raise ValueError(f"input {k} of sweep {sweep.name} has keys {sorted(extra)} that are not its input "
-                             f"columns {list(sweep.input_columns)}")
+            raise ValueError(
+                f"input {k} of sweep {sweep.name} has keys {sorted(extra)} that are not its input "
+                f"columns {list(sweep.input_columns)}"
+            )
         tid = task_id(item)
         if tid in seen:
             raise ValueError(f"inputs {seen[tid]} and {k} of sweep {sweep.name} are the same task ({tid})")
@@ -292,9 +331,19 @@ def _version() -> str:
     return __version__
 
 
-def run(sweep: Sweep, inputs: Iterable[dict], out: Path | str, *, resume: bool = False,
-        scheduler: str | None = None, workers: int | None = None, client=None, progress: bool = True,
-        on_row: Callable[[dict], None] | None = None, options: dict | None = None) -> Outcome:
+def run(
+    sweep: Sweep,
+    inputs: Iterable[dict],
+    out: Path | str,
+    *,
+    resume: bool = False,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    client=None,
+    progress: bool = True,
+    on_row: Callable[[dict], None] | None = None,
+    options: dict | None = None,
+) -> Outcome:
     """Run `sweep.task` over `inputs`, writing `out/results.csv` row by row and
     `out/summary.txt` (and the sweep's figures) at the end — also after a Ctrl-C,
     which then raises SweepInterrupted.
@@ -315,13 +364,21 @@ def run(sweep: Sweep, inputs: Iterable[dict], out: Path | str, *, resume: bool =
     try:
         foreign = sorted(table.ids - ids)
         if foreign:
-            raise TableError(f"{table.path} holds {len(foreign)} result(s) of other inputs (e.g. task {foreign[0]}): "
-                             f"resume with the options of {out / 'sweep.json'}, or choose another --out")
+            raise TableError(
+                f"{table.path} holds {len(foreign)} result(s) of other inputs (e.g. task {foreign[0]}): "
+                f"resume with the options of {out / 'sweep.json'}, or choose another --out"
+            )
         table.drop({r["task_id"] for r in table.rows if r["error"]})
         todo = [(tid, item) for tid, item in items if tid not in table.ids]
-        write_atomic(out / "sweep.json", json.dumps(
-            {"sweep": sweep.name, "tasks": len(items), "options": options or {}, "symdyn": _version()},
-            indent=1, default=_jsonable) + "\n")
+        write_atomic(
+            out / "sweep.json",
+            json.dumps(
+                {"sweep": sweep.name, "tasks": len(items), "options": options or {}, "symdyn": _version()},
+                indent=1,
+                default=_jsonable,
+            )
+            + "\n",
+        )
         start = time.perf_counter()
         bar = Progress(sweep.name, len(items), len(items) - len(todo), progress)
         engine = "serial, in this process" if todo else "nothing left to run"
@@ -363,8 +420,10 @@ def run(sweep: Sweep, inputs: Iterable[dict], out: Path | str, *, resume: bool =
     outcome = Outcome(table.rows, bar.ran, sum(1 for r in table.rows if r["error"]), wall, out, engine)
     _summarise(sweep, outcome, len(items), interrupted)
     if interrupted:
-        raise SweepInterrupted(f"interrupted: {len(table.rows)} of {len(items)} results are on disk in "
-                               f"{table.path}; run the same command with --resume to finish")
+        raise SweepInterrupted(
+            f"interrupted: {len(table.rows)} of {len(items)} results are on disk in "
+            f"{table.path}; run the same command with --resume to finish"
+        )
     return outcome
 
 
@@ -375,9 +434,14 @@ def _drive(client, sweep: Sweep, todo: list[tuple[str, dict]], write: Callable[[
     from distributed import as_completed
 
     ids = [tid for tid, _ in todo]
-    run_token = uuid.uuid4().hex[:8]   # a resume's keys never meet the cancelled keys of the run it resumes
-    futures = client.map(functools.partial(execute, sweep.task), ids, [item for _, item in todo],
-                         key=[f"{sweep.name}-{tid}-{run_token}" for tid in ids], pure=False)
+    run_token = uuid.uuid4().hex[:8]  # a resume's keys never meet the cancelled keys of the run it resumes
+    futures = client.map(
+        functools.partial(execute, sweep.task),
+        ids,
+        [item for _, item in todo],
+        key=[f"{sweep.name}-{tid}-{run_token}" for tid in ids],
+        pure=False,
+    )
     pending = {f.key: pair for f, pair in zip(futures, todo)}
     try:
         for future in as_completed(futures):
@@ -385,8 +449,15 @@ def _drive(client, sweep: Sweep, todo: list[tuple[str, dict]], write: Callable[[
             try:
                 row = future.result()
             except Exception as exc:
-                row = {"task_id": tid, **item, "error": describe_error(exc), "worker": "", "wall_s": None,
-                       "cpu_s": None, "warm": None}
+                row = {
+                    "task_id": tid,
+                    **item,
+                    "error": describe_error(exc),
+                    "worker": "",
+                    "wall_s": None,
+                    "cpu_s": None,
+                    "warm": None,
+                }
             future.release()
             write(row)
     finally:
@@ -395,11 +466,13 @@ def _drive(client, sweep: Sweep, todo: list[tuple[str, dict]], write: Callable[[
 
 def _summarise(sweep: Sweep, outcome: Outcome, total: int, interrupted: bool) -> None:
     rows = outcome.rows
-    head = [f"sweep {sweep.name}: {sweep.summary}",
-            f"  {len(rows)} of {total} tasks in {outcome.table}"
-            + (" (interrupted: --resume finishes it)" if interrupted or len(rows) < total else ""),
-            f"  this run: {outcome.ran} tasks on {outcome.engine} in {outcome.wall_s:.1f} s; "
-            f"{outcome.errors} row(s) record an error"]
+    head = [
+        f"sweep {sweep.name}: {sweep.summary}",
+        f"  {len(rows)} of {total} tasks in {outcome.table}"
+        + (" (interrupted: --resume finishes it)" if interrupted or len(rows) < total else ""),
+        f"  this run: {outcome.ran} tasks on {outcome.engine} in {outcome.wall_s:.1f} s; "
+        f"{outcome.errors} row(s) record an error",
+    ]
     for r in [r for r in rows if r["error"]][:10]:
         head.append(f"    task {r['task_id']}: {r['error']}")
     body = sweep.report(rows, outcome.out) if sweep.report is not None and rows else []

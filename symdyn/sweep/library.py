@@ -28,9 +28,9 @@ from .engine import Sweep
 from .table import decode_json
 
 ARMS = ("puma560", "panda", "twolink")
-MARGIN = 0.1          # poses keep 10 % of each joint range clear of its limits
-HOLD = 0.8            # … and need at most 80 % of each torque limit to hold still
-POSE_DIGITS = 4       # poses rounded to 0.1 mrad: short, exact inputs
+MARGIN = 0.1  # poses keep 10 % of each joint range clear of its limits
+HOLD = 0.8  # … and need at most 80 % of each torque limit to hold still
+POSE_DIGITS = 4  # poses rounded to 0.1 mrad: short, exact inputs
 #: Collocation intervals per motion unless --N says otherwise: the Panda's light wrist under its
 #: 12 N·m limits accelerates fast enough that 40 intervals leave a re-simulated interval up to
 #: 0.06 rad/s off its next node (60: 0.03, 80: 0.017 on the same motions).
@@ -51,7 +51,7 @@ def scene(arm: str):
     if arm == "twolink":
         robot = arms.load("twolink").nofriction()
         return robot, ocp.Limits.for_robot(robot, tau=study.TWOLINK_TAU, qd=study.TWOLINK_QD_MAX)
-    if arm == "panda":   # its URDF's joint, speed and effort limits
+    if arm == "panda":  # its URDF's joint, speed and effort limits
         robot = arms.load("panda")
         return robot, ocp.Limits.for_robot(robot)
     raise ValueError(f"unknown arm {arm!r} for the trajectory library: expected one of {', '.join(ARMS)}")
@@ -66,12 +66,22 @@ def problem(arm: str, start, goal, N: int) -> ocp.Problem:
             raise ValueError(f"{name} pose must be {robot.n} finite joint angles for {arm}, got {q.tolist()}")
         if limits.q is not None and (np.any(q < limits.q[:, 0]) or np.any(q > limits.q[:, 1])):
             j = int(np.flatnonzero((q < limits.q[:, 0]) | (q > limits.q[:, 1]))[0])
-            raise ValueError(f"{name} pose {q.tolist()} of {arm}: joint {j + 1} at {q[j]:.4f} rad is outside "
-                             f"its limits [{limits.q[j, 0]:.4f}, {limits.q[j, 1]:.4f}]")
+            raise ValueError(
+                f"{name} pose {q.tolist()} of {arm}: joint {j + 1} at {q[j]:.4f} rad is outside "
+                f"its limits [{limits.q[j, 0]:.4f}, {limits.q[j, 1]:.4f}]"
+            )
     if arm == "puma560":
         return study.min_time_problem(robot, start, goal, N=N)
-    return ocp.Problem(start, goal, T=None, N=N, method="hermite-simpson", limits=limits, T_guess=1.0,
-                       cost=ocp.Cost(time=1.0, smoothness=study.MIN_TIME_SMOOTHING))
+    return ocp.Problem(
+        start,
+        goal,
+        T=None,
+        N=N,
+        method="hermite-simpson",
+        limits=limits,
+        T_guess=1.0,
+        cost=ocp.Cost(time=1.0, smoothness=study.MIN_TIME_SMOOTHING),
+    )
 
 
 @functools.lru_cache(maxsize=4)
@@ -103,8 +113,7 @@ def random_pose(arm: str, rng: np.random.Generator) -> list[float]:
     raise RuntimeError(f"found no pose of {arm} that its torque limits can hold in 10000 draws")
 
 
-def inputs(n: int, *, seed: int = 0, arm: str = "puma560", N: int | None = None,
-           verify: bool = True) -> list[dict]:
+def inputs(n: int, *, seed: int = 0, arm: str = "puma560", N: int | None = None, verify: bool = True) -> list[dict]:
     """n motions: index k's start and goal drawn from the generator seeded by (seed, k), so a
     larger n extends a library rather than reshuffling it; N intervals (default: the arm's
     `DEFAULT_N`)."""
@@ -117,8 +126,17 @@ def inputs(n: int, *, seed: int = 0, arm: str = "puma560", N: int | None = None,
     out = []
     for k in range(n):
         rng = np.random.default_rng([seed, k])
-        out.append({"index": k, "arm": arm, "seed": seed, "N": N, "verify": bool(verify),
-                    "start": random_pose(arm, rng), "goal": random_pose(arm, rng)})
+        out.append(
+            {
+                "index": k,
+                "arm": arm,
+                "seed": seed,
+                "N": N,
+                "verify": bool(verify),
+                "start": random_pose(arm, rng),
+                "goal": random_pose(arm, rng),
+            }
+        )
     return out
 
 
@@ -132,20 +150,42 @@ def motion(item: dict) -> dict:
     prob = problem(item["arm"], item["start"], item["goal"], int(item["N"]))
     try:
         sol = ocp.solve(prob, dynamics(item["arm"]))
-    except ocp.OCPError as exc:   # no minimum: a result of the library, not an error of the task
+    except ocp.OCPError as exc:  # no minimum: a result of the library, not an error of the task
         return {"status": exc.status, "iterations": exc.iterations}
-    row = {"T": sol.T, "status": sol.stats["status"], "iterations": sol.stats["iterations"],
-           "limit_violation": ocp.limit_violation(prob, sol), "q": sol.q, "qd": sol.qd, "tau": sol.tau}
+    row = {
+        "T": sol.T,
+        "status": sol.stats["status"],
+        "iterations": sol.stats["iterations"],
+        "limit_violation": ocp.limit_violation(prob, sol),
+        "q": sol.q,
+        "qd": sol.qd,
+        "tau": sol.tau,
+    }
     if item.get("verify", True):
         check = ocp.verify(robot, prob, sol, replay=REPLAY[item["arm"]])
-        row.update(check=check.ok, goal_error=check.goal_q_error, path_q_error=check.path_q_error,
-                   path_qd_error=check.path_qd_error)
+        row.update(
+            check=check.ok,
+            goal_error=check.goal_q_error,
+            path_q_error=check.path_q_error,
+            path_qd_error=check.path_qd_error,
+        )
     return row
 
 
 INPUT_COLUMNS = ("index", "arm", "seed", "N", "verify", "start", "goal")
-RESULT_COLUMNS = ("T", "status", "iterations", "check", "goal_error", "path_q_error", "path_qd_error",
-                  "limit_violation", "q", "qd", "tau")
+RESULT_COLUMNS = (
+    "T",
+    "status",
+    "iterations",
+    "check",
+    "goal_error",
+    "path_q_error",
+    "path_qd_error",
+    "limit_violation",
+    "q",
+    "qd",
+    "tau",
+)
 
 
 def report(rows: list[dict], out_dir: Path) -> list[str]:
@@ -153,8 +193,10 @@ def report(rows: list[dict], out_dir: Path) -> list[str]:
     space and against the speed-limit bound max_j |Δq_j| / q̇max_j."""
     done = [r for r in rows if not r["error"]]
     solved = [r for r in done if r["T"]]
-    lines = [f"trajectory library: {len(rows)} motions, {len(solved)} solved, "
-             f"{len(done) - len(solved)} without a minimum (IPOPT status), {len(rows) - len(done)} errors"]
+    lines = [
+        f"trajectory library: {len(rows)} motions, {len(solved)} solved, "
+        f"{len(done) - len(solved)} without a minimum (IPOPT status), {len(rows) - len(done)} errors"
+    ]
     statuses: dict[str, int] = {}
     for r in done:
         statuses[r["status"]] = statuses.get(r["status"], 0) + 1
@@ -166,14 +208,18 @@ def report(rows: list[dict], out_dir: Path) -> list[str]:
     checked = [r for r in solved if r["check"]]
     passed = [r for r in checked if r["check"] == "1"]
     replay = REPLAY.get(solved[0]["arm"], "open-loop")
-    lines += [f"  minimum time: min {T.min():.3f} s, median {np.median(T):.3f} s, max {T.max():.3f} s; "
-              f"IPOPT iterations median {np.median(it):.0f}, max {it.max()}",
-              _replayed(replay, checked, passed) if checked else "  not re-simulated (--no-verify)",
-              f"  worst limit violation on the grid: {max(float(r['limit_violation']) for r in solved):.1e}"]
+    lines += [
+        f"  minimum time: min {T.min():.3f} s, median {np.median(T):.3f} s, max {T.max():.3f} s; "
+        f"IPOPT iterations median {np.median(it):.0f}, max {it.max()}",
+        _replayed(replay, checked, passed) if checked else "  not re-simulated (--no-verify)",
+        f"  worst limit violation on the grid: {max(float(r['limit_violation']) for r in solved):.1e}",
+    ]
     for r in [r for r in checked if r["check"] != "1"][:10]:
-        lines.append(f"    FAIL task {r['task_id']}: goal error {float(r['goal_error']):.2e} rad, worst node gap "
-                     f"{float(r['path_q_error']):.2e} rad, {float(r['path_qd_error']):.2e} rad/s, "
-                     f"limit violation {float(r['limit_violation']):.1e}")
+        lines.append(
+            f"    FAIL task {r['task_id']}: goal error {float(r['goal_error']):.2e} rad, worst node gap "
+            f"{float(r['path_q_error']):.2e} rad, {float(r['path_qd_error']):.2e} rad/s, "
+            f"limit violation {float(r['limit_violation']):.1e}"
+        )
     _figure(solved, out_dir)
     lines.append(f"  figure: {Path(out_dir) / 'library_min_time.png'}")
     return lines
@@ -182,12 +228,16 @@ def report(rows: list[dict], out_dir: Path) -> list[str]:
 def _replayed(replay: str, checked: list[dict], passed: list[dict]) -> str:
     worst = lambda key: max(float(r[key]) for r in checked)  # noqa: E731
     if replay == "open-loop":
-        return (f"  re-simulated open loop with the reference: {len(passed)} of {len(checked)} reach the goal "
-                f"within the tolerance with every limit held; worst goal error {worst('goal_error'):.2e} rad")
-    return (f"  re-simulated with the reference interval by interval from each node: {len(passed)} of "
-            f"{len(checked)} reach every next node within the tolerance with every limit held; worst gap "
-            f"{worst('path_q_error'):.2e} rad, {worst('path_qd_error'):.2e} rad/s (not open loop from the start: "
-            f"unstable on this arm)")
+        return (
+            f"  re-simulated open loop with the reference: {len(passed)} of {len(checked)} reach the goal "
+            f"within the tolerance with every limit held; worst goal error {worst('goal_error'):.2e} rad"
+        )
+    return (
+        f"  re-simulated with the reference interval by interval from each node: {len(passed)} of "
+        f"{len(checked)} reach every next node within the tolerance with every limit held; worst gap "
+        f"{worst('path_q_error'):.2e} rad, {worst('path_qd_error'):.2e} rad/s (not open loop from the start: "
+        f"unstable on this arm)"
+    )
 
 
 def _figure(solved: list[dict], out_dir: Path) -> None:
@@ -221,8 +271,15 @@ def _figure(solved: list[dict], out_dir: Path) -> None:
 SWEEP = Sweep(
     name="trajectory-library",
     summary="minimum-time motions between random start/goal poses under torque and speed limits",
-    task=motion, inputs=inputs, input_columns=INPUT_COLUMNS, result_columns=RESULT_COLUMNS, report=report,
-    options={"arm": ("puma560", f"the arm: {', '.join(ARMS)}"),
-             "N": (None, "collocation intervals per motion (default: puma560 and twolink 40, panda 60)"),
-             "seed": (0, "seed of the random poses"),
-             "verify": (True, "re-simulate each motion with the reference (--no-verify: faster)")})
+    task=motion,
+    inputs=inputs,
+    input_columns=INPUT_COLUMNS,
+    result_columns=RESULT_COLUMNS,
+    report=report,
+    options={
+        "arm": ("puma560", f"the arm: {', '.join(ARMS)}"),
+        "N": (None, "collocation intervals per motion (default: puma560 and twolink 40, panda 60)"),
+        "seed": (0, "seed of the random poses"),
+        "verify": (True, "re-simulate each motion with the reference (--no-verify: faster)"),
+    },
+)

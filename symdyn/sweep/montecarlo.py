@@ -34,10 +34,10 @@ from .engine import Sweep
 from .table import decode_json
 
 ARMS = ("puma560", "twolink")
-WN = 10.0             # rad/s, the study's computed-torque bandwidth: Kp = WN², Kv = 2·WN
-PERIOD = 1e-3         # s, control period and RK4 step, as in the study
-SETTLE = 0.5          # s simulated after the trajectory ends, as in the study
-KINDS = ("m", "r", "I", "B")   # what a draw scales: mass, COM coordinates, inertia tensor, viscous friction
+WN = 10.0  # rad/s, the study's computed-torque bandwidth: Kp = WN², Kv = 2·WN
+PERIOD = 1e-3  # s, control period and RK4 step, as in the study
+SETTLE = 0.5  # s simulated after the trajectory ends, as in the study
+KINDS = ("m", "r", "I", "B")  # what a draw scales: mass, COM coordinates, inertia tensor, viscous friction
 
 
 @functools.lru_cache(maxsize=4)
@@ -48,9 +48,9 @@ def scene(arm: str):
     if arm not in ARMS:
         raise ValueError(f"unknown arm {arm!r} for the Monte-Carlo study: expected one of {', '.join(ARMS)}")
     robot = arms.load(arm).nofriction()
-    with build_lock(cache_dir() / f"sweep-generated-{arm}"):   # a host's workers compile the code once
+    with build_lock(cache_dir() / f"sweep-generated-{arm}"):  # a host's workers compile the code once
         plant = backend.model(robot)
-        Y = codegen.load(arm, "c").Y      # kinematics only: the same for every parameter draw
+        Y = codegen.load(arm, "c").Y  # kinematics only: the same for every parameter draw
     pi = np.array([float(v) for v in parameter_values(robot)])
     goal = robot.qr if arm == "puma560" else robot.qn
     return robot, plant, Y, pi, np.asarray(robot.qz, float), np.asarray(goal, float)
@@ -61,19 +61,27 @@ def perturbed(robot: Robot, draw: dict) -> Robot:
     × I[j] and viscous friction × B[j]."""
     links = []
     for j, link in enumerate(robot.links):
-        links.append(dataclasses.replace(
-            link, m=float(link.m) * draw["m"][j], r=tuple(float(x) * f for x, f in zip(link.r, draw["r"][j])),
-            I=tuple(tuple(float(x) * draw["I"][j] for x in row) for row in link.I), B=float(link.B) * draw["B"][j]))
+        links.append(
+            dataclasses.replace(
+                link,
+                m=float(link.m) * draw["m"][j],
+                r=tuple(float(x) * f for x, f in zip(link.r, draw["r"][j])),
+                I=tuple(tuple(float(x) * draw["I"][j] for x in row) for row in link.I),
+                B=float(link.B) * draw["B"][j],
+            )
+        )
     return dataclasses.replace(robot, links=tuple(links), name=f"{robot.name} (draw)")
 
 
 def draw(n_links: int, spread: float, rng: np.random.Generator | None) -> dict:
     """Factors for each kind (KINDS): all 1 when rng is None (the nominal draw), else uniform in
     [1 − spread, 1 + spread], rounded to 6 digits."""
+
     def factors(shape):
         if rng is None:
             return np.ones(shape).tolist()
         return np.round(rng.uniform(1 - spread, 1 + spread, shape), 6).tolist()
+
     return {"m": factors(n_links), "r": factors((n_links, 3)), "I": factors(n_links), "B": factors(n_links)}
 
 
@@ -88,9 +96,17 @@ def inputs(n: int, *, seed: int = 0, arm: str = "puma560", spread: float = 0.1, 
     if arm not in ARMS:
         raise ValueError(f"unknown arm {arm!r} for the Monte-Carlo study: expected one of {', '.join(ARMS)}")
     n_links = arms.load(arm).n
-    return [{"index": k, "arm": arm, "seed": seed, "spread": spread, "T": T,
-             "draw": draw(n_links, spread, None if k == 0 else np.random.default_rng([seed, k]))}
-            for k in range(n)]
+    return [
+        {
+            "index": k,
+            "arm": arm,
+            "seed": seed,
+            "spread": spread,
+            "T": T,
+            "draw": draw(n_links, spread, None if k == 0 else np.random.default_rng([seed, k])),
+        }
+        for k in range(n)
+    ]
 
 
 def controller_model(arm: str, draw_: dict) -> backend.Model:
@@ -110,12 +126,16 @@ def tracking(item: dict) -> dict:
     robot, plant, _, _, start, goal = scene(item["arm"])
     T = float(item["T"])
     traj = functools.partial(C.quintic, start, goal, T)
-    ct = C.ComputedTorque(controller_model(item["arm"], item["draw"]), traj, WN ** 2, 2 * WN)
+    ct = C.ComputedTorque(controller_model(item["arm"], item["draw"]), traj, WN**2, 2 * WN)
     tr = C.simulate(lambda t, q, qd, tau: plant.fdyn(q, qd, tau), ct, T + SETTLE, start, dt=PERIOD, period=PERIOD)
     err = traj(tr.t)[0] - tr.q
     per_joint = np.abs(err).max(0)
-    return {"max_error": float(per_joint.max()), "joint_max_error": per_joint,
-            "rms_error": float(np.sqrt(np.mean(err ** 2))), "final_error": float(np.abs(err[-1]).max())}
+    return {
+        "max_error": float(per_joint.max()),
+        "joint_max_error": per_joint,
+        "rms_error": float(np.sqrt(np.mean(err**2))),
+        "final_error": float(np.abs(err[-1]).max()),
+    }
 
 
 INPUT_COLUMNS = ("index", "arm", "seed", "spread", "T", "draw")
@@ -126,28 +146,32 @@ def report(rows: list[dict], out_dir: Path, worst: int = 5) -> list[str]:
     """Summary lines (distribution, the nominal draw in the study's format, the worst draws with
     their factors) and the histogram `montecarlo_error.png`."""
     done = sorted((r for r in rows if not r["error"]), key=lambda r: float(r["max_error"]))
-    lines = [f"Monte-Carlo computed torque: {len(rows)} draws, {len(done)} simulated, "
-             f"{len(rows) - len(done)} errors"]
+    lines = [f"Monte-Carlo computed torque: {len(rows)} draws, {len(done)} simulated, {len(rows) - len(done)} errors"]
     if not done:
         return lines
     first = done[0]
     e = np.array([float(r["max_error"]) for r in done]) * 1e3
     q = np.percentile(e, [50, 90, 99])
-    lines += [f"  {first['arm']}, quintic in T = {float(first['T']):g} s (+{SETTLE} s), computed torque Kp = "
-              f"{WN ** 2:g} /s², Kv = {2 * WN:g} /s at 1 kHz; controller model: masses, COMs, inertias, "
-              f"viscous friction x U[1 ± {float(first['spread']):g}] per link, plant nominal",
-              f"  max |q* - q| over the run (mrad): median {q[0]:.3f}, 90 % {q[1]:.3f}, 99 % {q[2]:.3f}, "
-              f"max {e.max():.3f}"]
+    lines += [
+        f"  {first['arm']}, quintic in T = {float(first['T']):g} s (+{SETTLE} s), computed torque Kp = "
+        f"{WN**2:g} /s², Kv = {2 * WN:g} /s at 1 kHz; controller model: masses, COMs, inertias, "
+        f"viscous friction x U[1 ± {float(first['spread']):g}] per link, plant nominal",
+        f"  max |q* - q| over the run (mrad): median {q[0]:.3f}, 90 % {q[1]:.3f}, 99 % {q[2]:.3f}, max {e.max():.3f}",
+    ]
     nominal = [r for r in done if r["index"] == "0"]
     for r in nominal:
         per_joint = " ".join(f"{x:7.3f}" for x in np.array(decode_json(r["joint_max_error"])) * 1e3)
-        lines.append(f"  nominal draw (the study's 'computed torque, model exact'): [{per_joint}]  "
-                     f"max {float(r['max_error']) * 1e3:7.3f}")
+        lines.append(
+            f"  nominal draw (the study's 'computed torque, model exact'): [{per_joint}]  "
+            f"max {float(r['max_error']) * 1e3:7.3f}"
+        )
     lines.append(f"  the {min(worst, len(done))} worst draws (factors per link):")
     for r in done[::-1][:worst]:
         d = decode_json(r["draw"])
-        lines.append(f"    draw {r['index']}: max error {float(r['max_error']) * 1e3:.3f} mrad; "
-                     + "; ".join(f"{k} {np.round(d[k], 3).tolist()}" for k in KINDS))
+        lines.append(
+            f"    draw {r['index']}: max error {float(r['max_error']) * 1e3:.3f} mrad; "
+            + "; ".join(f"{k} {np.round(d[k], 3).tolist()}" for k in KINDS)
+        )
     _figure(e, out_dir, first)
     lines.append(f"  figure: {Path(out_dir) / 'montecarlo_error.png'}")
     return lines
@@ -161,8 +185,9 @@ def _figure(e: np.ndarray, out_dir: Path, first: dict) -> None:
     ax.hist(e, bins=max(5, min(50, len(e) // 5)))
     ax.set_xlabel("max tracking error over the run (mrad)")
     ax.set_ylabel("draws")
-    ax.set_title(f"{first['arm']}: computed torque under ±{100 * float(first['spread']):g} % parameter draws",
-                 fontsize=10)
+    ax.set_title(
+        f"{first['arm']}: computed torque under ±{100 * float(first['spread']):g} % parameter draws", fontsize=10
+    )
     ax.grid(True)
     save(fig, out_dir, "montecarlo_error")
 
@@ -170,8 +195,15 @@ def _figure(e: np.ndarray, out_dir: Path, first: dict) -> None:
 SWEEP = Sweep(
     name="monte-carlo",
     summary="the chapter's computed-torque controller under random parameter errors (±x %)",
-    task=tracking, inputs=inputs, input_columns=INPUT_COLUMNS, result_columns=RESULT_COLUMNS, report=report,
-    options={"arm": ("puma560", f"the arm: {', '.join(ARMS)}"),
-             "spread": (0.1, "relative spread x of each factor, uniform in [1 - x, 1 + x]"),
-             "T": (2.0, "duration of the quintic qz -> qr (s)"),
-             "seed": (0, "seed of the draws")})
+    task=tracking,
+    inputs=inputs,
+    input_columns=INPUT_COLUMNS,
+    result_columns=RESULT_COLUMNS,
+    report=report,
+    options={
+        "arm": ("puma560", f"the arm: {', '.join(ARMS)}"),
+        "spread": (0.1, "relative spread x of each factor, uniform in [1 - x, 1 + x]"),
+        "T": (2.0, "duration of the quintic qz -> qr (s)"),
+        "seed": (0, "seed of the draws"),
+    },
+)

@@ -71,7 +71,7 @@ def _line(columns: tuple[str, ...], values: Iterable[str]) -> bytes:
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerow(list(values))
     text = buf.getvalue()
-    if text.count("\n") != 1:   # encode() keeps every cell on one line; a quoted break would split a row
+    if text.count("\n") != 1:  # encode() keeps every cell on one line; a quoted break would split a row
         raise ValueError(f"a row of {columns} spans several lines: {text!r}")
     return text.encode()
 
@@ -92,22 +92,24 @@ class Table:
     @classmethod
     def open(cls, path: Path, columns: tuple[str, ...], *, resume: bool) -> "Table":
         path = Path(path)
-        held = path.exists() and path.read_bytes().count(b"\n") > 1   # a header and at least one row
+        held = path.exists() and path.read_bytes().count(b"\n") > 1  # a header and at least one row
         if held and not resume:
-            raise TableError(f"{path} already holds results: pass --resume to finish that sweep, "
-                             "or choose another --out")
+            raise TableError(
+                f"{path} already holds results: pass --resume to finish that sweep, or choose another --out"
+            )
         if not held:
             write_atomic(path, _line(columns, columns))
             return cls(path, columns, [])
         raw = path.read_bytes()
-        if not raw.endswith(b"\n"):            # a row torn by a kill: drop it, its task runs again
-            raw = raw[:raw.rfind(b"\n") + 1]
+        if not raw.endswith(b"\n"):  # a row torn by a kill: drop it, its task runs again
+            raw = raw[: raw.rfind(b"\n") + 1]
             write_atomic(path, raw)
         reader = csv.reader(io.StringIO(raw.decode()))
         header = tuple(next(reader, ()))
         if header != tuple(columns):
-            raise TableError(f"{path}: its columns {list(header)} are not this sweep's {list(columns)}; "
-                             "choose another --out")
+            raise TableError(
+                f"{path}: its columns {list(header)} are not this sweep's {list(columns)}; choose another --out"
+            )
         rows = []
         for lineno, cells in enumerate(reader, start=2):
             if len(cells) != len(columns):
@@ -121,8 +123,9 @@ class Table:
         if len(keep) == len(self.rows):
             return
         os.close(self._fd)
-        text = b"".join([_line(self.columns, self.columns)]
-                        + [_line(self.columns, (r[c] for c in self.columns)) for r in keep])
+        text = b"".join(
+            [_line(self.columns, self.columns)] + [_line(self.columns, (r[c] for c in self.columns)) for r in keep]
+        )
         write_atomic(self.path, text)
         self.rows = keep
         self.ids = {r[self.columns[0]] for r in keep}
@@ -132,14 +135,15 @@ class Table:
         """Write one row as one line (one write call); None if its task id is already in the table."""
         unknown = set(row) - set(self.columns)
         if unknown:
-            raise ValueError(f"row has columns {sorted(unknown)} that {self.path.name} does not have "
-                             f"({list(self.columns)})")
+            raise ValueError(
+                f"row has columns {sorted(unknown)} that {self.path.name} does not have ({list(self.columns)})"
+            )
         cells = {c: encode(row.get(c)) for c in self.columns}
         if cells[self.columns[0]] in self.ids:
             return None
         data = _line(self.columns, cells.values())
-        while data:                              # one call for a row of a regular file; loop if it is short
-            data = data[os.write(self._fd, data):]
+        while data:  # one call for a row of a regular file; loop if it is short
+            data = data[os.write(self._fd, data) :]
         self.ids.add(cells[self.columns[0]])
         self.rows.append(cells)
         return cells

@@ -16,16 +16,19 @@ from ...model import arms
 from .. import analysis as A
 from ._plot import finish, pyplot, save
 
-PUMA_PAYLOAD = (2.5, (0.0, 0.0, 0.1))      # kg, m in frame {6}: the book's example
+PUMA_PAYLOAD = (2.5, (0.0, 0.0, 0.1))  # kg, m in frame {6}: the book's example
 
 
 # --------------------------------------------------------------------------- plotting
+
 
 def _surface(fig, where, sweep, k, names, title):
     ax = fig.add_subplot(*where, projection="3d")
     X, Y = np.meshgrid(*sweep.axes, indexing="ij")
     ax.plot_surface(X, Y, sweep.values[..., k], cmap="viridis", linewidth=0)
-    ax.set_xlabel(names[0]); ax.set_ylabel(names[1]); ax.set_title(title)
+    ax.set_xlabel(names[0])
+    ax.set_ylabel(names[1])
+    ax.set_title(title)
     return ax
 
 
@@ -38,24 +41,33 @@ def _maps_and_curve(out_dir, name, grid, unit, curve, title):
         _surface(fig, (1, 3, k + 1), grid, k, names, f"{label} ({unit})")
     ax = fig.add_subplot(1, 3, 3)
     ax.plot(curve.axes[0], curve.values[:, 0])
-    ax.set_xlabel(names[1]); ax.set_ylabel(f"{curve.labels[0]} (kg·m²)"); ax.set_title(title); ax.grid(True)
+    ax.set_xlabel(names[1])
+    ax.set_ylabel(f"{curve.labels[0]} (kg·m²)")
+    ax.set_title(title)
+    ax.grid(True)
     save(fig, out_dir, name)
 
 
 def _extreme_line(e: A.Extreme, unit: str, names=("q2", "q3")) -> str:
     at = lambda q: ", ".join(f"{n} = {v:+.2f}" for n, v in zip(names, q))  # noqa: E731
     ratio = "" if np.isnan(e.ratio) else f", max/min {e.ratio:.3f}"
-    return f"  {e.label}: min {e.min:+.3f} {unit} at ({at(e.argmin)}), max {e.max:+.3f} {unit} at ({at(e.argmax)}){ratio}"
+    return (
+        f"  {e.label}: min {e.min:+.3f} {unit} at ({at(e.argmin)}), max {e.max:+.3f} {unit} at ({at(e.argmax)}){ratio}"
+    )
 
 
 # --------------------------------------------------------------------------- studies
+
 
 def gravity_load(out_dir: Path, quick: bool = False) -> str:
     """Puma gravity load of joints 2 and 3 over (q2, q3), on Earth, on the Moon and hanging upside down."""
     puma = arms.load("puma560")
     res = 9 if quick else 73
-    cases = {"Earth (g = 9.81)": puma, "Moon (g = 1.62)": A.with_gravity(puma, A.LUNAR_GRAVITY),
-             "inverted base Rx(pi)": A.inverted(puma)}
+    cases = {
+        "Earth (g = 9.81)": puma,
+        "Moon (g = 1.62)": A.with_gravity(puma, A.LUNAR_GRAVITY),
+        "inverted base Rx(pi)": A.inverted(puma),
+    }
     maps = {name: A.gravity_load_map(robot, resolution=res) for name, robot in cases.items()}
     plt = pyplot()
     fig = plt.figure(figsize=(10, 4.2))
@@ -63,8 +75,7 @@ def gravity_load(out_dir: Path, quick: bool = False) -> str:
     for k, label in enumerate(earth.labels):
         _surface(fig, (1, 2, k + 1), earth, k, ("q2 (rad)", "q3 (rad)"), f"{label} (N·m), q = [0 q2 q3 0 0 0]")
     save(fig, out_dir, "analysis_gravity_load")
-    lines = ["Puma 560 gravity load of joints 2, 3 over q2, q3 in [-pi, pi] (others 0), "
-             f"{res}x{res} grid:"]
+    lines = [f"Puma 560 gravity load of joints 2, 3 over q2, q3 in [-pi, pi] (others 0), {res}x{res} grid:"]
     for name, sweep in maps.items():
         lines.append(f" {name}:")
         lines += [_extreme_line(e, "N·m") for e in sweep.extremes()]
@@ -91,8 +102,10 @@ def payload(out_dir: Path, quick: bool = False) -> str:
     """Loaded/unloaded M and G of the Puma at qn for a 2.5 kg payload, both payload semantics."""
     puma = arms.load("puma560")
     m, p = PUMA_PAYLOAD
-    effects = {"book (replace last link)": A.payload_effect(puma, m, p, puma.qn),
-               "additive (point mass added)": A.payload_effect(puma, m, p, puma.qn, additive=True)}
+    effects = {
+        "book (replace last link)": A.payload_effect(puma, m, p, puma.qn),
+        "additive (point mass added)": A.payload_effect(puma, m, p, puma.qn, additive=True),
+    }
     plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
     for ax, (name, e) in zip(axes, effects.items()):
@@ -101,13 +114,16 @@ def payload(out_dir: Path, quick: bool = False) -> str:
         for (i, j), r in np.ndenumerate(e.M_ratio):
             ax.text(j, i, "-" if np.isnan(r) else f"{r:.2g}", ha="center", va="center", fontsize=7, color="c")
         ax.set_title(f"M loaded/unloaded, {name}", fontsize=9)
-        ax.set_xticks(range(6), [f"{j + 1}" for j in range(6)]); ax.set_yticks(range(6), [f"{j + 1}" for j in range(6)])
+        ax.set_xticks(range(6), [f"{j + 1}" for j in range(6)])
+        ax.set_yticks(range(6), [f"{j + 1}" for j in range(6)])
         fig.colorbar(im, ax=ax, label="log10 ratio")
     width = 0.38
     for k, (name, e) in enumerate(effects.items()):
         axes[2].bar(np.arange(6) + (k - 0.5) * width, e.G_ratio, width, label=name)
-    axes[2].set_xticks(range(6), [f"G{j + 1}" for j in range(6)]); axes[2].set_yscale("log")
-    axes[2].set_ylabel("loaded / unloaded"); axes[2].set_title("gravity load ratio (none where unloaded G = 0)")
+    axes[2].set_xticks(range(6), [f"G{j + 1}" for j in range(6)])
+    axes[2].set_yscale("log")
+    axes[2].set_ylabel("loaded / unloaded")
+    axes[2].set_title("gravity load ratio (none where unloaded G = 0)")
     axes[2].legend(fontsize=8)
     save(fig, out_dir, "analysis_payload")
     lines = [f"Puma 560 at qn with a {m} kg payload at {p} m (frame 6):"]
@@ -122,8 +138,11 @@ def payload(out_dir: Path, quick: bool = False) -> str:
 def base_wrench(out_dir: Path, quick: bool = False) -> str:
     """The wrench the base exerts on the Puma at rest (qz, qn) and moving (qn, 1 rad/s on every joint)."""
     puma = arms.load("puma560")
-    states = {"qz at rest": (puma.qz, None, None), "qn at rest": (puma.qn, None, None),
-              "qn, qd = 1 rad/s": (puma.qn, np.ones(6), None)}
+    states = {
+        "qz at rest": (puma.qz, None, None),
+        "qn at rest": (puma.qn, None, None),
+        "qn, qd = 1 rad/s": (puma.qn, np.ones(6), None),
+    }
     wrenches = {name: A.base_wrench(puma, *state) for name, state in states.items()}
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
@@ -131,16 +150,20 @@ def base_wrench(out_dir: Path, quick: bool = False) -> str:
     for k, (name, W) in enumerate(wrenches.items()):
         axes[0].bar(np.arange(3) + (k - 1) * width, W[:3], width, label=name)
         axes[1].bar(np.arange(3) + (k - 1) * width, W[3:], width, label=name)
-    axes[0].set_xticks(range(3), ["fx", "fy", "fz"]); axes[0].set_ylabel("N"); axes[0].set_title("base force")
-    axes[1].set_xticks(range(3), ["nx", "ny", "nz"]); axes[1].set_ylabel("N·m")
+    axes[0].set_xticks(range(3), ["fx", "fy", "fz"])
+    axes[0].set_ylabel("N")
+    axes[0].set_title("base force")
+    axes[1].set_xticks(range(3), ["nx", "ny", "nz"])
+    axes[1].set_ylabel("N·m")
     axes[1].set_title("base moment about frame {0}")
     axes[0].legend(fontsize=8)
     save(fig, out_dir, "analysis_base_wrench")
     mass = A.total_mass(puma)
-    lines = [f"Puma 560 total mass {mass:.2f} kg, weight {mass * A.EARTH_GRAVITY:.2f} N",
-             "base wrench [fx fy fz (N)  nx ny nz (N·m)] on link 1, frame {0}:"]
-    lines += [f"  {name:18s} {np.array2string(W, precision=2, suppress_small=True)}"
-              for name, W in wrenches.items()]
+    lines = [
+        f"Puma 560 total mass {mass:.2f} kg, weight {mass * A.EARTH_GRAVITY:.2f} N",
+        "base wrench [fx fy fz (N)  nx ny nz (N·m)] on link 1, frame {0}:",
+    ]
+    lines += [f"  {name:18s} {np.array2string(W, precision=2, suppress_small=True)}" for name, W in wrenches.items()]
     return finish(out_dir, lines)
 
 
@@ -157,18 +180,26 @@ def manipulability(out_dir: Path, quick: bool = False) -> str:
     for k in range(3):
         ax.plot(*np.outer([-1, 1], e.axes[:, k] * e.radii[k]).T, color="k")
     lim = e.radii.max()
-    ax.set_xlim(-lim, lim); ax.set_ylim(-lim, lim); ax.set_zlim(-lim, lim)
-    ax.set_xlabel("ẍ"); ax.set_ylabel("ÿ"); ax.set_zlabel("z̈")
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_zlim(-lim, lim)
+    ax.set_xlabel("ẍ")
+    ax.set_ylabel("ÿ")
+    ax.set_zlabel("z̈")
     ax.set_title("acceleration ellipsoid at qn\n(m/s² per N·m, world frame)", fontsize=9)
     ax = fig.add_subplot(1, 2, 2)
     for axes in A.AXES:
         ax.semilogy(q[:, 2], A.dynamic_manipulability(puma, q, axes), label=axes)
-    ax.set_xlabel("q3 (rad), other joints at qn"); ax.set_ylabel("Asada measure min/max eig Mx")
-    ax.legend(); ax.grid(True)
+    ax.set_xlabel("q3 (rad), other joints at qn")
+    ax.set_ylabel("Asada measure min/max eig Mx")
+    ax.legend()
+    ax.grid(True)
     save(fig, out_dir, "analysis_manipulability")
     lines = ["Puma 560 dynamic manipulability at qn (Asada, min/max eigenvalue of pinv(J)' M pinv(J)):"]
-    lines += [f"  {axes:13s} {value:.4f}" + ("  (default)" if axes == "translational" else "")
-              for axes, value in measures.items()]
+    lines += [
+        f"  {axes:13s} {value:.4f}" + ("  (default)" if axes == "translational" else "")
+        for axes, value in measures.items()
+    ]
     lines.append(f" acceleration ellipsoid (translational, J M^-1 M^-T J'): radii {np.round(e.radii, 4)} m/s² per N·m")
     lines.append(f"  longest axis {np.round(e.axes[:, -1], 3)}, shortest {np.round(e.axes[:, 0], 3)} (world)")
     return finish(out_dir, lines)
@@ -185,20 +216,32 @@ def joint_dynamics(out_dir: Path, quick: bool = False) -> str:
     w = np.logspace(-1, 3, 200)
     for j in range(puma.n):
         axes[0].loglog(w, 1 / np.abs(1j * w * tf.J[j] + tf.B[j]), label=f"joint {j + 1}")
-    axes[0].set_xlabel("ω (rad/s)"); axes[0].set_ylabel("|Ω/U| (rad/s per N·m)")
-    axes[0].set_title("motor side 1/(J's + B') at qn"); axes[0].legend(fontsize=7); axes[0].grid(True)
+    axes[0].set_xlabel("ω (rad/s)")
+    axes[0].set_ylabel("|Ω/U| (rad/s per N·m)")
+    axes[0].set_title("motor side 1/(J's + B') at qn")
+    axes[0].legend(fontsize=7)
+    axes[0].grid(True)
     for j in range(3):
         axes[1].plot(q[:, 2], J_sweep[:, j] / tf.J[j], label=f"joint {j + 1}")
-    axes[1].set_xlabel("q3 (rad), other joints at qn"); axes[1].set_ylabel("J'(q) / J'(qn)")
-    axes[1].set_title("effective motor inertia"); axes[1].legend(); axes[1].grid(True)
+    axes[1].set_xlabel("q3 (rad), other joints at qn")
+    axes[1].set_ylabel("J'(q) / J'(qn)")
+    axes[1].set_title("effective motor inertia")
+    axes[1].legend()
+    axes[1].grid(True)
     save(fig, out_dir, "analysis_joint_dynamics")
-    lines = ["Puma 560 motor-side joint dynamics at qn: J' = Jm + M_jj,link/G² (rotor counted once), B' = B",
-             " joint     J' (kg·m²)   B' (N·m·s/rad)  pole (rad/s)  tau (s)   M_jj,link (kg·m²)"]
-    lines += [f"  {j + 1}    {tf.J[j]:.4e}    {tf.B[j]:.4e}    {tf.pole[j]:8.3f}   {tf.time_constant[j]:7.4f}"
-              f"    {tf.M_link[j]:.4e}" for j in range(puma.n)]
+    lines = [
+        "Puma 560 motor-side joint dynamics at qn: J' = Jm + M_jj,link/G² (rotor counted once), B' = B",
+        " joint     J' (kg·m²)   B' (N·m·s/rad)  pole (rad/s)  tau (s)   M_jj,link (kg·m²)",
+    ]
+    lines += [
+        f"  {j + 1}    {tf.J[j]:.4e}    {tf.B[j]:.4e}    {tf.pole[j]:8.3f}   {tf.time_constant[j]:7.4f}"
+        f"    {tf.M_link[j]:.4e}"
+        for j in range(puma.n)
+    ]
     span = J_sweep.max(0) / J_sweep.min(0)
-    lines.append(f" J' max/min over q3 (others at qn): joint 1 {span[0]:.3f}, joint 2 {span[1]:.3f}, "
-                 f"joint 3 {span[2]:.3f}")
+    lines.append(
+        f" J' max/min over q3 (others at qn): joint 1 {span[0]:.3f}, joint 2 {span[1]:.3f}, joint 3 {span[2]:.3f}"
+    )
     return finish(out_dir, lines)
 
 
@@ -210,8 +253,10 @@ def twolink_exercise(out_dir: Path, quick: bool = False) -> str:
     curve = A.inertia_curve(arm, element=(0, 0), joint=1, resolution=19 if quick else 181)
     _maps_and_curve(out_dir, "analysis_twolink", grid, "N·m", curve, "joint-1 inertia against q2")
     link1, link2 = arm.links
-    lines = [f"Exercise 3 arm: m1 = {link1.m} kg, m2 = {link2.m} kg, COM 8 cm from each joint, "
-             f"a1 = {link1.a} m, a2 = {link2.a} m (our choice: COM at mid-link), g = 9.81:"]
+    lines = [
+        f"Exercise 3 arm: m1 = {link1.m} kg, m2 = {link2.m} kg, COM 8 cm from each joint, "
+        f"a1 = {link1.a} m, a2 = {link2.a} m (our choice: COM at mid-link), g = 9.81:"
+    ]
     lines += [_extreme_line(e, "N·m", ("q1", "q2")) for e in grid.extremes()]
     lines += [_extreme_line(e, "kg·m²", ("q2",)) for e in curve.extremes()]
     return finish(out_dir, lines)

@@ -28,7 +28,7 @@ from .analyses import PUMA_PAYLOAD
 # speed limits, rad/s.  The shoulder limit is 3.5× its gravity load at qz.
 PUMA_MOTOR_TAU = (1.2, 1.2, 1.2, 0.25, 0.25, 0.25)
 PUMA_QD_MAX = (4.0, 4.0, 4.0, 6.0, 6.0, 6.0)
-PUMA_EFFORT_T = 1.0          # s, fixed time of the minimum-effort motion (≈ 1.8× the minimum time)
+PUMA_EFFORT_T = 1.0  # s, fixed time of the minimum-effort motion (≈ 1.8× the minimum time)
 # Minimum time: a tiny torque-rate penalty (weight per (N·m/s)²·s) stops chattering
 # on arcs where a torque is not at a limit; it changes T by < 0.1 %.
 MIN_TIME_SMOOTHING = 1e-8
@@ -37,11 +37,11 @@ MIN_TIME_SMOOTHING = 1e-8
 TWOLINK_TAU = (15.0, 4.0)
 TWOLINK_QD_MAX = (5.0, 5.0)
 TWOLINK_T = 2.0
-TWOLINK_HANG = (-np.pi / 2, 0.0)   # gravity acts along −y of frame {0}: q1 = −π/2 points down
+TWOLINK_HANG = (-np.pi / 2, 0.0)  # gravity acts along −y of frame {0}: q1 = −π/2 points down
 TWOLINK_UP = (np.pi / 2, 0.0)
 TWOLINK_SMOOTHING = 1e-3
-ACTIVE = 0.995                     # a limit is "active" where |x| ≥ 0.995 of it
-SOURCE = "symdyn"                  # the studies run on symdyn's generated functions, compiled
+ACTIVE = 0.995  # a limit is "active" where |x| ≥ 0.995 of it
+SOURCE = "symdyn"  # the studies run on symdyn's generated functions, compiled
 
 
 def puma() -> Robot:
@@ -55,9 +55,16 @@ def puma_limits(robot: Robot) -> ocp.Limits:
 
 def min_time_problem(robot: Robot, q0, qf, *, N: int = 40, method: str = "hermite-simpson") -> ocp.Problem:
     """Minimum time between two poses at rest, under joint, speed and motor torque limits."""
-    return ocp.Problem(np.asarray(q0, float), np.asarray(qf, float), T=None, N=N, method=method,
-                       limits=puma_limits(robot), T_guess=1.0,
-                       cost=ocp.Cost(time=1.0, smoothness=MIN_TIME_SMOOTHING))
+    return ocp.Problem(
+        np.asarray(q0, float),
+        np.asarray(qf, float),
+        T=None,
+        N=N,
+        method=method,
+        limits=puma_limits(robot),
+        T_guess=1.0,
+        cost=ocp.Cost(time=1.0, smoothness=MIN_TIME_SMOOTHING),
+    )
 
 
 def min_effort_problem(robot: Robot, *, N: int = 40, method: str = "hermite-simpson") -> ocp.Problem:
@@ -67,8 +74,15 @@ def min_effort_problem(robot: Robot, *, N: int = 40, method: str = "hermite-simp
     plain ∫τᵀτ a wrist N·m is ~50× cheaper than a shoulder N·m of the same motor
     share, and the optimum swings the payload on joint 5 (1.15 rad, at its limit)."""
     limits = puma_limits(robot)
-    return ocp.Problem(robot.qz, robot.qr, T=PUMA_EFFORT_T, N=N, method=method, limits=limits,
-                       cost=ocp.Cost(effort=1.0, weights=tuple(limits.tau ** -2.0)))
+    return ocp.Problem(
+        robot.qz,
+        robot.qr,
+        T=PUMA_EFFORT_T,
+        N=N,
+        method=method,
+        limits=limits,
+        cost=ocp.Cost(effort=1.0, weights=tuple(limits.tau**-2.0)),
+    )
 
 
 def swing_up_problem(robot: Robot | None = None, *, N: int = 50, method: str = "multiple-shooting") -> ocp.Problem:
@@ -77,9 +91,15 @@ def swing_up_problem(robot: Robot | None = None, *, N: int = 50, method: str = "
     shooting: its piecewise-constant torque re-simulates faithfully on this fast,
     unstable motion)."""
     robot = shipped.load("twolink") if robot is None else robot
-    return ocp.Problem(np.array(TWOLINK_HANG), np.array(TWOLINK_UP), T=TWOLINK_T, N=N, method=method,
-                       limits=ocp.Limits.for_robot(robot, tau=TWOLINK_TAU, qd=TWOLINK_QD_MAX),
-                       cost=ocp.Cost(effort=1.0, smoothness=TWOLINK_SMOOTHING))
+    return ocp.Problem(
+        np.array(TWOLINK_HANG),
+        np.array(TWOLINK_UP),
+        T=TWOLINK_T,
+        N=N,
+        method=method,
+        limits=ocp.Limits.for_robot(robot, tau=TWOLINK_TAU, qd=TWOLINK_QD_MAX),
+        cost=ocp.Cost(effort=1.0, smoothness=TWOLINK_SMOOTHING),
+    )
 
 
 def solve_checked(robot: Robot, problem: ocp.Problem, src: str = "symdyn", compiled: bool = True):
@@ -101,6 +121,7 @@ def _dense(sol: ocp.Solution, per: int = 20):
 
 # --------------------------------------------------------------------------- minimum time
 
+
 def _plot_min_time(out_dir: Path, name: str, title: str, robot, problem, sol, resim_q):
     plt = pyplot()
     lim = problem.limits
@@ -111,10 +132,15 @@ def _plot_min_time(out_dir: Path, name: str, title: str, robot, problem, sol, re
         at_tau, at_qd = _active(sol.tau, lim.tau)[j], _active(sol.qd, lim.qd)[j]
         axes[0].plot(sol.t, sol.q[:, j], c, label=f"q{j + 1}")
         axes[0].plot(sol.t, resim_q[:, j], c, ls=":", lw=2)
-        axes[1].plot(sol.t, sol.qd[:, j] / lim.qd[j], c, marker=".", ms=3,
-                     label=f"joint {j + 1}: at limit {100 * at_qd:.0f} %")
-        axes[2].plot(td, taud[:, j] / lim.tau[j], c,
-                     label=f"joint {j + 1} (±{lim.tau[j]:.0f} N·m): at limit {100 * at_tau:.0f} %")
+        axes[1].plot(
+            sol.t, sol.qd[:, j] / lim.qd[j], c, marker=".", ms=3, label=f"joint {j + 1}: at limit {100 * at_qd:.0f} %"
+        )
+        axes[2].plot(
+            td,
+            taud[:, j] / lim.tau[j],
+            c,
+            label=f"joint {j + 1} (±{lim.tau[j]:.0f} N·m): at limit {100 * at_tau:.0f} %",
+        )
     for ax in axes[1:]:
         for s in (1, -1):
             ax.axhline(s, color="k", ls="--", lw=1)
@@ -136,33 +162,45 @@ def min_time(out_dir: Path, quick: bool = False) -> str:
     lim = puma_limits(robot)
     src = SOURCE
     N = 12 if quick else 40
-    lines = [f"Minimum-time Puma 560 motions (Hermite–Simpson collocation, N = {N}, dynamics: {src}, compiled; "
-             f"Coulomb friction off, viscous on)",
-             f"  torque limits (motor {PUMA_MOTOR_TAU} N·m × |G|): {np.round(lim.tau, 1).tolist()} N·m",
-             f"  speed limits: {list(PUMA_QD_MAX)} rad/s; joint limits of the model; "
-             f"smoothing {MIN_TIME_SMOOTHING:g}·∫|dτ/dt|²"]
+    lines = [
+        f"Minimum-time Puma 560 motions (Hermite–Simpson collocation, N = {N}, dynamics: {src}, compiled; "
+        f"Coulomb friction off, viscous on)",
+        f"  torque limits (motor {PUMA_MOTOR_TAU} N·m × |G|): {np.round(lim.tau, 1).tolist()} N·m",
+        f"  speed limits: {list(PUMA_QD_MAX)} rad/s; joint limits of the model; "
+        f"smoothing {MIN_TIME_SMOOTHING:g}·∫|dτ/dt|²",
+    ]
     for a, b in (("qz", "qr"), ("qr", "qs")):
         problem = min_time_problem(robot, getattr(robot, a), getattr(robot, b), N=N)
         sol, check = solve_checked(robot, problem, src)
-        _plot_min_time(out_dir, f"ocp_mintime_{a}_{b}", f"Puma 560 minimum time {a} → {b}: "
-                       f"T = {sol.T:.3f} s", robot, problem, sol, check.q)
+        _plot_min_time(
+            out_dir,
+            f"ocp_mintime_{a}_{b}",
+            f"Puma 560 minimum time {a} → {b}: T = {sol.T:.3f} s",
+            robot,
+            problem,
+            sol,
+            check.q,
+        )
         at_tau, at_qd = _active(sol.tau, lim.tau), _active(sol.qd, lim.qd)
-        lines += [f"{a} → {b}: T = {sol.T:.4f} s, {sol.stats['iterations']} IPOPT iterations, "
-                  f"{sol.stats['solve_wall']:.1f} s",
-                  "  torque at its limit (share of grid points): "
-                  + ", ".join(f"j{j + 1} {100 * x:.0f} %" for j, x in enumerate(at_tau) if x > 0),
-                  "  speed at its limit: "
-                  + (", ".join(f"j{j + 1} {100 * x:.0f} %" for j, x in enumerate(at_qd) if x > 0) or "none"),
-                  f"  check: {check.describe()}"]
+        lines += [
+            f"{a} → {b}: T = {sol.T:.4f} s, {sol.stats['iterations']} IPOPT iterations, "
+            f"{sol.stats['solve_wall']:.1f} s",
+            "  torque at its limit (share of grid points): "
+            + ", ".join(f"j{j + 1} {100 * x:.0f} %" for j, x in enumerate(at_tau) if x > 0),
+            "  speed at its limit: "
+            + (", ".join(f"j{j + 1} {100 * x:.0f} %" for j, x in enumerate(at_qd) if x > 0) or "none"),
+            f"  check: {check.describe()}",
+        ]
     return finish(out_dir, lines)
 
 
 # --------------------------------------------------------------------------- minimum effort
 
+
 def _effort(robot: Robot, t: np.ndarray, q, qd, qdd, weights) -> float:
     """∫τᵀWτ dt by the trapezoidal rule of the reference inverse dynamics on a path."""
     tau = ref.rne(robot, q, qd, qdd)
-    return float(np.trapezoid((np.asarray(weights) * tau ** 2).sum(1), t))
+    return float(np.trapezoid((np.asarray(weights) * tau**2).sum(1), t))
 
 
 def _min_jerk_effort(robot: Robot, problem: ocp.Problem, samples: int = 401) -> float:
@@ -183,10 +221,12 @@ def min_effort(out_dir: Path, quick: bool = False) -> str:
     N = 12 if quick else 40
     m, p = PUMA_PAYLOAD
     arms = {"no payload": base, f"{m} kg payload": base.payload(m, p)}
-    lines = [f"Minimum-effort Puma 560 qz → qr in {PUMA_EFFORT_T} s (min ∫Σ(τj/τmax,j)² dt; "
-             f"Hermite–Simpson, N = {N}, dynamics: {src}, compiled; same limits as ocp-mintime)",
-             f"  payload as the book's payload({m}, {list(p)}): link 6's mass becomes {m} kg at {list(p)} m "
-             f"in frame {{6}} (its own 0.09 kg is replaced)"]
+    lines = [
+        f"Minimum-effort Puma 560 qz → qr in {PUMA_EFFORT_T} s (min ∫Σ(τj/τmax,j)² dt; "
+        f"Hermite–Simpson, N = {N}, dynamics: {src}, compiled; same limits as ocp-mintime)",
+        f"  payload as the book's payload({m}, {list(p)}): link 6's mass becomes {m} kg at {list(p)} m "
+        f"in frame {{6}} (its own 0.09 kg is replaced)",
+    ]
     sols = {}
     for label, robot in arms.items():
         problem = min_effort_problem(robot, N=N)
@@ -195,11 +235,13 @@ def min_effort(out_dir: Path, quick: bool = False) -> str:
         jerk = _min_jerk_effort(robot, problem)
         peak = np.abs(sol.tau).max(0)
         moved = np.abs(sol.q - sol.q[0]).max(0)
-        lines += [f"{label}: effort {sol.cost:.4f} s (the minimum-jerk path takes {jerk:.4f} s, "
-                  f"{jerk / sol.cost:.2f}×); peak |τ| = {np.round(peak, 1).tolist()} N·m; "
-                  f"largest excursion of joints 1, 4, 5, 6: {moved[[0, 3, 4, 5]].max():.3f} rad; "
-                  f"{sol.stats['iterations']} iterations",
-                  f"  check: {check.describe()}"]
+        lines += [
+            f"{label}: effort {sol.cost:.4f} s (the minimum-jerk path takes {jerk:.4f} s, "
+            f"{jerk / sol.cost:.2f}×); peak |τ| = {np.round(peak, 1).tolist()} N·m; "
+            f"largest excursion of joints 1, 4, 5, 6: {moved[[0, 3, 4, 5]].max():.3f} rad; "
+            f"{sol.stats['iterations']} iterations",
+            f"  check: {check.describe()}",
+        ]
     a, b = sols.values()
     lines.append(f"payload raises the minimum effort by {100 * (b.cost / a.cost - 1):.1f} %")
     plt = pyplot()
@@ -209,15 +251,19 @@ def min_effort(out_dir: Path, quick: bool = False) -> str:
         for j in (1, 2):
             axes[0].plot(sol.t, sol.q[:, j], f"C{j}", ls=ls, label=f"q{j + 1}, {label}")
             axes[1].plot(td, taud[:, j], f"C{j}", ls=ls, label=f"τ{j + 1}, {label}")
-    axes[0].set_ylabel("q (rad)"); axes[1].set_ylabel("τ (N·m)"); axes[1].set_xlabel("time (s)")
+    axes[0].set_ylabel("q (rad)")
+    axes[1].set_ylabel("τ (N·m)")
+    axes[1].set_xlabel("time (s)")
     axes[0].set_title(f"Puma 560 minimum effort qz → qr in {PUMA_EFFORT_T} s (joints 2 and 3)")
     for ax in axes:
-        ax.grid(True); ax.legend(fontsize=8)
+        ax.grid(True)
+        ax.legend(fontsize=8)
     save(fig, out_dir, "ocp_effort")
     return finish(out_dir, lines)
 
 
 # --------------------------------------------------------------------------- swing-up
+
 
 def _upper_arm(robot: Robot) -> Robot:
     return dataclasses.replace(robot, links=robot.links[:1], tool=IDENTITY, poses={})
@@ -242,17 +288,19 @@ def swing_up(out_dir: Path, quick: bool = False) -> str:
     problem = swing_up_problem(robot, N=N)
     sol, check = solve_checked(robot, problem, src)
     rq = check.q
-    lines = [f"Two-link arm swing-up, q = {[round(x, 4) for x in TWOLINK_HANG]} → "
-             f"{[round(x, 4) for x in TWOLINK_UP]} in {TWOLINK_T} s (multiple shooting, N = {N}, RK4 × "
-             f"{problem.substeps} per interval, dynamics: {src}, compiled)",
-             f"  hanging check: G(q_hang) = {np.round(G_hang, 12).tolist()} N·m, potential energy is a "
-             f"local minimum there: {stable}",
-             f"  limits |τ| ≤ {list(TWOLINK_TAU)} N·m (holding the arm horizontal takes 19.62 N·m at the "
-             f"shoulder), |q̇| ≤ {list(TWOLINK_QD_MAX)} rad/s; cost ∫τᵀτ dt + {TWOLINK_SMOOTHING:g}·∫|dτ/dt|²",
-             f"effort {sol.cost:.2f}, {sol.stats['iterations']} iterations, {sol.stats['solve_wall']:.1f} s; "
-             f"torque at its limit: "
-             + ", ".join(f"j{j + 1} {100 * x:.0f} %" for j, x in enumerate(_active(sol.tau, TWOLINK_TAU))),
-             f"  check: {check.describe()}"]
+    lines = [
+        f"Two-link arm swing-up, q = {[round(x, 4) for x in TWOLINK_HANG]} → "
+        f"{[round(x, 4) for x in TWOLINK_UP]} in {TWOLINK_T} s (multiple shooting, N = {N}, RK4 × "
+        f"{problem.substeps} per interval, dynamics: {src}, compiled)",
+        f"  hanging check: G(q_hang) = {np.round(G_hang, 12).tolist()} N·m, potential energy is a "
+        f"local minimum there: {stable}",
+        f"  limits |τ| ≤ {list(TWOLINK_TAU)} N·m (holding the arm horizontal takes 19.62 N·m at the "
+        f"shoulder), |q̇| ≤ {list(TWOLINK_QD_MAX)} rad/s; cost ∫τᵀτ dt + {TWOLINK_SMOOTHING:g}·∫|dτ/dt|²",
+        f"effort {sol.cost:.2f}, {sol.stats['iterations']} iterations, {sol.stats['solve_wall']:.1f} s; "
+        f"torque at its limit: "
+        + ", ".join(f"j{j + 1} {100 * x:.0f} %" for j, x in enumerate(_active(sol.tau, TWOLINK_TAU))),
+        f"  check: {check.describe()}",
+    ]
     plt = pyplot()
     fig = plt.figure(figsize=(10, 5))
     ax = fig.add_subplot(1, 2, 1)
@@ -262,8 +310,12 @@ def swing_up(out_dir: Path, quick: bool = False) -> str:
         shade = str(0.8 - 0.8 * k / sol.N)
         ax.plot([0, elbow[k, 0], tip[k, 0]], [0, elbow[k, 2], tip[k, 2]], color=shade, marker="o", ms=3)
     ax.plot(tip[:, 0], tip[:, 2], "C3", lw=1, label="tip")
-    ax.set_aspect("equal"); ax.grid(True); ax.set_xlabel("x (m)"); ax.set_ylabel("z (m), up")
-    ax.set_title("stroboscope, light → dark in time"); ax.legend(fontsize=8)
+    ax.set_aspect("equal")
+    ax.grid(True)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m), up")
+    ax.set_title("stroboscope, light → dark in time")
+    ax.legend(fontsize=8)
     a1 = fig.add_subplot(2, 2, 2)
     a2 = fig.add_subplot(2, 2, 4, sharex=a1)
     for j in range(2):
@@ -272,22 +324,36 @@ def swing_up(out_dir: Path, quick: bool = False) -> str:
         a2.step(sol.t[:-1], sol.tau[:, j], f"C{j}", where="post", label=f"τ{j + 1}")
         for s in (1, -1):
             a2.axhline(s * TWOLINK_TAU[j], color=f"C{j}", ls="--", lw=1)
-    a1.set_ylabel("q (rad); dotted: re-simulated"); a1.legend(fontsize=8); a1.grid(True)
-    a2.set_ylabel("τ (N·m), limits dashed"); a2.set_xlabel("time (s)"); a2.legend(fontsize=8); a2.grid(True)
+    a1.set_ylabel("q (rad); dotted: re-simulated")
+    a1.legend(fontsize=8)
+    a1.grid(True)
+    a2.set_ylabel("τ (N·m), limits dashed")
+    a2.set_xlabel("time (s)")
+    a2.legend(fontsize=8)
+    a2.grid(True)
     save(fig, out_dir, "ocp_swingup")
     return finish(out_dir, lines)
 
 
 # --------------------------------------------------------------------------- comparison
 
+
 def comparison_cases(quick: bool = False) -> list[tuple[str, Robot, ocp.Problem]]:
     """The problems solved by `compare`: (label, robot, problem)."""
     robot = puma()
     n_hs, n_ms = (8, 6) if quick else (40, 20)
-    return [(f"Puma min-time qz→qr, Hermite–Simpson N={n_hs} (τ = ID(q, q̇, q̈))", robot,
-             min_time_problem(robot, robot.qz, robot.qr, N=n_hs)),
-            (f"Puma min-time qz→qr, multiple shooting N={n_ms} (RK4 on fdyn)", robot,
-             min_time_problem(robot, robot.qz, robot.qr, N=n_ms, method="multiple-shooting"))]
+    return [
+        (
+            f"Puma min-time qz→qr, Hermite–Simpson N={n_hs} (τ = ID(q, q̇, q̈))",
+            robot,
+            min_time_problem(robot, robot.qz, robot.qr, N=n_hs),
+        ),
+        (
+            f"Puma min-time qz→qr, multiple shooting N={n_ms} (RK4 on fdyn)",
+            robot,
+            min_time_problem(robot, robot.qz, robot.qr, N=n_ms, method="multiple-shooting"),
+        ),
+    ]
 
 
 #: The variants `compare` measures by default: (source, compiled); the first is the
@@ -316,15 +382,15 @@ def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int 
     """
     cases = comparison_cases(quick) if cases is None else cases
     warm = ocp.Problem(np.zeros(2), np.full(2, 0.1), T=1.0, N=4)
-    ocp.solve(warm, ocp.dynamics(shipped.load("twolink"), "plain", compiled=False))   # load IPOPT first
+    ocp.solve(warm, ocp.dynamics(shipped.load("twolink"), "plain", compiled=False))  # load IPOPT first
     rows = []
     for label, robot, problem in cases:
         arms, builds = [], []
         for src, comp in variants:
             start = time.perf_counter()
-            arms.append(ocp.dynamics.__wrapped__(robot, src, compiled=comp))   # fresh: no shared caches
+            arms.append(ocp.dynamics.__wrapped__(robot, src, compiled=comp))  # fresh: no shared caches
             if problem.method == "multiple-shooting":
-                arms[-1].shooting_step(problem.substeps)   # a compiled interval is built (or read) here
+                arms[-1].shooting_step(problem.substeps)  # a compiled interval is built (or read) here
             builds.append(time.perf_counter() - start)
         _agree(robot, arms)
         runs = [[] for _ in arms]
@@ -337,14 +403,26 @@ def compare(variants=VARIANTS, cases=None, *, quick: bool = False, repeats: int 
             costs.append(sol.cost)
             st = sol.stats
             tau_i, fdyn_i = _instructions(robot, arm.source)
-            rows.append(dict(case=label, source=arm.label, build=build,
-                             tau_instructions=tau_i, fdyn_instructions=fdyn_i,
-                             iterations=st["iterations"], setup=st["setup_wall"], ipopt=st["ipopt_wall"],
-                             per_iteration=st["per_iteration"], total=st["solve_wall"], cpu=st["solve_cpu"],
-                             cost=sol.cost, T=sol.T,
-                             eval_per_iteration=st["eval_wall"] / max(st["iterations"], 1),
-                             outside_per_iteration=(st["ipopt_wall"] - st["eval_wall"]) / max(st["iterations"], 1),
-                             free_evaluations=st["solve_wall"] - st["eval_wall"]))
+            rows.append(
+                dict(
+                    case=label,
+                    source=arm.label,
+                    build=build,
+                    tau_instructions=tau_i,
+                    fdyn_instructions=fdyn_i,
+                    iterations=st["iterations"],
+                    setup=st["setup_wall"],
+                    ipopt=st["ipopt_wall"],
+                    per_iteration=st["per_iteration"],
+                    total=st["solve_wall"],
+                    cpu=st["solve_cpu"],
+                    cost=sol.cost,
+                    T=sol.T,
+                    eval_per_iteration=st["eval_wall"] / max(st["iterations"], 1),
+                    outside_per_iteration=(st["ipopt_wall"] - st["eval_wall"]) / max(st["iterations"], 1),
+                    free_evaluations=st["solve_wall"] - st["eval_wall"],
+                )
+            )
         if max(costs) - min(costs) > 1e-6 * max(1.0, abs(max(costs))):
             raise RuntimeError(f"{label}: the variants reach different optima {costs}; no fair comparison")
     return rows
@@ -361,13 +439,18 @@ def _agree(robot: Robot, arms: list, count: int = 20) -> None:
             raise ValueError(f"dynamics {arms[0].label!r} and {a.label!r} disagree on τ")
 
 
-COLUMNS = (("tau_instructions", "τ instructions (SX)", "{:d}"),
-           ("fdyn_instructions", "fdyn instructions (SX)", "{:d}"),
-           ("build", "load/build functions (s)", "{:.2f}"), ("iterations", "IPOPT iterations", "{:d}"),
-           ("setup", "NLP set-up (s)", "{:.2f}"), ("per_iteration", "time per iteration (ms)", "{:.1f}"),
-           ("eval_per_iteration", "of which function evaluations (ms)", "{:.1f}"),
-           ("outside_per_iteration", "of which the solver itself (ms)", "{:.1f}"),
-           ("total", "total solve, wall (s)", "{:.2f}"), ("cpu", "total solve, CPU (s)", "{:.2f}"))
+COLUMNS = (
+    ("tau_instructions", "τ instructions (SX)", "{:d}"),
+    ("fdyn_instructions", "fdyn instructions (SX)", "{:d}"),
+    ("build", "load/build functions (s)", "{:.2f}"),
+    ("iterations", "IPOPT iterations", "{:d}"),
+    ("setup", "NLP set-up (s)", "{:.2f}"),
+    ("per_iteration", "time per iteration (ms)", "{:.1f}"),
+    ("eval_per_iteration", "of which function evaluations (ms)", "{:.1f}"),
+    ("outside_per_iteration", "of which the solver itself (ms)", "{:.1f}"),
+    ("total", "total solve, wall (s)", "{:.2f}"),
+    ("cpu", "total solve, CPU (s)", "{:.2f}"),
+)
 
 
 def format_table(rows: list[dict]) -> str:
@@ -377,9 +460,12 @@ def format_table(rows: list[dict]) -> str:
     for case in dict.fromkeys(r["case"] for r in rows):
         sub = [r for r in rows if r["case"] == case]
         srcs = [r["source"] for r in sub]
-        out += [f"**{case}**", "",
-                f"| | {' | '.join(srcs)} | {' | '.join(f'{s} / {srcs[0]}' for s in srcs[1:])} |",
-                "|---|" + "---:|" * (2 * len(srcs) - 1)]
+        out += [
+            f"**{case}**",
+            "",
+            f"| | {' | '.join(srcs)} | {' | '.join(f'{s} / {srcs[0]}' for s in srcs[1:])} |",
+            "|---|" + "---:|" * (2 * len(srcs) - 1),
+        ]
         for key, name, fmt in COLUMNS:
             vals = [r[key] * (1e3 if key.endswith("per_iteration") else 1) for r in sub]
             ratios = [f"{v / vals[0]:.2f}" if vals[0] else "–" for v in vals[1:]]
@@ -394,16 +480,22 @@ def _bound(sub: list[dict]) -> str:
     ratios over the other variants that this leaves."""
     free = sub[0]["free_evaluations"]
     ratios = ", ".join(f"{r['total'] / free:.2f}× over {r['source']}" for r in sub[1:])
-    return (f"Bound: with free function evaluations, {sub[0]['source']} would still take {free:.2f} s "
-            f"(set-up and the solver's own work), at most {ratios}.")
+    return (
+        f"Bound: with free function evaluations, {sub[0]['source']} would still take {free:.2f} s "
+        f"(set-up and the solver's own work), at most {ratios}."
+    )
 
 
 def comparison(out_dir: Path, quick: bool = False) -> str:
     """symdyn's CasADi functions against the plain SX Newton–Euler on the same OCPs."""
     rows = compare(VARIANTS, quick=quick)
-    lines = ["Optimal-control solver comparison: symdyn's and a plain Newton–Euler's functions, each on "
-             "compiled code (CasADi's code generation, -O1) and on CasADi's SX virtual machine "
-             "(IPOPT, exact Hessian; one run, same machine)", "", format_table(rows)]
+    lines = [
+        "Optimal-control solver comparison: symdyn's and a plain Newton–Euler's functions, each on "
+        "compiled code (CasADi's code generation, -O1) and on CasADi's SX virtual machine "
+        "(IPOPT, exact Hessian; one run, same machine)",
+        "",
+        format_table(rows),
+    ]
     return finish(out_dir, lines)
 
 

@@ -14,12 +14,21 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 from ...derivation.cache import write_atomic
 from ...derivation.program import Program, format_ops
 
-__all__ = ["Bundle", "Infix", "header_lines", "read_header", "DIGEST_FIELD", "seal", "is_intact", "write_atomic", "identifier"]
+__all__ = [
+    "Bundle",
+    "Infix",
+    "header_lines",
+    "read_header",
+    "DIGEST_FIELD",
+    "seal",
+    "is_intact",
+    "write_atomic",
+    "identifier",
+]
 
 
 @dataclass(frozen=True)
@@ -44,8 +53,9 @@ class Bundle:
         for p in self.programs:
             if p.name == name:
                 return p
-        raise KeyError(f"model {self.name!r} has no function {name!r}: "
-                       f"it has {', '.join(p.name for p in self.programs)}")
+        raise KeyError(
+            f"model {self.name!r} has no function {name!r}: it has {', '.join(p.name for p in self.programs)}"
+        )
 
 
 def identifier(name: str) -> str:
@@ -135,13 +145,18 @@ def header_lines(bundle: Bundle, target: str) -> list[str]:
     if bundle.source:
         lines.append(f"model source: {_comment_safe(bundle.source)}")
     lines += [_comment_safe(note) for note in bundle.notes]
-    lines += [f"regenerate: symdyn generate {_comment_safe(bundle.command)} --target {target}" if bundle.command
-              else f"regenerate: from Python, symdyn.generate(robot, {target!r}, folder) (no shipped name or "
-                   "file rebuilds this model)",
-              f"operation counts after one joint CSE, {_friction(bundle)}, [derivation] (fun: sin/cos/sign "
-              "calls; a - b counts as one add, negation is free):"]
-    lines += [f"  {p.name:<{width}}  {format_ops(p.op_count())}" + (f"  [{p.origin}]" if p.origin else "")
-              for p in bundle.programs]
+    lines += [
+        f"regenerate: symdyn generate {_comment_safe(bundle.command)} --target {target}"
+        if bundle.command
+        else f"regenerate: from Python, symdyn.generate(robot, {target!r}, folder) (no shipped name or "
+        "file rebuilds this model)",
+        f"operation counts after one joint CSE, {_friction(bundle)}, [derivation] (fun: sin/cos/sign "
+        "calls; a - b counts as one add, negation is free):",
+    ]
+    lines += [
+        f"  {p.name:<{width}}  {format_ops(p.op_count())}" + (f"  [{p.origin}]" if p.origin else "")
+        for p in bundle.programs
+    ]
     return lines
 
 

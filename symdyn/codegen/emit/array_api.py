@@ -143,12 +143,15 @@ PRINTER = _Printer()
 
 
 def _check_names(p: Program) -> None:
-    taken = {s.name for _, syms in p.inputs for s in syms} | {a for a, _ in p.inputs} \
-        | {s.name for s, _ in p.assignments}
+    taken = (
+        {s.name for _, syms in p.inputs for s in syms} | {a for a, _ in p.inputs} | {s.name for s, _ in p.assignments}
+    )
     clash = sorted(n for n in taken if n.startswith("_") or n in _LOCALS)
     if clash:
-        raise ValueError(f"function {p.name!r}: names starting with '_' and {', '.join(sorted(_LOCALS))} are the "
-                         f"array-API emitter's, got {', '.join(clash)}")
+        raise ValueError(
+            f"function {p.name!r}: names starting with '_' and {', '.join(sorted(_LOCALS))} are the "
+            f"array-API emitter's, got {', '.join(clash)}"
+        )
 
 
 def function_source(p: Program) -> str:
@@ -167,8 +170,11 @@ def function_source(p: Program) -> str:
     for (_, mat), shape in zip(p.outputs, p.output_shapes()):
         entries = [lower(e, PRINTER)[0] for e in mat]
         outs.append(f"output(xp, like, {shape!r}, [\n" + "".join(f"        {e},\n" for e in entries) + "    ])")
-    lines.append(f"    return {outs[0]}" if len(outs) == 1 else "    return (\n" + "".join(
-        f"    {o.replace(chr(10), chr(10) + '    ')},\n" for o in outs) + "    )")
+    lines.append(
+        f"    return {outs[0]}"
+        if len(outs) == 1
+        else "    return (\n" + "".join(f"    {o.replace(chr(10), chr(10) + '    ')},\n" for o in outs) + "    )"
+    )
     return "\n".join(lines)
 
 
@@ -194,6 +200,7 @@ def module_source(bundle: Bundle) -> str:
 
 
 # --------------------------------------------------------------------------- loaders
+
 
 def _converting(fn, convert, inner, traced=lambda values: False):
     """`inner` called with fn's arguments bound by name (Python's own TypeErrors) and
@@ -240,8 +247,10 @@ def jax_functions(module, jit: bool = True) -> dict:
         return any(isinstance(v, jax.core.Tracer) for v in values)
 
     options = CPU_COMPILER_OPTIONS if jax.default_backend() == "cpu" else None
-    return {f: _converting(fn, convert, jax.jit(fn, compiler_options=options) if jit else fn, traced)
-            for f, fn in ((f, getattr(module, f)) for f in module.FUNCTIONS)}
+    return {
+        f: _converting(fn, convert, jax.jit(fn, compiler_options=options) if jit else fn, traced)
+        for f, fn in ((f, getattr(module, f)) for f in module.FUNCTIONS)
+    }
 
 
 def torch_functions(module) -> dict:

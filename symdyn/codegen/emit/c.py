@@ -31,11 +31,13 @@ from . import Bundle, Infix, header_lines, seal
 __all__ = ["c_source", "h_source", "Signature", "read_signatures"]
 
 #: The SIMD kernels' spelling: sin/cos/sign without branches, so that a loop over lanes vectorizes.
-VECTOR_ALGEBRA = Infix({"sin": "sinv_", "cos": "cosv_", "tan": "tan", "sqrt": "sqrt", "sign": "signv_",
-                        "abs": "fabs"}, power="pow")
+VECTOR_ALGEBRA = Infix(
+    {"sin": "sinv_", "cos": "cosv_", "tan": "tan", "sqrt": "sqrt", "sign": "signv_", "abs": "fabs"}, power="pow"
+)
 
-ALGEBRA = Infix({"sin": "sin_", "cos": "cos_", "tan": "tan", "sqrt": "sqrt", "sign": "sign_",
-                 "abs": "fabs"}, power="pow")
+ALGEBRA = Infix(
+    {"sin": "sin_", "cos": "cos_", "tan": "tan", "sqrt": "sqrt", "sign": "sign_", "abs": "fabs"}, power="pow"
+)
 
 _HELPERS = r"""/* sign(x): -1, 0 or +1, as sympy's sign (Coulomb friction is 0 at rest). */
 static inline double sign_(double x) { return (double)((x > 0.0) - (x < 0.0)); }
@@ -234,8 +236,9 @@ def read_signatures(header: str) -> list[Signature]:
     out = []
     for name, ins, outs in _LINE.findall(header):
         inputs = tuple((a.strip(), int(k)) for a, k in (x.split(":") for x in ins.split(",") if x.strip()))
-        outputs = tuple((o.strip(), tuple(int(d) for d in s.strip().split("x")))
-                        for o, s in (x.split(":") for x in outs.split(",")))
+        outputs = tuple(
+            (o.strip(), tuple(int(d) for d in s.strip().split("x"))) for o, s in (x.split(":") for x in outs.split(","))
+        )
         out.append(Signature(name, inputs, outputs))
     return out
 
@@ -271,16 +274,26 @@ def h_source(bundle: Bundle) -> str:
     """The header: provenance, signatures, and the prototypes."""
     guard = f"SYMDYN_{bundle.name.upper()}_H"
     sigs = [signature(p) for p in bundle.programs]
-    lines = header_lines(bundle, "c") + ["", "Matrices are row-major; *_batch loops over n states stored contiguously;",
-                                         "*_simd runs SYMDYN_W states per SIMD instruction on `threads` threads,",
-                                         "with the results of the scalar function, and returns nonzero when an",
-                                         "input is NaN or infinite (the outputs are then unspecified).",
-                                         "signatures:"] + [f"  {s.line()}" for s in sigs]
-    parts = [_comment(lines), f"#ifndef {guard}\n#define {guard}\n",
-             '#ifdef __cplusplus\nextern "C" {\n#endif\n',
-             f"#define {bundle.name.upper()}_NDOF {bundle.n}",
-             f'#define {bundle.name.upper()}_FINGERPRINT "{bundle.fingerprint}"',
-             f'#define {bundle.name.upper()}_SYMDYN_VERSION "{bundle.version}"\n']
+    lines = (
+        header_lines(bundle, "c")
+        + [
+            "",
+            "Matrices are row-major; *_batch loops over n states stored contiguously;",
+            "*_simd runs SYMDYN_W states per SIMD instruction on `threads` threads,",
+            "with the results of the scalar function, and returns nonzero when an",
+            "input is NaN or infinite (the outputs are then unspecified).",
+            "signatures:",
+        ]
+        + [f"  {s.line()}" for s in sigs]
+    )
+    parts = [
+        _comment(lines),
+        f"#ifndef {guard}\n#define {guard}\n",
+        '#ifdef __cplusplus\nextern "C" {\n#endif\n',
+        f"#define {bundle.name.upper()}_NDOF {bundle.n}",
+        f'#define {bundle.name.upper()}_FINGERPRINT "{bundle.fingerprint}"',
+        f'#define {bundle.name.upper()}_SYMDYN_VERSION "{bundle.version}"\n',
+    ]
     for p, sig in zip(bundle.programs, sigs):
         single, batch = _prototypes(bundle.name, sig)
         if p.doc:
@@ -347,7 +360,7 @@ def _vector_assignments(assignments) -> list[str]:
 def _balanced_sum(terms: list[str]) -> str:
     """The terms' sum as a balanced tree (depth log2 of their count, not a chain)."""
     while len(terms) > 1:
-        terms = [f"({a} + {b})" for a, b in zip(terms[::2], terms[1::2])] + terms[len(terms) - len(terms) % 2:]
+        terms = [f"({a} + {b})" for a, b in zip(terms[::2], terms[1::2])] + terms[len(terms) - len(terms) % 2 :]
     return terms[0]
 
 
@@ -362,9 +375,12 @@ def simd_source(model: str, p: Program) -> str:
     used = p.used_inputs()
     f = f"{model}_{p.name}"
     ins = [(a, syms) for a, syms in p.inputs]
-    body = [f"static int {f}_lanes(long i0, int m, "
-            + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs]) + ")",
-            "{"]
+    body = [
+        f"static int {f}_lanes(long i0, int m, "
+        + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs])
+        + ")",
+        "{",
+    ]
     body += [f"    double {a}_[{len(syms)}][SYMDYN_W];" for a, syms in ins]
     body += [f"    double {o}_[{_size(sh)}][SYMDYN_W];" for o, sh in sig.outputs]
     body += ["    double bad_[SYMDYN_W], nonfinite_[SYMDYN_W];", "    int k, j;"]
@@ -373,7 +389,9 @@ def simd_source(model: str, p: Program) -> str:
         body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            {a}_[j][k] = {a}[i * {len(syms)} + j];"]
     body += ["    }"]
     body += ["    SYMDYN_SIMD", "    for (k = 0; k < SYMDYN_W; ++k) {", "        double bad = 0.0;"]
-    body.append(f"        nonfinite_[k] = {_balanced_sum([f'{a}_[{j}][k] * 0.0' for a, syms in ins for j in range(len(syms))])};")
+    body.append(
+        f"        nonfinite_[k] = {_balanced_sum([f'{a}_[{j}][k] * 0.0' for a, syms in ins for j in range(len(syms))])};"
+    )
     for a, syms in ins:
         body += [f"        const double {s.name} = {a}_[{k}][k];" for k, s in enumerate(syms) if s in used]
     body += _vector_assignments(p.assignments)
@@ -382,24 +400,39 @@ def simd_source(model: str, p: Program) -> str:
     body += ["        bad_[k] = bad;", "    }"]
     body += ["    for (k = 0; k < SYMDYN_W; ++k)", "        if (nonfinite_[k] != 0.0)", "            return 1;"]
     args = [f"{a} + i * {len(syms)}" for a, syms in ins] + [f"{o} + i * {_size(sh)}" for o, sh in sig.outputs]
-    body += ["    for (k = 0; k < m; ++k) {", "        const long i = i0 + k;",
-             "        if (bad_[k] != 0.0) {",
-             f"            {f}({', '.join(args)});",
-             "            continue;", "        }"]
+    body += [
+        "    for (k = 0; k < m; ++k) {",
+        "        const long i = i0 + k;",
+        "        if (bad_[k] != 0.0) {",
+        f"            {f}({', '.join(args)});",
+        "            continue;",
+        "        }",
+    ]
     for o, sh in sig.outputs:
         body += [f"        for (j = 0; j < {_size(sh)}; ++j)", f"            {o}[i * {_size(sh)} + j] = {o}_[j][k];"]
     body += ["    }", "    return 0;", "}", ""]
     nin = len(ins)
     lanes_args = [f"in[{i}]" for i in range(nin)] + [f"out[{j}]" for j in range(len(sig.outputs))]
-    body += [f"static int {f}_range(const double *const *in, double *const *out, long i0, long i1)", "{",
-             "    long i;", "    int nonfinite = 0;", "    for (i = i0; i < i1 && !nonfinite; i += SYMDYN_W)",
-             f"        nonfinite = {f}_lanes(i, (int)(i1 - i < SYMDYN_W ? i1 - i : SYMDYN_W), "
-             f"{', '.join(lanes_args)});",
-             "    return nonfinite;", "}", ""]
-    body += [_simd_prototype(model, sig), "{",
-             f"    const double *const in[{nin}] = {{{', '.join(a for a, _ in ins)}}};",
-             f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
-             f"    return symdyn_parallel_({f}_range, in, out, n, threads);", "}", ""]
+    body += [
+        f"static int {f}_range(const double *const *in, double *const *out, long i0, long i1)",
+        "{",
+        "    long i;",
+        "    int nonfinite = 0;",
+        "    for (i = i0; i < i1 && !nonfinite; i += SYMDYN_W)",
+        f"        nonfinite = {f}_lanes(i, (int)(i1 - i < SYMDYN_W ? i1 - i : SYMDYN_W), {', '.join(lanes_args)});",
+        "    return nonfinite;",
+        "}",
+        "",
+    ]
+    body += [
+        _simd_prototype(model, sig),
+        "{",
+        f"    const double *const in[{nin}] = {{{', '.join(a for a, _ in ins)}}};",
+        f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
+        f"    return symdyn_parallel_({f}_range, in, out, n, threads);",
+        "}",
+        "",
+    ]
     return "\n".join(body)
 
 
@@ -417,14 +450,17 @@ def function_source(model: str, p: Program) -> str:
         body += [f"    {o}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
     doc = f"/* {p.doc} */\n" if p.doc else ""
     calls = [f"{a} + {k}*k" for a, k in sig.inputs] + [f"{o} + {_size(s)}*k" for o, s in sig.outputs]
-    loop = (f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n"
-            f"        {model}_{p.name}({', '.join(calls)});\n}}\n")
+    loop = f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n        {model}_{p.name}({', '.join(calls)});\n}}\n"
     return f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop + "\n" + simd_source(model, p)
 
 
 def c_source(bundle: Bundle) -> str:
     """The whole .c file of one model."""
-    parts = [_comment(header_lines(bundle, "c")), "#include <math.h>",
-             f'#include "{bundle.name}.h"\n', _HELPERS + _SIMD_HELPERS]
+    parts = [
+        _comment(header_lines(bundle, "c")),
+        "#include <math.h>",
+        f'#include "{bundle.name}.h"\n',
+        _HELPERS + _SIMD_HELPERS,
+    ]
     parts += [function_source(bundle.name, p) for p in bundle.programs]
     return seal("\n".join(parts))

@@ -65,7 +65,7 @@ class _SX:
         return _CALLS[name](x)
 
     def pow(self, x, exponent):
-        return x ** exponent
+        return x**exponent
 
 
 def function(p: Program) -> ca.Function:
@@ -119,11 +119,9 @@ def read(path: Path) -> tuple[dict, str]:
     """({"format", "symdyn-version", "model-fingerprint", "model"}, sealed content) of a file."""
     d = ca.FileDeserializer(str(path))
     try:
-        head = dict(zip(("format", "symdyn-version", "model-fingerprint", "model"),
-                        (d.unpack() for _ in range(4))))
+        head = dict(zip(("format", "symdyn-version", "model-fingerprint", "model"), (d.unpack() for _ in range(4))))
         if head.get("format") != FORMAT:
-            raise ValueError(f"{path} is not a symdyn CasADi file (format {head.get('format')!r}, "
-                             f"expected {FORMAT!r})")
+            raise ValueError(f"{path} is not a symdyn CasADi file (format {head.get('format')!r}, expected {FORMAT!r})")
         return head, d.unpack()
     except RuntimeError as exc:
         raise ValueError(f"{path} is not a symdyn CasADi file: {exc}") from exc
@@ -155,7 +153,7 @@ class Numeric:
         self._maps: dict[int, ca.Function] = {}
 
     def __getattr__(self, name):
-        if name == "function":   # not set yet (a copy being built)
+        if name == "function":  # not set yet (a copy being built)
             raise AttributeError(name)
         return getattr(self.function, name)
 
@@ -176,7 +174,6 @@ class Numeric:
             values = self.function.call([ca.DM(x) for x in arrays])
         outs = tuple(_rows(np.array(v), count, s).reshape(lead + s) for v, s in zip(values, self.shapes))
         return outs[0] if len(outs) == 1 else outs
-
 
     def _map(self, count: int) -> ca.Function:
         """CasADi's map of the function over `count` states, kept for the next call of that size
@@ -254,6 +251,5 @@ def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS, derivatives=None) 
         cg.generate(tmp + os.sep)
         source = Path(tmp, f"{name}.c").read_text()
     key = _digest(source, os.environ.get("CC", "cc"), " ".join(flags), FORMAT)[:16]
-    lib = _library(cache_dir() / "casadi" / f"{name}-{key}" / f"lib{name}.so", tuple(flags),
-                   {f"{name}.c": source}, [])
+    lib = _library(cache_dir() / "casadi" / f"{name}-{key}" / f"lib{name}.so", tuple(flags), {f"{name}.c": source}, [])
     return ca.external(name, str(lib))

@@ -64,7 +64,8 @@ def compiler() -> str:
         raise RuntimeError(
             f"no C compiler found (looked for {cc!r}, set by $CC or default 'cc'): the C target "
             "needs one. Install it (Debian/Ubuntu: apt install gcc; Fedora: dnf install gcc; "
-            "macOS: xcode-select --install) or use target='numpy' or 'casadi'.")
+            "macOS: xcode-select --install) or use target='numpy' or 'casadi'."
+        )
     return path
 
 
@@ -78,7 +79,7 @@ def _python_headers() -> tuple[str, str] | None:
 
 # --------------------------------------------------------------------------- the extension glue
 
-_GLUE_HEAD = r'''#define PY_SSIZE_T_CLEAN
+_GLUE_HEAD = r"""#define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>
@@ -344,7 +345,7 @@ static PyObject *py_set_threads(PyObject *self, PyObject *arg)
     default_threads = t < 1 ? 1 : t > MAXTHREADS ? MAXTHREADS : (int)t;
     Py_RETURN_NONE;
 }
-'''
+"""
 
 
 def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
@@ -369,21 +370,26 @@ def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
             f'static const spec_t {f}_spec = {{"{f}", {f}_names, {nin}, {nout}, {f}_in, {f}_out_nd, '
             f"{f}_out_dims, {f}_one, {f}_many}};\n"
             f"static PyObject *py_{f}(PyObject *self, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames) "
-            f"{{ return call(&{f}_spec, args, nargs, kwnames); }}\n")
-        doc = (f"{f}($module, {', '.join(a for a, _ in sig.inputs)}, *, out=None, threads=None)\\n--\\n\\n"
-               f"{sig.line()[len('function: '):]}; batched over leading axes (SIMD across states, "
-               f"on `threads` threads), into out= if given")
+            f"{{ return call(&{f}_spec, args, nargs, kwnames); }}\n"
+        )
+        doc = (
+            f"{f}($module, {', '.join(a for a, _ in sig.inputs)}, *, out=None, threads=None)\\n--\\n\\n"
+            f"{sig.line()[len('function: ') :]}; batched over leading axes (SIMD across states, "
+            f"on `threads` threads), into out= if given"
+        )
         methods.append(f'    {{"{f}", (PyCFunction)(void (*)(void))py_{f}, METH_FASTCALL | METH_KEYWORDS, "{doc}"}},')
     methods.append('    {"_set_threads", py_set_threads, METH_O, "default number of threads of a batched call"},')
     parts.append("static PyMethodDef methods[] = {\n" + "\n".join(methods) + "\n    {NULL, NULL, 0, NULL}\n};\n")
     parts.append(
         f'static struct PyModuleDef moduledef = {{PyModuleDef_HEAD_INIT, "{module}", NULL, -1, methods}};\n'
         f"PyMODINIT_FUNC PyInit_{module}(void)\n{{\n    import_array();\n"
-        f"    return PyModule_Create(&moduledef);\n}}\n")
+        f"    return PyModule_Create(&moduledef);\n}}\n"
+    )
     return "\n".join(parts)
 
 
 # --------------------------------------------------------------------------- building
+
 
 def _digest(*parts: str) -> str:
     h = hashlib.sha256()
@@ -402,7 +408,7 @@ def _jobs() -> int:
     """How many compilers to run at once: the cores this process may use."""
     try:
         return len(os.sched_getaffinity(0))
-    except AttributeError:   # macOS, Windows
+    except AttributeError:  # macOS, Windows
         return os.cpu_count() or 1
 
 
@@ -418,19 +424,27 @@ def split_source(text: str, parts: int) -> list[str]:
     preprocessed after the first public one)."""
     lines = text.splitlines(keepends=True)
     starts = [i for i, line in enumerate(lines) if _DEFINITION.match(line) and not line.startswith("static ")]
-    if parts < 2 or len(text) < SPLIT_BYTES or len(starts) < 2 \
-            or any(line.startswith("#") or line.startswith("static") and not _DEFINITION.match(line)
-                   for line in lines[starts[0]:]):
+    if (
+        parts < 2
+        or len(text) < SPLIT_BYTES
+        or len(starts) < 2
+        or any(
+            line.startswith("#") or line.startswith("static") and not _DEFINITION.match(line)
+            for line in lines[starts[0] :]
+        )
+    ):
         return [text]
     # a static function (a SIMD kernel's lanes and range) belongs with the next
     # public function after it (its entry point): a chunk starts at the first
     # static function before a public one, if any
-    starts = [next((j for j in range(prev + 1, i) if _DEFINITION.match(lines[j])), i)
-              for prev, i in zip([starts[0] - 1] + starts, starts)]
-    head = "".join(lines[:starts[0]])
+    starts = [
+        next((j for j in range(prev + 1, i) if _DEFINITION.match(lines[j])), i)
+        for prev, i in zip([starts[0] - 1] + starts, starts)
+    ]
+    head = "".join(lines[: starts[0]])
     chunks = ["".join(lines[a:b]) for a, b in zip(starts, starts[1:] + [len(lines)])]
     bins: list[list[str]] = [[] for _ in range(min(parts, len(chunks)))]
-    for chunk in sorted(chunks, key=len, reverse=True):   # longest first, into the lightest part
+    for chunk in sorted(chunks, key=len, reverse=True):  # longest first, into the lightest part
         min(bins, key=lambda b: sum(map(len, b))).append(chunk)
     return [head + "".join(b) for b in bins]
 
@@ -465,8 +479,9 @@ def _run_all(cmds: list[list[str]], names: list[Path]) -> None:
     while pending or running:
         while pending and len(running) < _jobs():
             cmd, name = pending.pop(0)
-            running.append((subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True),
-                            cmd, name))
+            running.append(
+                (subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True), cmd, name)
+            )
         proc, cmd, name = running.pop(0)
         _, err = proc.communicate()
         if proc.returncode != 0:
@@ -512,6 +527,7 @@ def _library(path: Path, flags: tuple, files: dict, includes: list[str]) -> Path
     rather than raise, so a missing or different hash means rebuild.  Processes
     that want the same library (test workers, a cluster's workers on one
     machine) build it once: the others wait on a lock file beside it."""
+
     def intact() -> bool:
         try:
             return _recorded(path).read_text() == _sha256(path)
@@ -534,14 +550,25 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
         raise ValueError(f"{h_path} lists no 'function:' signatures: not a symdyn header")
     headers = _python_headers() if options.binding != "ctypes" else None
     if options.binding == "extension" and headers is None:
-        raise RuntimeError(f"Python.h not found in {sysconfig.get_paths()['include']}: install the "
-                           "Python development headers (Debian/Ubuntu: apt install python3-dev) "
-                           "or use binding='ctypes'")
+        raise RuntimeError(
+            f"Python.h not found in {sysconfig.get_paths()['include']}: install the "
+            "Python development headers (Debian/Ubuntu: apt install python3-dev) "
+            "or use binding='ctypes'"
+        )
     kind = "extension" if headers else "ctypes"
     host = platform.node() if "-march=native" in options.flags else ""
-    glue = _glue_source(model, "_symdyn_MODULE", sigs) if kind == "extension" else ""   # a new binding rebuilds
-    key = _digest(c_text, h_text, glue, os.environ.get("CC", "cc"), " ".join(options.flags), kind, host,
-                  sys.version, np.__version__)[:16]
+    glue = _glue_source(model, "_symdyn_MODULE", sigs) if kind == "extension" else ""  # a new binding rebuilds
+    key = _digest(
+        c_text,
+        h_text,
+        glue,
+        os.environ.get("CC", "cc"),
+        " ".join(options.flags),
+        kind,
+        host,
+        sys.version,
+        np.__version__,
+    )[:16]
     folder = cache_dir() / "c" / f"{model}-{key}"
     files = {c_path.name: c_text, h_path.name: h_text}
     if kind == "ctypes":
@@ -549,8 +576,7 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
         return CLibrary(model, sigs, lib, _ctypes_functions(model, sigs, lib), kind)
     module = f"_symdyn_{model}_{key}"
     files[f"{module}.c"] = _glue_source(model, module, sigs)
-    lib = _library(folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}", options.flags, files,
-                   list(headers))
+    lib = _library(folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}", options.flags, files, list(headers))
     ext = _import_extension(module, lib)
     ext._set_threads(_jobs())
     return CLibrary(model, sigs, lib, {s.name: getattr(ext, s.name) for s in sigs}, kind)
@@ -569,6 +595,7 @@ def _import_extension(module: str, path: Path):
 
 # --------------------------------------------------------------------------- ctypes binding
 
+
 def check_out(function: str, out, shapes: list) -> list:
     """The caller's out= as a list of arrays, one per output, each exactly a
     C-contiguous writeable float64 ndarray of its shape; else a ValueError."""
@@ -576,10 +603,18 @@ def check_out(function: str, out, shapes: list) -> list:
     if len(shapes) > 1 and (not isinstance(out, tuple) or len(out) != len(shapes)):
         raise ValueError(f"{function}(): out must be a tuple of {len(shapes)} arrays, one per output")
     for a, shape in zip(arrays, shapes):
-        if not (isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.c_contiguous
-                and a.flags.writeable and a.flags.aligned and a.shape == shape):
-            raise ValueError(f"{function}(): out{'[k]' if len(shapes) > 1 else ''} must be a C-contiguous "
-                             f"writeable float64 array of shape {shape}")
+        if not (
+            isinstance(a, np.ndarray)
+            and a.dtype == np.float64
+            and a.flags.c_contiguous
+            and a.flags.writeable
+            and a.flags.aligned
+            and a.shape == shape
+        ):
+            raise ValueError(
+                f"{function}(): out{'[k]' if len(shapes) > 1 else ''} must be a C-contiguous "
+                f"writeable float64 array of shape {shape}"
+            )
     return list(arrays)
 
 
@@ -596,7 +631,7 @@ class _CtypesFunction:
         self._many = getattr(lib, f"{model}_{sig.name}_simd")
         self._many.argtypes, self._many.restype = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * nargs, ctypes.c_int
         self.__name__ = sig.name
-        self.__doc__ = f"{sig.line()[len('function: '):]}; batched over leading axes"
+        self.__doc__ = f"{sig.line()[len('function: ') :]}; batched over leading axes"
         self._lead_max = contract.MAXDIMS - max(len(shape) for _, shape in sig.outputs)
 
     def __call__(self, *args, out=None, threads=None, **kwargs):

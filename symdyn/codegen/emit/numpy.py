@@ -33,9 +33,20 @@ CHUNK = 16384
 FEW = 24
 
 #: NumPy ufunc of each primitive of `symdyn.derivation.program.lower`.
-UFUNCS = {"neg": "negative", "add": "add", "sub": "subtract", "mul": "multiply", "div": "divide",
-          "sin": "sin", "cos": "cos", "tan": "tan", "sqrt": "sqrt", "sign": "sign", "abs": "absolute",
-          "pow": "power"}
+UFUNCS = {
+    "neg": "negative",
+    "add": "add",
+    "sub": "subtract",
+    "mul": "multiply",
+    "div": "divide",
+    "sin": "sin",
+    "cos": "cos",
+    "tan": "tan",
+    "sqrt": "sqrt",
+    "sign": "sign",
+    "abs": "absolute",
+    "pow": "power",
+}
 
 _HELPERS = '''
 
@@ -114,8 +125,10 @@ class _Scalar(Infix):
     stays NaN, as np.sign: x - x is +0.0 for ±0 and NaN for NaN)."""
 
     def __init__(self) -> None:
-        super().__init__({"sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "sqrt": "math.sqrt",
-                          "abs": "abs"}, power="math.pow")
+        super().__init__(
+            {"sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "sqrt": "math.sqrt", "abs": "abs"},
+            power="math.pow",
+        )
 
     def call(self, name: str, x):
         if name != "sign":
@@ -190,8 +203,10 @@ def scalar_source(p: Program) -> str:
     """The one-state body `_<name>_one` on Python floats: arguments and result
     are lists (the outputs' entries one after the other, matrices row-major)."""
     args = [a for a, _ in p.inputs]
-    lines = [f"def _{p.name}_one({', '.join(args)}):",
-             f'    """{p.name} of one state on Python floats: lists in, the flat list of outputs out."""']
+    lines = [
+        f"def _{p.name}_one({', '.join(args)}):",
+        f'    """{p.name} of one state on Python floats: lists in, the flat list of outputs out."""',
+    ]
     lines += [f"    {names} = {a}" for a, names in _used_names(p)]
     lines += [f"    {s.name} = {lower(e, SCALAR)[0]}" for s, e in p.assignments]
     items = [lower(e, SCALAR)[0] for _, mat in p.outputs for e in mat]
@@ -294,12 +309,15 @@ _MODULE_NAMES = {"argument", "leading", "MAXDIMS", "FEW", "shape"}
 
 
 def _check_names(p: Program) -> None:
-    taken = {s.name for _, syms in p.inputs for s in syms} | {a for a, _ in p.inputs} \
-        | {s.name for s, _ in p.assignments}
+    taken = (
+        {s.name for _, syms in p.inputs for s in syms} | {a for a, _ in p.inputs} | {s.name for s, _ in p.assignments}
+    )
     clash = sorted(n for n in taken if n.startswith("_") or n in _MODULE_NAMES)
     if clash:
-        raise ValueError(f"function {p.name!r}: names starting with '_' and {', '.join(sorted(_MODULE_NAMES))} "
-                         f"are the emitter's, got {', '.join(clash)}")
+        raise ValueError(
+            f"function {p.name!r}: names starting with '_' and {', '.join(sorted(_MODULE_NAMES))} "
+            f"are the emitter's, got {', '.join(clash)}"
+        )
 
 
 def _dispatch_lines(p: Program) -> list[str]:
@@ -308,22 +326,26 @@ def _dispatch_lines(p: Program) -> list[str]:
     args = [a for a, _ in p.inputs]
     shapes = repr(p.output_shapes())
     lead = f"MAXDIMS - {max(map(len, p.output_shapes()))}"
-    fallback = ["        except (ArithmeticError, ValueError):",
-                "            pass  # a zero division or math domain error: inf/nan as NumPy gives below"]
+    fallback = [
+        "        except (ArithmeticError, ValueError):",
+        "            pass  # a zero division or math domain error: inf/nan as NumPy gives below",
+    ]
     checks = ", ".join(f"argument({a}, {len(s)}, {a!r}, {lead}, {p.name!r})" for a, s in p.inputs)
-    return [f"    {', '.join(args)} = {checks}",
-            f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
-            "        try:",
-            f"            return _outputs(_{p.name}_one({', '.join(f'{a}.tolist()' for a in args)}), (), {shapes})",
-            *fallback,
-            f"    shape = leading({p.name!r}, {tuple(args)!r}, {_tuple(args)})",
-            f"    {', '.join(args)} = " + ", ".join(f"_rows({a}, shape)" for a in args),
-            f"    _states = {args[0]}.shape[1]",
-            "    if _states <= FEW:",
-            "        try:",
-            f"            return _outputs([_{p.name}_one(*state) for state in zip("
-            f"{', '.join(f'{a}.T.tolist()' for a in args)})], shape, {shapes})",
-            *fallback]
+    return [
+        f"    {', '.join(args)} = {checks}",
+        f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
+        "        try:",
+        f"            return _outputs(_{p.name}_one({', '.join(f'{a}.tolist()' for a in args)}), (), {shapes})",
+        *fallback,
+        f"    shape = leading({p.name!r}, {tuple(args)!r}, {_tuple(args)})",
+        f"    {', '.join(args)} = " + ", ".join(f"_rows({a}, shape)" for a in args),
+        f"    _states = {args[0]}.shape[1]",
+        "    if _states <= FEW:",
+        "        try:",
+        f"            return _outputs([_{p.name}_one(*state) for state in zip("
+        f"{', '.join(f'{a}.T.tolist()' for a in args)})], shape, {shapes})",
+        *fallback,
+    ]
 
 
 def _tuple(names: list[str]) -> str:
@@ -342,20 +364,26 @@ def _loop_lines(p: Program, plan: _Plan, chunk: int) -> list[str]:
     lines += [f"    {name} = np.empty(({size}, _states))" for name, _, size in outs]
     if plan.rows:
         lines.append(f"    _work = np.empty(({plan.rows}, _step))")
-    lines += ["    for _lo in range(0, _states, _step):",
-              "        _hi = min(_lo + _step, _states)"]
+    lines += ["    for _lo in range(0, _states, _step):", "        _hi = min(_lo + _step, _states)"]
     lines += [f"        {targets} = {a}[:, _lo:_hi]" for a, targets in _used_names(p)]
     if plan.rows:
-        lines += ["        _block = _work[:, :_hi - _lo]",
-                  f"        {', '.join(f'_w{k}' for k in range(plan.rows))}{',' if plan.rows == 1 else ''} = _block"]
+        lines += [
+            "        _block = _work[:, :_hi - _lo]",
+            f"        {', '.join(f'_w{k}' for k in range(plan.rows))}{',' if plan.rows == 1 else ''} = _block",
+        ]
     for a, cols, first in plan.blocks:
+
         def target(fn, col):
             i = plan.trig.get((fn, syms[a][col].name))
             return plan.text(i) if i in used else "_"
-        sines, cosines = (", ".join(target(fn, col) for col in cols) + ("," if len(cols) == 1 else "")
-                          for fn in ("sin", "cos"))
-        lines.append(f"        ({sines}), ({cosines}) = "
-                     f"_sincos({a}[{_columns(cols)}, _lo:_hi], _block[{first}:{first + 6 * len(cols)}])")
+
+        sines, cosines = (
+            ", ".join(target(fn, col) for col in cols) + ("," if len(cols) == 1 else "") for fn in ("sin", "cos")
+        )
+        lines.append(
+            f"        ({sines}), ({cosines}) = "
+            f"_sincos({a}[{_columns(cols)}, _lo:_hi], _block[{first}:{first + 6 * len(cols)}])"
+        )
     lines += [f"        _o{j} = {name}[:, _lo:_hi]" for j, (name, _, _) in enumerate(outs)]
     trig = set(plan.trig.values())
     for i, (fn, args) in enumerate(plan.ops):

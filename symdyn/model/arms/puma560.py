@@ -23,16 +23,30 @@ def build(symbolic: bool = False, modified: bool = False) -> Robot:
     """The Puma 560 (numeric parameters; symbolic inertial parameters come from
     `symdyn.derivation.regressor`, not from this model)."""
     if symbolic:
-        raise ValueError("the Puma 560 ships with numeric parameters only; for symbolic "
-                         "inertial parameters use symdyn.derivation.regressor on this model")
+        raise ValueError(
+            "the Puma 560 ships with numeric parameters only; for symbolic "
+            "inertial parameters use symdyn.derivation.regressor on this model"
+        )
     data = read("puma560_params")
     links = tuple(
-        Link(d=p["d"], a=p["a"], alpha=p["alpha"], offset=p["offset"], qlim=p["qlim"],
-             m=p["m"], r=p["r"], I=p["I"], Jm=p["Jm"], B=p["B"],
-             Tc=(p["Tc_plus"], p["Tc_minus"]), G=p["G"], physical=j not in UNPHYSICAL)
-        for j, p in enumerate(data["links"], start=1))
+        Link(
+            d=p["d"],
+            a=p["a"],
+            alpha=p["alpha"],
+            offset=p["offset"],
+            qlim=p["qlim"],
+            m=p["m"],
+            r=p["r"],
+            I=p["I"],
+            Jm=p["Jm"],
+            B=p["B"],
+            Tc=(p["Tc_plus"], p["Tc_minus"]),
+            G=p["G"],
+            physical=j not in UNPHYSICAL,
+        )
+        for j, p in enumerate(data["links"], start=1)
+    )
     cfg = data["configurations"]
     poses = {"qz": cfg["qz"], "qr": cfg["qr"], "qs": cfg["qs"], "qn": cfg["qn_matlab"]}
-    robot = Robot("puma560", links, gravity=tuple(data["gravity_matlab"]), poses=poses,
-                  source=data["source"])
+    robot = Robot("puma560", links, gravity=tuple(data["gravity_matlab"]), poses=poses, source=data["source"])
     return robot.to_modified() if modified else robot

@@ -22,11 +22,35 @@ def build(symbolic: bool = False) -> Robot:
     if symbolic:
         a1, a2, c1, c2, m1, m2, g = sp.symbols("a1 a2 c1 c2 m1 m2 g", real=True)
         links = (Link(a=a1, m=m1, r=(c1, 0, 0)), Link(a=a2, m=m2, r=(c2, 0, 0)))
-        return Robot("twolink_sym", links, gravity=(0, 0, g), base=rotx(sp.pi / 2),
-                     poses=data["configurations"], source=data["source"])
+        return Robot(
+            "twolink_sym",
+            links,
+            gravity=(0, 0, g),
+            base=rotx(sp.pi / 2),
+            poses=data["configurations"],
+            source=data["source"],
+        )
     links = tuple(
-        Link(d=p["d"], a=p["a"], alpha=p["alpha"], offset=p["offset"], m=p["m"], r=p["r"], I=p["I"],
-             Jm=p["Jm"], B=p["B"], Tc=(p["Tc_plus"], p["Tc_minus"]), G=p["G"])
-        for p in data["links"])
-    return Robot("twolink", links, gravity=(0, 0, data["g"]), base=rotx(sp.pi / 2),
-                 poses=data["configurations"], source=data["source"])
+        Link(
+            d=p["d"],
+            a=p["a"],
+            alpha=p["alpha"],
+            offset=p["offset"],
+            m=p["m"],
+            r=p["r"],
+            I=p["I"],
+            Jm=p["Jm"],
+            B=p["B"],
+            Tc=(p["Tc_plus"], p["Tc_minus"]),
+            G=p["G"],
+        )
+        for p in data["links"]
+    )
+    return Robot(
+        "twolink",
+        links,
+        gravity=(0, 0, data["g"]),
+        base=rotx(sp.pi / 2),
+        poses=data["configurations"],
+        source=data["source"],
+    )

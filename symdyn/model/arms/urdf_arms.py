@@ -34,5 +34,8 @@ def build(name: str, symbolic: bool = False) -> Robot:
     file, tip, ready = ARMS[name]
     path = resources.files(__package__).joinpath("data", file)
     robot = from_urdf(path.read_text(), tip_link=tip, name=name)
-    return dataclasses.replace(robot, poses={"qz": (0.0,) * robot.n, "qr": ready},
-                               source=f"URDF symdyn/model/arms/data/{file} (its header names the source)")
+    return dataclasses.replace(
+        robot,
+        poses={"qz": (0.0,) * robot.n, "qr": ready},
+        source=f"URDF symdyn/model/arms/data/{file} (its header names the source)",
+    )

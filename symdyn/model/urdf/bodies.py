@@ -35,22 +35,22 @@ class Body:
         """The same body seen from the frame in which T places its frame."""
         R = [row[:3] for row in T[:3]]
         r = tuple(T[i][3] + sum(R[i][k] * self.r[k] for k in range(3)) for i in range(3))
-        I = tuple(tuple(sum(R[i][k] * self.I[k][l] * R[j][l] for k in range(3) for l in range(3))
-                        for j in range(3)) for i in range(3))
+        I = tuple(
+            tuple(sum(R[i][k] * self.I[k][l] * R[j][l] for k in range(3) for l in range(3)) for j in range(3))
+            for i in range(3)
+        )
         return Body(self.m, r, I)
 
     def __add__(self, other: "Body") -> "Body":
         m = self.m + other.m
-        if m == 0:   # no COM; an inertia without mass is the same about any point (Pinocchio keeps it too)
-            return Body(m, (sp.S.Zero,) * 3, tuple(tuple(a + b for a, b in zip(p, q))
-                                                   for p, q in zip(self.I, other.I)))
+        if m == 0:  # no COM; an inertia without mass is the same about any point (Pinocchio keeps it too)
+            return Body(m, (sp.S.Zero,) * 3, tuple(tuple(a + b for a, b in zip(p, q)) for p, q in zip(self.I, other.I)))
         c = tuple((self.m * a + other.m * b) / m for a, b in zip(self.r, other.r))
 
         def about_c(body):
             d = [body.r[i] - c[i] for i in range(3)]
             dd = sum(x * x for x in d)
-            return [[body.I[i][j] + body.m * ((dd if i == j else 0) - d[i] * d[j]) for j in range(3)]
-                    for i in range(3)]
+            return [[body.I[i][j] + body.m * ((dd if i == j else 0) - d[i] * d[j]) for j in range(3)] for i in range(3)]
 
         a, b = about_c(self), about_c(other)
         return Body(m, c, tuple(tuple(a[i][j] + b[i][j] for j in range(3)) for i in range(3)))
@@ -63,8 +63,10 @@ def _inertia_defect(I: tuple) -> str | None:
     if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
         return f"is not positive semidefinite: principal moments {eig.tolist()}"
     if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
-        return (f"is physically impossible: its principal moments {eig.tolist()} "
-                "violate the triangle inequality (I1 + I2 >= I3)")
+        return (
+            f"is physically impossible: its principal moments {eig.tolist()} "
+            "violate the triangle inequality (I1 + I2 >= I3)"
+        )
     return None
 
 

@@ -41,7 +41,7 @@ def _compose(A: tuple, B: tuple) -> tuple:
 def _number(x: sp.Expr):
     """A value for the Link: an int, or a float when its decimal is the exact value
     (as a derivation reads it back), else the exact Rational."""
-    x = sp.sympify(x)   # the identity's entries are plain ints
+    x = sp.sympify(x)  # the identity's entries are plain ints
     if x.is_Integer:
         return int(x)
     return float(x) if exact(float(x)) == x else x
@@ -55,11 +55,11 @@ def _motion(kind: str, axis: tuple, value: float) -> tuple:
         p = [exact(a) * exact(value) for a in axis]
         return tuple(tuple(int(i == j) for j in range(3)) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
     unit = [k for k in range(3) if axis[k] != 0]
-    if len(unit) == 1:   # ±x, ±y, ±z: an exact rotation by the signed angle
+    if len(unit) == 1:  # ±x, ±y, ±z: an exact rotation by the signed angle
         rpy = [0, 0, 0]
         rpy[unit[0]] = float(value) * float(np.sign(axis[unit[0]]))
         R = rpy_rotation(rpy)
-    else:   # Rodrigues, then the nearest exactly orthogonal rational rotation
+    else:  # Rodrigues, then the nearest exactly orthogonal rational rotation
         u = np.array([float(a) for a in axis])
         K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
         R = rational_rotation(np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K)
@@ -106,8 +106,14 @@ class _Reader:
         if snapped is None:
             return axis
         line = joint.find("axis").line if joint.find("axis") is not None else joint.line
-        self.snaps.append(Snap(f"{self.file}:{line} joint {joint.name!r} axis",
-                               " ".join(map(repr, axis)), snapped.label, snapped.change))
+        self.snaps.append(
+            Snap(
+                f"{self.file}:{line} joint {joint.name!r} axis",
+                " ".join(map(repr, axis)),
+                snapped.label,
+                snapped.change,
+            )
+        )
         return snapped.value
 
     # ---- bodies
@@ -115,17 +121,20 @@ class _Reader:
         if moves:
             return strict
 
-        def warn(message: str) -> None:   # issued by from_urdf, to its caller
-            self.warnings.append(message + "; accepted: it rests on the fixed base and cannot affect "
-                                 "the dynamics (it is left out)")
+        def warn(message: str) -> None:  # issued by from_urdf, to its caller
+            self.warnings.append(
+                message + "; accepted: it rests on the fixed base and cannot affect the dynamics (it is left out)"
+            )
+
         return warn
 
     def subtree(self, name: str, skip: set, into: str, moves: bool) -> Body:
         """Link `name` with everything hanging off it except the links in `skip` (the chain,
         excluded subtrees), in its frame; locked joints are recorded as merged into `into`."""
         link = self.tree.links[name]
-        body = read_body(self.source, link, lambda e: self.origin(e, f"link {name!r} inertial origin"),
-                         self._complain(moves))
+        body = read_body(
+            self.source, link, lambda e: self.origin(e, f"link {name!r} inertial origin"), self._complain(moves)
+        )
         for child in self.tree.children.get(name, []):
             if child in skip:
                 continue
@@ -153,11 +162,19 @@ class _Reader:
         damping = numbers(self.source, dynamics, "damping", 1, (0,))[0] if dynamics is not None else 0
         friction = numbers(self.source, dynamics, "friction", 1, (0,))[0] if dynamics is not None else 0
         try:
-            return Link(joint=kind, origin=tuple(tuple(_number(x) for x in row) for row in origin),
-                        axis=self.axis(joint), qlim=qlim, m=_number(body.m), r=tuple(_number(x) for x in body.r),
-                        I=tuple(tuple(_number(x) for x in row) for row in body.I),
-                        B=damping, Tc=(friction, -friction), effort_limit=effort or None,
-                        velocity_limit=velocity or None)
+            return Link(
+                joint=kind,
+                origin=tuple(tuple(_number(x) for x in row) for row in origin),
+                axis=self.axis(joint),
+                qlim=qlim,
+                m=_number(body.m),
+                r=tuple(_number(x) for x in body.r),
+                I=tuple(tuple(_number(x) for x in row) for row in body.I),
+                B=damping,
+                Tc=(friction, -friction),
+                effort_limit=effort or None,
+                velocity_limit=velocity or None,
+            )
         except ValueError as exc:
             raise URDFError(f"{where(self.source, joint)}: {exc}") from None
 
@@ -169,15 +186,25 @@ def _excluded(tree: Tree, exclude, on_chain: set, below_base: set) -> tuple:
         if name not in tree.links:
             raise URDFError(f"{tree.source}: excluded link {name!r} is not a link of robot {tree.robot.name!r}")
         if name in on_chain:
-            raise URDFError(f"{tree.source}: excluded link {name!r} is on the chain from base to tip; "
-                            "choose another base_link or tip_link instead")
+            raise URDFError(
+                f"{tree.source}: excluded link {name!r} is on the chain from base to tip; "
+                "choose another base_link or tip_link instead"
+            )
         if name not in below_base:
             raise URDFError(f"{tree.source}: excluded link {name!r} is not below base_link: it is out already")
     return tuple(exclude)
 
 
-def from_urdf(path_or_xml, *, base_link: str | None = None, tip_link: str | None = None,
-              locked: dict | None = None, exclude=(), snap: bool = True, name: str | None = None) -> Robot:
+def from_urdf(
+    path_or_xml,
+    *,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+    locked: dict | None = None,
+    exclude=(),
+    snap: bool = True,
+    name: str | None = None,
+) -> Robot:
     """A `Robot` (general convention) of the chain from `base_link` (default: the
     root) to `tip_link` (default: the only leaf) of a URDF file or its text.
 
@@ -203,26 +230,30 @@ def from_urdf(path_or_xml, *, base_link: str | None = None, tip_link: str | None
     for joint in path:
         kind = joint.attrib.get("type")
         if kind in MULTI or (kind not in MOVING and kind != "fixed"):
-            raise URDFError(f"{where(text.source, joint)}: joint type {kind!r} in the chain is not supported "
-                            "(revolute, continuous, prismatic and fixed are)")
+            raise URDFError(
+                f"{where(text.source, joint)}: joint type {kind!r} in the chain is not supported "
+                "(revolute, continuous, prismatic and fixed are)"
+            )
         if joint.find("mimic") is not None and joint.name in moving:
-            raise URDFError(f"{where(text.source, joint)}: mimic joints in the chain are not supported: "
-                            "end the chain before it (tip_link=…)")
+            raise URDFError(
+                f"{where(text.source, joint)}: mimic joints in the chain are not supported: "
+                "end the chain before it (tip_link=…)"
+            )
 
-    reader.subtree(base, skip, base, False)   # what rests on the base: checked, recorded, left out
+    reader.subtree(base, skip, base, False)  # what rests on the base: checked, recorded, left out
     pending, carrier, body, out = IDENTITY, None, Body.empty(), []
-    for joint in path:   # pending: from the moving body's frame (or the base) to the joint reached
+    for joint in path:  # pending: from the moving body's frame (or the base) to the joint reached
         child = joint.find("child").attrib["link"]
         into = carrier[0].find("child").attrib["link"] if carrier else base
         T = _compose(pending, reader.origin(joint, f"joint {joint.name!r} origin"))
-        if joint.name not in moving:   # fixed, or a chain joint locked at a value
+        if joint.name not in moving:  # fixed, or a chain joint locked at a value
             if joint.attrib.get("type") in MOVING:
                 value, why = reader.values[joint.name]
                 reader.locked.append(Locked(joint.name, value, into, why, carrier is not None, on_chain=True))
                 T = _compose(T, _motion(MOVING[joint.attrib["type"]], reader.axis(joint), value))
             sub = reader.subtree(child, skip, into, carrier is not None)
             pending = T
-            body = body + sub.moved(T) if carrier else body   # ahead of the first joint: part of the base
+            body = body + sub.moved(T) if carrier else body  # ahead of the first joint: part of the base
             continue
         if carrier:
             out.append(reader.link(*carrier, body))
@@ -232,11 +263,26 @@ def from_urdf(path_or_xml, *, base_link: str | None = None, tip_link: str | None
         raise URDFError(f"{text.source}: the chain from {base!r} to {tip!r} has no moving joint")
     out.append(reader.link(carrier[0], carrier[1], body))
     tool = tuple(tuple(_number(x) for x in row) for row in pending)
-    robot = Robot(name or tree.robot.name or "urdf", tuple(out), convention="general", tool=tool,
-                  source=f"URDF {text.file} (sha256 {text.sha256[:16]}…)")
-    record = UrdfRecord(text.file, text.sha256, base, tip, tuple(j.name for j in path if j.name in moving),
-                        tuple(reader.locked), excluded, tuple(reader.snaps), snap, tuple(reader.warnings),
-                        robot.fingerprint())
+    robot = Robot(
+        name or tree.robot.name or "urdf",
+        tuple(out),
+        convention="general",
+        tool=tool,
+        source=f"URDF {text.file} (sha256 {text.sha256[:16]}…)",
+    )
+    record = UrdfRecord(
+        text.file,
+        text.sha256,
+        base,
+        tip,
+        tuple(j.name for j in path if j.name in moving),
+        tuple(reader.locked),
+        excluded,
+        tuple(reader.snaps),
+        snap,
+        tuple(reader.warnings),
+        robot.fingerprint(),
+    )
     for message in record.warnings:
         warnings.warn(message, URDFWarning, stacklevel=2)
     return dataclasses.replace(robot, urdf=record)

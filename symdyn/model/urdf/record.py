@@ -75,17 +75,24 @@ class UrdfRecord:
 
     def lines(self) -> list[str]:
         """A summary a person reads: the chain, each lock, exclusion and snap."""
-        out = [f"URDF {self.file} (sha256 {self.sha256}): chain {self.base_link} -> {self.tip_link}, "
-               f"joints {', '.join(self.joints)}"]
+        out = [
+            f"URDF {self.file} (sha256 {self.sha256}): chain {self.base_link} -> {self.tip_link}, "
+            f"joints {', '.join(self.joints)}"
+        ]
         moving = [lock for lock in self.locked if lock.moves]
         resting = [lock for lock in self.locked if not lock.moves]
         if moving:
             out.append(f"locked ({len(moving)}), merged into the moving link named:")
-            out += [f"  {lock.joint} = {lock.value!r} -> {lock.into} ({lock.why}"
-                    f"{', a chain joint' if lock.on_chain else ''})" for lock in moving]
+            out += [
+                f"  {lock.joint} = {lock.value!r} -> {lock.into} ({lock.why}"
+                f"{', a chain joint' if lock.on_chain else ''})"
+                for lock in moving
+            ]
         if resting:
-            out.append(f"locked on the fixed base, no effect on the dynamics ({len(resting)}): "
-                       + ", ".join(f"{lock.joint} = {lock.value!r}" for lock in resting))
+            out.append(
+                f"locked on the fixed base, no effect on the dynamics ({len(resting)}): "
+                + ", ".join(f"{lock.joint} = {lock.value!r}" for lock in resting)
+            )
         if self.excluded:
             out.append(f"excluded with their subtrees: {', '.join(self.excluded)}")
         if not self.snap:

@@ -28,9 +28,9 @@ class Tree:
     source: str
     robot: Element
     links: dict
-    joints: dict      # child link → joint
-    named: dict       # joint name → joint
-    children: dict    # parent link → child links
+    joints: dict  # child link → joint
+    named: dict  # joint name → joint
+    children: dict  # parent link → child links
     root: str
 
     @staticmethod
@@ -47,8 +47,9 @@ class Tree:
                 if ref is None or "link" not in ref.attrib:
                     raise URDFError(f"{where(source, joint)} has no <{role} link=…>")
                 if ref.attrib["link"] not in links:
-                    raise URDFError(f"{where(source, ref)} of joint {joint.name!r} names unknown "
-                                    f"link {ref.attrib['link']!r}")
+                    raise URDFError(
+                        f"{where(source, ref)} of joint {joint.name!r} names unknown link {ref.attrib['link']!r}"
+                    )
             parent, child = joint.find("parent").attrib["link"], joint.find("child").attrib["link"]
             if child in joints:
                 raise URDFError(f"{where(source, joint)}: link {child!r} has two parent joints")
@@ -57,16 +58,19 @@ class Tree:
             children.setdefault(parent, []).append(child)
         roots = [name for name in links if name not in joints]
         if not roots:
-            raise URDFError(f"{source}: every link has a parent joint, so no link is the root: "
-                            "the joints form a cycle")
+            raise URDFError(f"{source}: every link has a parent joint, so no link is the root: the joints form a cycle")
         if len(roots) > 1:
-            raise URDFError(f"{source}: the links form {len(roots)} separate trees with roots {roots}; "
-                            "a URDF is one tree: connect them with joints")
+            raise URDFError(
+                f"{source}: the links form {len(roots)} separate trees with roots {roots}; "
+                "a URDF is one tree: connect them with joints"
+            )
         tree = Tree(source, robot, links, joints, named, children, roots[0])
         loop = [name for name in links if name not in tree.below(roots[0])]
         if loop:
-            raise URDFError(f"{where(source, joints[loop[0]])}: links {sorted(loop)} form a cycle "
-                            f"that does not reach the root {roots[0]!r}")
+            raise URDFError(
+                f"{where(source, joints[loop[0]])}: links {sorted(loop)} form a cycle "
+                f"that does not reach the root {roots[0]!r}"
+            )
         return tree
 
     def parent(self, link: str) -> str:
@@ -85,14 +89,18 @@ class Tree:
         """base, tip and the joints from base to tip in order."""
         for role, name in (("base_link", base), ("tip_link", tip)):
             if name is not None and name not in self.links:
-                raise URDFError(f"{self.source}: {role} {name!r} is not a link of robot "
-                                f"{self.robot.name!r}; its links are {sorted(self.links)}")
+                raise URDFError(
+                    f"{self.source}: {role} {name!r} is not a link of robot "
+                    f"{self.robot.name!r}; its links are {sorted(self.links)}"
+                )
         base = base or self.root
         if tip is None:
             leaves = sorted(n for n in self.below(base) if not self.children.get(n))
             if len(leaves) != 1:
-                raise URDFError(f"{self.source}: the tree below {base!r} has several leaves {leaves}; "
-                                "choose the chain's end with tip_link=…")
+                raise URDFError(
+                    f"{self.source}: the tree below {base!r} has several leaves {leaves}; "
+                    "choose the chain's end with tip_link=…"
+                )
             tip = leaves[0]
         path, name = [], tip
         while name != base:
@@ -119,19 +127,27 @@ class Tree:
         for name, value in given.items():
             joint = self.named.get(name)
             if joint is None:
-                raise URDFError(f"{self.source}: locked joint {name!r} is not a joint of robot "
-                                f"{self.robot.name!r}; its moving joints are "
-                                f"{sorted(n for n, k in kinds.items() if k in MOVING)}")
+                raise URDFError(
+                    f"{self.source}: locked joint {name!r} is not a joint of robot "
+                    f"{self.robot.name!r}; its moving joints are "
+                    f"{sorted(n for n, k in kinds.items() if k in MOVING)}"
+                )
             here = where(self.source, joint)
             if name not in in_scope:
-                raise URDFError(f"{here}: locked, but it is not below the base link or it is excluded: "
-                                "its value cannot affect this robot")
+                raise URDFError(
+                    f"{here}: locked, but it is not below the base link or it is excluded: "
+                    "its value cannot affect this robot"
+                )
             if kinds[name] not in MOVING:
-                raise URDFError(f"{here}: a {kinds[name]} joint cannot be locked at a value "
-                                "(revolute, continuous and prismatic joints can)")
+                raise URDFError(
+                    f"{here}: a {kinds[name]} joint cannot be locked at a value "
+                    "(revolute, continuous and prismatic joints can)"
+                )
             if joint.find("mimic") is not None:
-                raise URDFError(f"{here}: a mimic joint follows its leader "
-                                f"{joint.find('mimic').attrib.get('joint')!r}; lock the leader instead")
+                raise URDFError(
+                    f"{here}: a mimic joint follows its leader "
+                    f"{joint.find('mimic').attrib.get('joint')!r}; lock the leader instead"
+                )
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise URDFError(f"{here}: locked value {value!r} must be a finite number (rad or m)")
             lim = self.limits(joint)
@@ -159,9 +175,11 @@ class Tree:
                     raise URDFError(f"{here}: mimic joints follow each other in a circle {list(seen)}")
                 lead = value_of(leader, seen + (name,))
                 if lead is None:
-                    raise URDFError(f"{here}: mimics {leader!r}, which moves with the chain, so its body "
-                                    f"would move too: lock {leader!r} (locked={{{leader!r}: value}}) or "
-                                    f"exclude link {joint.find('child').attrib['link']!r}")
+                    raise URDFError(
+                        f"{here}: mimics {leader!r}, which moves with the chain, so its body "
+                        f"would move too: lock {leader!r} (locked={{{leader!r}: value}}) or "
+                        f"exclude link {joint.find('child').attrib['link']!r}"
+                    )
                 mult = numbers(self.source, mimic, "multiplier", 1, (1,))[0]
                 offset = numbers(self.source, mimic, "offset", 1, (0,))[0]
                 out[name] = (mult * lead + offset, f"mimic of {leader}")

@@ -54,6 +54,7 @@ def _f(x) -> str:
 
 # --------------------------------------------------------------------------- bodies as 10-vectors
 
+
 def _about_origin(m: float, r, I) -> tuple:
     """(m, h = m·r, I_o) of a body with COM r and COM inertia I (link axes)."""
     r = np.asarray(r, dtype=float)
@@ -81,12 +82,14 @@ def _inertial_xml(m, r, I, indent: str) -> str:
     m = float(m)
     r = [float(x) for x in r]
     I = np.array([[float(x) for x in row] for row in I])
-    return (f"{indent}<inertial>\n"
-            f"{indent}  <origin xyz=\"{_f(r[0])} {_f(r[1])} {_f(r[2])}\" rpy=\"0 0 0\"/>\n"
-            f"{indent}  <mass value=\"{_f(m)}\"/>\n"
-            f"{indent}  <inertia ixx=\"{_f(I[0, 0])}\" ixy=\"{_f(I[0, 1])}\" ixz=\"{_f(I[0, 2])}\" "
-            f"iyy=\"{_f(I[1, 1])}\" iyz=\"{_f(I[1, 2])}\" izz=\"{_f(I[2, 2])}\"/>\n"
-            f"{indent}</inertial>")
+    return (
+        f"{indent}<inertial>\n"
+        f'{indent}  <origin xyz="{_f(r[0])} {_f(r[1])} {_f(r[2])}" rpy="0 0 0"/>\n'
+        f'{indent}  <mass value="{_f(m)}"/>\n'
+        f'{indent}  <inertia ixx="{_f(I[0, 0])}" ixy="{_f(I[0, 1])}" ixz="{_f(I[0, 2])}" '
+        f'iyy="{_f(I[1, 1])}" iyz="{_f(I[1, 2])}" izz="{_f(I[2, 2])}"/>\n'
+        f"{indent}</inertial>"
+    )
 
 
 def _link_body(link) -> tuple:
@@ -107,6 +110,7 @@ def _friction(link) -> tuple[float, float, list]:
 
 # --------------------------------------------------------------------------- splice
 
+
 def _spans(text: str) -> dict:
     """Byte spans of each link's start tag and <inertial>, and of each joint's <dynamics>:
     {("link", name): {"start": (a, b), "inertial": (a, b), "empty": bool}, ("joint", name): …}."""
@@ -123,7 +127,7 @@ def _spans(text: str) -> dict:
         stack.append((tag, attrib, at))
         if len(stack) == 2 and tag in ("link", "joint"):
             end = close(at)
-            spans[(tag, attrib.get("name"))] = {"start": (at, end), "empty": data[end - 2:end] == b"/>"}
+            spans[(tag, attrib.get("name"))] = {"start": (at, end), "empty": data[end - 2 : end] == b"/>"}
         if len(stack) == 3 and stack[1][0] in ("link", "joint") and tag in ("inertial", "dynamics"):
             spans[(stack[1][0], stack[1][1].get("name"))][tag] = [at, None]
 
@@ -132,9 +136,9 @@ def _spans(text: str) -> dict:
         _, attrib, begin = stack.pop()
         if len(stack) == 2 and stack[1][0] in ("link", "joint") and tag in ("inertial", "dynamics"):
             key = (stack[1][0], stack[1][1].get("name"))
-            spans[key][tag][1] = close(at) if data[at:at + 2] == b"</" else close(begin)
+            spans[key][tag][1] = close(at) if data[at : at + 2] == b"</" else close(begin)
         if len(stack) == 1 and tag in ("link", "joint"):
-            spans[(tag, attrib.get("name"))]["end"] = close(at) if data[at:at + 2] == b"</" else close(begin)
+            spans[(tag, attrib.get("name"))]["end"] = close(at) if data[at : at + 2] == b"</" else close(begin)
 
     parser.StartElementHandler, parser.EndElementHandler = start, end
     parser.Parse(data, True)
@@ -146,8 +150,10 @@ def _original_text(robot: Robot, source) -> str | None:
     if source is not None:
         text = read(source)
         if text.sha256 != record.sha256:
-            raise URDFError(f"source {text.source} is not the file robot {robot.name!r} was read from: its sha256 is "
-                            f"{text.sha256}, the robot's record says {record.sha256}")
+            raise URDFError(
+                f"source {text.source} is not the file robot {robot.name!r} was read from: its sha256 is "
+                f"{text.sha256}, the robot's record says {record.sha256}"
+            )
         return text.text
     candidates = [Path(record.file)] if record.file and "<" not in record.file else []
     data = resources.files("symdyn.model.arms").joinpath("data")
@@ -167,8 +173,14 @@ def _splice(robot: Robot, text: str) -> str:
     given = {lock.joint: lock.value for lock in record.locked if lock.why == "given"}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", URDFWarning)
-        original = from_urdf(text, base_link=record.base_link, tip_link=record.tip_link, locked=given or None,
-                             exclude=record.excluded, snap=record.snap)
+        original = from_urdf(
+            text,
+            base_link=record.base_link,
+            tip_link=record.tip_link,
+            locked=given or None,
+            exclude=record.excluded,
+            snap=record.snap,
+        )
     if original.n != robot.n:
         raise URDFError(f"robot {robot.name!r} has {robot.n} joints, its URDF chain {original.n}")
     tree = Tree.of("<source>", parse(text, "<source>"))
@@ -191,8 +203,10 @@ def _splice(robot: Robot, text: str) -> str:
             return 0.0, np.zeros(3), np.zeros((3, 3))
         m = float(element.find("mass").attrib.get("value", 0))
         tensor = element.find("inertia")
-        k = {key: float(tensor.attrib.get(key, 0)) if tensor is not None else 0.0
-             for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        k = {
+            key: float(tensor.attrib.get(key, 0)) if tensor is not None else 0.0
+            for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+        }
         I = np.array([[k["ixx"], k["ixy"], k["ixz"]], [k["ixy"], k["iyy"], k["iyz"]], [k["ixz"], k["iyz"], k["izz"]]])
         origin = element.find("origin")
         xyz = [float(v) for v in origin.attrib.get("xyz", "0 0 0").split()] if origin is not None else [0, 0, 0]
@@ -201,7 +215,7 @@ def _splice(robot: Robot, text: str) -> str:
         return _about_origin(m, xyz, R @ I @ R.T)
 
     spans = _spans(text)
-    edits = []   # (start, end, replacement)
+    edits = []  # (start, end, replacement)
     for j, (new, old, joint_name) in enumerate(zip(robot.links, original.links, record.joints)):
         joint = tree.named[joint_name]
         link_name = joint.find("child").attrib["link"]
@@ -209,19 +223,24 @@ def _splice(robot: Robot, text: str) -> str:
             body, total, mine = _link_body(new), _link_body(old), own(link_name)
             write = tuple(b - t + o for b, t, o in zip(body, total, mine))
             note = ""
-            if not riders(link_name):   # the link alone: its numbers as they are (they read back exactly)
+            if not riders(link_name):  # the link alone: its numbers as they are (they read back exactly)
                 write = (new.m, new.r, new.I)
             elif _physical(write):
                 write = _about_com(write)
-            else:   # lighter than what rides on it: everything to the moving link
-                write, note = (new.m, new.r, new.I), (f"symdyn: the identified body of link {link_name!r} could not be split from "
-                                     f"what rides on it ({', '.join(riders(link_name))}); their inertials were "
-                                     "removed and the whole body is here")
+            else:  # lighter than what rides on it: everything to the moving link
+                write, note = (
+                    (new.m, new.r, new.I),
+                    (
+                        f"symdyn: the identified body of link {link_name!r} could not be split from "
+                        f"what rides on it ({', '.join(riders(link_name))}); their inertials were "
+                        "removed and the whole body is here"
+                    ),
+                )
                 for rider in riders(link_name):
                     span = spans[("link", rider)]
                     if "inertial" in span and (own(rider)[0] != 0 or np.any(own(rider)[2])):
                         a, b = span["inertial"]
-                        edits.append((a - len(_indent(text, a)) - 1, b, ""))   # with its line
+                        edits.append((a - len(_indent(text, a)) - 1, b, ""))  # with its line
             span = spans[("link", link_name)]
             indent = _indent(text, span["start"][0]) + "  "
             block = (f"<!-- {note} -->\n{indent}" if note else "") + _inertial_xml(*write, indent).lstrip()
@@ -229,7 +248,7 @@ def _splice(robot: Robot, text: str) -> str:
                 edits.append((*span["inertial"], block))
             elif span["empty"]:
                 a, b = span["start"]
-                tag = text.encode()[a:b - 2].decode().rstrip()
+                tag = text.encode()[a : b - 2].decode().rstrip()
                 edits.append((a, b, f"{tag}>\n{indent}{block}\n{indent[:-2]}</link>"))
             else:
                 a, b = span["start"]
@@ -238,7 +257,7 @@ def _splice(robot: Robot, text: str) -> str:
             damping, friction, lost = _friction(new)
             span = spans[("joint", joint_name)]
             indent = _indent(text, span["start"][0]) + "  "
-            block = f"<dynamics damping=\"{_f(damping)}\" friction=\"{_f(friction)}\"/>"
+            block = f'<dynamics damping="{_f(damping)}" friction="{_f(friction)}"/>'
             if lost:
                 block = f"<!-- symdyn: not expressible in URDF: {'; '.join(lost)} -->\n{indent}" + block
                 _warn_lost(joint_name, lost)
@@ -255,8 +274,9 @@ def _splice(robot: Robot, text: str) -> str:
 
 
 def _warn_lost(joint: str, lost: list) -> None:
-    warnings.warn(f"joint {joint!r}: not expressible in URDF (written as a comment): {'; '.join(lost)}",
-                  URDFWarning, stacklevel=4)
+    warnings.warn(
+        f"joint {joint!r}: not expressible in URDF (written as a comment): {'; '.join(lost)}", URDFWarning, stacklevel=4
+    )
 
 
 def _indent(text: str, at_byte: int) -> str:
@@ -267,6 +287,7 @@ def _indent(text: str, at_byte: int) -> str:
 
 
 # --------------------------------------------------------------------------- fresh
+
 
 def _rpy_matrix(rpy) -> np.ndarray:
     r, p, y = (float(a) for a in rpy)
@@ -280,14 +301,14 @@ def _rpy_matrix(rpy) -> np.ndarray:
 def _rpy(R: np.ndarray) -> tuple:
     """roll, pitch, yaw with R = Rz(yaw)·Ry(pitch)·Rx(roll)."""
     pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    if abs(abs(pitch) - math.pi / 2) < 1e-12:   # gimbal lock: yaw 0
+    if abs(abs(pitch) - math.pi / 2) < 1e-12:  # gimbal lock: yaw 0
         return math.atan2(-R[1, 2], R[1, 1]), pitch, 0.0
     return math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])
 
 
 def _origin_xml(T: np.ndarray) -> str:
     r, p, y = _rpy(T[:3, :3])
-    return f"<origin xyz=\"{_f(T[0, 3])} {_f(T[1, 3])} {_f(T[2, 3])}\" rpy=\"{_f(r)} {_f(p)} {_f(y)}\"/>"
+    return f'<origin xyz="{_f(T[0, 3])} {_f(T[1, 3])} {_f(T[2, 3])}" rpy="{_f(r)} {_f(p)} {_f(y)}"/>'
 
 
 def _matrix(T) -> np.ndarray:
@@ -310,12 +331,20 @@ def _trans(x, y, z) -> np.ndarray:
 
 def _fresh(robot: Robot) -> str:
     if tuple(float(g) for g in robot.gravity) != (0.0, 0.0, 9.81):
-        warnings.warn(f"robot {robot.name!r} has gravity {robot.gravity}; URDF assumes 9.81 m/s² along the "
-                      "base's −z, which the file's readers will use", URDFWarning, stacklevel=3)
+        warnings.warn(
+            f"robot {robot.name!r} has gravity {robot.gravity}; URDF assumes 9.81 m/s² along the "
+            "base's −z, which the file's readers will use",
+            URDFWarning,
+            stacklevel=3,
+        )
     model = robot.to_modified() if robot.convention == "standard" else robot
-    lines = ['<?xml version="1.0"?>', f'<robot name="{robot.name}">',
-             f"  <!-- written by symdyn from the {robot.convention} model {robot.name!r}; "
-             f"fingerprint {robot.fingerprint()} -->", '  <link name="base_link"/>']
+    lines = [
+        '<?xml version="1.0"?>',
+        f'<robot name="{robot.name}">',
+        f"  <!-- written by symdyn from the {robot.convention} model {robot.name!r}; "
+        f"fingerprint {robot.fingerprint()} -->",
+        '  <link name="base_link"/>',
+    ]
     previous, base = "base_link", _matrix(model.base)
     for j, link in enumerate(model.links):
         name = f"link{j + 1}"
@@ -332,7 +361,7 @@ def _fresh(robot: Robot) -> str:
                     T = T @ R
                 else:
                     T = T @ _trans(*(axis * float(link.offset)))
-        else:   # modified DH: Rx(α) Tx(a) then Rz(θ) Tz(d), the joint's variable part moved out
+        else:  # modified DH: Rx(α) Tx(a) then Rz(θ) Tz(d), the joint's variable part moved out
             axis = np.array([0.0, 0.0, 1.0])
             T = _rot("x", link.alpha) @ _trans(link.a, 0, 0)
             if link.is_revolute:
@@ -345,27 +374,43 @@ def _fresh(robot: Robot) -> str:
         kind = "prismatic" if not link.is_revolute else ("revolute" if link.qlim is not None else "continuous")
         limit = ""
         if link.qlim is not None or link.effort_limit or link.velocity_limit:
-            bounds = (f'lower="{_f(link.qlim[0])}" upper="{_f(link.qlim[1])}" ' if link.qlim is not None else "")
-            limit = (f'\n    <limit {bounds}effort="{_f(link.effort_limit or 0)}" '
-                     f'velocity="{_f(link.velocity_limit or 0)}"/>')
+            bounds = f'lower="{_f(link.qlim[0])}" upper="{_f(link.qlim[1])}" ' if link.qlim is not None else ""
+            limit = (
+                f'\n    <limit {bounds}effort="{_f(link.effort_limit or 0)}" '
+                f'velocity="{_f(link.velocity_limit or 0)}"/>'
+            )
         if lost:
             lines.append(f"  <!-- symdyn: not expressible in URDF: {'; '.join(lost)} -->")
             _warn_lost(f"joint{j + 1}", lost)
-        lines += [f'  <joint name="joint{j + 1}" type="{kind}">', f'    <parent link="{previous}"/>',
-                  f'    <child link="{name}"/>', f"    {_origin_xml(T)}",
-                  f'    <axis xyz="{_f(axis[0])} {_f(axis[1])} {_f(axis[2])}"/>{limit}',
-                  f'    <dynamics damping="{_f(damping)}" friction="{_f(friction)}"/>', "  </joint>",
-                  f'  <link name="{name}">', _inertial_xml(link.m, link.r, link.I, "    "), "  </link>"]
+        lines += [
+            f'  <joint name="joint{j + 1}" type="{kind}">',
+            f'    <parent link="{previous}"/>',
+            f'    <child link="{name}"/>',
+            f"    {_origin_xml(T)}",
+            f'    <axis xyz="{_f(axis[0])} {_f(axis[1])} {_f(axis[2])}"/>{limit}',
+            f'    <dynamics damping="{_f(damping)}" friction="{_f(friction)}"/>',
+            "  </joint>",
+            f'  <link name="{name}">',
+            _inertial_xml(link.m, link.r, link.I, "    "),
+            "  </link>",
+        ]
         previous = name
     tool = _matrix(model.tool)
     if not np.array_equal(tool, np.eye(4)):
-        lines += ['  <joint name="tool_joint" type="fixed">', f'    <parent link="{previous}"/>',
-                  '    <child link="tool"/>', f"    {_origin_xml(tool)}", "  </joint>", '  <link name="tool"/>']
+        lines += [
+            '  <joint name="tool_joint" type="fixed">',
+            f'    <parent link="{previous}"/>',
+            '    <child link="tool"/>',
+            f"    {_origin_xml(tool)}",
+            "  </joint>",
+            '  <link name="tool"/>',
+        ]
     lines.append("</robot>")
     return "\n".join(lines) + "\n"
 
 
 # --------------------------------------------------------------------------- entry point
+
 
 def to_urdf(robot: Robot, path=None, *, source=None) -> str:
     """The URDF text of `robot` with its inertials (module docstring); written to `path`
@@ -376,8 +421,12 @@ def to_urdf(robot: Robot, path=None, *, source=None) -> str:
     if robot.urdf is not None:
         original = _original_text(robot, source)
         if original is None:
-            warnings.warn(f"the URDF robot {robot.name!r} was read from {robot.urdf.file!r}, which is not at hand "
-                          "(pass source=…): writing a fresh URDF of the chain alone", URDFWarning, stacklevel=2)
+            warnings.warn(
+                f"the URDF robot {robot.name!r} was read from {robot.urdf.file!r}, which is not at hand "
+                "(pass source=…): writing a fresh URDF of the chain alone",
+                URDFWarning,
+                stacklevel=2,
+            )
         else:
             text = _splice(robot, original)
     elif source is not None:
