@@ -210,3 +210,68 @@ def test_every_page_is_in_the_navigation():
         if "equations" not in p.parts and "_hooks" not in p.parts and p.relative_to(DOCS).as_posix() not in pages
     )
     assert omitted == [], f"pages not in mkdocs.yml's nav: {omitted}"
+
+
+#: Documented classes and functions with no `Raises:` section, each because it raises
+#: nothing of its own.
+RAISES_NOTHING = {
+    # Exceptions and a warning: raising them is what other entries document.
+    "symdyn.model.URDFError",
+    "symdyn.model.URDFWarning",
+    "symdyn.ocp.OCPError",
+    "symdyn.sweep.engine.SchedulerUnreachable",
+    "symdyn.sweep.engine.SweepInterrupted",
+    "symdyn.sweep.table.TableError",
+    # Plain data holders (dataclasses without checks): what builds or reads them checks
+    # (Problem checks Limits and Cost; fit, solve, verify and run make the others), and the
+    # members that can fail (Limits.for_robot, Identification.robot/predict/validate) say so.
+    "symdyn.identify.Data",
+    "symdyn.identify.Identification",
+    "symdyn.ocp.Limits",
+    "symdyn.ocp.Cost",
+    "symdyn.ocp.Solution",
+    "symdyn.ocp.Check",
+    "symdyn.sweep.engine.Sweep",
+    "symdyn.sweep.engine.Outcome",
+    # Builds a tuple of what it is given; nothing is checked until a Link or Robot reads it.
+    "symdyn.model.transl",
+    # Formats an exception it is given into one line (reads its type, message and traceback).
+    "symdyn.sweep.engine.describe_error",
+}
+
+
+def public_object(name: str):
+    """The object a reference entry names (an attribute first: `symdyn.model.placement`
+    is the function, though a module of that name exists)."""
+    parts = name.split(".")
+    obj = importlib.import_module(parts[0])
+    for k, part in enumerate(parts[1:], 2):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            obj = importlib.import_module(".".join(parts[:k]))
+    return obj
+
+
+def test_every_public_callable_documents_its_errors():
+    """Issue 27: each function's and class's entry says the errors it raises (a Google-style
+    `Raises:` section; a class's in its class docstring, for its constructor), unless it
+    raises none of its own (`RAISES_NOTHING`)."""
+    import inspect
+
+    checked, missing = [], []
+    for name in sorted(reference_entries() & expected_entries()):
+        obj = public_object(name)
+        target = inspect.unwrap(obj) if callable(obj) and not inspect.isclass(obj) else obj
+        if not (inspect.isclass(target) or inspect.isfunction(target)):
+            continue  # a module or a constant
+        if not getattr(target, "__module__", "").startswith("symdyn"):
+            continue
+        checked.append(name)
+        if name in RAISES_NOTHING:
+            continue
+        if not re.search(r"^\s*Raises:\s*\n\s+\w[\w.]*:", target.__doc__ or "", re.M):
+            missing.append(name)
+    assert len(checked) > 50
+    assert not missing, f"public functions and classes without a Raises: section: {missing}"
+    assert RAISES_NOTHING <= set(checked), sorted(RAISES_NOTHING - set(checked))

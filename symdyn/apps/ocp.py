@@ -62,7 +62,12 @@ class OCPError(RuntimeError):
 @dataclass(frozen=True)
 class ArmFunctions:
     """CasADi dynamics of one arm: tau(q, qd, qdd) -> τ (needed by collocation) and
-    fdyn(q, qd, tau) -> q̈ (needed by multiple shooting); either may be None."""
+    fdyn(q, qd, tau) -> q̈ (needed by multiple shooting); either may be None.
+
+    Raises:
+        ValueError: neither tau nor fdyn, or one that is not a `casadi.Function` of
+            3 inputs and 1 output.
+    """
 
     tau: ca.Function | None
     fdyn: ca.Function | None
@@ -124,6 +129,14 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     (no compiler needed).  A step that takes over `progress.REPORT_AFTER_S` (a
     first build; not a read from the cache) says what it builds on stderr, and
     how long it took (`symdyn.derivation.progress.reported`).
+
+    Returns:
+        An `ArmFunctions` (cached per robot, source and compiled).
+
+    Raises:
+        ValueError: an unknown source, or an arm whose code cannot be derived or
+            generated (a symbolic robot).
+        RuntimeError: compiled=True without a C compiler, or a failed build.
     """
     from ..codegen.emit.casadi import compiled as compile_function
 
@@ -166,7 +179,11 @@ def _compiled_step(
 
 
 def motor_torque_limits(robot: Robot, motor_tau_max) -> np.ndarray:
-    """Joint torque limits (n,) N·m from motor torque limits: τ_max,joint = τ_max,motor·|G|."""
+    """Joint torque limits (n,) N·m from motor torque limits: τ_max,joint = τ_max,motor·|G|.
+
+    Raises:
+        ValueError: motor_tau_max that is not n positive numbers.
+    """
     tm = np.asarray(motor_tau_max, dtype=float)
     if tm.shape != (robot.n,) or np.any(tm <= 0):
         raise ValueError(f"motor torque limits must be {robot.n} positive numbers, got {motor_tau_max!r}")
@@ -189,7 +206,11 @@ class Limits:
         given, else the links' `velocity_limit`; torque limits tau (n,) as given, or from
         the motors (motor_tau·|G|), else the links' `effort_limit` — for a URDF arm the
         file's `<limit velocity=… effort=…>`.  Where only some links have a limit, the
-        others get inf (that joint unbounded); where none has one (the DH models), None."""
+        others get inf (that joint unbounded); where none has one (the DH models), None.
+
+        Raises:
+            ValueError: both tau and motor_tau, or motor_tau that is not n positive numbers.
+        """
         if tau is not None and motor_tau is not None:
             raise ValueError("give torque limits either as tau (joint side) or motor_tau, not both")
         if motor_tau is not None:
@@ -238,6 +259,13 @@ class Problem:
     T: the fixed final time (s), or None for a free final time within
     T_bounds, starting from T_guess.  N intervals; method in METHODS;
     `substeps` RK4 steps per interval for multiple shooting.
+
+    Raises:
+        ValueError: an unknown method; N not an integer ≥ 2; T not positive;
+            T_bounds not 0 < T_min < T_max; a free T without a positive time weight
+            or without any finite torque or speed limit; q0, qf, qd0, qdf of
+            different lengths; joint limits not (n, 2); speed or torque limits
+            that are not n positive numbers.
     """
 
     q0: np.ndarray
@@ -539,6 +567,18 @@ def solve(
     inequality rows with slacks: a KKT system about half the size, ~1.3× faster
     collocation iterations on compiled dynamics (docs/studies_ocp.md).  Raises
     OCPError (with IPOPT's return status) when no solution is found.
+
+    Returns:
+        The `Solution`: grid, states, torques, cost and IPOPT's stats.
+
+    Raises:
+        ValueError: dynamics for another number of joints than the problem's, or
+            without the function the method needs (fdyn for multiple shooting,
+            tau for collocation).
+        OCPError: IPOPT finds no solution (CasADi's failure, translated; its
+            `status` and `iterations`, and a hint where a torque limit cannot hold
+            the arm at an end point).
+        RuntimeError: building the compiled multiple-shooting interval fails.
     """
     if arm.n != problem.n:
         raise ValueError(f"the dynamics are for {arm.n} joints but the problem has {problem.n}")
@@ -605,7 +645,13 @@ def resimulate(robot: Robot, solution: Solution, *, substeps: int = 10, restart:
     (`reference.accel`): fixed-step RK4, `substeps` steps per interval, τ interpolated as
     the transcription assumes.  restart=True starts each interval from the solution's own
     node (the transcription's local error, free of the growth an unstable open loop adds).
-    Returns (t, q, qd), states at the nodes (at node k+1: the end of interval k)."""
+    Returns (t, q, qd), states at the nodes (at node k+1: the end of interval k).
+
+    Raises:
+        ValueError: a symbolic robot, or one whose joint count is not the solution's;
+            a state that turns NaN or infinite (the reference's input check).
+        SingularInertia: M(q) is singular along the motion (a `ValueError`).
+    """
     n = robot.n
     x = np.concatenate([solution.q[0], solution.qd[0]])
     qs, qds = [x[:n]], [x[n:]]
@@ -692,7 +738,12 @@ def _violation(x: np.ndarray | None, lo, hi) -> float:
 
 def limit_violation(problem: Problem, solution: Solution) -> float:
     """Worst excess over any limit at the grid points (nodes, and midpoints for
-    Hermite–Simpson), in the quantity's units."""
+    Hermite–Simpson), in the quantity's units.
+
+    Raises:
+        ValueError: a solution whose joint count differs from the problem's limits
+            (NumPy's broadcasting error).
+    """
     lim, worst = problem.limits, 0.0
     for q, qd in ((solution.q, solution.qd), (solution.q_mid, solution.qd_mid)):
         if q is None:
@@ -721,7 +772,15 @@ def verify(
     """Re-simulate with the reference dynamics and check the result and the limits: open loop
     from the start (the goal reached), or replay="intervals", each interval from the solution's
     node (every node reached: the check for arms whose open loop is unstable over the motion,
-    where a tiny transcription error grows into a miss however right the trajectory)."""
+    where a tiny transcription error grows into a miss however right the trajectory).
+
+    Returns:
+        A `Check`; `check.ok` is the verdict, `check.describe()` says it in words.
+
+    Raises:
+        ValueError: an unknown replay, and those of `resimulate`.
+        SingularInertia: M(q) is singular along the re-simulation (a `ValueError`).
+    """
     if replay not in ("open-loop", "intervals"):
         raise ValueError(f"unknown replay {replay!r}: expected 'open-loop' or 'intervals'")
     _, q, qd = resimulate(robot, solution, substeps=substeps, restart=replay == "intervals")
@@ -758,6 +817,13 @@ class Tracker:
     horizon (τ_max = 1 N·m for a joint whose limit is inf);
     |τ| ≤ limits.tau and |q̇| ≤ limits.qd (and the joint limits) as bounds
     on the decision variables, the first state fixed to the measurement by its bounds.
+
+    Raises:
+        ValueError: limits without torque or speed limits (`Limits.tau`, `Limits.qd`),
+            an unknown integrator, or dynamics without fdyn.
+        RuntimeError: integrator "rk4" on compiled dynamics, and building the
+            compiled interval fails (no C compiler, a failed build).  An IPOPT
+            failure at a step does not raise: `control`'s stats say it.
     """
 
     def __init__(
@@ -901,6 +967,13 @@ class RTITracker:
     unknowns and hold exactly; the state bounds hold on the linearised prediction.
     Iterating `prepare`/`feedback` at a fixed x and reference is the Gauss–Newton SQP
     and converges to the NLP's solution (the one `Tracker` finds with IPOPT).
+
+    Raises:
+        ValueError: limits without torque or speed limits (`Limits.tau`, `Limits.qd`),
+            an unknown integrator, or dynamics without fdyn.
+        RuntimeError: a `qp` that is not one of CasADi's QP solver plugins
+            (CasADi's error); integrator "rk4" on compiled dynamics, and building
+            the compiled interval fails; later, `feedback` before `prepare`.
     """
 
     def __init__(

@@ -23,7 +23,11 @@ except ModuleNotFoundError as exc:
         raise
 
     def excitation(robot, **options):
-        """Excitation design (symdyn.identify.excitation) is not part of this installation yet."""
+        """Excitation design (symdyn.identify.excitation) is not part of this installation yet.
+
+        Raises:
+            RuntimeError: always: the excitation module is not installed.
+        """
         raise RuntimeError("symdyn.identify.excitation is not available in this installation")
 
 

@@ -165,6 +165,22 @@ def load_data(
     cutoff: the low-pass cutoff in Hz of q (and of qd, qdd where given) before differentiation
     (default: `DEFAULT_CUTOFF` where q̇ or q̈ must be computed, else no filtering).  decimate: the
     factor of Gautier's parallel decimation of τ and Y, applied by `fit`.
+
+    Returns:
+        The `Data`: t, q, qd, qdd, tau, with `notes` saying what was done to them.
+
+    Raises:
+        ValueError: no such file (or a folder); a file that cannot be read as numbers
+            under one header (empty, a duplicate column, a row of another length, a
+            cell that is not a number, an NPZ array of the wrong shape), the message
+            naming line and column; no t, no q1…qn, a missing or extra joint
+            column, no tau1…taun (or currents without a torque constant, or a torque
+            constant without currents or of the wrong length); a joint count other
+            than `joints`'; a NaN or infinite value; fewer than 2 rows, time that
+            does not increase, non-uniform sampling where filtering,
+            differentiation or decimation needs it; a cutoff outside (0, Nyquist);
+            too few samples to filter; decimate not a positive integer.
+        OSError: the file cannot be opened.
     """
     path = Path(path)
     if not path.is_file():

@@ -351,6 +351,22 @@ def fit(
     default: REST_SPEED where `load_data` differentiated q, else 0 — leaving out the rest samples of
     exact model data would lose what separates the Coulomb offset FO from a constant torque).
     Measured: the Puma, q-only data with a 0.5 s hold, 17-bit encoder: joint 1's residual 4.5 → 0.17 N·m.
+
+    Returns:
+        The `Identification`.
+
+    Raises:
+        ValueError: an unknown method; something other than a `Robot`, or a symbolic
+            one; data that is neither `Data` nor a file (a file: `load_data`'s
+            errors), or with another joint count than the robot; a negative
+            rest_speed; an unknown target; fewer equations than base parameters; a
+            motion that does not excite or does not separate the base parameters.
+        RuntimeError: consistent=True where this installation lacks
+            `symdyn.identify.consistent`; target "c" without a C compiler.
+
+    Warns:
+        RuntimeWarning: the physically consistent step fails; the least-squares
+            estimate stands (`consistent_error` says why).
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
@@ -531,7 +547,12 @@ class Identification:
     def robot(self) -> Robot:
         """A Robot whose joint-space dynamics reproduce the estimate: the physically consistent one
         (`consistent.physical`) when fit with consistent=True, else the prior's standard parameters
-        moved least (minimum norm) so that P·π = β̂ — a ValueError where that is no physical body."""
+        moved least (minimum norm) so that P·π = β̂ — a ValueError where that is no physical body.
+
+        Raises:
+            ValueError: the consistent step failed (`consistent_error`), or (fit with
+                consistent=False) the moved parameters are no physical robot.
+        """
         if self.consistent is not None:
             return self.consistent.robot
         if self.consistent_error is not None:
@@ -565,7 +586,11 @@ class Identification:
         return self._regressor
 
     def predict(self, q, qd, qdd) -> np.ndarray:
-        """Joint torques Y_b(q, q̇, q̈)·β̂, (N, n) for states (N, n) ((n,) for one state)."""
+        """Joint torques Y_b(q, q̇, q̈)·β̂, (N, n) for states (N, n) ((n,) for one state).
+
+        Raises:
+            ValueError: a state that is not finite or not of shape (N, n).
+        """
         single = np.ndim(q) == 1
         q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
         for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
@@ -575,7 +600,11 @@ class Identification:
         return out[0] if single else out
 
     def validate(self, data: Data) -> Validation:
-        """Predicted against measured torque on (held-out) data."""
+        """Predicted against measured torque on (held-out) data.
+
+        Raises:
+            ValueError: data with another joint count than the model's, or states that are not finite.
+        """
         data.check_joints(self.prior)
         predicted = self.predict(data.q, data.qd, data.qdd)
         rms = np.sqrt(np.mean((predicted - data.tau) ** 2, axis=0))

@@ -369,6 +369,17 @@ def excitation(
     `ExcitationLimits` (default `ExcitationLimits.for_robot(robot)`); max_iter: IPOPT's
     iteration limit; model: the CasADi
     model (`symdyn.load(robot, "casadi")`) when at hand.
+
+    Returns:
+        The `Excitation`: its Fourier coefficients, offsets and design record
+        (`sample`, `at`, `write`).
+
+    Raises:
+        ValueError: an unknown criterion; a period that is not positive; harmonics
+            not an integer ≥ 2; a symbolic robot; torque limits that even a small
+            motion about the middle of the joint ranges exceeds.
+        RuntimeError: the optimised excitation's torques exceed the limits between
+            design samples even with a 30 % margin (raise `rate`).
     """
     import casadi as ca
 

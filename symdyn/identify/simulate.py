@@ -114,6 +114,14 @@ def simulate(
     encoder's resolution, rad (m), one number or one per joint: q is rounded to it (q̇ and q̈ stay the
     trajectory's, as from a good estimator; write the CSV without them to have `load_data`
     differentiate q instead).  The returned Data carries the true arm as `data.truth`.
+
+    Raises:
+        ValueError: a symbolic robot; a trajectory without t, q, qd and qdd or of the
+            wrong shape, or a file that does not exist or cannot be read (as
+            `load_data`'s); perturb outside [0, 1);
+            noise or quantisation that is not one non-negative number or n; a truth
+            with another joint count; time that does not increase, fewer than 2
+            samples, or a NaN or infinite value.
     """
     robot.require_numeric("simulate")
     from ..numeric.reference import rne

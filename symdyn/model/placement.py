@@ -37,6 +37,16 @@ def exact_cos_sin(angle) -> tuple:
     is taken as written (`symdyn.model.snapping` is the rule that snaps what
     files write, and reports it).  Derivations and the reference use this one
     function.
+
+    Returns:
+        (cos, sin): ints at multiples of π/2, sympy expressions for a symbolic
+        angle, else floats.
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (Python's `float()`).
+        ValueError: a NaN angle or a non-numeric string.
+        OverflowError: an infinite angle.
     """
     if isinstance(angle, sp.Basic) and not angle.is_Number:
         return sp.cos(angle), sp.sin(angle)
@@ -97,7 +107,16 @@ def rpy_rotation(rpy: Sequence) -> list:
 
 
 def placement(xyz: Sequence = (0, 0, 0), rpy: Sequence = (0, 0, 0)) -> tuple:
-    """The 4×4 transform of URDF's `<origin xyz rpy>`, with exact entries."""
+    """The 4×4 transform of URDF's `<origin xyz rpy>`, with exact entries.
+
+    Raises:
+        ValueError: rpy that is not three angles (Python's unpacking error); an
+            entry that is a bool, a non-numeric string or (rpy) NaN.
+        TypeError: an entry that is not a number or sympy expression, or a NaN
+            or infinite xyz.
+        OverflowError: an infinite rpy angle.
+        IndexError: xyz with fewer than three entries.
+    """
     R = rpy_rotation(rpy)
     p = [exact(x) for x in xyz]
     return tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)

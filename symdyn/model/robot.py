@@ -31,19 +31,40 @@ Number = Any  # int, float or sympy expression
 
 
 def rotx(angle: Number) -> tuple:
-    """4×4 homogeneous rotation about x (exact for multiples of π/2)."""
+    """4×4 homogeneous rotation about x (exact for multiples of π/2).
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (`exact_cos_sin`).
+        ValueError: a NaN angle or a non-numeric string.
+        OverflowError: an infinite angle.
+    """
     c, s = exact_cos_sin(angle)
     return ((1, 0, 0, 0), (0, c, -s, 0), (0, s, c, 0), (0, 0, 0, 1))
 
 
 def roty(angle: Number) -> tuple:
-    """4×4 homogeneous rotation about y (exact for multiples of π/2)."""
+    """4×4 homogeneous rotation about y (exact for multiples of π/2).
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (`exact_cos_sin`).
+        ValueError: a NaN angle or a non-numeric string.
+        OverflowError: an infinite angle.
+    """
     c, s = exact_cos_sin(angle)
     return ((c, 0, s, 0), (0, 1, 0, 0), (-s, 0, c, 0), (0, 0, 0, 1))
 
 
 def rotz(angle: Number) -> tuple:
-    """4×4 homogeneous rotation about z (exact for multiples of π/2)."""
+    """4×4 homogeneous rotation about z (exact for multiples of π/2).
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (`exact_cos_sin`).
+        ValueError: a NaN angle or a non-numeric string.
+        OverflowError: an infinite angle.
+    """
     c, s = exact_cos_sin(angle)
     return ((c, -s, 0, 0), (s, c, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
 
@@ -146,6 +167,14 @@ class Link:
     `effort_limit` (N·m or N) and `velocity_limit` (rad/s or m/s), or None.
     `physical=False` waives the triangle inequality of the principal moments
     for published data that violates it (it does not enter the dynamics).
+
+    Raises:
+        ValueError: an unknown joint type; a parameter that is not a finite number
+            or sympy expression (a bool included); r, axis, Tc or qlim of the wrong
+            length, I not 3×3, origin not a proper homogeneous transform; an
+            axis that is not a unit vector; qlim not lower < upper; an effort or
+            velocity limit that is not positive.  The physical checks (mass,
+            inertia, motor parameters) are the `Robot`'s.
     """
 
     joint: str = "revolute"
@@ -279,6 +308,15 @@ class Robot:
     (0, 0, 9.81) for a z-up base.  `base` and `tool` are 4×4 homogeneous
     transforms.  `poses` maps names (qz, qr, …) to joint vectors.  Use
     `dataclasses.replace(robot, base=T, gravity=g)` for variants.
+
+    Raises:
+        ValueError: an unknown convention; no links, or one that is not a `Link`;
+            a link with negative mass, an inertia that is not symmetric, positive
+            semidefinite or (unless `physical=False`) within the triangle
+            inequality, negative Jm or B, Tc not (≥ 0, ≤ 0), motor parameters with
+            G = 0; DH parameters on a general-convention link, or origin/axis on
+            a DH link; gravity not a 3-vector; base or tool not a proper
+            homogeneous transform; a pose of the wrong length.
     """
 
     name: str

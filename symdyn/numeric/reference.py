@@ -270,13 +270,25 @@ def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
 
 
 def friction(robot: Robot, qd) -> np.ndarray:
-    """Joint friction F(q̇) (..., n): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest."""
+    """Joint friction F(q̇) (..., n): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest.
+
+    Raises:
+        ValueError: a symbolic robot, or `qd` that is not a finite numeric array of
+            shape (n,) or (..., n).
+    """
     return friction_law(robot)(_state(_chain(robot), qd, "qd"))
 
 
 def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
     """q̇ ↦ `friction(robot, q̇)` with the robot's constants read once and no
-    input checks: for inner loops (simulators, model adapters)."""
+    input checks: for inner loops (simulators, model adapters).
+
+    Returns:
+        F(q̇) -> (..., n), the friction of `friction` (NumPy's own errors for a bad q̇).
+
+    Raises:
+        ValueError: a symbolic robot.
+    """
     c = _chain(robot)
     viscous, gain, up, down = c.G**2 * c.B, np.abs(c.G), c.Tc[:, 0], c.Tc[:, 1]
 
@@ -295,6 +307,12 @@ def rne(robot: Robot, q, qd, qdd, *, gravity=None, wrench=None, base_wrench: boo
     environment, in the tool frame, moment about the tool point (adds JᵀW).
     base_wrench: also return [f; n] (..., 6) exerted by the base on link 1,
     in frame {0}, moment about its origin.
+
+    Raises:
+        ValueError: a symbolic robot; q, qd or qdd that are not finite numeric arrays
+            of shape (n,) or (..., n), or whose leading shapes do not broadcast; a
+            gravity that is not a finite 3-vector; a wrench that is not a finite
+            (6,) or (..., 6) array broadcasting with the states.
     """
     c = _chain(robot)
     q, qd, qdd = _states(c, q=q, qd=qd, qdd=qdd)
@@ -319,7 +337,12 @@ def _rne_nofriction(c: _Chain, q, qd, qdd, g) -> np.ndarray:
 
 
 def inertia(robot: Robot, q) -> np.ndarray:
-    """Joint-space inertia M(q) (..., n, n), rotor term G²·Jm on the diagonal."""
+    """Joint-space inertia M(q) (..., n, n), rotor term G²·Jm on the diagonal.
+
+    Raises:
+        ValueError: a symbolic robot, or `q` that is not a finite numeric array of
+            shape (n,) or (..., n).
+    """
     c = _chain(robot)
     q = _state(c, q, "q")
     qs = np.repeat(q[..., None, :], c.n, axis=-2)  # (..., n copies, n)
@@ -330,7 +353,12 @@ def inertia(robot: Robot, q) -> np.ndarray:
 
 def christoffel(robot: Robot, q) -> np.ndarray:
     """Christoffel symbols Γ[..., k, i, j] = ½(∂M_kj/∂q_i + ∂M_ki/∂q_j − ∂M_ij/∂q_k),
-    from velocity-product forces of the recursion (symmetric split)."""
+    from velocity-product forces of the recursion (symmetric split).
+
+    Raises:
+        ValueError: a symbolic robot, or `q` that is not a finite numeric array of
+            shape (n,) or (..., n).
+    """
     c = _chain(robot)
     q = _state(c, q, "q")
     n = c.n
@@ -353,14 +381,24 @@ def christoffel(robot: Robot, q) -> np.ndarray:
 
 
 def coriolis(robot: Robot, q, qd) -> np.ndarray:
-    """Christoffel Coriolis matrix C(q, q̇) (..., n, n): C_kj = Σ_i Γ_kij q̇_i."""
+    """Christoffel Coriolis matrix C(q, q̇) (..., n, n): C_kj = Σ_i Γ_kij q̇_i.
+
+    Raises:
+        ValueError: a symbolic robot; q or qd that are not finite numeric arrays of
+            shape (n,) or (..., n), or whose leading shapes do not broadcast.
+    """
     c = _chain(robot)
     q, qd = _states(c, q=q, qd=qd)
     return np.einsum("...kij,...i->...kj", christoffel(robot, q), qd)
 
 
 def gravload(robot: Robot, q, *, gravity=None) -> np.ndarray:
-    """Gravity load G(q) (..., n): the joint torques that hold the arm still."""
+    """Gravity load G(q) (..., n): the joint torques that hold the arm still.
+
+    Raises:
+        ValueError: a symbolic robot; `q` that is not a finite numeric array of
+            shape (n,) or (..., n); a gravity that is not a finite 3-vector.
+    """
     c = _chain(robot)
     q = _state(c, q, "q")
     g = c.gravity if gravity is None else _vector3(gravity, "gravity")
@@ -369,7 +407,14 @@ def gravload(robot: Robot, q, *, gravity=None) -> np.ndarray:
 
 
 def accel(robot: Robot, q, qd, tau) -> np.ndarray:
-    """Forward dynamics q̈ = M⁻¹(τ − C q̇ − F − G) (..., n), friction included."""
+    """Forward dynamics q̈ = M⁻¹(τ − C q̇ − F − G) (..., n), friction included.
+
+    Raises:
+        ValueError: a symbolic robot; q, qd or tau that are not finite numeric arrays
+            of shape (n,) or (..., n), or whose leading shapes do not broadcast.
+        SingularInertia: M(q) is singular (a `ValueError`; it names the joint that
+            moves no mass where one does not).
+    """
     c = _chain(robot)
     q, qd, tau = _states(c, q=q, qd=qd, tau=tau)
     n, batch = c.n, q.shape[:-1]
@@ -422,6 +467,13 @@ def fdyn(
 
     torque(t, q, qd) -> τ (n,), or None for zero torque.  Returns (t, q, qd)
     with q, qd of shape (len(t), n).
+
+    Raises:
+        ValueError: a symbolic robot; T that is not a positive finite time; q0 or
+            qd0 that is not one finite state of shape (n,); a torque(t, q, qd) that
+            returns no finite (n,) torque.
+        SingularInertia: M(q) is singular along the motion (a `ValueError`).
+        RuntimeError: the integrator fails (scipy's message).
     """
     c = _chain(robot)
     if not (np.isscalar(T) and np.isfinite(T) and T > 0):
@@ -462,7 +514,12 @@ def _tool_point(c: _Chain, Rs, ps) -> np.ndarray:
 
 
 def fkine(robot: Robot, q) -> np.ndarray:
-    """End-effector pose (..., 4, 4) in the world: base · A₁ ⋯ Aₙ · tool."""
+    """End-effector pose (..., 4, 4) in the world: base · A₁ ⋯ Aₙ · tool.
+
+    Raises:
+        ValueError: a symbolic robot, or `q` that is not a finite numeric array of
+            shape (n,) or (..., n).
+    """
     c = _chain(robot)
     q = _state(c, q, "q")
     Rs, ps = _frames(c, q)
@@ -475,7 +532,12 @@ def fkine(robot: Robot, q) -> np.ndarray:
 
 
 def jacob0(robot: Robot, q) -> np.ndarray:
-    """Geometric Jacobian (..., 6, n) of the tool point, [v; ω], world frame."""
+    """Geometric Jacobian (..., 6, n) of the tool point, [v; ω], world frame.
+
+    Raises:
+        ValueError: a symbolic robot, or `q` that is not a finite numeric array of
+            shape (n,) or (..., n).
+    """
     c = _chain(robot)
     q = _state(c, q, "q")
     Rs, ps = _frames(c, q)
@@ -490,7 +552,15 @@ def jacob0(robot: Robot, q) -> np.ndarray:
 
 
 def energy(robot: Robot, q, qd) -> tuple[np.ndarray, np.ndarray]:
-    """Kinetic ½q̇ᵀMq̇ (rotors included) and potential Σ mᵢ·a_up·p_cᵢ energy."""
+    """Kinetic ½q̇ᵀMq̇ (rotors included) and potential Σ mᵢ·a_up·p_cᵢ energy.
+
+    Returns:
+        (kinetic, potential), each of shape (...).
+
+    Raises:
+        ValueError: a symbolic robot; q or qd that are not finite numeric arrays of
+            shape (n,) or (..., n), or whose leading shapes do not broadcast.
+    """
     c = _chain(robot)
     q, qd = _states(c, q=q, qd=qd)
     kinetic = 0.5 * np.einsum("...i,...ij,...j->...", qd, inertia(robot, q), qd)

@@ -116,7 +116,14 @@ class Outcome:
 
 def task_id(item: dict) -> str:
     """A stable id of one input: its index (if it has one) and a hash of its canonical JSON,
-    so a resume recognises the task across runs and machines."""
+    so a resume recognises the task across runs and machines.
+
+    Raises:
+        TypeError: an input holding something other than numbers, text, lists, dicts
+            and NumPy values.
+        ValueError: an `index` that cannot be read as an integer (TypeError where it
+            is neither a number nor text).
+    """
     text = json.dumps(item, sort_keys=True, separators=(",", ":"), default=_jsonable)
     digest = hashlib.sha256(text.encode()).hexdigest()[:10]
     return f"{int(item['index']):06d}-{digest}" if "index" in item else digest
@@ -146,7 +153,13 @@ _RAN: set[str] = set()
 
 def execute(task: Callable[[dict], dict], tid: str, item: dict) -> dict:
     """Run one task (on a worker, or in the driver for a serial run) and return its whole row:
-    the id, the input, the result or the error, and META."""
+    the id, the input, the result or the error, and META.
+
+    Raises:
+        KeyboardInterrupt: a Ctrl-C during the task (any `BaseException` that is not
+            an `Exception` passes through); an `Exception` of the task is not
+            raised but recorded in the row's `error` (`describe_error`).
+    """
     name = f"{task.__module__}.{task.__qualname__}"
     warm = name in _RAN
     start, cpu = time.perf_counter(), time.process_time()
@@ -201,7 +214,14 @@ def _probe(address: str) -> None:
 def connect(scheduler: str | None = None, workers: int | None = None):
     """(client, description): a `distributed.Client` of the scheduler at `scheduler` (or
     $DASK_SCHEDULER_ADDRESS), else of a new local cluster of `workers` processes (default:
-    one per CPU), one thread each.  Closing the client closes a local cluster too."""
+    one per CPU), one thread each.  Closing the client closes a local cluster too.
+
+    Raises:
+        RuntimeError: Dask (`distributed`) is not installed.
+        ValueError: `workers` with a scheduler address, or fewer than 1 worker.
+        SchedulerUnreachable: an address without host and port, or where no
+            scheduler answers within `CONNECT_TIMEOUT_S`.
+    """
     try:
         import dask
         from distributed import Client, LocalCluster
@@ -355,6 +375,23 @@ def run(
     run of the same inputs and runs the rest (and the tasks that raised);
     without it an `out` that holds results is an error.  on_row(row) is called
     after each row is on disk (tests use it to kill a worker mid-sweep).
+
+    Returns:
+        The `Outcome`: every row of the table, how many tasks ran now and how many
+        rows record an error, the wall time, the engine used.
+
+    Raises:
+        ValueError: an input with keys that are not the sweep's input columns, two
+            inputs that are the same task, or a task returning columns the sweep
+            does not declare.
+        TypeError: an input or a result value that cannot be written (not numbers,
+            text, lists, dicts or NumPy values).
+        TableError: `out` already holds results (without resume=True), or (with it)
+            results of other columns or other inputs, or a damaged table.
+        SweepInterrupted: a Ctrl-C; the finished rows and the summary are on disk.
+        SchedulerUnreachable: no scheduler answers at `scheduler`.
+        RuntimeError: Dask is needed (workers ≠ 0) but not installed.
+        OSError: `out` cannot be written.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -38,7 +38,12 @@ class TableError(ValueError):
 
 def encode(value) -> str:
     """One cell: '' for None, repr for numbers (NaN as 'nan'), JSON for lists, tuples,
-    dicts and arrays, text on one line."""
+    dicts and arrays, text on one line.
+
+    Raises:
+        TypeError: a list, tuple, dict or array holding something JSON cannot write
+            (not a number, text, list, dict or NumPy value).
+    """
     if value is None:
         return ""
     if isinstance(value, (bool, np.bool_)):
@@ -63,7 +68,11 @@ def _plain(value):
 
 
 def decode_json(cell: str):
-    """A list/dict cell back to Python (NaN kept), '' to None."""
+    """A list/dict cell back to Python (NaN kept), '' to None.
+
+    Raises:
+        json.JSONDecodeError: (a `ValueError`) a cell that is not JSON.
+    """
     return None if cell == "" else json.loads(cell)
 
 
@@ -82,7 +91,14 @@ class Table:
     `Table.open(path, columns, resume)`: a new file (header only), or with
     resume=True the existing one, its torn last line (if any) cut off.
     `append(row)` writes one row (a mapping of column → value) and returns
-    its encoded cells; `rows` are the rows on disk as dicts of strings."""
+    its encoded cells; `rows` are the rows on disk as dicts of strings.
+
+    Raises:
+        TableError: (`Table.open`) a file that holds results without resume=True, or
+            whose header is not `columns`, or a row with another number of cells.
+        OSError: the file cannot be opened (`Table(...)` opens an existing file).
+        ValueError: (`append`) a row with columns the table does not have.
+    """
 
     def __init__(self, path: Path, columns: tuple[str, ...], rows: list[dict[str, str]]):
         self.path, self.columns, self.rows = Path(path), tuple(columns), rows

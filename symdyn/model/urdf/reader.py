@@ -214,6 +214,21 @@ def from_urdf(
     subtrees.  snap: angles and axes near exact values become exact
     (`symdyn.model.snapping`); False keeps the file's numbers.  The robot's
     `urdf` records all of it.  Raises URDFError naming the element and line.
+
+    Raises:
+        URDFError: (a `ValueError`) an unreadable file or text that is not a URDF
+            (not well-formed XML, no `<robot>` or no link); a malformed tree
+            (nameless links, joints without parent or child, a link with two
+            parents, a cycle, several roots); base_link, tip_link, locked or
+            exclude naming no suitable link or joint, or a locked value that is
+            not finite or is outside its limits; an unsupported joint type or a
+            mimic joint in the chain, a zero axis, an attribute that is not the
+            right count of finite numbers, an inertia that is no physical body;
+            a chain without a moving joint.
+
+    Warns:
+        URDFWarning: a body resting on the fixed base whose inertial is no physical
+            body (accepted and left out: it cannot affect the dynamics).
     """
     text = read(path_or_xml)
     tree = Tree.of(text.source, parse(text.text, text.source))

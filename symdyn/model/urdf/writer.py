@@ -415,7 +415,20 @@ def _fresh(robot: Robot) -> str:
 def to_urdf(robot: Robot, path=None, *, source=None) -> str:
     """The URDF text of `robot` with its inertials (module docstring); written to `path`
     (atomically) when given.  source: the URDF the robot was read from (path or text),
-    when `robot.urdf` names a file that is not at hand."""
+    when `robot.urdf` names a file that is not at hand.
+
+    Raises:
+        ValueError: a symbolic robot, or `source` for a robot not read from a URDF.
+        URDFError: (a `ValueError`) a `source` that cannot be read or is not the file
+            the robot was read from (its sha256 differs), or whose chain has another
+            number of joints than the robot.
+        OSError: `path` cannot be written.
+
+    Warns:
+        URDFWarning: the robot's URDF is not at hand (a fresh URDF of the chain is
+            written instead); a gravity other than URDF's 9.81 m/s² along −z; a
+            joint parameter URDF cannot express (written as a comment).
+    """
     robot.require_numeric("to_urdf")
     text = None
     if robot.urdf is not None:
