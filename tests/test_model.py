@@ -230,3 +230,39 @@ def test_generic_turns_decide_whether_code_generation_regroups():
         for k in range(5)
     )
     assert generic_turns(Robot("g5", links, convention="general")) == 5 > GENERIC_TURNS_MAX
+
+
+def test_placement_takes_exactly_three_finite_numbers_each():
+    """xyz and rpy are three finite numbers (or symbols) each: extra entries are not dropped,
+    missing ones are not an IndexError, NaN and inf are refused by name."""
+    from symdyn.model import placement
+
+    x = sp.Symbol("x")
+    T = placement((x, 0, "0.5"), (0, 0, math.pi / 2))
+    assert T[0] == (0, -1, 0, x) and T[1] == (1, 0, 0, 0) and T[2] == (0, 0, 1, sp.Rational(1, 2))
+    bad = {
+        (ValueError, r"xyz must have exactly three entries, got 4"): ((0, 0, 0, 1), (0, 0, 0)),
+        (ValueError, r"xyz must have exactly three entries, got 2"): ((0, 0), (0, 0, 0)),
+        (ValueError, r"rpy must have exactly three entries, got 2"): ((0, 0, 0), (0, 0)),
+        (ValueError, r"xyz\[0\] must be finite, got nan"): ((math.nan, 0, 0), (0, 0, 0)),
+        (ValueError, r"xyz\[2\] must be finite, got inf"): ((0, 0, math.inf), (0, 0, 0)),
+        (ValueError, r"rpy\[1\] must be finite, got -inf"): ((0, 0, 0), (0, -math.inf, 0)),
+        (ValueError, r"rpy\[0\] must be finite, got nan"): ((0, 0, 0), (math.nan, 0, 0)),
+        (ValueError, r"xyz\[1\] must be a number, got the bool True"): ((0, True, 0), (0, 0, 0)),
+        (TypeError, r"xyz\[0\] must be a number or sympy expression, got None"): ((None, 0, 0), (0, 0, 0)),
+        (TypeError, r"rpy must be a sequence of three numbers, got 5"): ((0, 0, 0), 5),
+    }
+    for (error, message), (xyz, rpy) in bad.items():
+        with pytest.raises(error, match=message):
+            placement(xyz, rpy)
+
+
+@pytest.mark.parametrize("angle", [math.inf, -math.inf, math.nan, sp.oo, sp.nan])
+def test_a_rotation_of_a_non_finite_angle_is_refused_by_name(angle):
+    from symdyn.model import exact_cos_sin, roty, rotz
+
+    for f in (exact_cos_sin, rotx, roty, rotz):
+        with pytest.raises(ValueError, match=r"the angle must be a finite number, got (-?inf|nan|oo)"):
+            f(angle)
+    x = sp.Symbol("x")
+    assert rotx(x)[1] == (0, sp.cos(x), -sp.sin(x), 0) and rotz(math.pi)[0] == (-1, 0, 0, 0)

@@ -28,7 +28,7 @@ __all__ = [
 ]
 
 
-def exact_cos_sin(angle) -> tuple:
+def exact_cos_sin(angle: float | sp.Expr) -> tuple:
     """cos and sin of a constant angle, exact for multiples of π/2.
 
     The double nearest k·π/2 (within 4 ulp: math.pi/2, -math.pi, 3*math.pi/2 …)
@@ -45,12 +45,13 @@ def exact_cos_sin(angle) -> tuple:
     Raises:
         TypeError: an angle that is not a number, a numeric string or a sympy
             expression (Python's `float()`).
-        ValueError: a NaN angle or a non-numeric string.
-        OverflowError: an infinite angle.
+        ValueError: a NaN or infinite angle, or a non-numeric string.
     """
     if isinstance(angle, sp.Basic) and not angle.is_Number:
         return sp.cos(angle), sp.sin(angle)
     value = float(angle)
+    if not math.isfinite(value):
+        raise ValueError(f"the angle must be a finite number, got {angle!r}")
     quarter = value / (math.pi / 2)
     k = round(quarter)
     if abs(quarter - k) <= 4 * 2.0**-52 * max(1, abs(k)):
@@ -106,19 +107,39 @@ def rpy_rotation(rpy: Sequence) -> list:
     return _mul(_mul(_axis_rot("z", yaw), _axis_rot("y", pitch)), _axis_rot("x", roll))
 
 
+def _three_finite(name: str, values: Sequence) -> list:
+    """`values` as a list of exactly three entries, each a finite number (a numeric
+    string included) or a symbolic sympy expression; else an error naming `name`."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__len__"):
+        raise TypeError(f"placement: {name} must be a sequence of three numbers, got {values!r}")
+    entries = list(values)
+    if len(entries) != 3:
+        raise ValueError(f"placement: {name} must have exactly three entries, got {len(entries)}: {values!r}")
+    for i, x in enumerate(entries):
+        if isinstance(x, sp.Basic) and not x.is_Number:
+            continue  # symbolic: kept as it is
+        if isinstance(x, (bool, np.bool_)):
+            raise ValueError(f"placement: {name}[{i}] must be a number, got the bool {x!r}")
+        try:
+            value = float(x)
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"placement: {name}[{i}] must be a number or sympy expression, got {x!r}") from None
+        if not math.isfinite(value):
+            raise ValueError(f"placement: {name}[{i}] must be finite, got {x!r}")
+    return entries
+
+
 def placement(xyz: Sequence = (0, 0, 0), rpy: Sequence = (0, 0, 0)) -> tuple:
     """The 4×4 transform of URDF's `<origin xyz rpy>`, with exact entries.
 
     Raises:
-        ValueError: rpy that is not three angles (Python's unpacking error); an
-            entry that is a bool, a non-numeric string or (rpy) NaN.
-        TypeError: an entry that is not a number or sympy expression, or a NaN
-            or infinite xyz.
-        OverflowError: an infinite rpy angle.
-        IndexError: xyz with fewer than three entries.
+        ValueError: xyz or rpy that is not exactly three entries; an entry that is
+            a bool, a non-numeric string, NaN or infinite.
+        TypeError: xyz or rpy that is not a sequence, or an entry that is not a
+            number or sympy expression.
     """
-    R = rpy_rotation(rpy)
-    p = [exact(x) for x in xyz]
+    R = rpy_rotation(_three_finite("rpy", rpy))
+    p = [exact(x) for x in _three_finite("xyz", xyz)]
     return tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
 
 

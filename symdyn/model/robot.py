@@ -36,8 +36,7 @@ def rotx(angle: Number) -> tuple:
     Raises:
         TypeError: an angle that is not a number, a numeric string or a sympy
             expression (`exact_cos_sin`).
-        ValueError: a NaN angle or a non-numeric string.
-        OverflowError: an infinite angle.
+        ValueError: a NaN or infinite angle, or a non-numeric string.
     """
     c, s = exact_cos_sin(angle)
     return ((1, 0, 0, 0), (0, c, -s, 0), (0, s, c, 0), (0, 0, 0, 1))
@@ -49,8 +48,7 @@ def roty(angle: Number) -> tuple:
     Raises:
         TypeError: an angle that is not a number, a numeric string or a sympy
             expression (`exact_cos_sin`).
-        ValueError: a NaN angle or a non-numeric string.
-        OverflowError: an infinite angle.
+        ValueError: a NaN or infinite angle, or a non-numeric string.
     """
     c, s = exact_cos_sin(angle)
     return ((c, 0, s, 0), (0, 1, 0, 0), (-s, 0, c, 0), (0, 0, 0, 1))
@@ -62,8 +60,7 @@ def rotz(angle: Number) -> tuple:
     Raises:
         TypeError: an angle that is not a number, a numeric string or a sympy
             expression (`exact_cos_sin`).
-        ValueError: a NaN angle or a non-numeric string.
-        OverflowError: an infinite angle.
+        ValueError: a NaN or infinite angle, or a non-numeric string.
     """
     c, s = exact_cos_sin(angle)
     return ((c, -s, 0, 0), (s, c, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
