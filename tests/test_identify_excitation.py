@@ -100,3 +100,12 @@ def test_bad_arguments_are_named(twolink):
         excitation(twolink, criterion="det")
     with pytest.raises(ValueError, match="harmonics must be an integer ≥ 2"):
         excitation(twolink, harmonics=1)
+
+
+@pytest.mark.parametrize("rate", [0, 0.0, -50.0, float("nan"), float("inf"), True])
+def test_a_rate_that_is_not_a_positive_finite_number_is_named(twolink, rate):
+    """rate=0 used to fall back to the default grid and a negative rate gave an empty one."""
+    with pytest.raises(ValueError, match=rf"rate must be a positive, finite sample rate in Hz .*got {rate!r}"):
+        excitation(twolink, period=2.0, harmonics=2, rate=rate, max_iter=3)
+    with pytest.raises(ValueError, match=r"rate=0.1 Hz gives no design sample in a period of 2.0 s"):
+        excitation(twolink, period=2.0, harmonics=2, rate=0.1, max_iter=3)

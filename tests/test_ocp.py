@@ -126,6 +126,44 @@ def test_free_final_time_needs_a_time_cost_and_limits_must_fit_the_arm():
         ocp.Problem(q, q, T=1.0, limits=ocp.Limits(q=np.zeros((3, 2))))
 
 
+def test_nan_limits_non_finite_boundary_states_and_bad_cost_weights_are_refused_by_name(puma):
+    """NaN compares false with everything, so a NaN limit bounded nothing and reached IPOPT;
+    inf stays legitimate (that joint unbounded)."""
+    with pytest.raises(ValueError, match=r"6 positive numbers, got \[1, 2, 3, nan, 5, 6\]: joint 4 has nan"):
+        ocp.motor_torque_limits(puma, [1, 2, 3, np.nan, 5, 6])
+    with pytest.raises(ValueError, match=r"Limits.qd of joint 2 is NaN"):
+        ocp.Limits(qd=np.array([3.0, np.nan]))
+    with pytest.raises(ValueError, match=r"Limits.tau of joint 1 is NaN"):
+        ocp.Limits(tau=[np.nan, 1.0])
+    with pytest.raises(ValueError, match=r"Limits.q of joint 2 is NaN"):
+        ocp.Limits(q=np.array([[-1.0, 1.0], [np.nan, 1.0]]))
+    assert np.array_equal(ocp.Limits(tau=[np.inf, 2.0]).tau, [np.inf, 2.0])
+    for field, value in (("time", np.nan), ("effort", -1.0), ("smoothness", np.inf)):
+        with pytest.raises(ValueError, match=rf"the cost weight {field} must be a finite number ≥ 0, got {value}"):
+            ocp.Cost(**{field: value})
+    with pytest.raises(ValueError, match=r"joint 2 has -2.0 in \(1.0, -2.0\)"):
+        ocp.Cost(effort=1.0, weights=(1.0, -2.0))
+    q = np.zeros(2)
+    with pytest.raises(
+        ValueError, match=r"the cost weights must be 2 numbers \(one per joint\), got \(1.0, 1.0, 1.0\)"
+    ):
+        ocp.Problem(q, q, T=1.0, cost=ocp.Cost(effort=1.0, weights=(1.0, 1.0, 1.0)))
+    with pytest.raises(ValueError, match=r"q0 must be finite: joint 2 has nan"):
+        ocp.Problem(np.array([0.0, np.nan]), q, T=1.0)
+    with pytest.raises(ValueError, match=r"qf must be finite: joint 1 has inf"):
+        ocp.Problem(q, np.array([np.inf, 0.0]), T=1.0)
+
+
+def test_limit_violation_refuses_a_solution_of_another_arm():
+    problem = ocp.Problem(np.zeros(2), np.zeros(2), T=1.0, limits=ocp.Limits(tau=np.array([1.0, 1.0])))
+    t = np.linspace(0, 1, 3)
+    three = ocp.Solution("trapezoidal", t, np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 3)), 0.0, {})
+    with pytest.raises(ValueError, match=r"the solution's q has shape \(3, 3\), not \(·, 2\)"):
+        ocp.limit_violation(problem, three)
+    two = ocp.Solution("trapezoidal", t, np.zeros((3, 2)), np.zeros((3, 2)), np.full((3, 2), 1.5), 0.0, {})
+    assert ocp.limit_violation(problem, two) == 0.5
+
+
 def test_a_transcription_without_its_function_is_refused(arm2):
     only_fdyn = ocp.ArmFunctions(tau=None, fdyn=ocp.dynamics(arm2, "plain").fdyn)
     problem = ocp.Problem(HANG, HANG + 0.2, T=1.0, N=4, method="trapezoidal")

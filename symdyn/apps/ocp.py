@@ -13,11 +13,14 @@ goal and the limits, so every optimum is checked against `symdyn.reference`.
 from __future__ import annotations
 
 import functools
+import math
+import numbers
 import time
 from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..derivation.progress import reported
 from ..model import Robot
@@ -178,15 +181,22 @@ def _compiled_step(
 # --------------------------------------------------------------------------- the problem
 
 
-def motor_torque_limits(robot: Robot, motor_tau_max) -> np.ndarray:
+def motor_torque_limits(robot: Robot, motor_tau_max: ArrayLike) -> np.ndarray:
     """Joint torque limits (n,) N·m from motor torque limits: τ_max,joint = τ_max,motor·|G|.
 
     Raises:
-        ValueError: motor_tau_max that is not n positive numbers.
+        ValueError: motor_tau_max that is not n positive numbers (NaN named by its joint).
     """
     tm = np.asarray(motor_tau_max, dtype=float)
-    if tm.shape != (robot.n,) or np.any(tm <= 0):
+    if tm.shape != (robot.n,):
         raise ValueError(f"motor torque limits must be {robot.n} positive numbers, got {motor_tau_max!r}")
+    bad = np.flatnonzero(~(tm > 0))  # NaN included
+    if bad.size:
+        j = int(bad[0])
+        raise ValueError(
+            f"motor torque limits must be {robot.n} positive numbers, got {motor_tau_max!r}: "
+            f"joint {j + 1} has {float(tm[j])}"
+        )
     return tm * np.abs([float(link.G) for link in robot.links])
 
 
@@ -194,11 +204,30 @@ def motor_torque_limits(robot: Robot, motor_tau_max) -> np.ndarray:
 class Limits:
     """Box limits at every grid point: q (n, 2) [lower, upper] rad or m; |q̇| ≤ qd (n,);
     |τ| ≤ tau (n,) N·m (N for a prismatic joint).  None leaves a quantity unbounded;
-    an infinite entry leaves that joint's quantity unbounded (no constraint is posed)."""
+    an infinite entry leaves that joint's quantity unbounded (no constraint is posed).
+
+    Raises:
+        ValueError: a limit that is not numbers, or a NaN entry (named by its joint).
+    """
 
     q: np.ndarray | None = None
     qd: np.ndarray | None = None
     tau: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        # NaN compares false with everything: a NaN limit would silently bound nothing
+        for name in ("q", "qd", "tau"):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            try:
+                values = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"Limits.{name} must be numbers, got {v!r}") from None
+            nan = np.argwhere(np.isnan(values))
+            if nan.size:
+                joint = int(nan[0][0]) + 1 if values.ndim else 1
+                raise ValueError(f"Limits.{name} of joint {joint} is NaN (inf leaves a joint unbounded), got {v!r}")
 
     @classmethod
     def for_robot(cls, robot: Robot, *, qd=None, tau=None, motor_tau=None) -> "Limits":
@@ -244,12 +273,33 @@ def _finite_or_one(limit: np.ndarray | None, n: int) -> np.ndarray:
 @dataclass(frozen=True)
 class Cost:
     """Weights of the cost terms: time T, effort ∫τᵀWτ dt, smoothness ∫(dτ/dt)ᵀW(dτ/dt) dt;
-    `weights` is the diagonal of W (n,), default ones."""
+    `weights` is the diagonal of W (n,), default ones.
+
+    Raises:
+        ValueError: a weight (time, effort, smoothness or an entry of `weights`) that
+            is not a finite number ≥ 0.
+    """
 
     time: float = 0.0
     effort: float = 0.0
     smoothness: float = 0.0
     weights: tuple | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("time", "effort", "smoothness"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"the cost weight {name} must be a finite number ≥ 0, got {v!r}")
+        if self.weights is not None:
+            if isinstance(self.weights, (str, bytes)) or np.ndim(self.weights) != 1:
+                raise ValueError(
+                    f"the cost weights must be a sequence of numbers (one per joint), got {self.weights!r}"
+                )
+            for j, w in enumerate(self.weights):
+                if isinstance(w, bool) or not isinstance(w, numbers.Real) or not (math.isfinite(w) and w >= 0):
+                    raise ValueError(
+                        f"the cost weights must be finite numbers ≥ 0: joint {j + 1} has {w!r} in {self.weights!r}"
+                    )
 
 
 @dataclass(frozen=True)
@@ -264,8 +314,9 @@ class Problem:
         ValueError: an unknown method; N not an integer ≥ 2; T not positive;
             T_bounds not 0 < T_min < T_max; a free T without a positive time weight
             or without any finite torque or speed limit; q0, qf, qd0, qdf of
-            different lengths; joint limits not (n, 2); speed or torque limits
-            that are not n positive numbers.
+            different lengths or with a NaN or infinite entry; joint limits not
+            (n, 2); speed or torque limits that are not n positive numbers (or a
+            NaN one: `Limits`); cost weights that are not n entries.
     """
 
     q0: np.ndarray
@@ -298,12 +349,20 @@ class Problem:
             v = getattr(self, name)
             if v is not None and np.shape(v) != (n,):
                 raise ValueError(f"{name} must have shape ({n},) like q0, got {np.shape(v)}")
+            if v is not None:
+                values = np.asarray(v, dtype=float)
+                bad = np.flatnonzero(~np.isfinite(values))
+                if bad.size:
+                    j = int(bad[0])
+                    raise ValueError(f"{name} must be finite: joint {j + 1} has {float(values[j])}, got {v!r}")
+        if self.cost.weights is not None and len(self.cost.weights) != n:
+            raise ValueError(f"the cost weights must be {n} numbers (one per joint), got {self.cost.weights!r}")
         lim = self.limits
         if lim.q is not None and np.shape(lim.q) != (n, 2):
             raise ValueError(f"joint limits must have shape ({n}, 2), got {np.shape(lim.q)}")
         for name in ("qd", "tau"):
             v = getattr(lim, name)
-            if v is not None and (np.shape(v) != (n,) or np.any(np.asarray(v) <= 0)):
+            if v is not None and (np.shape(v) != (n,) or not np.all(np.asarray(v) > 0)):
                 raise ValueError(f"{name} limits must be {n} positive numbers, got {v!r}")
         if self.T is None and not lim.bounds_any():
             raise ValueError(
@@ -741,9 +800,15 @@ def limit_violation(problem: Problem, solution: Solution) -> float:
     Hermite–Simpson), in the quantity's units.
 
     Raises:
-        ValueError: a solution whose joint count differs from the problem's limits
-            (NumPy's broadcasting error).
+        ValueError: a solution whose joint count differs from the problem's.
     """
+    for name in ("q", "qd", "tau", "q_mid", "qd_mid", "tau_mid"):
+        v = getattr(solution, name)
+        if v is not None and (np.ndim(v) != 2 or np.shape(v)[1] != problem.n):
+            raise ValueError(
+                f"the solution's {name} has shape {np.shape(v)}, not (·, {problem.n}): "
+                f"its joint count differs from the problem's ({problem.n} joints)"
+            )
     lim, worst = problem.limits, 0.0
     for q, qd in ((solution.q, solution.qd), (solution.q_mid, solution.qd_mid)):
         if q is None:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -376,7 +377,8 @@ def excitation(
 
     Raises:
         ValueError: an unknown criterion; a period that is not positive; harmonics
-            not an integer ≥ 2; a symbolic robot; torque limits that even a small
+            not an integer ≥ 2; a rate that is not a positive finite number (or gives
+            no sample in a period); a symbolic robot; torque limits that even a small
             motion about the middle of the joint ranges exceeds.
         RuntimeError: the optimised excitation's torques exceed the limits between
             design samples even with a 30 % margin (raise `rate`).
@@ -392,6 +394,13 @@ def excitation(
         raise ValueError(f"the period must be positive, got {period}")
     if not (isinstance(harmonics, (int, np.integer)) and harmonics >= 2):
         raise ValueError(f"harmonics must be an integer ≥ 2 (rest at both ends takes two), got {harmonics!r}")
+    if rate is not None:  # None: the default grid; 0 is no rate, not the default
+        if isinstance(rate, bool) or not isinstance(rate, numbers.Real) or not (math.isfinite(rate) and rate > 0):
+            raise ValueError(
+                f"rate must be a positive, finite sample rate in Hz (or None for the default), got {rate!r}"
+            )
+        if round(period * rate) < 1:
+            raise ValueError(f"rate={rate!r} Hz gives no design sample in a period of {period} s")
     robot.require_numeric("excitation design")
     start_time = time.perf_counter()
     n, L = robot.n, int(harmonics)
@@ -404,7 +413,7 @@ def excitation(
 
     # default: 10 samples per period of the highest harmonic, ≥ 3 rows per base parameter (the
     # Panda's condition number on this grid, 34.2, is 33.9 on a 100 Hz grid; 100 samples cost twice)
-    K = int(round(period * rate)) if rate else max(10 * L, 3 * -(-p // n))
+    K = int(round(period * rate)) if rate is not None else max(10 * L, 3 * -(-p // n))
     t = np.arange(K) * period / K
     Bq, Bqd, Bqdd = _basis(t, period, L)
     Kd = 40 * L  # dense grid of the linear limits: a harmonic overshoots its samples by < 0.4 %
