@@ -224,3 +224,14 @@ def test_a_worker_killed_mid_sweep_loses_and_duplicates_nothing(client, serial, 
     assert results(outcome.rows) == serial
     assert len((tmp_path / "results.csv").read_text().splitlines()) == 1 + len(INPUTS)
     assert all(not r["worker"].endswith(f":{killed['pid']}") or r["warm"] for r in outcome.rows)
+
+
+def test_a_task_id_needs_an_integer_index():
+    """int(3.7) would silently make task 3, and int("x")'s error named no input."""
+    assert engine.task_id({"index": 7, "s": 1}).startswith("000007-")
+    assert engine.task_id({"index": np.int64(7), "s": 1}) == engine.task_id({"index": 7, "s": 1})
+    for index in (3.7, "x", "3", True, None):
+        with pytest.raises(
+            TypeError, match=rf"a sweep input's index must be an integer, got \w+ {re.escape(repr(index))}"
+        ):
+            engine.task_id({"index": index, "s": 1})

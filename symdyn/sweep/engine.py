@@ -26,6 +26,7 @@ import functools
 import hashlib
 import json
 import logging
+import numbers
 import os
 import signal
 import socket
@@ -121,9 +122,13 @@ def task_id(item: dict) -> str:
     Raises:
         TypeError: an input holding something other than numbers, text, lists, dicts
             and NumPy values.
-        ValueError: an `index` that cannot be read as an integer (TypeError where it
-            is neither a number nor text).
+        TypeError: an `index` that is not an integer (a bool, float or text included:
+            3.7 would silently become task 3).
     """
+    if "index" in item:
+        index = item["index"]
+        if isinstance(index, bool) or not isinstance(index, numbers.Integral):  # NumPy integers too
+            raise TypeError(f"a sweep input's index must be an integer, got {type(index).__name__} {index!r}")
     text = json.dumps(item, sort_keys=True, separators=(",", ":"), default=_jsonable)
     digest = hashlib.sha256(text.encode()).hexdigest()[:10]
     return f"{int(item['index']):06d}-{digest}" if "index" in item else digest
