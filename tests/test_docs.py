@@ -223,12 +223,10 @@ RAISES_NOTHING = {
     "symdyn.sweep.engine.SweepInterrupted",
     "symdyn.sweep.table.TableError",
     # Plain data holders (dataclasses without checks): what builds or reads them checks
-    # (Problem checks Limits and Cost; fit, solve, verify and run make the others), and the
-    # members that can fail (Limits.for_robot, Identification.robot/predict/validate) say so.
+    # (fit, solve, verify and run make them), and the members that can fail
+    # (Identification.robot/predict/validate) say so.
     "symdyn.identify.Data",
     "symdyn.identify.Identification",
-    "symdyn.ocp.Limits",
-    "symdyn.ocp.Cost",
     "symdyn.ocp.Solution",
     "symdyn.ocp.Check",
     "symdyn.sweep.engine.Sweep",
@@ -275,3 +273,48 @@ def test_every_public_callable_documents_its_errors():
     assert len(checked) > 50
     assert not missing, f"public functions and classes without a Raises: section: {missing}"
     assert RAISES_NOTHING <= set(checked), sorted(RAISES_NOTHING - set(checked))
+
+
+def test_the_public_api_is_annotated():
+    """Every documented function, and every public method (and `__init__`) of every
+    documented class defined in symdyn, annotates its parameters (bar self, cls, *args and
+    **kwargs) and its return (bar `__init__`): the type hints the reference renders."""
+    import inspect
+
+    def callables(name: str, obj):
+        if inspect.isfunction(obj):
+            yield name, obj
+            return
+        for attr, member in vars(obj).items():
+            if attr.startswith("_") and attr != "__init__":
+                continue
+            if isinstance(member, (staticmethod, classmethod)):
+                member = member.__func__
+            elif isinstance(member, property):
+                member = member.fget
+            if inspect.isfunction(member) and member.__module__.startswith("symdyn"):
+                yield f"{name}.{attr}", member
+
+    checked, missing = [], []
+    for name in sorted(reference_entries() & expected_entries()):
+        obj = public_object(name)
+        target = inspect.unwrap(obj) if callable(obj) and not inspect.isclass(obj) else obj
+        if not (inspect.isclass(target) or inspect.isfunction(target)):
+            continue  # a module or a constant
+        if not getattr(target, "__module__", "").startswith("symdyn"):
+            continue
+        for where, function in callables(name, target):
+            checked.append(where)
+            signature = inspect.signature(inspect.unwrap(function))
+            for parameter in signature.parameters.values():
+                if parameter.name in ("self", "cls") or parameter.kind in (
+                    parameter.VAR_POSITIONAL,
+                    parameter.VAR_KEYWORD,
+                ):
+                    continue
+                if parameter.annotation is parameter.empty:
+                    missing.append(f"{where}({parameter.name})")
+            if function.__name__ != "__init__" and signature.return_annotation is signature.empty:
+                missing.append(f"{where} (return)")
+    assert len(checked) > 80
+    assert not missing, f"public functions and methods without annotations: {missing}"

@@ -230,7 +230,14 @@ class Limits:
                 raise ValueError(f"Limits.{name} of joint {joint} is NaN (inf leaves a joint unbounded), got {v!r}")
 
     @classmethod
-    def for_robot(cls, robot: Robot, *, qd=None, tau=None, motor_tau=None) -> "Limits":
+    def for_robot(
+        cls,
+        robot: Robot,
+        *,
+        qd: ArrayLike | None = None,
+        tau: ArrayLike | None = None,
+        motor_tau: ArrayLike | None = None,
+    ) -> "Limits":
         """The robot's limits: its joint limits (`robot.qlim`); speed limits qd (n,) as
         given, else the links' `velocity_limit`; torque limits tau (n,) as given, or from
         the motors (motor_tau·|G|), else the links' `effort_limit` — for a URDF arm the
@@ -428,7 +435,7 @@ class Solution:
         b, x = self.tau_mid[k], s / h
         return a * (2 * x - 1) * (x - 1) + 4 * b * x * (1 - x) + c * x * (2 * x - 1)
 
-    def torque(self, t) -> np.ndarray:
+    def torque(self, t: ArrayLike) -> np.ndarray:
         """τ(t) (len(t), n) on [0, T], right-continuous at the nodes."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.N - 1)
@@ -699,7 +706,9 @@ def solve(
 # --------------------------------------------------------------------------- verification
 
 
-def resimulate(robot: Robot, solution: Solution, *, substeps: int = 10, restart: bool = False):
+def resimulate(
+    robot: Robot, solution: Solution, *, substeps: int = 10, restart: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Open-loop simulation of the solution's torque with the reference forward dynamics
     (`reference.accel`): fixed-step RK4, `substeps` steps per interval, τ interpolated as
     the transcription assumes.  restart=True starts each interval from the solution's own

@@ -11,10 +11,14 @@ simulated data (`load_data`, `simulate`) → the exact base regressor
 from __future__ import annotations
 
 from importlib import import_module
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from .data import Data, load_data
 from .estimate import Identification, fit
 from .simulate import simulate
+
+if TYPE_CHECKING:
+    from ..model import Robot
 
 try:  # excitation design lives in its own module (CasADi); re-exported once it is there
     excitation = import_module(f"{__name__}.excitation").excitation
@@ -22,7 +26,7 @@ except ModuleNotFoundError as exc:
     if exc.name != f"{__name__}.excitation":
         raise
 
-    def excitation(robot, **options):
+    def excitation(robot: Robot, **options: Any) -> NoReturn:
         """Excitation design (symdyn.identify.excitation) is not part of this installation yet.
 
         Raises:

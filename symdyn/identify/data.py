@@ -15,11 +15,17 @@ names the file, the column and the row.
 from __future__ import annotations
 
 import csv
+import os
 import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from ..model import Robot
 
 __all__ = ["Data", "load_data", "from_arrays", "parallel_decimate", "write_csv", "DEFAULT_CUTOFF"]
 
@@ -59,7 +65,7 @@ class Data:
     def N(self) -> int:
         return self.q.shape[0]
 
-    def check_joints(self, robot) -> "Data":
+    def check_joints(self, robot: Robot) -> "Data":
         """self, or a ValueError naming the column where the joint count differs from robot's."""
         if self.n != robot.n:
             if self.n < robot.n:
@@ -156,7 +162,13 @@ def _joint_columns(names: list[str], kind: str) -> list[str]:
 
 
 def load_data(
-    path, *, joints=None, torque_constant=None, cutoff: float | None = None, order: int = ORDER, decimate: int = 1
+    path: str | os.PathLike[str],
+    *,
+    joints: Robot | int | None = None,
+    torque_constant: ArrayLike | None = None,
+    cutoff: float | None = None,
+    order: int = ORDER,
+    decimate: int = 1,
 ) -> Data:
     """Read and preprocess measured motion from a CSV or NPZ file (see the module docstring).
 

@@ -27,12 +27,14 @@ from __future__ import annotations
 
 import functools
 import json
+import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..model import Robot
 from .data import Data, parallel_decimate
@@ -585,7 +587,7 @@ class Identification:
             self._regressor = _Regressor(self.prior, self.map, self.target)
         return self._regressor
 
-    def predict(self, q, qd, qdd) -> np.ndarray:
+    def predict(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> np.ndarray:
         """Joint torques Y_b(q, q̇, q̈)·β̂, (N, n) for states (N, n) ((n,) for one state).
 
         Raises:
@@ -685,7 +687,12 @@ class Identification:
         return out
 
     def write(
-        self, out_dir, validation: Validation | Data | None = None, *, figures: bool = True, urdf_source=None
+        self,
+        out_dir: str | os.PathLike[str],
+        validation: Validation | Data | None = None,
+        *,
+        figures: bool = True,
+        urdf_source: str | os.PathLike[str] | None = None,
     ) -> list[Path]:
         """Write summary.txt, parameters.json, identified.urdf (a model read from a URDF: that file with
         the identified inertials, `urdf_source` its path or text where the robot's record does not

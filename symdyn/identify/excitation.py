@@ -34,10 +34,14 @@ import numbers
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..model import Robot
+
+if TYPE_CHECKING:
+    from ..codegen.entry import GeneratedModel
 
 __all__ = ["excitation", "Excitation", "ExcitationLimits", "CRITERIA", "configure_parser", "run_cli"]
 
@@ -359,7 +363,7 @@ def excitation(
     seed: int = 0,
     limits: ExcitationLimits | None = None,
     max_iter: int = 200,
-    model=None,
+    model: GeneratedModel | None = None,
 ) -> Excitation:
     """An optimised periodic excitation of `robot` (module docstring).
 

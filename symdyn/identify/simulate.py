@@ -17,11 +17,16 @@ import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..model import Robot
 from .data import Data, from_arrays, write_csv
+
+if TYPE_CHECKING:
+    from .excitation import Excitation
 
 __all__ = [
     "simulate",
@@ -99,11 +104,11 @@ def _trajectory(trajectory, n: int) -> Trajectory:
 
 def simulate(
     robot: Robot,
-    trajectory,
+    trajectory: Trajectory | Data | Excitation | str | Path,
     *,
     perturb: float = 0.2,
-    noise=0.0,
-    quantisation=0.0,
+    noise: ArrayLike = 0.0,
+    quantisation: ArrayLike = 0.0,
     seed: int = 0,
     truth: Robot | None = None,
 ) -> Data:

@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from ..model import Robot, exact_cos_sin
@@ -269,7 +270,7 @@ def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
 # --------------------------------------------------------------------------- public API
 
 
-def friction(robot: Robot, qd) -> np.ndarray:
+def friction(robot: Robot, qd: ArrayLike) -> np.ndarray:
     """Joint friction F(q̇) (..., n): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest.
 
     Raises:
@@ -299,7 +300,49 @@ def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
     return F
 
 
-def rne(robot: Robot, q, qd, qdd, *, gravity=None, wrench=None, base_wrench: bool = False):
+@overload
+def rne(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    *,
+    gravity: ArrayLike | None = ...,
+    wrench: ArrayLike | None = ...,
+    base_wrench: Literal[False] = ...,
+) -> np.ndarray: ...
+@overload
+def rne(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    *,
+    gravity: ArrayLike | None = ...,
+    wrench: ArrayLike | None = ...,
+    base_wrench: Literal[True],
+) -> tuple[np.ndarray, np.ndarray]: ...
+@overload
+def rne(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    *,
+    gravity: ArrayLike | None = ...,
+    wrench: ArrayLike | None = ...,
+    base_wrench: bool,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
+def rne(
+    robot: Robot,
+    q: ArrayLike,
+    qd: ArrayLike,
+    qdd: ArrayLike,
+    *,
+    gravity: ArrayLike | None = None,
+    wrench: ArrayLike | None = None,
+    base_wrench: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Inverse dynamics τ (..., n), friction included.
 
     gravity: override of the robot's (Corke's convention, world frame).
@@ -336,7 +379,7 @@ def _rne_nofriction(c: _Chain, q, qd, qdd, g) -> np.ndarray:
     return _recursion(c, q, qd, qdd, g)[0]
 
 
-def inertia(robot: Robot, q) -> np.ndarray:
+def inertia(robot: Robot, q: ArrayLike) -> np.ndarray:
     """Joint-space inertia M(q) (..., n, n), rotor term G²·Jm on the diagonal.
 
     Raises:
@@ -351,7 +394,7 @@ def inertia(robot: Robot, q) -> np.ndarray:
     return np.swapaxes(cols, -1, -2)
 
 
-def christoffel(robot: Robot, q) -> np.ndarray:
+def christoffel(robot: Robot, q: ArrayLike) -> np.ndarray:
     """Christoffel symbols Γ[..., k, i, j] = ½(∂M_kj/∂q_i + ∂M_ki/∂q_j − ∂M_ij/∂q_k),
     from velocity-product forces of the recursion (symmetric split).
 
@@ -380,7 +423,7 @@ def christoffel(robot: Robot, q) -> np.ndarray:
     return Gam
 
 
-def coriolis(robot: Robot, q, qd) -> np.ndarray:
+def coriolis(robot: Robot, q: ArrayLike, qd: ArrayLike) -> np.ndarray:
     """Christoffel Coriolis matrix C(q, q̇) (..., n, n): C_kj = Σ_i Γ_kij q̇_i.
 
     Raises:
@@ -392,7 +435,7 @@ def coriolis(robot: Robot, q, qd) -> np.ndarray:
     return np.einsum("...kij,...i->...kj", christoffel(robot, q), qd)
 
 
-def gravload(robot: Robot, q, *, gravity=None) -> np.ndarray:
+def gravload(robot: Robot, q: ArrayLike, *, gravity: ArrayLike | None = None) -> np.ndarray:
     """Gravity load G(q) (..., n): the joint torques that hold the arm still.
 
     Raises:
@@ -406,7 +449,7 @@ def gravload(robot: Robot, q, *, gravity=None) -> np.ndarray:
     return _rne_nofriction(c, q, z, z, g)
 
 
-def accel(robot: Robot, q, qd, tau) -> np.ndarray:
+def accel(robot: Robot, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> np.ndarray:
     """Forward dynamics q̈ = M⁻¹(τ − C q̇ − F − G) (..., n), friction included.
 
     Raises:
@@ -454,15 +497,15 @@ class SingularInertia(ValueError):
 def fdyn(
     robot: Robot,
     T: float,
-    q0,
-    qd0=None,
+    q0: ArrayLike,
+    qd0: ArrayLike | None = None,
     torque: Callable | None = None,
     *,
     rtol: float = 1e-10,
     atol: float = 1e-10,
-    t_eval=None,
+    t_eval: ArrayLike | None = None,
     method: str = "DOP853",
-):
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integrate the forward dynamics from (q0, qd0) over [0, T] with scipy.
 
     torque(t, q, qd) -> τ (n,), or None for zero torque.  Returns (t, q, qd)
@@ -513,7 +556,7 @@ def _tool_point(c: _Chain, Rs, ps) -> np.ndarray:
     return ps[..., -1, :] + np.einsum("...ij,j->...i", Rs[..., -1, :, :], c.tool_p)
 
 
-def fkine(robot: Robot, q) -> np.ndarray:
+def fkine(robot: Robot, q: ArrayLike) -> np.ndarray:
     """End-effector pose (..., 4, 4) in the world: base · A₁ ⋯ Aₙ · tool.
 
     Raises:
@@ -531,7 +574,7 @@ def fkine(robot: Robot, q) -> np.ndarray:
     return T
 
 
-def jacob0(robot: Robot, q) -> np.ndarray:
+def jacob0(robot: Robot, q: ArrayLike) -> np.ndarray:
     """Geometric Jacobian (..., 6, n) of the tool point, [v; ω], world frame.
 
     Raises:
@@ -551,7 +594,7 @@ def jacob0(robot: Robot, q) -> np.ndarray:
     return np.swapaxes(np.concatenate([v, np.where(revolute, z, 0.0)], -1), -1, -2)
 
 
-def energy(robot: Robot, q, qd) -> tuple[np.ndarray, np.ndarray]:
+def energy(robot: Robot, q: ArrayLike, qd: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Kinetic ½q̇ᵀMq̇ (rotors included) and potential Σ mᵢ·a_up·p_cᵢ energy.
 
     Returns:

@@ -35,13 +35,17 @@ import threading
 import time
 import traceback
 import uuid
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 from urllib.parse import urlsplit
 
 from ..derivation.cache import write_atomic
 from .table import Table, TableError
+
+if TYPE_CHECKING:  # Dask is the optional sweep extra: imported only where a sweep runs
+    from distributed import Client
 
 __all__ = [
     "Sweep",
@@ -216,7 +220,7 @@ def _probe(address: str) -> None:
         ) from None
 
 
-def connect(scheduler: str | None = None, workers: int | None = None):
+def connect(scheduler: str | None = None, workers: int | None = None) -> tuple[Client, str]:
     """(client, description): a `distributed.Client` of the scheduler at `scheduler` (or
     $DASK_SCHEDULER_ADDRESS), else of a new local cluster of `workers` processes (default:
     one per CPU), one thread each.  Closing the client closes a local cluster too.
@@ -283,12 +287,17 @@ def connect(scheduler: str | None = None, workers: int | None = None):
         if main:
             signal.signal(signal.SIGINT, previous)
     client = Client(cluster)
-    client._symdyn_cluster = cluster  # closed with the client (see _close)
+    _LOCAL_CLUSTERS[client] = cluster  # closed with the client (see _close)
     return client, f"local Dask cluster, {workers} worker process{'es' * (workers != 1)}, 1 thread each"
 
 
-def _close(client) -> None:
-    cluster = getattr(client, "_symdyn_cluster", None)
+#: The local cluster `connect` started for a client, closed with it by `_close` (weak keys:
+#: a client dropped unclosed takes its entry along).
+_LOCAL_CLUSTERS: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
+
+
+def _close(client: Client) -> None:
+    cluster = _LOCAL_CLUSTERS.pop(client, None)
     client.close()
     if cluster is not None:
         cluster.close()
@@ -332,7 +341,8 @@ class Progress:
 
 
 def _check(sweep: Sweep, inputs: Sequence[dict]) -> list[tuple[str, dict]]:
-    items, seen = [], {}
+    items: list[tuple[str, dict]] = []
+    seen: dict[str, int] = {}
     allowed = set(sweep.input_columns)
     for k, item in enumerate(inputs):
         extra = set(item) - allowed
@@ -364,7 +374,7 @@ def run(
     resume: bool = False,
     scheduler: str | None = None,
     workers: int | None = None,
-    client=None,
+    client: Client | None = None,
     progress: bool = True,
     on_row: Callable[[dict], None] | None = None,
     options: dict | None = None,
@@ -441,7 +451,7 @@ def run(
                     write(execute(sweep.task, tid, item))
             elif todo:
                 own = client is None
-                if own:
+                if client is None:
                     client, engine = connect(scheduler, workers)
                 else:
                     engine = f"Dask client {client.scheduler.address}"

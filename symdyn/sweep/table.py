@@ -23,7 +23,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Iterable, Mapping
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 
@@ -36,7 +36,7 @@ class TableError(ValueError):
     """A results table that cannot be resumed (other columns, other inputs)."""
 
 
-def encode(value) -> str:
+def encode(value: Any) -> str:
     """One cell: '' for None, repr for numbers (NaN as 'nan'), JSON for lists, tuples,
     dicts and arrays, text on one line.
 
@@ -67,7 +67,7 @@ def _plain(value):
     raise TypeError(f"cannot write {type(value).__name__} {value!r} into a results table")
 
 
-def decode_json(cell: str):
+def decode_json(cell: str) -> Any:
     """A list/dict cell back to Python (NaN kept), '' to None.
 
     Raises:

@@ -18,7 +18,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import warnings
+from typing import Iterable
 
 import numpy as np
 import sympy as sp
@@ -196,12 +198,12 @@ def _excluded(tree: Tree, exclude, on_chain: set, below_base: set) -> tuple:
 
 
 def from_urdf(
-    path_or_xml,
+    path_or_xml: str | os.PathLike[str],
     *,
     base_link: str | None = None,
     tip_link: str | None = None,
     locked: dict | None = None,
-    exclude=(),
+    exclude: str | Iterable[str] = (),
     snap: bool = True,
     name: str | None = None,
 ) -> Robot:

@@ -412,7 +412,9 @@ def _fresh(robot: Robot) -> str:
 # --------------------------------------------------------------------------- entry point
 
 
-def to_urdf(robot: Robot, path=None, *, source=None) -> str:
+def to_urdf(
+    robot: Robot, path: str | os.PathLike[str] | None = None, *, source: str | os.PathLike[str] | None = None
+) -> str:
     """The URDF text of `robot` with its inertials (module docstring); written to `path`
     (atomically) when given.  source: the URDF the robot was read from (path or text),
     when `robot.urdf` names a file that is not at hand.
