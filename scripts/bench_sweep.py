@@ -46,8 +46,8 @@ def _results(rows) -> dict:
     out = {}
     for r in rows:
         row = {k: v for k, v in r.items() if k not in engine.META or k == "error"}
-        if "stages" in row and row["stages"]:
-            row["stages"] = [s[:3] for s in json.loads(row["stages"])]
+        if row.get("per_stage"):
+            row["per_stage"] = [s[:3] for s in json.loads(row["per_stage"])]
         out[r["task_id"]] = row
     return out
 
@@ -64,7 +64,7 @@ def fuzz_sweep(arms: int):
         fuzz_arms.check_one,
         inputs=None,
         input_columns=columns,
-        result_columns=("name", "n", "joints", "stages", "bad", "code"),
+        result_columns=("name", "n", "joints", "per_stage", "bad", "code"),
     )
     items = [
         {

@@ -86,7 +86,7 @@ def main(argv=None) -> int:
         results = (check_one(item) for item in items)
     for item, result in zip(items, results):
         seed = item["seed"]
-        for stage, error, what, seconds in result["stages"]:
+        for stage, error, what, seconds in result["per_stage"]:
             row = f"{result['name']}\t{result['n']}\t{result['joints']}\t{stage}\t{error:.2e}\t{what}\t{seconds:.2f}"
             rows.append(row)
             print(row, flush=True)
@@ -127,7 +127,7 @@ def check_one(item: dict) -> dict:
         "name": robot.name,
         "n": robot.n,
         "joints": "".join(link.joint[0] for link in robot.links),
-        "stages": per_stage,
+        "per_stage": per_stage,
         "bad": bad,
         "code": robot_code(robot).splitlines() if bad else [],
     }
@@ -149,7 +149,7 @@ def _on_cluster(items: list[dict], args) -> list[dict]:
         check_one,
         inputs=lambda n: items,
         input_columns=("index", "seed", "n_min", "n_max", "general", "states", "stages", "tol"),
-        result_columns=("name", "n", "joints", "stages", "bad", "code"),
+        result_columns=("name", "n", "joints", "per_stage", "bad", "code"),
     )
     out = Path(args.sweep_out or tempfile.mkdtemp(prefix="fuzz-arms-"))
     outcome = run(sweep, items, out, resume=args.resume, scheduler=args.scheduler, workers=args.workers)
@@ -169,7 +169,7 @@ def _on_cluster(items: list[dict], args) -> list[dict]:
                     "n": 0,
                     "joints": "",
                     "code": [],
-                    "stages": [[s, float("inf"), "crashed", 0.0] for s in item["stages"]],
+                    "per_stage": [[s, float("inf"), "crashed", 0.0] for s in item["stages"]],
                     "bad": [[s, "crashed", float("inf"), r["error"]] for s in item["stages"]],
                 }
             )
@@ -180,7 +180,7 @@ def _on_cluster(items: list[dict], args) -> list[dict]:
                     "n": int(r["n"]),
                     "joints": r["joints"],
                     "code": json.loads(r["code"]),
-                    "stages": json.loads(r["stages"]),
+                    "per_stage": json.loads(r["per_stage"]),
                     "bad": json.loads(r["bad"]),
                 }
             )

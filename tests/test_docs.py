@@ -229,7 +229,6 @@ RAISES_NOTHING = {
     "symdyn.identify.Identification",
     "symdyn.ocp.Solution",
     "symdyn.ocp.Check",
-    "symdyn.sweep.engine.Sweep",
     "symdyn.sweep.engine.Outcome",
     # Builds a tuple of what it is given; nothing is checked until a Link or Robot reads it.
     "symdyn.model.transl",

@@ -7,11 +7,14 @@ sweep's nominal draw reproduces the chapter study's computed-torque row."""
 
 from __future__ import annotations
 
+import csv
 import functools
 import os
 import re
 import signal
 import socket
+import subprocess
+import sys
 import time
 
 import distributed  # the sweep extra, part of the test extra: pip install -e '.[test]'
@@ -111,6 +114,27 @@ def test_library_motions_are_re_simulated_with_the_reference(tmp_path):
     assert np.array_equal(limits.tau, [87, 87, 87, 87, 12, 12, 12])
     assert np.array_equal(limits.qd, [2.175] * 4 + [2.61] * 3)
     assert library.REPLAY["panda"] == "intervals" and library.inputs(1, arm="panda")[0]["N"] == 60
+
+
+def _echo(item: dict) -> dict:
+    return {"value": item["index"] * 2, "index": -1} if item["index"] == 1 else {"value": item["index"] * 2}
+
+
+def test_a_result_never_shares_or_overwrites_an_input_cell(tmp_path):
+    """A column named both as input and result is refused when the sweep is made (one CSV cell for
+    two values shifted every later cell of a row); a task that returns a key outside its result
+    columns (here the input's own index) is that task's error, and its input is kept."""
+    with pytest.raises(ValueError, match=r"column\(s\) \['stages'\] named more than once"):
+        engine.Sweep("s", "", _echo, None, ("index", "stages"), ("stages", "bad"))
+    with pytest.raises(ValueError, match=r"\['wall_s'\] are the table's own"):
+        engine.Sweep("s", "", _echo, None, ("index",), ("wall_s",))
+    sweep = engine.Sweep("echo", "", _echo, None, ("index",), ("value",))
+    outcome = engine.run(sweep, [{"index": k} for k in range(3)], tmp_path, workers=0, progress=False)
+    rows = {int(r["index"]): r for r in outcome.rows}
+    assert [rows[k]["value"] for k in (0, 2)] == ["0", "4"] and not rows[0]["error"]
+    assert rows[1]["value"] == "" and "returned ['index']" in rows[1]["error"]
+    again = list(csv.DictReader((tmp_path / "results.csv").open()))
+    assert {int(r["index"]): r for r in again} == rows
 
 
 def _free_port() -> int:
@@ -235,3 +259,49 @@ def test_a_task_id_needs_an_integer_index():
             TypeError, match=rf"a sweep input's index must be an integer, got \w+ {re.escape(repr(index))}"
         ):
             engine.task_id({"index": index, "s": 1})
+
+
+def test_the_command_runs_on_a_cluster_started_apart_given_by_its_address(serial, tmp_path, capsys):
+    """`--scheduler tcp://…`: a scheduler and a worker started as their own processes with Dask's
+    command-line tools, as on a real cluster; the rows equal the serial run's."""
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    scheduler = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "distributed.cli.dask_scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            address.rsplit(":", 1)[1],
+            "--dashboard-address",
+            ":0",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    worker = subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.perf_counter() + 60
+        while True:
+            try:
+                with distributed.Client(address, timeout=5) as c:
+                    c.wait_for_workers(1, timeout=60)
+                break
+            except OSError:
+                assert time.perf_counter() < deadline, "the scheduler did not start"
+                time.sleep(0.2)
+        argv = ["sweep", "trajectory-library", "--arm", "twolink", "--n", "2", "--N", "8", "--no-verify"]
+        assert cli.main([*argv, "--scheduler", address, "--no-progress", "--out", str(tmp_path)]) == 0
+        assert f"Dask scheduler {address}" in capsys.readouterr().out
+        rows = list(csv.DictReader((tmp_path / "results.csv").open()))
+        assert results(rows) == {tid: serial[tid] for tid in results(rows)} and len(rows) == 2
+        assert {tid for tid in results(rows)} == {engine.task_id(item) for item in INPUTS[:2]}
+    finally:
+        for proc in (worker, scheduler):
+            proc.terminate()
+            proc.wait(timeout=30)

@@ -86,7 +86,12 @@ class Sweep:
     deterministic in (n, options) and extended, not reshuffled, by a larger n),
     the table's input and result columns, and `report(rows, out_dir) -> lines` (the
     summary below the run's header, figures written into out_dir; rows as read back from
-    the table, all cells strings)."""
+    the table, all cells strings).
+
+    Raises:
+        ValueError: a column named twice (an input and a result of the same name would
+            share one cell), or named as one of the table's own (task_id and META).
+    """
 
     name: str
     summary: str
@@ -96,6 +101,18 @@ class Sweep:
     result_columns: tuple[str, ...]
     report: Callable[[list[dict], Path], list[str]] | None = None
     options: dict = field(default_factory=dict)  # option name -> (default, help) for the CLI
+
+    def __post_init__(self) -> None:
+        names = [*self.input_columns, *self.result_columns]
+        twice = sorted({c for c in names if names.count(c) > 1})
+        if twice:
+            raise ValueError(
+                f"sweep {self.name}: column(s) {twice} named more than once among its input columns "
+                f"{list(self.input_columns)} and result columns {list(self.result_columns)}"
+            )
+        own = sorted(set(names) & {"task_id", *META})
+        if own:
+            raise ValueError(f"sweep {self.name}: column(s) {own} are the table's own (task_id, {', '.join(META)})")
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -160,9 +177,10 @@ def describe_error(exc: BaseException) -> str:
 _RAN: set[str] = set()
 
 
-def execute(task: Callable[[dict], dict], tid: str, item: dict) -> dict:
+def execute(task: Callable[[dict], dict], tid: str, item: dict, result_columns: Sequence[str] | None = None) -> dict:
     """Run one task (on a worker, or in the driver for a serial run) and return its whole row:
-    the id, the input, the result or the error, and META.
+    the id, the input, the result or the error, and META.  Given `result_columns`, a result
+    with any other key is the task's error (recorded, not written over the input's cells).
 
     Raises:
         KeyboardInterrupt: a Ctrl-C during the task (any `BaseException` that is not
@@ -174,6 +192,12 @@ def execute(task: Callable[[dict], dict], tid: str, item: dict) -> dict:
     start, cpu = time.perf_counter(), time.process_time()
     try:
         result, error = dict(task(item)), ""
+        extra = sorted(set(result) - set(result_columns)) if result_columns is not None else []
+        if extra:
+            raise ValueError(
+                f"the task returned {extra}, which are not among the sweep's result columns "
+                f"{list(result_columns or ())}"
+            )
     except Exception as exc:  # recorded in the row; the sweep goes on
         result, error = {}, describe_error(exc)
     _RAN.add(name)
@@ -448,7 +472,7 @@ def run(
         try:
             if todo and workers == 0 and client is None:
                 for tid, item in todo:
-                    write(execute(sweep.task, tid, item))
+                    write(execute(sweep.task, tid, item, sweep.result_columns))
             elif todo:
                 own = client is None
                 if client is None:
@@ -488,7 +512,7 @@ def _drive(client, sweep: Sweep, todo: list[tuple[str, dict]], write: Callable[[
     ids = [tid for tid, _ in todo]
     run_token = uuid.uuid4().hex[:8]  # a resume's keys never meet the cancelled keys of the run it resumes
     futures = client.map(
-        functools.partial(execute, sweep.task),
+        functools.partial(execute, sweep.task, result_columns=sweep.result_columns),
         ids,
         [item for _, item in todo],
         key=[f"{sweep.name}-{tid}-{run_token}" for tid in ids],
