@@ -14,7 +14,7 @@ import sympy as sp
 
 import symdyn
 from symdyn import reference as ref
-from symdyn.bench.differential import check_arm, disagreements, evaluate
+from symdyn.bench.differential import _exact, check_arm, disagreements, evaluate
 from symdyn.derivation.symbols import exact_cos_sin_of
 from symdyn.model import Link, Robot
 from symdyn.model.random_arms import ArmOptions, degenerate_arm, random_arm, robot_code
@@ -168,3 +168,57 @@ def test_an_inertia_symmetric_to_rounding_is_read_as_exactly_symmetric():
     for seed in range(60):
         for link in random_arm(seed, SMALL).to_modified().links:
             assert all(link.I[i][j] == link.I[j][i] for i in range(3) for j in range(3)), seed
+
+
+def test_to_modified_moves_com_and_inertia_exactly():
+    """Found by the random arms (seed 1025, exact stage 7.8e-16): to_modified summed a + r_x in
+    floats (-0.2359 + 0.29155 = 0.05564999999999998) and turned r and I by float cos/sin of α, so
+    Newton–Euler (on the modified model) read constants an ulp off Lagrange's (on the standard one,
+    0.05565): M, G, τ differed by 1e-17 to 1e-15 at exact rational points instead of by 0."""
+    one = Robot("one", (Link(a=-0.2359, m=7.028849799019494, r=(0.29155, 0, 0), I=np.eye(3) * 0.5),))
+    assert one.to_modified().links[0].r == (0.05565, 0.0, 0.0)  # a float where one is the exact sum
+    ne, la = (symdyn.derive(one, method, cache=False) for method in ("newton-euler", "lagrange"))
+    assert ne.M == la.M
+    I1 = (
+        (0.3168909067577518, 0.0153150154, 0.0163491815),
+        (0.0153150154, 0.3532155673, 0.0198902736),
+        (0.0163491815, 0.0198902736, 0.3067217453),
+    )
+    I2 = (
+        (0.528445099925577, 0.0257008946, 0.1037401508),
+        (0.0257008946, 0.4692396823, 0.0369872607),
+        (0.1037401508, 0.0369872607, 0.545872479),
+    )
+    arm = Robot(
+        "arm1025",
+        (
+            Link(
+                joint="prismatic",
+                theta=1.6047228398584892,
+                a=0.2612,
+                alpha=2.8145733144677427,
+                offset=-0.10014262084932662,
+                qlim=(-0.45, -0.14),
+                m=3.936600419995517,
+                r=(0.14845, 0.10485, 0.09295),
+                I=I1,
+            ),
+            Link(a=-0.2359, m=7.028849799019494, r=(0.29155, -0.2992, -0.0818), I=I2),
+        ),
+        gravity=(-5.080836359514311, -5.635904275137022, -7.6120957090248735),
+        base=((1.0, 0.0, 0.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, -1.0, 0.38602415261111633), (0.0, 0.0, 0.0, 1.0)),
+    )
+    zero = {
+        "newton-euler regrouped == newton-euler (tau, M, G, C qd, F)": 0,
+        "lagrange == newton-euler (tau, M, G, C qd, F)": 0,
+    }
+    assert dict(_exact(arm)) == zero
+    # a generic twist alone: I turned by float cos/sin of α left Lagrange and Newton–Euler 6.6e-17 apart
+    twist = Robot(
+        "twist",
+        (
+            Link(alpha=2.8145733144677427, m=3.9, r=(0, 0, 0), I=I1),
+            Link(joint="prismatic", m=2.0, r=(0.1, 0.2, 0.3), I=I1, qlim=(0, 0.5)),
+        ),
+    )
+    assert dict(_exact(twist)) == zero

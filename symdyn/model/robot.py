@@ -19,7 +19,7 @@ from typing import Any, Callable, ClassVar, Mapping, Sequence
 import numpy as np
 import sympy as sp
 
-from .placement import axis_rotation, exact, exact_cos_sin, exact_rotation, rational_rotation
+from .placement import axis_rotation, exact, exact_cos_sin, exact_cos_sin_of, exact_rotation, rational_rotation
 
 CONVENTIONS = ("standard", "modified", "general")
 JOINT_TYPES = ("revolute", "prismatic")
@@ -484,11 +484,18 @@ class Robot:
         links = []
         prev_a, prev_alpha = 0, 0
         for link in self.links:
-            c, s = exact_cos_sin(link.alpha)
+            # exact, as the derivations read the standard model (`exact`, `exact_cos_sin_of`, I's upper
+            # triangle): a float sum a + r_x or a float rotation would hand Newton–Euler constants an
+            # ulp off Lagrange's
+            c, s = exact_cos_sin_of(link.alpha)
             R = ((1, 0, 0), (0, c, -s), (0, s, c))
-            r = tuple((link.a if i == 0 else 0) + sum(R[i][k] * link.r[k] for k in range(3)) for i in range(3))
+            a, rc = exact(link.a), [exact(x) for x in link.r]
+            Ic = [[exact(link.I[min(k, l)][max(k, l)]) for l in range(3)] for k in range(3)]
+            floats = isinstance(link.a, float) or any(isinstance(x, float) for x in link.r)
+            r = tuple(_plain((a if i == 0 else 0) + sum(R[i][k] * rc[k] for k in range(3)), floats) for i in range(3))
+            floats = any(isinstance(x, float) for x in _walk(link.I))
             upper = {
-                (i, j): sum(R[i][k] * link.I[k][l] * R[j][l] for k in range(3) for l in range(3))
+                (i, j): _plain(sum(R[i][k] * Ic[k][l] * R[j][l] for k in range(3) for l in range(3)), floats)
                 for i in range(3)
                 for j in range(i, 3)
             }  # computed once per pair: exactly symmetric
@@ -545,6 +552,17 @@ class Robot:
             prev = Ra
         back = tuple(tuple(prev[k][i] for k in range(3)) + (0,) for i in range(3)) + ((0, 0, 0, 1),)
         return dataclasses.replace(self, links=tuple(links), tool=_matmul4(back, self.tool))
+
+
+def _plain(x: sp.Expr, floats: bool) -> Number:
+    """An exact parameter as a plain number where one is that exact value: a float whose
+    shortest decimal it is (0.068, not 17/250; `floats`: the inputs were floats) or an int;
+    else the exact sympy number (a sum of decimals that no float is, a generic twist's rational)."""
+    if isinstance(x, sp.Integer) and not floats:
+        return int(x)
+    if isinstance(x, sp.Rational) and exact(float(x)) == x:
+        return float(x)
+    return x
 
 
 def _walk(x):
