@@ -87,7 +87,8 @@ def _decode(code: int, n: int) -> tuple[int, ...]:
 
 def _ratio(value) -> tuple[int, int]:
     """A constant (int, float, QQ, sympy number) as (numerator, denominator > 0);
-    floats and irrational numbers become the exact rational of their double."""
+    floats and irrational numbers become the rational of their shortest decimal
+    (`placement.exact`, as everywhere in the derivations: 0.4318 → 2159/5000)."""
     if isinstance(value, int):
         return value, 1
     if isinstance(value, sp.Basic):
