@@ -150,11 +150,11 @@ class Link:
     Kinematics (DH): `theta` (constant part for a prismatic joint), `d`
     (constant part for a revolute joint), `a`, `alpha`, `offset` (added to
     the joint variable), `qlim` (lower, upper) or None.  In the modified
-    convention `a`, `alpha` are Craig's a_{i-1}, α_{i-1}.
+    convention `a`, `alpha` are Craig's aᵢ₋₁, αᵢ₋₁.
     Kinematics (general convention, as URDF): `origin`, the joint's constant
     4×4 placement in the parent link's frame (see `placement(xyz, rpy)`),
     and `axis`, the unit joint axis in the link's own frame, which moves
-    with the joint: ^{i-1}T_i = origin · Rot(axis, q + offset) or
+    with the joint: ⁱ⁻¹Tᵢ = origin · Rot(axis, q + offset) or
     origin · Trans(axis·(q + offset)).
     Inertia: mass `m`, centre of mass `r` in the link frame, inertia `I`
     (3×3, symmetric, about the COM, link-frame axes).
