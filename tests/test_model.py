@@ -218,18 +218,20 @@ def test_a_generic_float_rotation_becomes_an_exactly_orthogonal_rational_one():
         np.testing.assert_allclose(np.array(E, dtype=float), R, atol=2e-15)
 
 
-def test_generic_turns_decide_whether_code_generation_regroups():
-    """Base parameters are exact linear algebra whose digits grow with each generic constant
-    rotation: the shipped arms (quarter turns only) regroup, a generically placed arm does not."""
-    from symdyn.derivation.regressor import GENERIC_TURNS_MAX, generic_turns
+def test_code_generation_regroups_generically_turned_arms():
+    """Base parameters no longer cost minutes per generic constant rotation: a generically placed
+    arm's code comes from the regrouped recursion like the shipped arms'."""
+    from symdyn.codegen.entry import bundle
+    from symdyn.derivation.regressor import generic_turns
     from symdyn.model import placement
 
-    assert generic_turns(models.load("puma560")) == 0 and generic_turns(models.load("panda")) == 0
     links = tuple(
         Link(origin=placement((0.1, 0, 0.2), (0.3 * k + 0.1, -0.2, 0.7)), axis=(0.6, 0, 0.8), m=1.0, I=0.01 * np.eye(3))
-        for k in range(5)
+        for k in range(4)
     )
-    assert generic_turns(Robot("g5", links, convention="general")) == 5 > GENERIC_TURNS_MAX
+    robot = Robot("g4", links, convention="general")
+    assert generic_turns(robot) == 4
+    assert "newton-euler, base parameters" in bundle(robot).derivation
 
 
 def test_placement_takes_exactly_three_finite_numbers_each():

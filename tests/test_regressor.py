@@ -26,7 +26,7 @@ def test_regressor_times_standard_parameters_is_the_reference_torque(name):
     reg = regressor(robot)
     Y = _Y(reg, robot)
     pi = np.array([float(v) for v in parameter_values(robot)])
-    base = base_parameters(robot, reg)
+    base = base_parameters(robot)
     beta = np.array([float(v) for v in base.regrouped])
     q, qd, qdd = random_states(robot, 200, seed=11)
     for state in zip(q, qd, qdd):
@@ -95,3 +95,50 @@ def test_regroup_needs_a_numeric_robot_and_newton_euler():
         derive(models.load("twolink", symbolic=True), regroup=True)
     with pytest.raises(ValueError, match="regroup"):
         derive(models.load("twolink"), "lagrange", regroup=True)
+
+
+def _exact_inertial_Y(robot, points: int, seed: int):
+    """The sympy regressor's inertial columns at rational points, exactly (rows: joint × point)."""
+    import random
+
+    from sympy.polys.domains import QQ
+    from sympy.polys.matrices import DomainMatrix
+
+    from exact_eval import compile_exact, random_rational_point
+    from symdyn.derivation.regressor import FRICTION, INERTIAL
+
+    reg = regressor(robot)
+    n, per = robot.n, len(INERTIAL) + len(FRICTION)
+    inertial = [k for k in range(len(reg.params)) if k % per < len(INERTIAL)]
+    q, qd, qdd = joint_symbols(n)
+    inputs = [f(x) for x in q for f in (sp.cos, sp.sin)] + list(q) + list(qd) + list(qdd)
+    evaluate = compile_exact(reg.tape.defs.items(), [reg.columns[k][i] for k in inertial for i in range(n)], inputs)
+    rng, rows = random.Random(seed), []
+    for _ in range(points):
+        point = random_rational_point(n, rng)
+        values = evaluate(*(sp.Rational(point[x]) for x in inputs))
+        rows += [
+            [QQ(values[c * n + i].numerator, values[c * n + i].denominator) for c in range(len(inertial))]
+            for i in range(n)
+        ]
+    return inertial, DomainMatrix(rows, (len(rows), len(inertial)), QQ)
+
+
+@pytest.mark.parametrize("seed", [3, 12])
+def test_base_parameters_of_generically_turned_arms_are_exact(seed):
+    """Khalil's rules and a rank analysis in doubles, checked against the symbolic regressor at
+    fresh rational points, exactly: as many independent columns as Y's rank, and Y·β_regrouped
+    equal to Y·π (every generic constant rotation included: no digits too many to handle)."""
+    from symdyn.model.random_arms import ArmOptions, random_arm
+    from symdyn.derivation.regressor import generic_turns
+
+    robot = random_arm(seed, ArmOptions(general=1.0, symbolic=0.0, n_min=3, n_max=4))
+    assert generic_turns(robot) >= 3
+    base = base_parameters(robot)
+    inertial, Y = _exact_inertial_Y(robot, 40 // robot.n + 2, seed=100 + seed)
+    kept = [c for c, k in enumerate(inertial) if k in base.independent]
+    assert Y.rank() == len(kept) == Y.extract(list(range(Y.shape[0])), kept).rank()
+    values = parameter_values(robot)
+    pi = sp.Matrix([values[k] for k in inertial]).to_DM().convert_to(Y.domain).transpose()
+    beta = sp.Matrix([base.regrouped[k] for k in inertial]).to_DM().convert_to(Y.domain).transpose()
+    assert (Y * pi.transpose()).to_Matrix() == (Y * beta.transpose()).to_Matrix()

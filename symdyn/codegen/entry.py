@@ -82,14 +82,13 @@ def files(name: str, target: str) -> tuple[str, ...]:
 
 def bundle(robot: Robot) -> Bundle:
     """Derive `robot` (Newton–Euler on the regrouped base parameters when the
-    robot is numeric and their exact analysis affordable — at most three
-    generically turned links —, and Lagrange where its expanded form may be leaner) and
+    robot is numeric, and Lagrange where its expanded form may be leaner) and
     build every function's program, each from the derivation with fewer operations."""
     from ..derivation.entry import EXPANDED_MAX_JOINTS, derive
-    from ..derivation.regressor import GENERIC_TURNS_MAX, generic_turns, regressor
+    from ..derivation.regressor import regressor
     from .choice import programs
 
-    regroup = not robot.is_symbolic and generic_turns(robot) <= GENERIC_TURNS_MAX
+    regroup = not robot.is_symbolic
     dyns = [derive(robot, "newton-euler", regroup=regroup)]
     origins = ["newton-euler, base parameters" if regroup else "newton-euler"]
     if robot.n <= EXPANDED_MAX_JOINTS:  # Lagrange's expanded M can be the leanest; named, it never is

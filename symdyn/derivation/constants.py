@@ -159,7 +159,7 @@ def _torques(dyn: Dynamics):
         memo: dict = {}
         return space, [space.from_expr(e, memo) for e in bias], params, {p: (p, None) for p in params}
     reg = regressor(robot)
-    base = base_parameters(robot, reg)
+    base = base_parameters(robot)
     per = len(INERTIAL) + len(FRICTION)
     kept = [
         (k, e, v)

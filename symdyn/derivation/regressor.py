@@ -18,15 +18,9 @@ dynamics and many zero parameters, which the customized recursion skips.
 
 from __future__ import annotations
 
-import random
 from dataclasses import dataclass
-from typing import Callable
-from fractions import Fraction
 
 import sympy as sp
-from sympy.polys.domains import QQ
-from sympy.polys.matrices import DomainMatrix
-from sympy.printing.pycode import PythonCodePrinter
 
 from .dynamics import rotor_inertia
 from .kinematics import link_frames
@@ -126,60 +120,6 @@ def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
     return Regressor(robot=robot, Y=Y, params=params, tape=tape, columns=tuple(columns))
 
 
-# --------------------------------------------------------------------------- exact evaluation
-
-
-def rational_angle(rng: random.Random) -> tuple[Fraction, Fraction]:
-    """cos and sin of a random angle, both rational: ((1−t²)/(1+t²), 2t/(1+t²))."""
-    t = Fraction(rng.randint(-40, 40), rng.randint(1, 40))
-    return (1 - t * t) / (1 + t * t), 2 * t / (1 + t * t)
-
-
-def random_rational_point(n: int, rng: random.Random, symbols=()) -> dict:
-    """A substitution making every cos(qᵢ), sin(qᵢ), q̇ᵢ, q̈ᵢ and extra symbol an exact rational."""
-    q, qd, qdd = joint_symbols(n)
-    point = {}
-    for i in range(n):
-        c, s = rational_angle(rng)
-        point[sp.cos(q[i])] = sp.Rational(c.numerator, c.denominator)
-        point[sp.sin(q[i])] = sp.Rational(s.numerator, s.denominator)
-        point[q[i]] = sp.Rational(rng.randint(-30, 30), 10)  # prismatic joints: q itself
-        point[qd[i]] = sp.Rational(rng.randint(-30, 30), 7)
-        point[qdd[i]] = sp.Rational(rng.randint(-30, 30), 11)
-    for sym in symbols:
-        point[sym] = sp.Rational(rng.randint(1, 30), 13)
-    return point
-
-
-class _FractionPrinter(PythonCodePrinter):
-    """Python source in which every rational constant is a Fraction."""
-
-    def _print_Rational(self, expr):
-        return f"F({expr.p}, {expr.q})"
-
-    def _print_Integer(self, expr):
-        return f"F({expr.p})"
-
-
-def compile_exact(definitions, outputs, inputs) -> Callable:
-    """A function of Fractions (one per input symbol or trig atom, e.g. cos(q1))
-    that evaluates named definitions [(Symbol, expr)] exactly and returns the outputs."""
-    tape = Tape()
-    tape.defs.update(definitions)
-    dummies = [sp.Dummy(f"in{k}") for k in range(len(inputs))]
-    rename = dict(zip(inputs, dummies))
-    defs = [(s, e.xreplace(rename)) for s, e in tape.used_by(outputs)]
-    outs = [sp.sympify(o).xreplace(rename) for o in outputs]
-    return sp.lambdify(
-        dummies,
-        outs,
-        modules=[{"F": Fraction}],
-        printer=_FractionPrinter,
-        cse=lambda exprs: (defs, exprs),
-        docstring_limit=0,
-    )
-
-
 # --------------------------------------------------------------------------- base parameters
 
 
@@ -199,12 +139,6 @@ class BaseParameters:
     regrouped: tuple
 
 
-#: Base parameters are exact rational linear algebra on the regressor at sample points; each
-#: generic constant rotation (not a multiple of π/2) multiplies the digits of those numbers, so
-#: beyond this many such links the analysis takes minutes (a generic 7-joint arm: ~10 min).
-GENERIC_TURNS_MAX = 3
-
-
 def generic_turns(robot: Robot) -> int:
     """How many links of the robot's recursion frames turn by a generic constant rotation."""
     mdh = robot.to_modified()
@@ -215,20 +149,21 @@ def generic_turns(robot: Robot) -> int:
     )
 
 
-def base_parameters(
-    robot: Robot, reg: Regressor | None = None, *, samples: int | None = None, seed: int = 1
-) -> BaseParameters:
-    """Exact base parameters of a robot with numeric geometry.
+def base_parameters(robot: Robot, *, seed: int = 1) -> BaseParameters:
+    """Exact base parameters of a robot with numeric geometry (`symdyn.derivation.base_parameters`:
+    Khalil's rules, a rank analysis in doubles, exact checks modulo a prime).
 
     Only the inertial parameters (XX…M and the rotor inertia IA) are
-    regrouped: the rank analysis runs on their columns alone.  The friction
-    parameters FV, FS, FO are base parameters as they stand — their columns
-    q̇ⱼ, sgn q̇ⱼ and sgn² q̇ⱼ are no combination of inertial ones, even where
-    they coincide at the sample points (sgn² q̇ⱼ = 1 there, like a prismatic
-    joint's constant gravity column).  The result is verified exactly at
-    fresh points; a sample that found a dependency the dynamics do not have
-    is retried with more points.
+    regrouped.  The friction parameters FV, FS, FO are base parameters as
+    they stand — their columns q̇ⱼ, sgn q̇ⱼ and sgn² q̇ⱼ are no combination of
+    inertial ones.
+
+    Raises:
+        ValueError: symbols in the geometry or gravity.
+        RuntimeError: the exact checks refuse the numeric rank analysis.
     """
+    from .base_parameters import analyse
+
     geometric = [
         x
         for link in robot.links
@@ -248,56 +183,21 @@ def base_parameters(
             "base parameters need numeric geometry and gravity (a, d, α, θ, offset, origin, axis, base, "
             f"gravity); robot {robot.name!r} has symbols there"
         )
-    reg = reg or regressor(robot)
-    n, p = robot.n, len(reg.params)
+    n = robot.n
     per = len(INERTIAL) + len(FRICTION)
-    inertial = [k for k in range(p) if k % per < len(INERTIAL)]
-    q, qd, qdd = joint_symbols(n)
-    inputs = [f(x) for x in q for f in (sp.cos, sp.sin)] + list(q) + list(qd) + list(qdd)
-    flat = [reg.columns[k][i] for k in inertial for i in range(n)]
-    evaluate = compile_exact(reg.tape.defs.items(), flat, inputs)
-    rng = random.Random(seed)
-
-    def rows(count: int) -> list:
-        out = []
-        for _ in range(count):
-            point = random_rational_point(n, rng)
-            values = evaluate(*(Fraction(int(point[x].p), int(point[x].q)) for x in inputs))
-            out += [
-                [QQ(values[c * n + i].numerator, values[c * n + i].denominator) for c in range(len(inertial))]
-                for i in range(n)
-            ]
-        return out
-
-    samples = samples or max(4, 2 * len(INERTIAL) + 2)
-    for _attempt in range(3):
-        sample = rows(samples)
-        rref, pivots = DomainMatrix(sample, (len(sample), len(inertial)), QQ).rref()
-        R = rref.to_Matrix()
-        # every column is R's combination of the pivot columns: check at fresh points
-        check = DomainMatrix(rows(3), (3 * n, len(inertial)), QQ).to_Matrix()
-        if check == check[:, list(pivots)] * R[: len(pivots), :]:
-            break
-        samples *= 2
-    else:
-        raise RuntimeError(
-            f"base parameters of {robot.name!r}: the rank analysis did not settle after {samples} samples"
-        )
-    pi = reg.params
-    exprs, independent = [], []
-    for r, b in enumerate(pivots):
-        deps = (R[r, d] * pi[inertial[d]] for d in range(len(inertial)) if d not in pivots and R[r, d] != 0)
-        exprs.append(pi[inertial[b]] + sp.Add(*deps))
-        independent.append(inertial[b])
-    friction = [k for k in range(p) if k % per >= len(INERTIAL)]
-    exprs += [pi[k] for k in friction]
-    independent += friction
-    order = sorted(range(len(independent)), key=independent.__getitem__)
-    independent = [independent[i] for i in order]
-    exprs = [exprs[i] for i in order]
+    pi = parameter_symbols(n)
+    analysis = analyse(robot, per, seed)
+    friction = [k for k in range(len(pi)) if k % per >= len(INERTIAL)]
+    independent = sorted(analysis.independent + friction)
+    exprs = [
+        sp.Add(*(sp.Rational(c.numerator, c.denominator) * pi[k] for k, c in sorted(analysis.combos[b].items())))
+        if b in analysis.combos
+        else pi[b]
+        for b in independent
+    ]
     subs = dict(zip(pi, parameter_values(robot)))
     values = tuple(sp.expand(e.xreplace(subs)) for e in exprs)
-    regrouped = [sp.S.Zero] * p
+    regrouped = [sp.S.Zero] * len(pi)
     for b, v in zip(independent, values):
         regrouped[b] = v
     return BaseParameters(
