@@ -143,6 +143,8 @@ def load(
         raise ValueError(
             f"no URDF file {model}" + (": it is a folder" if path.is_dir() else f" (looked in {path.resolve().parent})")
         )
+    if path.suffix.lower() == ".xml" and _is_mjcf(path):  # MuJoCo's MJCF: --base and --tip name bodies
+        return _load_mjcf(path, base=base, tip=tip, locks=locks, exclude=exclude, no_snap=no_snap, name=name)
     options = {"base_link": base, "tip_link": tip}
     # only what was asked for, so that a reader without an option still reads the plain chain
     if locks:
@@ -152,6 +154,19 @@ def load(
     if no_snap:
         options["snap"] = False
     return Robot.from_urdf(path, name=name or path.stem, **options)
+
+
+def _is_mjcf(path: Path) -> bool:
+    from .mjcf import is_mjcf  # the MJCF reader needs MuJoCo only when a file is read
+
+    return is_mjcf(path)
+
+
+def _load_mjcf(path: Path, *, base, tip, locks: dict, exclude, no_snap: bool, name) -> Robot:
+    """The chain of an MJCF file (root `<mujoco>`) by `Robot.from_mjcf`: --base and --tip name
+    bodies, --lock hinge and slide joints, --exclude bodies."""
+    options: dict = {"base_body": base, "tip_body": tip, "locked": locks, "exclude": list(exclude)}
+    return Robot.from_mjcf(path, snap=not no_snap, name=name or path.stem, **options)
 
 
 def urdf_options(args: argparse.Namespace) -> dict:
