@@ -3,10 +3,11 @@
 Part of the model stage, for `symdyn generate` and `symdyn print` (and any
 command that takes a MODEL): `add_arguments` declares MODEL with the URDF
 options (--tip, --base, --lock JOINT=VALUE, --exclude LINK, --no-snap,
---name), `load` turns them into a `Robot` through `arms.load` or
-`Robot.from_urdf`.  A URDF robot is named after its file's stem (not the
-URDF's <robot name=…>), so `symdyn generate arm.urdf` writes arm.c, arm.py, …
-beside the other outputs named after their files; --name overrides it.
+--name, and for a xacro file --xacro-arg NAME:=VALUE, --package-path DIR),
+`load` turns them into a `Robot` through `arms.load` or `Robot.from_urdf`.
+A URDF robot is named after its file's stem (not the URDF's <robot name=…>;
+arm.urdf.xacro's is arm), so `symdyn generate arm.urdf` writes arm.c, arm.py,
+… beside the other outputs named after their files; --name overrides it.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from pathlib import Path
 
 from . import arms
 from .robot import Robot
+from .xacro import XacroError
 
 __all__ = [
     "add_arguments",
@@ -26,6 +28,7 @@ __all__ = [
     "urdf_options",
     "is_urdf",
     "parse_locks",
+    "parse_xacro_args",
     "URDF_OPTIONS",
 ]
 
@@ -37,22 +40,26 @@ URDF_OPTIONS = {
     "exclude": "--exclude",
     "no_snap": "--no-snap",
     "name": "--name",
+    "xacro_arg": "--xacro-arg",
+    "package_path": "--package-path",
 }
 
 
 def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> None:
-    """MODEL (a shipped name or a .urdf file) and the URDF options."""
+    """MODEL (a shipped name, or a .urdf or .xacro file) and the URDF options."""
     p.add_argument(
         "model",
         nargs=nargs,
         metavar="MODEL",
-        help=f"a shipped model ({', '.join(arms.NAMES)}) or a URDF file (a path ending in .urdf)",
+        help=f"a shipped model ({', '.join(arms.NAMES)}) or a robot file: URDF (.urdf, or any existing "
+        "file) or xacro (.xacro, .urdf.xacro: expanded in-process, no ROS needed)",
     )
     add_urdf_options(p)
 
 
 def add_urdf_options(p: argparse.ArgumentParser) -> None:
-    """--tip, --base, --lock, --exclude, --no-snap, --name: how a URDF file becomes a chain."""
+    """--tip, --base, --lock, --exclude, --no-snap, --name, --xacro-arg, --package-path:
+    how a URDF or xacro file becomes a chain."""
     urdf = p.add_argument_group("URDF files", "how a URDF MODEL becomes a chain (a shipped model takes none of these)")
     urdf.add_argument("--tip", metavar="LINK", help="the chain's last link (default: the tree's only leaf)")
     urdf.add_argument("--base", metavar="LINK", help="the chain's first link, fixed (default: the root)")
@@ -77,11 +84,57 @@ def add_urdf_options(p: argparse.ArgumentParser) -> None:
         help="keep the file's numbers as written (default: snap 1.5708 to pi/2 and the like)",
     )
     urdf.add_argument("--name", help="the model's name, which names the generated files (default: the file's stem)")
+    urdf.add_argument(
+        "--xacro-arg",
+        metavar="NAME:=VALUE",
+        action="append",
+        default=[],
+        help="a xacro file's argument, as xacro's NAME:=VALUE (e.g. ur_type:=ur5e); repeatable",
+    )
+    urdf.add_argument(
+        "--package-path",
+        metavar="DIR",
+        action="append",
+        default=[],
+        help="a folder holding (or being) the ROS packages a xacro file's $(find PKG) and package://PKG/ "
+        "name; searched before ROS_PACKAGE_PATH, AMENT_PREFIX_PATH and the folders above the file; repeatable",
+    )
 
 
 def is_urdf(model: str) -> bool:
-    """Whether MODEL names a URDF file: it ends in .urdf, or it is a file that exists."""
-    return model.lower().endswith(".urdf") or Path(model).is_file()
+    """Whether MODEL names a URDF file: it ends in .urdf or .xacro (expanded before reading),
+    or it is a file that exists."""
+    return model.lower().endswith((".urdf", ".xacro")) or Path(model).is_file()
+
+
+def _model_name(path: Path) -> str:
+    """The file's name without .xacro and .urdf: arm.urdf.xacro, arm.xacro and arm.urdf name arm."""
+    name = path.name
+    for suffix in (".xacro", ".urdf"):
+        if name.lower().endswith(suffix) and len(name) > len(suffix):
+            name = name[: -len(suffix)]
+    return name
+
+
+def parse_xacro_args(items) -> dict:
+    """{"name": "value"} from ["name:=value", …] (xacro's own syntax).
+
+    Raises:
+        ValueError: an item that is not NAME:=VALUE (it is named), or a name given
+            twice with different values.
+    """
+    args: dict = {}
+    for item in items:
+        key, sep, value = item.partition(":=")
+        key = key.strip()
+        if not sep or not key:
+            raise ValueError(
+                f"--xacro-arg {item}: expected NAME:=VALUE, as xacro takes it, e.g. --xacro-arg ur_type:=ur5e"
+            )
+        if key in args and args[key] != value:
+            raise ValueError(f"--xacro-arg {item}: argument {key!r} is already given as {args[key]!r}")
+        args[key] = value
+    return args
 
 
 def parse_locks(items) -> dict:
@@ -115,20 +168,22 @@ def load(
     exclude=(),
     no_snap: bool = False,
     name: str | None = None,
+    xacro_arg=(),
+    package_path=(),
 ) -> Robot:
     """The robot MODEL names: a shipped arm (its symbolic variant where it has one and `symbolic`),
-    or the chain of a URDF file read by `Robot.from_urdf` with the URDF options."""
-    given = {
-        opt
-        for dest, opt in URDF_OPTIONS.items()
-        if {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}[dest]
-    }
+    or the chain of a URDF or xacro file read by `Robot.from_urdf` with the URDF options
+    (`xacro_arg`: ["NAME:=VALUE", …], `package_path`: [DIR, …])."""
+    values = {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}
+    values |= {"xacro_arg": xacro_arg, "package_path": package_path}
+    given = {opt for dest, opt in URDF_OPTIONS.items() if values[dest]}
     locks = parse_locks(lock)
+    xacro_args = parse_xacro_args(xacro_arg)
     if not is_urdf(model):
         if model not in arms.NAMES:
             raise ValueError(
                 f"unknown model {model!r}: it is neither a shipped model ({', '.join(arms.NAMES)}) "
-                "nor a URDF file (a path ending in .urdf)"
+                "nor a robot file (a path ending in .urdf or .xacro, or an existing file)"
             )
         if given:
             raise ValueError(f"{', '.join(sorted(given))} apply to a URDF file, not to the shipped model {model!r}")
@@ -153,7 +208,14 @@ def load(
         options["exclude"] = list(exclude)
     if no_snap:
         options["snap"] = False
-    return Robot.from_urdf(path, name=name or path.stem, **options)
+    if xacro_args:
+        options["xacro_args"] = xacro_args
+    if package_path:
+        options["package_paths"] = list(package_path)
+    try:
+        return Robot.from_urdf(path, name=name or _model_name(path), **options)
+    except XacroError as exc:  # in the command line's words (--xacro-arg, --package-path)
+        raise XacroError(exc.command_line) from None
 
 
 def _is_mjcf(path: Path) -> bool:
@@ -171,7 +233,7 @@ def _load_mjcf(path: Path, *, base, tip, locks: dict, exclude, no_snap: bool, na
 
 def urdf_options(args: argparse.Namespace) -> dict:
     """The URDF options `add_urdf_options` declared, as `load`'s keywords."""
-    defaults = {"lock": (), "exclude": (), "no_snap": False}
+    defaults = {"lock": (), "exclude": (), "no_snap": False, "xacro_arg": (), "package_path": ()}
     return {dest: getattr(args, dest, None) or defaults.get(dest) for dest in URDF_OPTIONS}
 
 

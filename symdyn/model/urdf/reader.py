@@ -20,7 +20,8 @@ import dataclasses
 import math
 import os
 import warnings
-from typing import Iterable
+from pathlib import Path
+from typing import Iterable, Mapping
 
 import numpy as np
 import sympy as sp
@@ -28,10 +29,11 @@ import sympy as sp
 from ..placement import exact, placement, rational_rotation, rpy_rotation
 from ..robot import IDENTITY, Link, Robot
 from ..snapping import snap_angle, snap_axis
+from ..xacro import Expansion, XacroError, expand, is_xacro
 from .bodies import Body, read_body, strict
 from .record import Locked, Snap, UrdfRecord
 from .tree import MOVING, MULTI, Tree
-from .xml import Element, URDFError, URDFWarning, numbers, parse, read, where
+from .xml import Element, Text, URDFError, URDFWarning, numbers, parse, read, where
 
 __all__ = ["from_urdf"]
 
@@ -181,6 +183,46 @@ class _Reader:
             raise URDFError(f"{where(self.source, joint)}: {exc}") from None
 
 
+@dataclasses.dataclass(frozen=True)
+class _Xacro:
+    """A xacro file's expansion: `urdf` the text read (its source and file name say it is the
+    expansion, whose lines the messages name), `expansion` what the record keeps."""
+
+    urdf: Text
+    expansion: Expansion
+
+    def record_fields(self) -> dict:
+        return {
+            "xacro_args": self.expansion.args,
+            "packages": self.expansion.packages,
+            "expanded_sha256": self.urdf.sha256,
+        }
+
+
+def _expanded(path_or_xml, text: Text, xacro_args, package_paths) -> _Xacro | None:
+    """The expansion of a xacro file or text (None for plain URDF, which takes no xacro options)."""
+    package_paths = [package_paths] if isinstance(package_paths, (str, os.PathLike)) else list(package_paths)
+    if not is_xacro(text.source if text.source != "<urdf string>" else text.text, text.text):
+        if xacro_args or package_paths:
+            given = ", ".join(k for k, v in (("xacro_args", xacro_args), ("package_paths", package_paths)) if v)
+            raise XacroError(
+                f"{text.source}: {given} apply to a xacro file (.xacro, or declaring xmlns:xacro); this is plain URDF",
+                f"{text.source}: --xacro-arg and --package-path apply to a xacro file (.xacro, or declaring "
+                "xmlns:xacro); this is plain URDF",
+            )
+        return None
+    is_path = text.source != "<urdf string>"
+    expansion = expand(
+        Path(path_or_xml) if is_path else None,
+        text=text.text,
+        xacro_args=xacro_args,
+        package_paths=package_paths,
+        source=text.source,
+    )
+    label = "<xacro string>" if not is_path else text.file
+    return _Xacro(Text(expansion.text, f"{text.source} (expanded by xacro)", f"{label} (expanded)"), expansion)
+
+
 def _excluded(tree: Tree, exclude, on_chain: set, below_base: set) -> tuple:
     if isinstance(exclude, str):
         exclude = [exclude]
@@ -206,9 +248,17 @@ def from_urdf(
     exclude: str | Iterable[str] = (),
     snap: bool = True,
     name: str | None = None,
+    xacro_args: Mapping[str, object] | None = None,
+    package_paths: Iterable[str | os.PathLike[str]] = (),
 ) -> Robot:
     """A `Robot` (general convention) of the chain from `base_link` (default: the
     root) to `tip_link` (default: the only leaf) of a URDF file or its text.
+
+    A xacro file (`.xacro`, or text declaring the xacro namespace) is expanded
+    first, in-process and without ROS (`symdyn.model.xacro`): `xacro_args`
+    ({"ur_type": "ur5e"}, as `ur_type:=ur5e`), `$(find pkg)` and `package://pkg/`
+    from `package_paths`, `ROS_PACKAGE_PATH`, `AMENT_PREFIX_PATH`, then the
+    folders above the file.  Messages then name the expanded text's lines.
 
     locked: {joint: value} for joints off the chain (default: 0, or the limit
     nearest 0 when 0 is outside the limits; mimic joints follow their leader)
@@ -227,20 +277,27 @@ def from_urdf(
             mimic joint in the chain, a zero axis, an attribute that is not the
             right count of finite numbers, an inertia that is no physical body;
             a chain without a moving joint.
+        XacroError: (a `URDFError`) a xacro file that cannot be expanded: the xacro
+            package is missing, an argument has no value, a package is found nowhere
+            (every place looked in is named), any other xacro error; `xacro_args` or
+            `package_paths` given for a file that is not xacro.
 
     Warns:
         URDFWarning: a body resting on the fixed base whose inertial is no physical
-            body (accepted and left out: it cannot affect the dynamics).
+            body (accepted and left out: it cannot affect the dynamics); what xacro
+            warns about while expanding.
     """
     text = read(path_or_xml)
-    tree = Tree.of(text.source, parse(text.text, text.source))
+    xacro = _expanded(path_or_xml, text, xacro_args, package_paths)
+    urdf = xacro.urdf if xacro is not None else text
+    tree = Tree.of(urdf.source, parse(urdf.text, urdf.source))
     base, tip, path = tree.chain(base_link, tip_link)
     on_chain = {base} | {j.find("child").attrib["link"] for j in path}
     below_base = tree.below(base)
     excluded = _excluded(tree, exclude, on_chain, below_base)
     given = dict(locked or {})
     moving = {j.name for j in path if j.attrib.get("type") in MOVING and j.name not in given}
-    reader = _Reader(tree, text.file, snap)
+    reader = _Reader(tree, urdf.file, snap)
     reader.values = tree.values(tree.below(base, set(excluded)) - {base}, moving, given)
     skip = on_chain | set(excluded)
 
@@ -248,12 +305,12 @@ def from_urdf(
         kind = joint.attrib.get("type")
         if kind in MULTI or (kind not in MOVING and kind != "fixed"):
             raise URDFError(
-                f"{where(text.source, joint)}: joint type {kind!r} in the chain is not supported "
+                f"{where(urdf.source, joint)}: joint type {kind!r} in the chain is not supported "
                 "(revolute, continuous, prismatic and fixed are)"
             )
         if joint.find("mimic") is not None and joint.name in moving:
             raise URDFError(
-                f"{where(text.source, joint)}: mimic joints in the chain are not supported: "
+                f"{where(urdf.source, joint)}: mimic joints in the chain are not supported: "
                 "end the chain before it (tip_link=…)"
             )
 
@@ -277,7 +334,7 @@ def from_urdf(
         carrier, pending = (joint, T), IDENTITY
         body = reader.subtree(child, skip, child, True)
     if carrier is None:
-        raise URDFError(f"{text.source}: the chain from {base!r} to {tip!r} has no moving joint")
+        raise URDFError(f"{urdf.source}: the chain from {base!r} to {tip!r} has no moving joint")
     out.append(reader.link(carrier[0], carrier[1], body))
     tool = tuple(tuple(_number(x) for x in row) for row in pending)
     robot = Robot(
@@ -285,7 +342,7 @@ def from_urdf(
         tuple(out),
         convention="general",
         tool=tool,
-        source=f"URDF {text.file} (sha256 {text.sha256[:16]}…)",
+        source=f"{'xacro' if xacro else 'URDF'} {text.file} (sha256 {text.sha256[:16]}…)",
     )
     record = UrdfRecord(
         text.file,
@@ -299,6 +356,7 @@ def from_urdf(
         snap,
         tuple(reader.warnings),
         robot.fingerprint(),
+        **(xacro.record_fields() if xacro is not None else {}),
     )
     for message in record.warnings:
         warnings.warn(message, URDFWarning, stacklevel=2)

@@ -55,6 +55,17 @@ class UrdfRecord:
     snap: bool = True
     warnings: tuple = ()
     fingerprint: str = ""
+    #: For a xacro file (`file`, `sha256` are the xacro file's): the arguments given, as
+    #: (name, value) pairs, the packages `$(find)`/`package://` named (by name, never by
+    #: folder), and the sha256 of the URDF text it expanded to (its includes change it too).
+    xacro_args: tuple = ()
+    packages: tuple = ()
+    expanded_sha256: str = ""
+
+    @property
+    def is_xacro(self) -> bool:
+        """Whether the file was xacro, expanded before reading."""
+        return bool(self.expanded_sha256)
 
     def describes(self, robot) -> bool:
         """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
@@ -66,8 +77,11 @@ class UrdfRecord:
         return max((s.change for s in self.snaps), default=0.0)
 
     def command_args(self) -> str:
-        """The `symdyn generate`/`print` arguments that read the same robot from the same file."""
+        """The `symdyn generate`/`print` arguments that read the same robot from the same file
+        (a xacro file's arguments as --xacro-arg; its package folders are the reader's, not
+        the model's, and are found again from the file's place or --package-path)."""
         args = [self.file, "--base", self.base_link, "--tip", self.tip_link]
+        args += [f"--xacro-arg={key}:={value}" for key, value in self.xacro_args]
         args += [f"--lock={lock.joint}={lock.value!r}" for lock in self.locked if lock.why == "given"]
         args += [f"--exclude={link}" for link in self.excluded]
         args += [] if self.snap else ["--no-snap"]
@@ -76,9 +90,15 @@ class UrdfRecord:
     def lines(self) -> list[str]:
         """A summary a person reads: the chain, each lock, exclusion and snap."""
         out = [
-            f"URDF {self.file} (sha256 {self.sha256}): chain {self.base_link} -> {self.tip_link}, "
-            f"joints {', '.join(self.joints)}"
+            f"{'xacro' if self.is_xacro else 'URDF'} {self.file} (sha256 {self.sha256}): "
+            f"chain {self.base_link} -> {self.tip_link}, joints {', '.join(self.joints)}"
         ]
+        if self.is_xacro:
+            args = " ".join(f"{key}:={value}" for key, value in self.xacro_args) or "none (the defaults)"
+            out.append(
+                f"expanded by xacro with arguments {args}; packages {', '.join(self.packages) or 'none'}; "
+                f"the URDF it expanded to has sha256 {self.expanded_sha256}"
+            )
         moving = [lock for lock in self.locked if lock.moves]
         resting = [lock for lock in self.locked if not lock.moves]
         if moving:

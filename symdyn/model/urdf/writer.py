@@ -427,13 +427,20 @@ def to_urdf(
         OSError: `path` cannot be written.
 
     Warns:
-        URDFWarning: the robot's URDF is not at hand (a fresh URDF of the chain is
-            written instead); a gravity other than URDF's 9.81 m/s² along −z; a
+        URDFWarning: the robot's URDF is not at hand, or was xacro (a fresh URDF of the
+            chain is written instead); a gravity other than URDF's 9.81 m/s² along −z; a
             joint parameter URDF cannot express (written as a comment).
     """
     robot.require_numeric("to_urdf")
     text = None
-    if robot.urdf is not None:
+    if robot.urdf is not None and getattr(robot.urdf, "is_xacro", False):
+        warnings.warn(  # its links live in macros: there is no URDF text to splice into
+            f"the robot {robot.name!r} was read from the xacro file {robot.urdf.file!r}: "
+            "writing a fresh URDF of the chain alone",
+            URDFWarning,
+            stacklevel=2,
+        )
+    elif robot.urdf is not None:
         original = _original_text(robot, source)
         if original is None:
             warnings.warn(
