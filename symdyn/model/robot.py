@@ -325,12 +325,17 @@ class Robot:
     poses: Mapping[str, tuple] = field(default_factory=dict, compare=False, hash=False)
     source: str = field(default="", compare=False, hash=False)
     urdf: Any = field(default=None, compare=False, hash=False)
+    #: What `from_mjcf` read, locked and snapped (`symdyn.model.mjcf.MjcfRecord`), or None.
+    mjcf: Any = field(default=None, compare=False, hash=False)
     #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: the
     #: arm of a URDF file (`symdyn.model.urdf.from_urdf`, attached by `symdyn.model`, which builds on this module).
     from_urdf: ClassVar[Callable[..., "Robot"]]
     #: `robot.to_urdf(path=None, *, source=…)`: the URDF text with the robot's inertials
     #: (`symdyn.model.urdf.to_urdf`, attached by `symdyn.model`).
     to_urdf: ClassVar[Callable[..., str]]
+    #: `Robot.from_mjcf(path, *, base_body=…, tip_body=…, locked=…, exclude=…, snap=…, name=…)`: the arm of
+    #: an MJCF file compiled by MuJoCo (`symdyn.model.mjcf.from_mjcf`, attached by `symdyn.model`).
+    from_mjcf: ClassVar[Callable[..., "Robot"]]
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
@@ -354,14 +359,15 @@ class Robot:
         set_("poses", poses)
 
     def __str__(self) -> str:
-        """A summary a person reads: joints, convention, source and, for a URDF robot,
-        what was locked, excluded and snapped (`robot.urdf`)."""
+        """A summary a person reads: joints, convention, source and, for a robot read from a
+        URDF or MJCF file, what was locked, excluded and snapped (`robot.urdf`, `robot.mjcf`)."""
         kinds = "".join("R" if link.is_revolute else "P" for link in self.links)
         lines = [
             f"Robot {self.name!r}: {self.n} joints ({kinds}), {self.convention} convention"
             + (f", {self.source}" if self.source else "")
         ]
-        return "\n".join(lines + (self.urdf.lines() if self.urdf is not None else []))
+        records = [r for r in (self.urdf, self.mjcf) if r is not None]
+        return "\n".join(lines + [line for r in records for line in r.lines()])
 
     # ---- basic facts
     @property

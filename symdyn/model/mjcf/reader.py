@@ -1,0 +1,508 @@
+"""`from_mjcf`: the chain from `base_body` to `tip_body` of an MJCF file as a general-convention `Robot`.
+
+MuJoCo compiles the file (`compile`), so its conventions hold as MuJoCo reads
+them; this module maps the compiled model onto links.  A body's frame is its
+parent's · (pos, quat); each hinge turns about its axis through its anchor
+`pos` (exactly: the link frame sits at the anchor, and the offset back to the
+body frame moves into what follows), each slide moves along its axis; both
+move by q − qpos0 (a joint's `ref`), which is the link's `offset`.  Several
+joints in one body become consecutive links, the inner ones massless.
+Bodies without joints are welded to their parent and merged into the moving
+body they ride on; so are branches off the chain, their joints locked (at
+qpos0, or the limit nearest it) — mass, centre of mass and inertia combined
+exactly by `symdyn.model.urdf.bodies`, as URDF branches are.  armature → Jm
+(G = 1, so G²·Jm is MuJoCo's armature), damping → B, frictionloss → Tc =
+(f, −f), range → qlim, actuator gear × forcerange (or × gain × ctrlrange for
+a plain motor) → effort_limit, −`<option gravity>` → the robot's gravity
+(Corke's sign).  What was read, locked, snapped and stripped is `robot.mjcf`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import warnings
+from typing import Iterable
+
+import numpy as np
+import sympy as sp
+
+from ..placement import exact, rational_rotation, rpy_rotation
+from ..robot import IDENTITY, Link, Robot
+from ..snapping import ANGLE_TOLERANCE, snap_angle, snap_axis
+from ..urdf.bodies import Body
+from ..urdf.reader import _compose, _motion, _number
+from ..urdf.record import Locked, Snap
+from .compile import MJCFError, MJCFWarning, compile_mjcf, mujoco_module
+from .record import MjcfRecord
+
+__all__ = ["from_mjcf"]
+
+_KIND = {"hinge": "revolute", "slide": "prismatic"}
+
+
+def _translation(p) -> tuple:
+    return tuple(tuple(int(i == j) for j in range(3)) + (exact(p[i]),) for i in range(3)) + ((0, 0, 0, 1),)
+
+
+def _quat_matrix(q) -> np.ndarray:
+    w, x, y, z = (float(v) for v in q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+class _Reader:
+    """One reading of one compiled model: names, the snapping rule, locks, what was noted."""
+
+    def __init__(self, mujoco, compiled, snap: bool):
+        self.mj, self.m, self.spec = mujoco, compiled.model, compiled.spec
+        self.file, self.snap = compiled.file, snap
+        self.snaps: list[Snap] = []
+        self.locked: list[Locked] = []
+        self.left_out: list[str] = []
+        self.values: dict[int, tuple[float, str]] = {}
+        m = self.m
+        self.children: dict[int, list[int]] = {}
+        for b in range(1, m.nbody):
+            self.children.setdefault(int(m.body_parentid[b]), []).append(b)
+
+    # ---- names and places
+    def body(self, b: int) -> str:
+        return self.m.body(b).name or f"#{b}"
+
+    def joint(self, j: int) -> str:
+        return self.m.joint(j).name or f"#{j} (unnamed, in body {self.body(int(self.m.jnt_bodyid[j]))!r})"
+
+    def where(self, kind: str, name: str) -> str:
+        element = getattr(self.spec, kind)(name) if name and not name.startswith("#") else None
+        info = element.info if element is not None else ""
+        return f"{self.file} ({info})" if info else self.file
+
+    def joint_type(self, j: int) -> str:
+        return {0: "free", 1: "ball", 2: "slide", 3: "hinge"}[int(self.m.jnt_type[j])]
+
+    def joints_of(self, b: int) -> range:
+        start = int(self.m.body_jntadr[b])
+        return range(start, start + int(self.m.body_jntnum[b])) if start >= 0 else range(0)
+
+    def below(self, b: int) -> set[int]:
+        out, todo = set(), [b]
+        while todo:
+            x = todo.pop()
+            out.add(x)
+            todo += self.children.get(x, [])
+        return out
+
+    # ---- numbers, snapped by the one rule
+    def orientation(self, quat, what: str) -> list:
+        """The exact rotation of a compiled unit quaternion: a signed permutation when every entry
+        is within the snapping tolerance of 0 or ±1; else roll, pitch, yaw (URDF's order), each
+        snapped by the rule; else (snap=False, or a pitch of ±π/2) the nearest rational rotation."""
+        R = _quat_matrix(quat)
+        near = np.round(R)
+        change = float(np.abs(R - near).max())
+        if change <= ANGLE_TOLERANCE and abs(np.linalg.det(near) - 1) < 0.5 and (self.snap or change == 0):
+            if change > 0:
+                quat_text = " ".join(repr(float(x)) for x in quat)
+                self.snaps.append(Snap(f"{what} rotation (quat)", quat_text, "quarter turns", change))
+            return [[sp.Integer(int(x)) for x in row] for row in near]
+        if not self.snap:
+            return rational_rotation(R)
+        pitch = math.asin(max(-1.0, min(1.0, -R[2, 0])))
+        roll, yaw = math.atan2(R[2, 1], R[2, 2]), math.atan2(R[1, 0], R[0, 0])
+        angles, snaps = [], []
+        for label, value in zip(("roll", "pitch", "yaw"), (roll, pitch, yaw)):
+            snapped = snap_angle(value)
+            if snapped is not None:
+                snaps.append(Snap(f"{what} {label} (as rpy)", repr(value), snapped.label, snapped.change))
+                value = snapped.value
+            angles.append(value)
+        E = rpy_rotation(angles)
+        if float(np.abs(np.array(E, dtype=float) - R).max()) > 2 * ANGLE_TOLERANCE:  # gimbal lock: rpy is ill-posed
+            return rational_rotation(R)
+        self.snaps += snaps
+        return E
+
+    def placement(self, b: int) -> tuple:
+        """The exact 4×4 transform of body b in its parent's frame (pos, quat as compiled)."""
+        R = self.orientation(self.m.body_quat[b], f"body {self.body(b)!r}")
+        p = [exact(float(x)) for x in self.m.body_pos[b]]
+        return tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
+
+    def axis(self, j: int) -> tuple:
+        axis = tuple(float(a) for a in self.m.jnt_axis[j])
+        snapped = snap_axis(axis) if self.snap else None
+        if snapped is None:
+            return axis
+        self.snaps.append(
+            Snap(f"joint {self.joint(j)!r} axis", " ".join(map(repr, axis)), snapped.label, snapped.change)
+        )
+        return snapped.value
+
+    def motion(self, j: int, value: float) -> tuple:
+        """Body frame before joint j → after it, the joint at `value` (moved by value − qpos0)."""
+        kind = _KIND[self.joint_type(j)]
+        moved = _motion(kind, self.axis(j), value - float(self.m.qpos0[self.m.jnt_qposadr[j]]))
+        if kind == "prismatic" or moved is IDENTITY:
+            return moved
+        p = self.m.jnt_pos[j]
+        return _compose(_compose(_translation(p), moved), _translation(-p))
+
+    # ---- bodies
+    def inertial(self, b: int) -> Body:
+        """Body b's own mass, COM and inertia about the COM in its frame, as MuJoCo compiled them."""
+        m = self.m
+        R = _quat_matrix(m.body_iquat[b])
+        I = R @ np.diag(m.body_inertia[b]) @ R.T
+        upper = {(i, j): exact(float(I[i, j])) for i in range(3) for j in range(i, 3)}
+        return Body(
+            exact(float(m.body_mass[b])),
+            tuple(exact(float(x)) for x in m.body_ipos[b]),
+            tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3)),
+        )
+
+    def subtree(self, b: int, skip: set, into: str, moves: bool) -> Body:
+        """Body b with everything hanging off it except the bodies in `skip` (the chain), in b's
+        frame; joints met are locked and recorded as merged into `into`."""
+        body = self.inertial(b)
+        for child in self.children.get(b, []):
+            if child in skip:
+                continue
+            T = self.placement(child)
+            free = [j for j in self.joints_of(child) if self.joint_type(j) in ("ball", "free")]
+            if free:
+                j = free[0]
+                what = f"{self.joint_type(j)} joint {self.joint(j)!r} on body {self.body(child)!r}"
+                if moves:
+                    raise MJCFError(
+                        f"{self.where('joint', self.m.joint(j).name)}: {what} is not supported yet (it rides on "
+                        f"the chain, on body {into!r}): exclude= the body ({self.body(child)!r}) or end the chain before it"
+                    )
+                self.left_out.append(f"{self.body(child)!r} and its subtree ({what})")
+                continue
+            for j in self.joints_of(child):
+                value, why = self.values[j]
+                self.locked.append(Locked(self.joint(j), value, into, why, moves))
+                T = _compose(T, self.motion(j, value))
+            body = body + self.subtree(child, skip, into, moves).moved(T)
+        return body
+
+    # ---- the chain's links
+    def link(self, j: int, origin: tuple, body: Body, effort: float | None) -> Link:
+        m = self.m
+        dof = int(m.jnt_dofadr[j])
+        friction = float(m.dof_frictionloss[dof])
+        qlim = tuple(float(x) for x in m.jnt_range[j]) if m.jnt_limited[j] else None
+        try:
+            return Link(
+                joint=_KIND[self.joint_type(j)],
+                origin=tuple(tuple(_number(x) for x in row) for row in origin),
+                axis=self.axis(j),
+                offset=-float(m.qpos0[m.jnt_qposadr[j]]) + 0.0,
+                qlim=qlim,
+                m=_number(body.m),
+                r=tuple(_number(x) for x in body.r),
+                I=tuple(tuple(_number(x) for x in row) for row in body.I),
+                Jm=float(m.dof_armature[dof]),
+                B=float(m.dof_damping[dof]),
+                Tc=(friction, -friction + 0.0),
+                effort_limit=effort,
+            )
+        except ValueError as exc:
+            raise MJCFError(f"{self.where('joint', m.joint(j).name)}: joint {self.joint(j)!r}: {exc}") from None
+
+
+def _effort(reader: _Reader, j: int) -> tuple[float | None, list[str]]:
+    """The effort limit of joint j from the actuators that drive it (|gear| × force range, or
+    |gear| × |gain| × control range for a plain motor, summed) and its actuatorfrcrange."""
+    mj, m = reader.mj, reader.m
+    total, notes, unbounded = 0.0, [], []
+    for a in range(m.nu):
+        if int(m.actuator_trntype[a]) not in (mj.mjtTrn.mjTRN_JOINT, mj.mjtTrn.mjTRN_JOINTINPARENT):
+            continue
+        if int(m.actuator_trnid[a, 0]) != j:
+            continue
+        name, gear = m.actuator(a).name or f"#{a}", float(m.actuator_gear[a, 0])
+        plain = (
+            int(m.actuator_gaintype[a]) == mj.mjtGain.mjGAIN_FIXED
+            and int(m.actuator_biastype[a]) == mj.mjtBias.mjBIAS_NONE
+            and int(m.actuator_dyntype[a]) == mj.mjtDyn.mjDYN_NONE
+        )
+        if m.actuator_forcelimited[a]:
+            lo, hi = (float(x) for x in m.actuator_forcerange[a])
+            limit = abs(gear) * max(abs(lo), abs(hi))
+            notes.append(f"actuator {name!r}: |gear {gear!r}| x forcerange [{lo!r}, {hi!r}] = {limit!r}")
+        elif plain and m.actuator_ctrllimited[a]:
+            lo, hi = (float(x) for x in m.actuator_ctrlrange[a])
+            gain = float(m.actuator_gainprm[a, 0])
+            limit = abs(gear) * abs(gain) * max(abs(lo), abs(hi))
+            notes.append(
+                f"actuator {name!r}: |gear {gear!r}| x |gain {gain!r}| x ctrlrange [{lo!r}, {hi!r}] = {limit!r}"
+            )
+        else:
+            unbounded.append(name)
+            continue
+        total += limit
+    if unbounded:
+        notes.append(f"actuator(s) {', '.join(map(repr, unbounded))} without a force range: no effort limit from them")
+    limit = total if total > 0 and not unbounded else None
+    if m.jnt_actfrclimited[j]:
+        lo, hi = (float(x) for x in m.jnt_actfrcrange[j])
+        bound = max(abs(lo), abs(hi))
+        if bound > 0 and (limit is None or bound < limit):
+            limit = bound
+            notes.append(f"actuatorfrcrange [{lo!r}, {hi!r}] bounds the joint's actuator force: {bound!r}")
+    return limit, notes
+
+
+def _lock_values(reader: _Reader, joints: Iterable[int], given: dict[int, float]) -> dict:
+    """{joint: (value, why)}: given values (checked against the range), else qpos0, or the
+    limit nearest it when qpos0 lies outside the joint's range."""
+    m, out = reader.m, {}
+    for j in joints:
+        lo, hi = (float(x) for x in m.jnt_range[j])
+        limited = bool(m.jnt_limited[j])
+        if j in given:
+            value = given[j]
+            if limited and not lo <= value <= hi:
+                raise MJCFError(
+                    f"{reader.where('joint', m.joint(j).name)}: locked value {value!r} of joint {reader.joint(j)!r} "
+                    f"is outside its range [{lo!r}, {hi!r}]"
+                )
+            out[j] = (value, "given")
+        else:
+            value = float(m.qpos0[m.jnt_qposadr[j]])
+            out[j] = (min(max(value, lo), hi) if limited else value, "default")
+    return out
+
+
+def _unmodelled(reader: _Reader, chain_joints: list[int], moving_bodies: set[int]) -> list[str]:
+    """What MuJoCo would add to τ that symdyn does not model, on the part that moves."""
+    m, out = reader.m, []
+    for j in chain_joints:
+        dof = int(m.jnt_dofadr[j])
+        if m.jnt_stiffness[j] != 0:
+            out.append(
+                f"joint {reader.joint(j)!r} has a spring (stiffness {float(m.jnt_stiffness[j])!r}): not modelled"
+            )
+        for field, what in (("jnt_stiffnesspoly", j), ("dof_dampingpoly", dof)):
+            values = getattr(m, field, None)
+            if values is not None and np.any(values[what] != 0):
+                out.append(f"joint {reader.joint(j)!r} has nonlinear {field.split('_')[1]}: not modelled")
+    for a in range(m.nu):
+        for field in ("actuator_armature", "actuator_damping"):
+            values = getattr(m, field, None)
+            if values is not None and np.any(values[a] != 0):
+                out.append(f"actuator {m.actuator(a).name or a!r} has {field.split('_')[1]}: not modelled")
+    for b in sorted(moving_bodies):
+        if m.body_gravcomp[b] != 0:
+            out.append(f"body {reader.body(b)!r} has gravcomp {float(m.body_gravcomp[b])!r}: not modelled")
+    if m.neq:
+        out.append(f"{m.neq} equality constraint(s) not modelled: {[m.equality(e).name or e for e in range(m.neq)]}")
+    if m.opt.density or m.opt.viscosity:
+        out.append("fluid forces (<option density viscosity>) not modelled")
+    return out
+
+
+def from_mjcf(
+    path: str | os.PathLike[str],
+    *,
+    base_body: str | None = None,
+    tip_body: str | None = None,
+    locked: dict | None = None,
+    exclude: str | Iterable[str] = (),
+    snap: bool = True,
+    name: str | None = None,
+) -> Robot:
+    """A `Robot` (general convention) of the chain from `base_body` (default: the world) to
+    `tip_body` (default: the only leaf) of an MJCF file (or its text), compiled by MuJoCo.
+
+    locked: {joint: value} for joints off the chain (default: qpos0, the joint's `ref`, or
+    the limit nearest it) or on it (made fixed at that value).  exclude: bodies deleted with
+    their subtrees before compiling.  snap: orientations and axes near exact values become
+    exact (`symdyn.model.snapping`); False keeps MuJoCo's compiled numbers.  name: default
+    the file's `<mujoco model>`.  The robot's `mjcf` records all of it.
+
+    Raises:
+        MJCFError: (a `ValueError`) `mujoco` is not installed; a file MuJoCo cannot read or
+            compile; a body whose inertia depends on an absent mesh file; base_body,
+            tip_body, locked or exclude naming no suitable body or joint, a locked value
+            outside its range; several leaves and no tip_body; a ball or free joint on the
+            chain or on a body that rides on it; a chain without a moving joint; an
+            inertia `Link` refuses.
+
+    Warns:
+        MJCFWarning: what MuJoCo adds to the dynamics of the moving part that symdyn does
+            not model (joint springs, gravcomp, equality constraints, fluid forces).
+    """
+    mj = mujoco_module()
+    excluded = (exclude,) if isinstance(exclude, str) else tuple(exclude)
+    compiled = compile_mjcf(path, excluded, base_body, tip_body)
+    m = compiled.model
+    reader = _Reader(mj, compiled, snap)
+    label = compiled.file
+
+    def body_id(name: str, what: str) -> int:
+        b = mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, name)
+        if b < 0:
+            names = [reader.body(i) for i in range(m.nbody)]
+            raise MJCFError(f"{label}: {what} {name!r} is not a body of the file; its bodies are {names}")
+        return b
+
+    base = body_id(base_body, "base_body") if base_body else 0
+    below_base = reader.below(base)
+    if tip_body:
+        tip = body_id(tip_body, "tip_body")
+        if tip not in below_base or tip == base:
+            raise MJCFError(f"{label}: tip_body {tip_body!r} is not below base_body {reader.body(base)!r}")
+    else:
+        leaves = sorted(b for b in below_base if b != base and not reader.children.get(b))
+        if len(leaves) != 1:
+            raise MJCFError(
+                f"{label}: the bodies below {reader.body(base)!r} have "
+                + (f"{len(leaves)} leaves {[reader.body(b) for b in leaves]}" if leaves else "no leaf")
+                + ": choose the chain's end with tip_body=… (--tip on the command line)"
+            )
+        tip = leaves[0]
+    chain, b = [], tip
+    while b != base:
+        chain.append(b)
+        b = int(m.body_parentid[b])
+    chain.reverse()
+    on_chain = set(chain) | {base}
+
+    given: dict[int, float] = {}
+    for joint, value in dict(locked or {}).items():
+        j = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, joint)
+        if j < 0:
+            raise MJCFError(f"{label}: locked joint {joint!r} is not a joint of the file")
+        if int(m.jnt_bodyid[j]) not in below_base or int(m.jnt_bodyid[j]) == base:
+            raise MJCFError(f"{label}: locked joint {joint!r} is not below base_body {reader.body(base)!r}")
+        if reader.joint_type(j) not in _KIND:
+            raise MJCFError(
+                f"{label}: locked joint {joint!r} is a {reader.joint_type(j)} joint; hinge and slide joints can be locked"
+            )
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise MJCFError(f"{label}: locked value of joint {joint!r} must be a finite number, got {value!r}")
+        given[j] = float(value)
+    for b in chain:
+        for j in reader.joints_of(b):
+            if reader.joint_type(j) not in _KIND:
+                raise MJCFError(
+                    f"{reader.where('joint', m.joint(j).name)}: {reader.joint_type(j)} joint {reader.joint(j)!r} on body "
+                    f"{reader.body(b)!r} is not supported yet (hinge and slide joints are): choose a chain without it"
+                )
+    lockable = [
+        j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in _KIND
+    ]
+    moving = [j for b in chain for j in reader.joints_of(b) if j not in given]
+    reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
+
+    reader.subtree(base, on_chain, reader.body(base), False)  # resting on the base: recorded, left out
+    pending, carrier, origin, body = IDENTITY, None, IDENTITY, Body.empty()
+    carriers: list[tuple[int, tuple, Body]] = []
+    for b in chain:
+        T = _compose(pending, reader.placement(b))  # body b's frame, from the carrier's link frame (or the base)
+        for j in reader.joints_of(b):
+            if j in given:
+                value, why = reader.values[j]
+                into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
+                reader.locked.append(Locked(reader.joint(j), value, into, why, carrier is not None, on_chain=True))
+                T = _compose(T, reader.motion(j, value))
+                continue
+            if carrier is not None:
+                carriers.append((carrier, origin, body))
+            if reader.joint_type(j) == "hinge":  # the link frame at the anchor; back to the body frame after
+                origin, T = _compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+            else:
+                origin, T = T, IDENTITY
+            carrier, body = j, Body.empty()
+        into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
+        sub = reader.subtree(b, on_chain, into, carrier is not None)
+        if carrier is not None:
+            body = body + sub.moved(T)
+        pending = T
+    if carrier is None:
+        raise MJCFError(f"{label}: the chain from {reader.body(base)!r} to {reader.body(tip)!r} has no moving joint")
+    carriers.append((carrier, origin, body))
+
+    read, links = [], []
+    for j, origin, body_j in carriers:
+        effort, notes = _effort(reader, j)
+        dof = int(m.jnt_dofadr[j])
+        terms = [
+            f"{what} {float(v)!r} -> {to}"
+            for what, v, to in (
+                ("armature", m.dof_armature[dof], "Jm (G = 1)"),
+                ("damping", m.dof_damping[dof], "B"),
+                ("frictionloss", m.dof_frictionloss[dof], "Tc = (f, -f)"),
+            )
+            if v != 0
+        ]
+        if terms or notes:
+            read.append(f"joint {reader.joint(j)!r}: " + "; ".join(terms + notes))
+        links.append(reader.link(j, origin, body_j, effort))
+
+    notes = _unmodelled(reader, [c[0] for c in carriers], reader.below(int(m.jnt_bodyid[carriers[0][0]])))
+    gravity = tuple(float(x) for x in m.opt.gravity)
+    g = (0.0, 0.0, 0.0)
+    if m.opt.disableflags & mj.mjtDisableBit.mjDSBL_GRAVITY:
+        notes.append("the file disables gravity (<flag gravity='disable'>): the robot's gravity is 0")
+    else:
+        g = tuple(-x + 0.0 for x in gravity)
+    for flag, what in (("mjDSBL_DAMPER", "damping"), ("mjDSBL_FRICTIONLOSS", "frictionloss")):
+        if m.opt.disableflags & getattr(mj.mjtDisableBit, flag) and any(
+            getattr(link, "B" if what == "damping" else "Tc") not in (0, (0, 0)) for link in links
+        ):
+            notes.append(f"the file disables {what}, which symdyn reads into the links nonetheless")
+
+    base_T, above = IDENTITY, []
+    b = base
+    while b != 0:
+        base_T = _compose(reader.placement(b), base_T)
+        above += [reader.joint(j) for j in reader.joints_of(b)]
+        b = int(m.body_parentid[b])
+    if above:
+        notes.append(f"the base's pose is taken at qpos0 of the joints above it: {', '.join(above)}")
+
+    robot = Robot(
+        name or _model_name(m) or "mjcf",
+        tuple(links),
+        convention="general",
+        gravity=g,
+        base=tuple(tuple(_number(x) for x in row) for row in base_T),
+        tool=tuple(tuple(_number(x) for x in row) for row in pending),
+        source=f"MJCF {label} (sha256 {compiled.sha256[:16]}…)",
+    )
+    record = MjcfRecord(
+        file=label,
+        sha256=compiled.sha256,
+        base_body=reader.body(base),
+        tip_body=reader.body(tip),
+        joints=tuple(reader.joint(c[0]) for c in carriers),
+        locked=tuple(reader.locked),
+        excluded=excluded,
+        snaps=tuple(reader.snaps),
+        snap=snap,
+        read=tuple(read),
+        stripped=compiled.stripped,
+        left_out=tuple(reader.left_out),
+        gravity=gravity,
+        warnings=tuple(notes),
+        fingerprint=robot.fingerprint(),
+    )
+    for message in notes:
+        warnings.warn(f"{label}: {message}", MJCFWarning, stacklevel=2)
+    return dataclasses.replace(robot, mjcf=record)
+
+
+def _model_name(m) -> str:
+    """The `<mujoco model>` name of a compiled model ('' when unnamed)."""
+    names = m.names if isinstance(m.names, bytes) else bytes(m.names)
+    return names.split(b"\0", 1)[0].decode()

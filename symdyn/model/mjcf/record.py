@@ -1,0 +1,104 @@
+"""What `from_mjcf` did to a file: the chain chosen, what was locked, excluded, snapped,
+stripped, and what the file's joints and actuators became (friction, rotor inertia, limits).
+
+Kept on the robot (`robot.mjcf`), shown by `print(robot)`, and turned back into
+the command that rebuilds the robot; the same shape as `symdyn.model.urdf.UrdfRecord`.
+"""
+
+from __future__ import annotations
+
+import shlex
+from dataclasses import dataclass
+
+__all__ = ["MjcfRecord"]
+
+
+@dataclass(frozen=True)
+class MjcfRecord:
+    """The provenance of a robot read from an MJCF file.
+
+    joints: the chain's moving joints, in order (one link each).  locked,
+    snaps: `symdyn.model.urdf.Locked` and `Snap` records.  read: one line per
+    chain joint that brought motor terms (armature → Jm, damping → B,
+    frictionloss → Tc) or an effort limit (actuator gear × force or control
+    range).  stripped: mesh and texture files that are absent, left out
+    before MuJoCo compiled the file (no body's inertia depends on them).
+    left_out: bodies that do not enter the dynamics (they rest on the fixed
+    base, or float freely).  gravity: the file's `<option gravity>` (MuJoCo's
+    sign: the acceleration of a falling body).
+    """
+
+    file: str
+    sha256: str
+    base_body: str
+    tip_body: str
+    joints: tuple
+    locked: tuple = ()
+    excluded: tuple = ()
+    snaps: tuple = ()
+    snap: bool = True
+    read: tuple = ()
+    stripped: tuple = ()
+    left_out: tuple = ()
+    gravity: tuple = (0.0, 0.0, -9.81)
+    warnings: tuple = ()
+    fingerprint: str = ""
+
+    def describes(self, robot) -> bool:
+        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
+        return robot.fingerprint() == self.fingerprint
+
+    @property
+    def max_snap(self) -> float:
+        """The largest change a snap made (0 when none)."""
+        return max((s.change for s in self.snaps), default=0.0)
+
+    def command_args(self) -> str:
+        """The `symdyn generate`/`print` arguments that read the same robot from the same file."""
+        args = [self.file, "--base", self.base_body, "--tip", self.tip_body]
+        args += [f"--lock={lock.joint}={lock.value!r}" for lock in self.locked if lock.why == "given"]
+        args += [f"--exclude={body}" for body in self.excluded]
+        args += [] if self.snap else ["--no-snap"]
+        return shlex.join(args)
+
+    def lines(self) -> list[str]:
+        """A summary a person reads: the chain, what became friction and rotor inertia, each
+        lock, exclusion, snap and stripped file."""
+        out = [
+            f"MJCF {self.file} (sha256 {self.sha256}): chain {self.base_body} -> {self.tip_body}, "
+            f"joints {', '.join(self.joints)}; gravity {list(self.gravity)} (MuJoCo's sign)"
+        ]
+        if self.read:
+            out.append(
+                "read from the file's joints and actuators (friction is in tau; robot.nofriction(all=True) removes it):"
+            )
+            out += [f"  {line}" for line in self.read]
+        moving = [lock for lock in self.locked if lock.moves]
+        resting = [lock for lock in self.locked if not lock.moves]
+        if moving:
+            out.append(f"locked ({len(moving)}), merged into the moving body named:")
+            out += [
+                f"  {lock.joint} = {lock.value!r} -> {lock.into} ({lock.why}"
+                f"{', a chain joint' if lock.on_chain else ''})"
+                for lock in moving
+            ]
+        if resting:
+            out.append(
+                f"locked on the fixed base, no effect on the dynamics ({len(resting)}): "
+                + ", ".join(f"{lock.joint} = {lock.value!r}" for lock in resting)
+            )
+        if self.left_out:
+            out.append(f"left out, no effect on the dynamics: {', '.join(self.left_out)}")
+        if self.excluded:
+            out.append(f"excluded with their subtrees: {', '.join(self.excluded)}")
+        if self.stripped:
+            out.append(
+                f"absent files left out before compiling (no inertia depends on them): {', '.join(self.stripped)}"
+            )
+        if not self.snap:
+            out.append("numbers as compiled by MuJoCo (snap=False)")
+        elif self.snaps:
+            out.append(f"snapped to exact values ({len(self.snaps)}, largest change {self.max_snap:.2e}):")
+            out += [f"  {s.where}: {s.value} -> {s.snapped}" for s in self.snaps]
+        out += [f"warning: {w}" for w in self.warnings]
+        return out
