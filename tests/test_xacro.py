@@ -20,7 +20,7 @@ import pytest
 
 from symdyn import cli, reference
 from symdyn.model import Robot, URDFError, URDFWarning, command_line
-from symdyn.model.xacro import PackageNotFound, Packages, XacroError
+from symdyn.model.urdf.xacro import PackageNotFound, Packages, XacroError
 
 FIXTURES = Path(__file__).parent / "xacro_fixtures"
 XACRO = FIXTURES / "arm_description" / "urdf" / "arm.urdf.xacro"

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from . import arms
 from .robot import Robot
-from .xacro import XacroError
+from .urdf.xacro import XacroError
 
 __all__ = [
     "add_arguments",

@@ -29,7 +29,7 @@ import sympy as sp
 from ..placement import exact, placement, rational_rotation, rpy_rotation
 from ..robot import IDENTITY, Link, Robot
 from ..snapping import snap_angle, snap_axis
-from ..xacro import Expansion, XacroError, expand, is_xacro
+from .xacro import Expansion, XacroError, expand, is_xacro
 from .bodies import Body, read_body, strict
 from .record import Locked, Snap, UrdfRecord
 from .tree import MOVING, MULTI, Tree
@@ -255,7 +255,7 @@ def from_urdf(
     root) to `tip_link` (default: the only leaf) of a URDF file or its text.
 
     A xacro file (`.xacro`, or text declaring the xacro namespace) is expanded
-    first, in-process and without ROS (`symdyn.model.xacro`): `xacro_args`
+    first, in-process and without ROS (`symdyn.model.urdf.xacro`): `xacro_args`
     ({"ur_type": "ur5e"}, as `ur_type:=ur5e`), `$(find pkg)` and `package://pkg/`
     from `package_paths`, `ROS_PACKAGE_PATH`, `AMENT_PREFIX_PATH`, then the
     folders above the file.  Messages then name the expanded text's lines.
