@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Mapping
 
-from ..urdf.xml import URDFError, URDFWarning
+from ..xml import URDFError, URDFWarning
 from .packages import PackageNotFound, Packages
 
 __all__ = ["XacroError", "Expansion", "expand", "is_xacro"]

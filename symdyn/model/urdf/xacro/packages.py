@@ -17,7 +17,7 @@ import re
 from pathlib import Path
 from typing import Iterable
 
-from ..urdf.xml import URDFError
+from ..xml import URDFError
 
 __all__ = ["PackageNotFound", "Packages"]
 
