@@ -10,7 +10,7 @@ import sympy as sp
 from symdyn import models
 from symdyn.derivation import trigpoly
 from symdyn.derivation.entry import derive
-from symdyn.derivation.regressor import compile_exact
+from symdyn.derivation.exact import compile_exact
 from symdyn.numeric import reference as ref
 
 from conftest import random_states

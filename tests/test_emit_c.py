@@ -1,5 +1,6 @@
 """The C target: plain C entry points, compiled on first use, equal to the reference."""
 
+import dataclasses
 import re
 import shutil
 
@@ -158,3 +159,24 @@ def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, m
     c_path.write_text(text.replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, "))
     with pytest.raises(RuntimeError, match=r"compiling twolink\.part\d\.c failed"):
         load_library(c_path, h_path, CompileOptions(binding="ctypes"))
+
+
+def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, monkeypatch):
+    """Above SPLIT_ABOVE assignments a function is written as noinline parts passing values
+    through an array (gcc's register allocation is superlinear in a function's size): the
+    Puma's functions forced into parts of 17 give the reference's values."""
+    monkeypatch.setattr(c_emit, "SPLIT_ABOVE", 40)
+    monkeypatch.setattr(c_emit, "PART_SIZE", 17)
+    bundle = codegen.bundle(codegen._robot("puma560"))
+    bundle = dataclasses.replace(bundle, programs=tuple(p for p in bundle.programs if p.name in ("tau", "M", "fdyn")))
+    (tmp_path / "puma560.c").write_text(c_emit.c_source(bundle))
+    (tmp_path / "puma560.h").write_text(c_emit.h_source(bundle))
+    text = (tmp_path / "puma560.c").read_text()
+    assert "static SYMDYN_NOINLINE void puma560_M_part2(const double *q, double *w_)" in text
+    quick = CompileOptions(flags=("-O1", "-fPIC", "-shared", "-pthread"))
+    lib = load_library(tmp_path / "puma560.c", tmp_path / "puma560.h", quick)
+    for function, (args, expected) in cases("puma560").items():
+        if function not in lib.functions:
+            continue
+        assert_close(lib.functions[function](*(a[3] for a in args)), expected[3], f"parts {function}")
+        assert_close(lib.functions[function](*args), expected, f"parts, batched {function}")

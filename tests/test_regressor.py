@@ -104,7 +104,7 @@ def _exact_inertial_Y(robot, points: int, seed: int):
     from sympy.polys.domains import QQ
     from sympy.polys.matrices import DomainMatrix
 
-    from exact_eval import compile_exact, random_rational_point
+    from symdyn.derivation.exact import compile_exact, random_rational_point
     from symdyn.derivation.regressor import FRICTION, INERTIAL
 
     reg = regressor(robot)

@@ -246,7 +246,7 @@ def _in_joint_angles(dyn, q) -> bool:
 def _exact(robot: Robot, points: int = 2, seed: int = 3) -> Iterable[tuple[str, float]]:
     """Newton–Euler regrouped and Lagrange against plain Newton–Euler at exact
     rational points (τ, M, G, C·q̇, F): every difference must be 0."""
-    from ..derivation.regressor import compile_exact, random_rational_point
+    from ..derivation.exact import compile_exact, random_rational_point
 
     dyns = _derivations(robot)
     plain = dyns["newton-euler"]

@@ -80,14 +80,20 @@ def _unit_inertia(name: str) -> LinkInertia:
 
 @dataclass(frozen=True)
 class Regressor:
-    """Y (n × 14n) with τ = Y·π, its parameter symbols, and the named program
-    behind it (tape and column outputs in terms of the tape's names)."""
+    """τ = Y·π: its parameter symbols and the named program behind Y (tape and
+    column outputs in terms of the tape's names)."""
 
     robot: Robot
-    Y: sp.ImmutableMatrix
     params: tuple
     tape: Tape
     columns: tuple  # per parameter: n expressions in the tape's names
+
+    @property
+    def Y(self) -> sp.ImmutableMatrix:
+        """Y (n × 14n) written out in full, the names substituted: for small arms (it grows
+        exponentially with the joints; code generation uses the named columns)."""
+        n = self.robot.n
+        return sp.ImmutableMatrix(n, len(self.params), lambda i, k: self.tape.full(self.columns[k][i]))
 
 
 def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
@@ -116,8 +122,7 @@ def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
             columns.append(tuple(expr if i == j else sp.S.Zero for i in range(n)))
         bar.step(f"link {j + 1}")
     bar.done()
-    Y = sp.ImmutableMatrix(n, len(params), lambda i, k: tape.full(columns[k][i]))
-    return Regressor(robot=robot, Y=Y, params=params, tape=tape, columns=tuple(columns))
+    return Regressor(robot=robot, params=params, tape=tape, columns=tuple(columns))
 
 
 # --------------------------------------------------------------------------- base parameters

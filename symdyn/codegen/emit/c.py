@@ -436,22 +436,101 @@ def simd_source(model: str, p: Program) -> str:
     return "\n".join(body)
 
 
+#: A single-state function of more assignments than this is emitted as parts of PART_SIZE
+#: assignments each, `static` functions that gcc does not inline, passing the values later
+#: parts use through one array: gcc's register allocation grows faster than linearly with a
+#: function's size (a 10-joint arm's fdyn_derivatives, 3844 lines in one function: 6.6 s at
+#: -O3, 6.1 s at -O1, 51 % of it in LRA), its parts compile in about linear time.  Every
+#: function of the shipped arms is below the threshold (the largest: 1692 lines).
+SPLIT_ABOVE = 2000
+PART_SIZE = 400
+
+_NOINLINE = (
+    "#if defined(__GNUC__)\n#define SYMDYN_NOINLINE __attribute__((noinline))\n#else\n#define SYMDYN_NOINLINE\n#endif\n"
+)
+
+
+def _statements(item) -> list[str]:
+    """The C statements of one `_paired` item."""
+    x, a, b = item
+    if x is None:
+        return [f"    const double {a.name} = {_text(b)};"]
+    return [f"    double {a.name}, {b.name};", f"    sincos_({_text(x)}, &{a.name}, &{b.name});"]
+
+
+def _defined(item) -> list:
+    x, a, b = item
+    return [a] if x is None else [a, b]
+
+
+def _used(item) -> set:
+    x, a, b = item
+    return (b if x is None else x).free_symbols
+
+
+def _parts(model: str, p: Program, sig: Signature) -> tuple[str, list[str]]:
+    """A large program's single-state body as parts: (the part functions' source, the body's
+    statements that call them and write the outputs)."""
+    items = list(_paired(p.assignments))
+    blocks = [items[i : i + PART_SIZE] for i in range(0, len(items), PART_SIZE)]
+    inputs = {s for _, syms in p.inputs for s in syms}
+    home = {sym: k for k, block in enumerate(blocks) for item in block for sym in _defined(item)}
+    later: set = set()  # values a later part (or an output) reads
+    for k, block in enumerate(blocks):
+        later |= {sym for item in block for sym in _used(item) if sym in home and home[sym] < k}
+    for _, mat in p.outputs:
+        later |= {sym for sym in mat.free_symbols if sym in home}
+    slot = {sym: i for i, sym in enumerate(sorted(later, key=lambda x: (home[x], x.name)))}
+    params = ", ".join([f"const double *{a}" for a, _ in p.inputs] + ["double *w_"])
+    source, calls = [], []
+    for k, block in enumerate(blocks):
+        used = set().union(*(_used(item) for item in block))
+        body = [
+            f"    const double {sym.name} = {a}[{j}];"
+            for a, syms in p.inputs
+            for j, sym in enumerate(syms)
+            if sym in used
+        ]
+        body += [
+            f"    const double {sym.name} = w_[{slot[sym]}];"
+            for sym in sorted(used - inputs, key=str)
+            if sym in home and home[sym] < k
+        ]
+        for item in block:
+            body += _statements(item)
+        body += [f"    w_[{slot[sym]}] = {sym.name};" for item in block for sym in _defined(item) if sym in slot]
+        name = f"{model}_{p.name}_part{k + 1}"
+        source.append(f"static SYMDYN_NOINLINE void {name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
+        calls.append(f"    {name}({', '.join([a for a, _ in p.inputs] + ['w_'])});")
+    used = set().union(*(mat.free_symbols for _, mat in p.outputs))
+    body = [f"    double w_[{max(1, len(slot))}];", *calls]
+    body += [
+        f"    const double {sym.name} = {a}[{j}];" for a, syms in p.inputs for j, sym in enumerate(syms) if sym in used
+    ]
+    body += [f"    const double {sym.name} = w_[{slot[sym]}];" for sym in sorted(used & set(slot), key=str)]
+    return "\n".join(source) + "\n", body
+
+
 def function_source(model: str, p: Program) -> str:
-    """The single-state and batched C functions of one program."""
+    """The single-state and batched C functions of one program (a large one calls its parts)."""
     sig = signature(p)
     single, batch = _prototypes(model, sig)
     used = p.used_inputs()
-    body = []
-    for a, syms in p.inputs:
-        read = [f"    const double {s.name} = {a}[{k}];" for k, s in enumerate(syms) if s in used]
-        body += read or [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"]
-    body += _assignments(p.assignments)
+    parts = ""
+    if len(p.assignments) > SPLIT_ABOVE:
+        parts, body = _parts(model, p, sig)
+    else:
+        body = []
+        for a, syms in p.inputs:
+            read = [f"    const double {s.name} = {a}[{k}];" for k, s in enumerate(syms) if s in used]
+            body += read or [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"]
+        body += _assignments(p.assignments)
     for o, mat in p.outputs:
         body += [f"    {o}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
     doc = f"/* {p.doc} */\n" if p.doc else ""
     calls = [f"{a} + {k}*k" for a, k in sig.inputs] + [f"{o} + {_size(s)}*k" for o, s in sig.outputs]
     loop = f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n        {model}_{p.name}({', '.join(calls)});\n}}\n"
-    return f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop + "\n" + simd_source(model, p)
+    return parts + f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop + "\n" + simd_source(model, p)
 
 
 def c_source(bundle: Bundle) -> str:
@@ -462,5 +541,7 @@ def c_source(bundle: Bundle) -> str:
         f'#include "{bundle.name}.h"\n',
         _HELPERS + _SIMD_HELPERS,
     ]
+    if any(len(p.assignments) > SPLIT_ABOVE for p in bundle.programs):
+        parts.append(_NOINLINE)
     parts += [function_source(bundle.name, p) for p in bundle.programs]
     return seal("\n".join(parts))
