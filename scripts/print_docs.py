@@ -113,7 +113,7 @@ def model_markdown(name: str) -> tuple[str, dict]:
     """docs/equations/<name>.md and {"plain": {term: tex}, "constants": tex} of the LaTeX printed."""
     from symdyn.cli import _load_model
     from symdyn.derivation.entry import derive
-    from symdyn.derivation.printing import plan
+    from symdyn.presentation.printing import plan
 
     robot = _load_model(name, False)
     dyn = derive(robot, "newton-euler", cache=True)
@@ -161,7 +161,7 @@ def model_markdown(name: str) -> tuple[str, dict]:
 
 def latex_source(name: str, tex: dict) -> str:
     """One LaTeX document of a model: every closed-form term, then the named-constant form."""
-    from symdyn.derivation.printing import latex_document
+    from symdyn.presentation.printing import latex_document
 
     def inner(doc: str) -> str:
         body = doc.split("\\begin{document}", 1)[1].split("\\end{document}", 1)[0]

@@ -85,7 +85,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_print(args: argparse.Namespace) -> int:
     """Print the closed-form dynamics of a model, with op counts per stage."""
     from .derivation.entry import derive
-    from .derivation.printing import closed_form, plan
+    from .presentation.printing import closed_form, plan
     from .derivation.simplify import op_counts
     from .model import command_line
 
@@ -124,7 +124,7 @@ def _cmd_print(args: argparse.Namespace) -> int:
 def _print_constants(dyn, args: argparse.Namespace) -> int:
     """The named-constant form, then its term and op counts beside the generated code's."""
     from .codegen.entry import bundle
-    from .derivation.constants import constant_form, render_form
+    from .presentation.constants import constant_form, render_form
 
     form = constant_form(dyn)
     print(render_form(form, args.format, digits=args.digits))
@@ -206,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .bench import compare
     from .codegen import entry
-    from .derivation.printing import CLOSED_LIMIT
+    from .presentation.printing import CLOSED_LIMIT
 
     entry.configure_parser(sub.add_parser("generate", help="write generated model code (NumPy, C, CasADi)"))
     compare.configure_parser(sub.add_parser("bench", help="generated code vs Pinocchio and the Robotics Toolbox"))

@@ -5,7 +5,7 @@ import sympy as sp
 
 from symdyn import cli, models
 from symdyn.derivation import trigpoly
-from symdyn.derivation.constants import constant_form, render_form, units
+from symdyn.presentation.constants import constant_form, render_form, units
 from symdyn.derivation.entry import derive
 
 
@@ -98,7 +98,7 @@ def test_units_read_like_an_engineer_writes_them():
 
 
 def test_rendered_constants_fit_their_width_in_every_format(twolink_sym):
-    from symdyn.derivation.printing import WIDTHS, latex_width
+    from symdyn.presentation.printing import WIDTHS, latex_width
 
     for fmt in ("text", "pretty", "latex"):
         out = render_form(twolink_sym, fmt)

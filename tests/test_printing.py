@@ -8,7 +8,7 @@ import sympy as sp
 
 from symdyn import cli, models
 from symdyn.derivation.entry import derive
-from symdyn.derivation.printing import closed_form, elements, render
+from symdyn.presentation.printing import closed_form, elements, render
 from symdyn.derivation.simplify import prune, tidy
 
 
@@ -74,7 +74,7 @@ def test_latex_of_the_two_link_arm_compiles_with_no_overfull_box(tmp_path):
 
 
 def test_latex_of_the_pumas_named_constants_compiles_with_no_overfull_box(tmp_path):
-    from symdyn.derivation.constants import constant_form, render_form
+    from symdyn.presentation.constants import constant_form, render_form
 
     tex = render_form(constant_form(derive(models.load("puma560"))), "latex")
     assert not [w for w in _overfull_boxes(tex, tmp_path) if w > 1]
@@ -82,7 +82,7 @@ def test_latex_of_the_pumas_named_constants_compiles_with_no_overfull_box(tmp_pa
 
 @pytest.mark.parametrize("fmt", ["text", "pretty", "latex"])
 def test_every_printed_line_fits_its_width_budget(fmt):
-    from symdyn.derivation.printing import WIDTHS, latex_width
+    from symdyn.presentation.printing import WIDTHS, latex_width
 
     measure = latex_width if fmt == "latex" else len
     for name, terms in (("twolink", ("M", "C", "G", "tau")), ("puma560", ("G",))):
@@ -92,7 +92,7 @@ def test_every_printed_line_fits_its_width_budget(fmt):
         assert len(rows) > len(terms)
         assert max(measure(r) for r in rows) <= WIDTHS[fmt], max(rows, key=measure)
     # and the budget is what breaks them: the two-link tau1 needs several lines at 60 characters
-    from symdyn.derivation.printing import wrap
+    from symdyn.presentation.printing import wrap
 
     tau1 = dict(elements(derive(models.load("twolink", symbolic=True)), "tau"))["tau1"]
     lines = wrap("tau1", tau1, "text", width=60)
@@ -100,7 +100,7 @@ def test_every_printed_line_fits_its_width_budget(fmt):
 
 
 def test_numbers_print_like_an_engineer_writes_them():
-    from symdyn.derivation.printing import number
+    from symdyn.presentation.printing import number
 
     assert number(0.25) == "0.25" and number(6.5) == "6.5" and number(1.23456e-5, 3) == "1.23e-5"
     dyn = derive(models.load("rrp"))
@@ -275,7 +275,7 @@ def test_pandas_printed_gravity_equals_the_reference_gravity_load(panda):
 
 
 def test_pandas_inertia_prints_in_named_intermediates_that_evaluate_to_the_reference(panda):
-    from symdyn.derivation.printing import plan
+    from symdyn.presentation.printing import plan
     from symdyn.numeric import reference as ref
 
     layouts = plan(panda, ("G", "M"))
@@ -295,7 +295,7 @@ def test_pandas_inertia_prints_in_named_intermediates_that_evaluate_to_the_refer
 
 
 def test_a_closed_form_too_large_to_print_is_refused_with_the_alternative(panda):
-    from symdyn.derivation.printing import plan
+    from symdyn.presentation.printing import plan
 
     with pytest.raises(
         ValueError,

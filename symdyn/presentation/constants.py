@@ -12,7 +12,7 @@ with the Coriolis (b, j < k) and centripetal (c) coefficients of Armstrong
 et al. rather than the Christoffel matrix.
 
 Where the constants come from: for a numeric arm, τ = Y·β with the base
-parameters β (`regressor.base_parameters`, Khalil's regrouping), so every
+parameters β (`derivation.regressor.base_parameters`, Khalil's regrouping), so every
 coefficient is a linear combination of the base parameters and its
 definition is exact in Khalil's standard link parameters (XXj … MZj, Mj,
 IAj in modified-DH link frames); base parameters whose value is zero for
@@ -29,7 +29,12 @@ from fractions import Fraction
 
 import sympy as sp
 
-from .dynamics import Dynamics
+from ..derivation.dynamics import Dynamics
+from ..derivation.program import make_program
+from ..derivation.regressor import FRICTION, INERTIAL, base_parameters, regressor
+from ..derivation.simplify import angle_products, closed_size, group_parameters, natural_chains
+from ..derivation.symbols import joint_symbols
+from ..derivation.trigpoly import TrigSpace
 from .printing import (
     CLOSED_LIMIT,
     DIGITS,
@@ -41,11 +46,6 @@ from .printing import (
     number,
     wrap,
 )
-from .program import make_program
-from .regressor import FRICTION, INERTIAL, base_parameters, regressor
-from .simplify import angle_products, closed_size, group_parameters, natural_chains
-from .symbols import joint_symbols
-from .trigpoly import TrigSpace
 
 __all__ = ["Constant", "ConstantForm", "constant_form"]
 

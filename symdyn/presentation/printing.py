@@ -21,8 +21,8 @@ from sympy.printing.pretty.pretty import PrettyPrinter
 from sympy.printing.pretty.stringpict import prettyForm, stringPict
 from sympy.printing.str import StrPrinter
 
-from .dynamics import TERMS, Dynamics
-from .simplify import closed_size, prune, tidy, used_definitions
+from ..derivation.dynamics import TERMS, Dynamics
+from ..derivation.simplify import closed_size, prune, tidy, used_definitions
 
 FORMATS = ("text", "pretty", "latex")
 
