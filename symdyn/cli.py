@@ -115,7 +115,8 @@ def _cmd_print(args: argparse.Namespace) -> int:
         counts = op_counts(dyn, t, stages, prune_tol=args.prune or 1e-3)
         row = "  ".join(f"{s} {c['mul'] + c['add']}" for s, c in counts.items() if c)
         print(f"{comment}   {t:4s} {row}")
-    record = getattr(robot, "urdf", None)  # a URDF file's chain: what was locked, excluded, snapped
+    # a URDF, xacro or MJCF file's chain: what was locked, excluded, snapped
+    record = getattr(robot, "urdf", None) or getattr(robot, "mjcf", None)
     for line in record.lines() if record is not None and command_line.is_urdf(args.model) else ():
         print(f"{comment} {line}")
     return 0

@@ -225,6 +225,18 @@ def test_command_line_reads_mjcf_with_tip_body():
     assert ("fl", 0.01, "given") in [(lock.joint, lock.value, lock.why) for lock in robot.mjcf.locked]
 
 
+def test_generated_files_name_the_mjcf_file_and_rebuild_from_it(tmp_path):
+    """The header of code generated for an MJCF arm names the file, its sha256 and the command
+    that rebuilds it (as for URDF files): the record is the provenance."""
+    import symdyn
+
+    robot = load(str(FIXTURES / "branch.xml"), tip="tcp", lock=["fl=0.01"])
+    (path,) = symdyn.generate(robot, "numpy", tmp_path)
+    head = path.read_text()[:3000]
+    assert f"MJCF branch.xml (sha256 {robot.mjcf.sha256}" in head
+    assert "regenerate: symdyn generate branch.xml --base world --tip tcp --lock=fl=0.01 --target numpy" in head
+
+
 BALL = """<mujoco><worldbody><body name="upper"><joint name="j" axis="0 0 1"/>
 <inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
 <body name="cup"><joint name="socket" type="ball"/><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>

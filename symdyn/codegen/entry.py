@@ -115,10 +115,11 @@ def bundle(robot: Robot) -> Bundle:
 
 def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
     """(model source, further lines, regenerate arguments) of the files' headers.  A robot read
-    from a URDF file (`robot.urdf`, not a shipped arm) names the file and its sha256 — never its
-    folder, which is the reader's, not the model's —, lists what was locked, excluded and snapped,
-    and rebuilds by `symdyn generate FILE.urdf --tip … [--name NAME]`, run beside the file."""
-    record = getattr(robot, "urdf", None)
+    from a URDF, xacro or MJCF file (`robot.urdf`, `robot.mjcf`; not a shipped arm) names the file
+    and its sha256 — never its folder, which is the reader's, not the model's —, lists what was
+    locked, excluded and snapped, and rebuilds by `symdyn generate FILE --tip … [--name NAME]`,
+    run beside the file."""
+    record = getattr(robot, "urdf", None) or getattr(robot, "mjcf", None)
     if _is_shipped(robot):
         return robot.source, (), robot.name
     if record is None:  # built in Python: no name or file the command line knows rebuilds it
