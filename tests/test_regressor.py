@@ -142,3 +142,13 @@ def test_base_parameters_of_generically_turned_arms_are_exact(seed):
     pi = sp.Matrix([values[k] for k in inertial]).to_DM().convert_to(Y.domain).transpose()
     beta = sp.Matrix([base.regrouped[k] for k in inertial]).to_DM().convert_to(Y.domain).transpose()
     assert (Y * pi.transpose()).to_Matrix() == (Y * beta.transpose()).to_Matrix()
+
+
+def test_the_regrouped_recursion_gives_c_as_half_the_derivative_of_c_qd():
+    """Code generation's derivation skips the n(n+1)/2 Christoffel recursions (the only part
+    that grows like n³): its C is ½ ∂(C q̇)/∂q̇, exactly the Christoffel C of the full recursion."""
+    robot = models.load("rrp")
+    plain, grouped = derive(robot), derive(robot, regroup=True)
+    assert "C" not in grouped.named and "C" in plain.named
+    assert (grouped.C - plain.C).applyfunc(sp.expand) == sp.zeros(robot.n, robot.n)
+    assert (grouped.Cqd - plain.Cqd).applyfunc(sp.expand) == sp.zeros(robot.n, 1)

@@ -51,7 +51,7 @@ def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | 
     chosen: dict[str, tuple[FunctionSpec, Program]] = {}
     for term in ("tau", "M", "C", "Cqd", "G", "F", "bias"):
         extra = [christoffel_spec(c["Cqd"]) for c in cands] if term == "C" else []
-        chosen[term] = _cheapest([c[term] for c in cands] + extra)
+        chosen[term] = _cheapest([c[term] for c in cands if term in c] + extra)
     out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
     fdyn = fdyn_spec(chosen["M"][0], chosen["bias"][0]).program()
     out.append(fdyn)

@@ -165,6 +165,8 @@ def candidates(dyn: Dynamics, origin: str | None = None) -> dict[str, FunctionSp
     origin = origin or dyn.method
     out = {}
     for term in ("tau", "M", "C", "Cqd", "G", "F"):
+        if term == "C" and dyn.named and "C" not in dyn.named:
+            continue  # a recursion without its Christoffel passes: C comes from ½ ∂(C q̇)/∂q̇ (choice.programs)
         named = dyn.named.get(term)
         expr, defs = (dyn.term(term), ()) if named is None else (named, tuple(dyn.definitions))
         out[term] = FunctionSpec(

@@ -55,7 +55,10 @@ class Dynamics:
                 for sym, definition in self.definitions:
                     full[sym] = sp.sympify(definition).xreplace(full)
                 self.expanded["_definitions"] = full
-            self.expanded[term] = sp.ImmutableMatrix(self.named[term].xreplace(self.expanded["_definitions"]))
+            if term == "C" and "C" not in self.named:  # a recursion without the Christoffel passes
+                self.expanded[term] = sp.ImmutableMatrix(self.Cqd.jacobian(self.qd) / 2)
+            else:
+                self.expanded[term] = sp.ImmutableMatrix(self.named[term].xreplace(self.expanded["_definitions"]))
         return self.expanded[term]
 
     @property
@@ -96,6 +99,8 @@ class Dynamics:
     @property
     def Cqd(self) -> sp.ImmutableMatrix:
         """The Coriolis/centripetal vector C(q, q̇)·q̇ (named apart from C)."""
+        if "C" not in self.named and "Cqd" in self.named:
+            return self._expanded("Cqd")
         return sp.ImmutableMatrix(self.C * sp.Matrix(self.qd))
 
 

@@ -266,10 +266,14 @@ class Recursion:
 
 
 def recursion(
-    robot: Robot, inertias: Sequence[LinkInertia] | None = None, progress: Progress | None = None
+    robot: Robot,
+    inertias: Sequence[LinkInertia] | None = None,
+    progress: Progress | None = None,
+    christoffel: bool = True,
 ) -> Recursion:
-    """Run the customized recursion for τ, G (rest), C·q̇, the Christoffel
-    symbols (unit velocities, symmetric split), and M by composite links."""
+    """Run the customized recursion for τ, G (rest), C·q̇, M by composite links, and
+    (`christoffel`) the Christoffel symbols (unit velocities, symmetric split):
+    n(n + 1)/2 more recursions, the only part that grows like n³."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
     robot = robot.to_modified()
@@ -288,6 +292,8 @@ def recursion(
     Cqd = rnea(tape, frames, inertias, qd, zero, none, tag="c")
     M = composite_inertia(tape, frames, inertias)
     progress.step("M")
+    if not christoffel:
+        return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "Cqd": Cqd})
     h = {}
     for j in range(n):
         h[j, j] = rnea(tape, frames, inertias, unit(j), zero, none, tag=f"h{j + 1}")
@@ -305,24 +311,29 @@ def recursion(
     return Recursion(tape=tape, outputs={"tau": tau, "M": M, "G": G, "C": C, "Cqd": Cqd, "Gamma": gamma})
 
 
-def derive(robot: Robot, inertias: Sequence[LinkInertia] | None = None, *, progress: bool = False) -> Dynamics:
+def derive(
+    robot: Robot, inertias: Sequence[LinkInertia] | None = None, *, progress: bool = False, christoffel: bool = True
+) -> Dynamics:
     """Closed-form dynamics by Newton–Euler: M, C, G, F and τ written in the
-    recursion's named intermediates (plain sympy matrices on request)."""
+    recursion's named intermediates (plain sympy matrices on request).
+    christoffel=False leaves C out of the recursion (`Dynamics.C` is then
+    ½ ∂(C q̇)/∂q̇, the same matrix)."""
     n = robot.n
-    bar = Progress(f"newton-euler {robot.name}", 3 + n * (n + 1) // 2, enabled=progress)
-    rec = recursion(robot, inertias, bar)
+    bar = Progress(f"newton-euler {robot.name}", 3 + (n * (n + 1) // 2 if christoffel else 0), enabled=progress)
+    rec = recursion(robot, inertias, bar, christoffel)
     bar.done()
     q, qd, qdd = joint_symbols(robot.n)
     F = friction_expr(robot, qd)
     outs = rec.outputs
     named = {
         "M": sp.ImmutableMatrix(outs["M"]),
-        "C": sp.ImmutableMatrix(outs["C"]),
         "G": sp.ImmutableMatrix(outs["G"]),
         "Cqd": sp.ImmutableMatrix(outs["Cqd"]),
         "F": F,
         "tau": sp.ImmutableMatrix(outs["tau"]) + F,
     }
+    if christoffel:
+        named["C"] = sp.ImmutableMatrix(outs["C"])
     return Dynamics(
         robot=robot,
         method="newton-euler",
