@@ -13,9 +13,9 @@ from typing import Sequence
 from ..derivation.dynamics import Dynamics
 from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
-from .functions import FunctionSpec, candidates, fdyn_spec, regressor_spec
+from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
 
-__all__ = ["programs"]
+__all__ = ["programs", "Programs"]
 
 
 def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
@@ -38,25 +38,62 @@ def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
     return best[2], best[3]
 
 
+class Programs:
+    """Every function's program, each built when first asked for (with what it needs), then kept.
+
+    The terms tau, M, C, Cqd, G, F and the bias take the derivation whose program has
+    the fewest operations (the first on ties); fdyn, the derivatives and M⁻¹ are built
+    from the chosen M, bias and τ; Y from `regressor` (a `Regressor`, or a callable
+    returning one: it is only built when Y is asked for).  `origins`: a label per
+    derivation for the generated files (default: their methods).
+    """
+
+    def __init__(self, dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> None:
+        if not dyns:
+            raise ValueError("programs() needs at least one derivation")
+        self.dyns = list(dyns)
+        self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
+        self.regressor = regressor
+        self.names = (*NAMES, *(("Y",) if regressor is not None else ()), "tau_derivatives", "fdyn_derivatives", "Minv")
+        self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
+        self._built: dict[str, Program] = {}
+
+    def chosen(self, term: str) -> tuple[FunctionSpec, Program]:
+        """(spec, program) of a term (tau, M, C, Cqd, G, F, bias) from the derivation that
+        gives the fewest operations."""
+        if term not in self._chosen:
+            extra = [christoffel_spec(c["Cqd"]) for c in self.cands] if term == "C" else []
+            self._chosen[term] = _cheapest([c[term] for c in self.cands if term in c] + extra)
+        return self._chosen[term]
+
+    def program(self, name: str) -> Program:
+        """The program of one function (KeyError for a name not in `names`)."""
+        if name not in self.names:
+            raise KeyError(f"no function {name!r}: the functions are {', '.join(self.names)}")
+        if name not in self._built:
+            self._built[name] = self._build(name)
+        return self._built[name]
+
+    def _build(self, name: str) -> Program:
+        if name in ("tau", "M", "C", "Cqd", "G", "F"):
+            return self.chosen(name)[1]
+        if name == "fdyn":
+            return fdyn_spec(self.chosen("M")[0], self.chosen("bias")[0]).program()
+        if name == "Y":
+            reg = self.regressor() if callable(self.regressor) else self.regressor
+            return regressor_spec(reg, self.dyns[0]).program()
+        if name == "tau_derivatives":
+            return tau_derivatives_spec(self.chosen("tau")[0]).program()
+        if name == "Minv":
+            return minv_spec(self.chosen("M")[0]).program()
+        return fdyn_derivatives_program(self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"))
+
+    def all(self) -> list[Program]:
+        """Every function's program, in the order of `names`."""
+        return [self.program(name) for name in self.names]
+
+
 def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> list[Program]:
     """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is
-    given), tau_derivatives, fdyn_derivatives and Minv: each term from the
-    derivation giving the fewest operations (the first on ties), the others
-    from the cheapest M, bias and τ.  `origins`: a label per
-    derivation for the generated files (default: their methods)."""
-    if not dyns:
-        raise ValueError("programs() needs at least one derivation")
-    origins = origins or [None] * len(dyns)
-    cands = [candidates(d, o) for d, o in zip(dyns, origins)]
-    chosen: dict[str, tuple[FunctionSpec, Program]] = {}
-    for term in ("tau", "M", "C", "Cqd", "G", "F", "bias"):
-        extra = [christoffel_spec(c["Cqd"]) for c in cands] if term == "C" else []
-        chosen[term] = _cheapest([c[term] for c in cands if term in c] + extra)
-    out = [chosen[t][1] for t in ("tau", "M", "C", "Cqd", "G", "F")]
-    fdyn = fdyn_spec(chosen["M"][0], chosen["bias"][0]).program()
-    out.append(fdyn)
-    if regressor is not None:
-        out.append(regressor_spec(regressor, dyns[0]).program())
-    tau_derivatives = tau_derivatives_spec(chosen["tau"][0]).program()
-    minv = minv_spec(chosen["M"][0]).program()
-    return out + [tau_derivatives, fdyn_derivatives_program(fdyn, tau_derivatives, minv), minv]
+    given), tau_derivatives, fdyn_derivatives and Minv (`Programs`, all built)."""
+    return Programs(dyns, regressor, origins).all()
