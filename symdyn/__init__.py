@@ -15,7 +15,19 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 from .model import Link, Robot  # noqa: E402
+from .model import snapping as _snapping  # noqa: E402
 from . import models  # noqa: E402
+
+
+def _snap_effect(snapped: Robot, literal: Robot) -> Any:
+    """`symdyn.numeric.snap_effect.snap_effect`, imported when a snap's effect is first asked for:
+    the model states what its snaps do, the reference (a later stage) measures it."""
+    from .numeric.snap_effect import snap_effect
+
+    return snap_effect(snapped, literal)
+
+
+_snapping.set_effect_measure(_snap_effect)
 
 if TYPE_CHECKING:  # the stages below are imported when first used: `import symdyn` stays quick
     from pathlib import Path

@@ -3,7 +3,7 @@
 Part of the model stage, for `symdyn generate` and `symdyn print` (and any
 command that takes a MODEL): `add_arguments` declares MODEL with the URDF
 options (--tip, --base, --lock JOINT=VALUE, --exclude LINK, --no-snap,
---name, and for a xacro file --xacro-arg NAME:=VALUE, --package-path DIR),
+--no-friction, --name, and for a xacro file --xacro-arg NAME:=VALUE, --package-path DIR),
 `load` turns them into a `Robot` through `arms.load` or `Robot.from_urdf`.
 A URDF robot is named after its file's stem (not the URDF's <robot name=…>;
 arm.urdf.xacro's is arm), so `symdyn generate arm.urdf` writes arm.c, arm.py,
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from . import arms
@@ -42,6 +43,7 @@ URDF_OPTIONS = {
     "name": "--name",
     "xacro_arg": "--xacro-arg",
     "package_path": "--package-path",
+    "no_friction": "--no-friction",
 }
 
 
@@ -81,7 +83,17 @@ def add_urdf_options(p: argparse.ArgumentParser) -> None:
     urdf.add_argument(
         "--no-snap",
         action="store_true",
-        help="keep the file's numbers as written (default: snap 1.5708 to pi/2 and the like)",
+        help="keep the file's numbers as written (default: snap 1.5708 to pi/2 and the like; the generated "
+        "files' header says how far the snaps move tau, M and qdd): to compare with a peer that reads the file "
+        "literally (Pinocchio)",
+    )
+    urdf.add_argument(
+        "--no-friction",
+        action="store_true",
+        help="leave out the friction the file gives (URDF <dynamics damping friction>, MJCF damping and "
+        "frictionloss: viscous and Coulomb), as robot.nofriction(all=True): to compare tau with a peer that "
+        "has none (Pinocchio's rnea); rotor inertia (MJCF armature) stays (default: tau includes it, as said "
+        "on stderr)",
     )
     urdf.add_argument("--name", help="the model's name, which names the generated files (default: the file's stem)")
     urdf.add_argument(
@@ -170,12 +182,16 @@ def load(
     name: str | None = None,
     xacro_arg=(),
     package_path=(),
+    no_friction: bool = False,
 ) -> Robot:
     """The robot MODEL names: a shipped arm (its symbolic variant where it has one and `symbolic`),
     or the chain of a URDF or xacro file read by `Robot.from_urdf` with the URDF options
-    (`xacro_arg`: ["NAME:=VALUE", …], `package_path`: [DIR, …])."""
+    (`xacro_arg`: ["NAME:=VALUE", …], `package_path`: [DIR, …]; `no_friction`:
+    `robot.nofriction(all=True)`).  A file's friction and rotor inertia are said on stderr: they
+    are in tau and M unless left out."""
     values = {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}
     values |= {"xacro_arg": xacro_arg, "package_path": package_path}
+    values |= {"no_friction": no_friction}
     given = {opt for dest, opt in URDF_OPTIONS.items() if values[dest]}
     locks = parse_locks(lock)
     xacro_args = parse_xacro_args(xacro_arg)
@@ -199,7 +215,8 @@ def load(
             f"no URDF file {model}" + (": it is a folder" if path.is_dir() else f" (looked in {path.resolve().parent})")
         )
     if path.suffix.lower() == ".xml" and _is_mjcf(path):  # MuJoCo's MJCF: --base and --tip name bodies
-        return _load_mjcf(path, base=base, tip=tip, locks=locks, exclude=exclude, no_snap=no_snap, name=name)
+        robot = _load_mjcf(path, base=base, tip=tip, locks=locks, exclude=exclude, no_snap=no_snap, name=name)
+        return _friction_as_asked(robot, no_friction)
     options = {"base_link": base, "tip_link": tip}
     # only what was asked for, so that a reader without an option still reads the plain chain
     if locks:
@@ -213,9 +230,22 @@ def load(
     if package_path:
         options["package_paths"] = list(package_path)
     try:
-        return Robot.from_urdf(path, name=name or _model_name(path), **options)
+        robot = Robot.from_urdf(path, name=name or _model_name(path), **options)
     except XacroError as exc:  # in the command line's words (--xacro-arg, --package-path)
         raise XacroError(exc.command_line) from None
+    return _friction_as_asked(robot, no_friction)
+
+
+def _friction_as_asked(robot: Robot, no_friction: bool) -> Robot:
+    """A file's robot without its friction for --no-friction; the friction and rotor inertia the
+    file gave said on stderr either way (tau against a peer without them, such as Pinocchio's rnea,
+    differs by them: nobody should find out by comparing)."""
+    if no_friction:
+        robot = robot.nofriction(all=True)
+    record = robot.urdf if robot.urdf is not None else robot.mjcf
+    for line in record.friction_report() if record is not None else ():
+        print(f"symdyn: {line}", file=sys.stderr)
+    return robot
 
 
 def _is_mjcf(path: Path) -> bool:
@@ -233,7 +263,7 @@ def _load_mjcf(path: Path, *, base, tip, locks: dict, exclude, no_snap: bool, na
 
 def urdf_options(args: argparse.Namespace) -> dict:
     """The URDF options `add_urdf_options` declared, as `load`'s keywords."""
-    defaults = {"lock": (), "exclude": (), "no_snap": False, "xacro_arg": (), "package_path": ()}
+    defaults = {"lock": (), "exclude": (), "no_snap": False, "xacro_arg": (), "package_path": (), "no_friction": False}
     return {dest: getattr(args, dest, None) or defaults.get(dest) for dest in URDF_OPTIONS}
 
 

@@ -452,9 +452,16 @@ class Robot:
         )
 
     def nofriction(self, all: bool = False) -> "Robot":  # noqa: A002 (Toolbox name)
-        """Remove Coulomb friction; with `all=True` remove viscous friction too."""
+        """Remove Coulomb friction; with `all=True` remove viscous friction too.  A robot as read
+        from a file keeps its record, which then says what was left out (`print(robot)`)."""
         links = tuple(dataclasses.replace(link, Tc=(0, 0), B=0 if all else link.B) for link in self.links)
-        return dataclasses.replace(self, links=links)
+        out = dataclasses.replace(self, links=links)
+        records = {
+            key: record.without_friction(self, out, all)
+            for key, record in (("urdf", self.urdf), ("mjcf", self.mjcf))
+            if hasattr(record, "without_friction")
+        }
+        return dataclasses.replace(out, **records) if records else out
 
     def payload(self, m: Number, p: Sequence = (0, 0, 0), *, additive: bool = False) -> "Robot":
         """Attach a payload of mass m at p (frame of the last link).

@@ -30,7 +30,7 @@ import sympy as sp
 
 from ..placement import exact, rational_rotation, rpy_rotation
 from ..robot import IDENTITY, Link, Robot
-from ..snapping import ANGLE_TOLERANCE, snap_angle, snap_axis
+from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
 from ..urdf.bodies import Body
 from ..urdf.reader import _compose, _motion, _number
 from ..urdf.record import Locked, Snap
@@ -496,7 +496,22 @@ def from_mjcf(
         gravity=gravity,
         warnings=tuple(notes),
         fingerprint=robot.fingerprint(),
+        **{
+            key: tuple(reader.joint(c[0]) for c, link in zip(carriers, links) if read_from(link))
+            for key, read_from in (
+                ("rotor", lambda link: link.Jm != 0),
+                ("viscous", lambda link: link.B != 0),
+                ("coulomb", lambda link: link.Tc != (0, 0)),
+            )
+        },
     )
+    if reader.snaps:  # the compiled numbers too: the record states how far the snaps move the dynamics
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # this reading says it all
+            literal = from_mjcf(
+                path, base_body=base_body, tip_body=tip_body, locked=locked, exclude=exclude, snap=False, name=name
+            )
+        record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, mjcf=None)))
     for message in notes:
         warnings.warn(f"{label}: {message}", MJCFWarning, stacklevel=2)
     return dataclasses.replace(robot, mjcf=record)

@@ -8,7 +8,10 @@ the command that rebuilds the robot; the same shape as `symdyn.model.urdf.UrdfRe
 from __future__ import annotations
 
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..urdf.record import friction_lines, snap_lines, without_friction
 
 __all__ = ["MjcfRecord"]
 
@@ -25,7 +28,12 @@ class MjcfRecord:
     before MuJoCo compiled the file (no body's inertia depends on them).
     left_out: bodies that do not enter the dynamics (they rest on the fixed
     base, or float freely).  gravity: the file's `<option gravity>` (MuJoCo's
-    sign: the acceleration of a falling body).
+    sign: the acceleration of a falling body).  snapping: both readings of
+    the file where snaps changed a number (`symdyn.model.snapping.Snapping`):
+    `lines()` states how far they move the dynamics.  rotor, viscous, coulomb:
+    the chain joints with armature, damping, frictionloss; friction_left_out:
+    "" (tau includes the friction), "coulomb" (`robot.nofriction()`) or "all"
+    (`--no-friction`, `robot.nofriction(all=True)`); the rotor inertia stays.
     """
 
     file: str
@@ -43,6 +51,12 @@ class MjcfRecord:
     gravity: tuple = (0.0, 0.0, -9.81)
     warnings: tuple = ()
     fingerprint: str = ""
+    snapping: Any = field(default=None, compare=False, repr=False)
+    rotor: tuple = ()
+    viscous: tuple = ()
+    coulomb: tuple = ()
+    friction_left_out: str = ""
+    coulomb_free: str = ""
 
     def describes(self, robot) -> bool:
         """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
@@ -59,7 +73,26 @@ class MjcfRecord:
         args += [f"--lock={lock.joint}={lock.value!r}" for lock in self.locked if lock.why == "given"]
         args += [f"--exclude={body}" for body in self.excluded]
         args += [] if self.snap else ["--no-snap"]
+        args += ["--no-friction"] if self.friction_left_out == "all" else []
         return shlex.join(args)
+
+    def without_friction(self, before, robot, all: bool = True) -> "MjcfRecord":  # noqa: A002 (as nofriction)
+        """The record of `robot`, which `before.nofriction(all)` made: what it left out."""
+        return without_friction(self, before, robot, all)
+
+    def friction_report(self) -> list[str]:
+        """The rotor inertia (armature) and friction (damping, frictionloss) read from the file, and
+        whether M and tau include them, in a line each (none for a file without)."""
+        count = len(self.rotor)
+        rotor = (
+            [
+                f"rotor inertia read from the file: armature on {count} joint{'s' if count != 1 else ''} (Jm, G = 1): "
+                "M includes it on its diagonal; --no-friction keeps it"
+            ]
+            if count
+            else []
+        )
+        return rotor + friction_lines(self.viscous, self.coulomb, self.friction_left_out, ("damping", "frictionloss"))
 
     def lines(self) -> list[str]:
         """A summary a person reads: the chain, what became friction and rotor inertia, each
@@ -68,10 +101,9 @@ class MjcfRecord:
             f"MJCF {self.file} (sha256 {self.sha256}): chain {self.base_body} -> {self.tip_body}, "
             f"joints {', '.join(self.joints)}; gravity {list(self.gravity)} (MuJoCo's sign)"
         ]
+        out += self.friction_report()
         if self.read:
-            out.append(
-                "read from the file's joints and actuators (friction is in tau; robot.nofriction(all=True) removes it):"
-            )
+            out.append("read from the file's joints and actuators:")
             out += [f"  {line}" for line in self.read]
         moving = [lock for lock in self.locked if lock.moves]
         resting = [lock for lock in self.locked if not lock.moves]
@@ -95,10 +127,6 @@ class MjcfRecord:
             out.append(
                 f"absent files left out before compiling (no inertia depends on them): {', '.join(self.stripped)}"
             )
-        if not self.snap:
-            out.append("numbers as compiled by MuJoCo (snap=False)")
-        elif self.snaps:
-            out.append(f"snapped to exact values ({len(self.snaps)}, largest change {self.max_snap:.2e}):")
-            out += [f"  {s.where}: {s.value} -> {s.snapped}" for s in self.snaps]
+        out += snap_lines(self, "numbers as compiled by MuJoCo (snap=False)")
         out += [f"warning: {w}" for w in self.warnings]
         return out

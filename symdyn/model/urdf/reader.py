@@ -28,7 +28,7 @@ import sympy as sp
 
 from ..placement import exact, placement, rational_rotation, rpy_rotation
 from ..robot import IDENTITY, Link, Robot
-from ..snapping import snap_angle, snap_axis
+from ..snapping import Snapping, snap_angle, snap_axis
 from .xacro import Expansion, XacroError, expand, is_xacro
 from .bodies import Body, read_body, strict
 from .record import Locked, Snap, UrdfRecord
@@ -287,6 +287,8 @@ def from_urdf(
             body (accepted and left out: it cannot affect the dynamics); what xacro
             warns about while expanding.
     """
+    if not isinstance(package_paths, (str, os.PathLike)):
+        package_paths = tuple(package_paths)  # a file with snaps is read twice (as written, too)
     text = read(path_or_xml)
     xacro = _expanded(path_or_xml, text, xacro_args, package_paths)
     urdf = xacro.urdf if xacro is not None else text
@@ -357,7 +359,32 @@ def from_urdf(
         tuple(reader.warnings),
         robot.fingerprint(),
         **(xacro.record_fields() if xacro is not None else {}),
+        **_friction_read(tuple(j.name for j in path if j.name in moving), out),
     )
+    if reader.snaps:  # the file's numbers too: the record states how far the snaps move the dynamics
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # this reading says it all
+            literal = from_urdf(
+                path_or_xml,
+                base_link=base_link,
+                tip_link=tip_link,
+                locked=locked,
+                exclude=exclude,
+                snap=False,
+                name=name,
+                xacro_args=xacro_args,
+                package_paths=package_paths,
+            )
+        record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, urdf=None)))
     for message in record.warnings:
         warnings.warn(message, URDFWarning, stacklevel=2)
     return dataclasses.replace(robot, urdf=record)
+
+
+def _friction_read(joints: tuple, links: list) -> dict:
+    """The record's `viscous` and `coulomb`: the chain joints whose `<dynamics damping>` and
+    `<dynamics friction>` are not 0 (one link per joint, in order)."""
+    return {
+        "viscous": tuple(j for j, link in zip(joints, links) if link.B != 0),
+        "coulomb": tuple(j for j, link in zip(joints, links) if link.Tc != (0, 0)),
+    }

@@ -1,4 +1,5 @@
-"""What `from_urdf` did to a file: the chain chosen, what was locked where, excluded, snapped.
+"""What `from_urdf` did to a file: the chain chosen, what was locked where, excluded, snapped
+(and how far the snaps move the dynamics), the friction read from the file.
 
 Kept on the robot (`robot.urdf`), shown by `print(robot)`, written into
 generated headers, and turned back into the command that rebuilds the robot.
@@ -6,10 +7,12 @@ generated headers, and turned back into the command that rebuilds the robot.
 
 from __future__ import annotations
 
+import dataclasses
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
-__all__ = ["Locked", "Snap", "UrdfRecord"]
+__all__ = ["Locked", "Snap", "UrdfRecord", "friction_lines", "snap_lines"]
 
 
 @dataclass(frozen=True)
@@ -55,6 +58,16 @@ class UrdfRecord:
     snap: bool = True
     warnings: tuple = ()
     fingerprint: str = ""
+    #: The two readings of the file, as read and as written (`symdyn.model.snapping.Snapping`),
+    #: where snaps changed a number: `lines()` states how far they move the dynamics.
+    snapping: Any = field(default=None, compare=False, repr=False)
+    #: The chain joints whose `<dynamics damping>` (viscous) and `<dynamics friction>` (Coulomb)
+    #: are not 0, and which of them the robot leaves out since: "" (none: τ includes them),
+    #: "coulomb" (`robot.nofriction()`), "all" (`--no-friction`, `robot.nofriction(all=True)`).
+    viscous: tuple = ()
+    coulomb: tuple = ()
+    friction_left_out: str = ""
+    coulomb_free: str = ""  # the fingerprint of the robot `nofriction()` made ("coulomb")
     #: For a xacro file (`file`, `sha256` are the xacro file's): the arguments given, as
     #: (name, value) pairs, the packages `$(find)`/`package://` named (by name, never by
     #: folder), and the sha256 of the URDF text it expanded to (its includes change it too).
@@ -85,10 +98,21 @@ class UrdfRecord:
         args += [f"--lock={lock.joint}={lock.value!r}" for lock in self.locked if lock.why == "given"]
         args += [f"--exclude={link}" for link in self.excluded]
         args += [] if self.snap else ["--no-snap"]
+        args += ["--no-friction"] if self.friction_left_out == "all" else []
         return shlex.join(args)
 
+    def without_friction(self, before, robot, all: bool = True) -> "UrdfRecord":  # noqa: A002 (as nofriction)
+        """The record of `robot`, which `before.nofriction(all)` made: what it left out."""
+        return without_friction(self, before, robot, all)
+
+    def friction_report(self) -> list[str]:
+        """The friction read from the file (`<dynamics damping friction>`) and whether tau includes
+        it, in a line (none for a file without)."""
+        return friction_lines(self.viscous, self.coulomb, self.friction_left_out, ("damping", "friction"))
+
     def lines(self) -> list[str]:
-        """A summary a person reads: the chain, each lock, exclusion and snap."""
+        """A summary a person reads: the chain, each lock, exclusion and snap (and what the snaps
+        do to tau, M and qdd), the friction read from the file."""
         out = [
             f"{'xacro' if self.is_xacro else 'URDF'} {self.file} (sha256 {self.sha256}): "
             f"chain {self.base_link} -> {self.tip_link}, joints {', '.join(self.joints)}"
@@ -115,10 +139,67 @@ class UrdfRecord:
             )
         if self.excluded:
             out.append(f"excluded with their subtrees: {', '.join(self.excluded)}")
-        if not self.snap:
-            out.append("numbers as written (snap=False)")
-        elif self.snaps:
-            out.append(f"snapped to exact values ({len(self.snaps)}, largest change {self.max_snap:.2e}):")
-            out += [f"  {s.where}: {s.value} -> {s.snapped}" for s in self.snaps]
+        out += snap_lines(self, "numbers as written (snap=False)")
+        out += self.friction_report()
         out += [f"warning: {w}" for w in self.warnings]
         return out
+
+
+def snap_lines(record, as_written: str) -> list[str]:
+    """A record's snaps, one line each, then how far they move the dynamics (`record.snapping`);
+    `as_written` where the record's reading did not snap (`UrdfRecord`, `MjcfRecord`)."""
+    if not record.snap:
+        return [as_written]
+    if not record.snaps:
+        return []
+    out = [f"snapped to exact values ({len(record.snaps)}, largest change {record.max_snap:.2e}):"]
+    out += [f"  {s.where}: {s.value} -> {s.snapped}" for s in record.snaps]
+    return out + ([record.snapping.effect.line()] if record.snapping is not None else [])
+
+
+def friction_lines(viscous: tuple, coulomb: tuple, left_out: str, words: tuple[str, str]) -> list[str]:
+    """The line that says which friction the file gave how many joints, and whether tau includes
+    it: viscous on the joints `viscous` (the file's `words[0]`), Coulomb on `coulomb`
+    (`words[1]`); `left_out` "" (tau includes both), "coulomb" (`robot.nofriction()`) or "all"
+    (`--no-friction`, `robot.nofriction(all=True)`).  No line for a file without friction."""
+    kinds = [
+        (kind, names, word)
+        for kind, names, word in (("viscous", viscous, words[0]), ("Coulomb", coulomb, words[1]))
+        if names
+    ]
+    if not kinds:
+        return []
+    joints = lambda count: f"{count} joint{'s' if count != 1 else ''}"  # noqa: E731
+    parts = [
+        f"{kind} on {joints(len(names)) if i == 0 else len(names)} ({word})"
+        for i, (kind, names, word) in enumerate(kinds)
+    ]
+    both = ", ".join(parts)
+    if left_out == "all" or (left_out == "coulomb" and not viscous):
+        how = "--no-friction, robot.nofriction(all=True)" if left_out == "all" else "robot.nofriction()"
+        return [f"friction read from the file, left out ({how}): {both}; tau has none"]
+    if left_out == "coulomb":
+        return [
+            f"friction read from the file: {parts[0]}: tau includes it; Coulomb on {len(coulomb)} ({words[1]}) "
+            "left out (robot.nofriction()); --no-friction leaves out both"
+        ]
+    them = "them" if len(kinds) > 1 else "it"
+    return [
+        f"friction read from the file: {both}: tau includes {them}; --no-friction (robot.nofriction(all=True)) leaves {them} out"
+    ]
+
+
+def without_friction(record, before, robot, all: bool):  # noqa: A002 (as nofriction)
+    """`record` (a `UrdfRecord` or `MjcfRecord`) of `robot`, which `before.nofriction(all)` made:
+    what is left out, and `robot`'s fingerprint where `--no-friction` rebuilds it.  A record that
+    no longer describes `before` (a payload, new parameters) is kept as it is: it says so."""
+    if before.fingerprint() not in (record.fingerprint, record.coulomb_free):
+        return record
+    if record.friction_left_out == "all" or not (record.viscous or record.coulomb):
+        return record  # nothing more to leave out: the same robot
+    if all or not record.viscous:  # what --no-friction rebuilds
+        return dataclasses.replace(record, friction_left_out="all", fingerprint=robot.fingerprint(), coulomb_free="")
+    if not record.coulomb or record.friction_left_out == "coulomb":
+        return record
+    # Coulomb left out, viscous kept: no option rebuilds it, so the fingerprint stays that of the file's
+    return dataclasses.replace(record, friction_left_out="coulomb", coulomb_free=robot.fingerprint())
