@@ -89,7 +89,8 @@ def _cmd_print(args: argparse.Namespace) -> int:
     from .derivation.simplify import op_counts
     from .model import command_line
 
-    robot = command_line.from_args(args, symbolic=not args.numeric)  # a shipped model or a URDF file
+    # a shipped model or a robot file; one whose moving links carry no mass is printed, with a warning
+    robot = command_line.from_args(args, symbolic=not args.numeric, massless=True)
     if not 1 <= args.digits <= 17:
         raise ValueError(f"--digits must be between 1 and 17, got {args.digits}")
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
@@ -119,6 +120,22 @@ def _cmd_print(args: argparse.Namespace) -> int:
     record = getattr(robot, "urdf", None) or getattr(robot, "mjcf", None)
     for line in record.lines() if record is not None and command_line.is_urdf(args.model) else ():
         print(f"{comment} {line}")
+    return 0
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    """Draw a model as read (`symdyn.model.picture`) into --out, and say what it shows."""
+    from .model import command_line
+
+    robot = command_line.from_args(args, massless=True)  # a file without mass is still worth a look
+    fig = robot.plot()
+    out = Path(args.picture)
+    if out.suffix.lower() not in (".png", ".pdf", ".svg"):
+        raise ValueError(f"--out {out}: expected a .png, .pdf or .svg file")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=args.dpi)
+    print(robot)
+    print(f"wrote {out}")
     return 0
 
 
@@ -256,6 +273,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--numeric", action="store_true", help="numeric parameters even where a symbolic variant exists")
     p.add_argument("--no-cache", action="store_true", help="derive afresh, bypassing the cache")
     p.set_defaults(func=_cmd_print)
+
+    p = sub.add_parser(
+        "show",
+        help="draw a model as read: chain, joint axes, centres of mass, inertia ellipsoids, locked and excluded parts",
+    )
+    command_line.add_arguments(p)
+    p.add_argument(
+        "--out", dest="picture", default="robot.png", help="the picture (.png, .pdf, .svg; default robot.png)"
+    )
+    p.add_argument("--dpi", type=int, default=120, help="resolution of a .png (default 120)")
+    p.set_defaults(func=_cmd_show)
 
     from .identify import command as identify_command
 

@@ -254,9 +254,18 @@ def peer_binary(log=lambda msg: print(msg, file=sys.stderr, flush=True)) -> Path
     fd, tmp = tempfile.mkstemp(prefix=".pin_peer.", dir=folder)
     os.close(fd)
     try:
-        run = subprocess.run([*cmd, "-o", tmp], capture_output=True, text=True)
-        if run.returncode != 0:
-            raise PeerUnavailable(f"compiling the Pinocchio C++ peer failed ({' '.join(cmd)}):\n{run.stderr[-3000:]}")
+        with tempfile.TemporaryFile(mode="w+") as err:
+            proc = subprocess.Popen([*cmd, "-o", tmp], stdout=subprocess.DEVNULL, stderr=err, text=True)
+            while True:  # its progress: a line every 30 s, so a long build is never silent
+                try:
+                    proc.wait(timeout=30)
+                    break
+                except subprocess.TimeoutExpired:
+                    log(f"  ... still compiling the Pinocchio C++ peer ({time.monotonic() - start:.0f} s)")
+            err.seek(0)
+            stderr = err.read()
+        if proc.returncode != 0:
+            raise PeerUnavailable(f"compiling the Pinocchio C++ peer failed ({' '.join(cmd)}):\n{stderr[-3000:]}")
         os.replace(tmp, binary)
     finally:
         Path(tmp).unlink(missing_ok=True)

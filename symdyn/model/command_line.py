@@ -5,9 +5,12 @@ command that takes a MODEL): `add_arguments` declares MODEL with the URDF
 options (--tip, --base, --lock JOINT=VALUE, --exclude LINK, --no-snap,
 --no-friction, --name, and for a xacro file --xacro-arg NAME:=VALUE, --package-path DIR),
 `load` turns them into a `Robot` through `arms.load` or `Robot.from_urdf`.
-A URDF robot is named after its file's stem (not the URDF's <robot name=…>;
-arm.urdf.xacro's is arm), so `symdyn generate arm.urdf` writes arm.c, arm.py,
-… beside the other outputs named after their files; --name overrides it.
+A robot file's robot is named after the file (not the URDF's <robot name=…>,
+which three unrelated files may share; arm.urdf.xacro's is arm), as
+`Robot.from_urdf` names it from Python, so `symdyn generate arm.urdf` writes
+arm.c, arm.py, … beside the other outputs named after their files; --name
+overrides it.  Errors of the readers are shown in the command line's words
+(`--tip LINK`, not `tip_link=…`: `URDFError.command_line`).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from pathlib import Path
 
 from . import arms
 from .robot import Robot
-from .urdf.xacro import XacroError
+from .urdf.xml import URDFError
 
 __all__ = [
     "add_arguments",
@@ -43,8 +46,11 @@ URDF_OPTIONS = {
     "name": "--name",
     "xacro_arg": "--xacro-arg",
     "package_path": "--package-path",
+    "balance_inertia": "--balance-inertia",
     "no_friction": "--no-friction",
 }
+#: The options an MJCF file does not take (it has no xacro): refused by name.
+NOT_MJCF = ("--xacro-arg", "--package-path")
 
 
 def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> None:
@@ -63,8 +69,12 @@ def add_urdf_options(p: argparse.ArgumentParser) -> None:
     """--tip, --base, --lock, --exclude, --no-snap, --name, --xacro-arg, --package-path:
     how a URDF or xacro file becomes a chain."""
     urdf = p.add_argument_group("URDF files", "how a URDF MODEL becomes a chain (a shipped model takes none of these)")
-    urdf.add_argument("--tip", metavar="LINK", help="the chain's last link (default: the tree's only leaf)")
-    urdf.add_argument("--base", metavar="LINK", help="the chain's first link, fixed (default: the root)")
+    urdf.add_argument(
+        "--tip", metavar="LINK", help="the chain's last link (an MJCF file's: BODY) (default: the tree's only leaf)"
+    )
+    urdf.add_argument(
+        "--base", metavar="LINK", help="the chain's first link (an MJCF file's: BODY), fixed (default: the root)"
+    )
     urdf.add_argument(
         "--lock",
         metavar="JOINT=VALUE",
@@ -94,6 +104,12 @@ def add_urdf_options(p: argparse.ArgumentParser) -> None:
         "frictionloss: viscous and Coulomb), as robot.nofriction(all=True): to compare tau with a peer that "
         "has none (Pinocchio's rnea); rotor inertia (MJCF armature) stays (default: tau includes it, as said "
         "on stderr)",
+    )
+    urdf.add_argument(
+        "--balance-inertia",
+        action="store_true",
+        help="replace each impossible inertia of a moving body (principal moments against the triangle "
+        "inequality) by the nearest physical one, each repair reported (default: refuse it)",
     )
     urdf.add_argument("--name", help="the model's name, which names the generated files (default: the file's stem)")
     urdf.add_argument(
@@ -182,15 +198,24 @@ def load(
     name: str | None = None,
     xacro_arg=(),
     package_path=(),
+    balance_inertia: bool = False,
+    massless: bool = False,
     no_friction: bool = False,
 ) -> Robot:
     """The robot MODEL names: a shipped arm (its symbolic variant where it has one and `symbolic`),
     or the chain of a URDF or xacro file read by `Robot.from_urdf` with the URDF options
-    (`xacro_arg`: ["NAME:=VALUE", …], `package_path`: [DIR, …]; `no_friction`:
-    `robot.nofriction(all=True)`).  A file's friction and rotor inertia are said on stderr: they
-    are in tau and M unless left out."""
+    (`xacro_arg`: ["NAME:=VALUE", …], `package_path`: [DIR, …]; `massless`: read a chain without
+    mass, for printing and pictures, with a warning; `no_friction`: `robot.nofriction(all=True)`).
+    A file's friction and rotor inertia are said on stderr: they are in tau and M unless left out.
+
+    Raises:
+        ValueError: an unknown model; URDF options for a shipped model, or xacro options
+            for an MJCF file; a malformed --lock or --xacro-arg; a missing file.
+        URDFError: the file cannot become a robot, in the command line's words.
+        MJCFError: an MJCF file that cannot become a robot.
+    """
     values = {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}
-    values |= {"xacro_arg": xacro_arg, "package_path": package_path}
+    values |= {"xacro_arg": xacro_arg, "package_path": package_path, "balance_inertia": balance_inertia}
     values |= {"no_friction": no_friction}
     given = {opt for dest, opt in URDF_OPTIONS.items() if values[dest]}
     locks = parse_locks(lock)
@@ -215,6 +240,14 @@ def load(
             f"no URDF file {model}" + (": it is a folder" if path.is_dir() else f" (looked in {path.resolve().parent})")
         )
     if path.suffix.lower() == ".xml" and _is_mjcf(path):  # MuJoCo's MJCF: --base and --tip name bodies
+        wrong = [opt for opt in NOT_MJCF if opt in given]
+        if wrong:
+            raise ValueError(f"{' and '.join(wrong)} apply to a xacro file, not to the MJCF file {model}")
+        if balance_inertia:
+            raise ValueError(
+                f"--balance-inertia applies to a URDF or xacro file; for the MJCF file {model}, set MuJoCo's "
+                "<compiler balanceinertia='true'/> in the file"
+            )
         robot = _load_mjcf(path, base=base, tip=tip, locks=locks, exclude=exclude, no_snap=no_snap, name=name)
         return _friction_as_asked(robot, no_friction)
     options = {"base_link": base, "tip_link": tip}
@@ -229,10 +262,14 @@ def load(
         options["xacro_args"] = xacro_args
     if package_path:
         options["package_paths"] = list(package_path)
+    if balance_inertia:
+        options["inertia"] = "balance"
+    if massless:
+        options["massless"] = True
     try:
         robot = Robot.from_urdf(path, name=name or _model_name(path), **options)
-    except XacroError as exc:  # in the command line's words (--xacro-arg, --package-path)
-        raise XacroError(exc.command_line) from None
+    except URDFError as exc:  # in the command line's words (--tip, --exclude, --xacro-arg, --package-path)
+        raise type(exc)(exc.command_line) from None
     return _friction_as_asked(robot, no_friction)
 
 
@@ -263,10 +300,22 @@ def _load_mjcf(path: Path, *, base, tip, locks: dict, exclude, no_snap: bool, na
 
 def urdf_options(args: argparse.Namespace) -> dict:
     """The URDF options `add_urdf_options` declared, as `load`'s keywords."""
-    defaults = {"lock": (), "exclude": (), "no_snap": False, "xacro_arg": (), "package_path": (), "no_friction": False}
+    defaults = {
+        "lock": (),
+        "exclude": (),
+        "no_snap": False,
+        "xacro_arg": (),
+        "package_path": (),
+        "balance_inertia": False,
+        "no_friction": False,
+    }
     return {dest: getattr(args, dest, None) or defaults.get(dest) for dest in URDF_OPTIONS}
 
 
-def from_args(args: argparse.Namespace, *, symbolic: bool = False) -> Robot:
-    """`load` with the MODEL and URDF options `add_arguments` declared."""
-    return load(args.model, symbolic=symbolic, **urdf_options(args))
+def from_args(args: argparse.Namespace, *, symbolic: bool = False, massless: bool = False) -> Robot:
+    """`load` with the MODEL and URDF options `add_arguments` declared (`massless`: see `load`).
+
+    Raises:
+        ValueError: as `load`.
+    """
+    return load(args.model, symbolic=symbolic, massless=massless, **urdf_options(args))

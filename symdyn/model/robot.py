@@ -451,6 +451,20 @@ class Robot:
             self, links=links, gravity=sub(self.gravity), base=sub(self.base), tool=sub(self.tool)
         )
 
+    def plot(self, q: Sequence[float] | None = None, *, ax: Any = None, title: str | None = None) -> Any:
+        """A matplotlib Figure of the robot at q (default 0): the chain, joint axes, centres of
+        mass, inertia ellipsoids and, read from a URDF, the whole tree with its locked branches
+        and excluded subtrees marked (`symdyn.model.picture.plot`; `symdyn show` on the command
+        line).  Save it with `fig.savefig("robot.png")`.
+
+        Raises:
+            ImportError: matplotlib is missing (pip install 'symdyn[plot]').
+            ValueError: a symbolic robot, or q of the wrong length.
+        """
+        from .picture import plot
+
+        return plot(self, q, ax=ax, title=title)
+
     def nofriction(self, all: bool = False) -> "Robot":  # noqa: A002 (Toolbox name)
         """Remove Coulomb friction; with `all=True` remove viscous friction too.  A robot as read
         from a file keeps its record, which then says what was left out (`print(robot)`)."""

@@ -23,6 +23,7 @@ import dataclasses
 import math
 import os
 import warnings
+from pathlib import Path
 from typing import Iterable
 
 import numpy as np
@@ -327,7 +328,8 @@ def from_mjcf(
     the limit nearest it) or on it (made fixed at that value).  exclude: bodies deleted with
     their subtrees before compiling.  snap: orientations and axes near exact values become
     exact (`symdyn.model.snapping`); False keeps MuJoCo's compiled numbers.  name: default
-    the file's `<mujoco model>`.  The robot's `mjcf` records all of it.
+    the file's name without .xml, as on the command line (text: its `<mujoco model>`).
+    The robot's `mjcf` records all of it.
 
     Raises:
         MJCFError: (a `ValueError`) `mujoco` is not installed; a file MuJoCo cannot read or
@@ -472,7 +474,7 @@ def from_mjcf(
         notes.append(f"the base's pose is taken at qpos0 of the joints above it: {', '.join(above)}")
 
     robot = Robot(
-        name or _model_name(m) or "mjcf",
+        name or (Path(label).stem if label != "<string>" else "") or _model_name(m) or "mjcf",
         tuple(links),
         convention="general",
         gravity=g,

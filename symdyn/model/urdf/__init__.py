@@ -7,8 +7,8 @@ reader (the robot and its record, `robot.urdf`); and back out: `to_urdf(robot)`
 """
 
 from .reader import from_urdf
-from .record import Locked, Snap, UrdfRecord
+from .record import Bone, Locked, Repair, Snap, UrdfRecord
 from .writer import to_urdf
 from .xml import URDFError, URDFWarning
 
-__all__ = ["from_urdf", "to_urdf", "URDFError", "URDFWarning", "UrdfRecord", "Locked", "Snap"]
+__all__ = ["from_urdf", "to_urdf", "URDFError", "URDFWarning", "UrdfRecord", "Locked", "Snap", "Repair", "Bone"]

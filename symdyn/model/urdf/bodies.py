@@ -7,7 +7,9 @@ it (parallel-axis theorem), in exact arithmetic.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import sympy as sp
@@ -15,7 +17,7 @@ import sympy as sp
 from ..placement import exact
 from .xml import Element, URDFError, numbers, where
 
-__all__ = ["Body", "read_body"]
+__all__ = ["Body", "read_body", "nearest_physical", "balanced"]
 
 
 @dataclass(frozen=True)
@@ -70,12 +72,68 @@ def _inertia_defect(I: tuple) -> str | None:
     return None
 
 
-def read_body(source: str, link: Element, origin, complain) -> Body:
+#: The triangle inequalities of principal moments (a, b, c) as rows r with r·(a, b, c) ≥ 0;
+#: together they imply a, b, c ≥ 0, so they are all a physical inertia needs.
+_TRIANGLE = np.array([[1.0, 1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, 1.0, 1.0]])
+
+
+def nearest_physical(moments) -> np.ndarray:
+    """The principal moments nearest `moments` (Euclidean) that obey the triangle inequalities.
+
+    The physical moments form a polyhedral cone; its nearest point is the projection of
+    `moments` onto the span of one of its faces (none, one, two or all three inequalities
+    made equalities).  Every candidate that is feasible is physical, and the nearest feasible
+    one is the projection.  Since the Frobenius norm is unitarily invariant and physical
+    inertias are closed under rotation, keeping the principal axes and projecting the
+    moments gives the physical inertia nearest in the Frobenius norm.
+
+    Raises:
+        ValueError: `moments` is not three finite numbers.
+    """
+    lam = np.asarray(moments, dtype=float)
+    if lam.shape != (3,) or not np.isfinite(lam).all():
+        raise ValueError(f"expected three finite principal moments, got {moments!r}")
+    best, best_d = None, np.inf
+    for k in range(4):
+        for rows in itertools.combinations(range(3), k):
+            A = _TRIANGLE[list(rows)]
+            x = lam - A.T @ np.linalg.solve(A @ A.T, A @ lam) if rows else lam.copy()
+            if (_TRIANGLE @ x >= -1e-12 * max(1.0, np.abs(lam).max())).all():
+                d = float(np.linalg.norm(x - lam))
+                if d < best_d:
+                    best, best_d = x, d
+    return best
+
+
+def balanced(I: tuple) -> tuple[tuple, np.ndarray, np.ndarray]:
+    """(the physical inertia nearest `I` in the Frobenius norm, as exact numbers; `I`'s principal
+    moments; the new ones), same principal axes (`nearest_physical`).
+
+    Raises:
+        ValueError: `I` has entries that are not finite.
+    """
+    A = np.array(I, dtype=float)
+    eig, R = np.linalg.eigh((A + A.T) / 2)
+    new = nearest_physical(eig)
+    J = R @ np.diag(new) @ R.T
+    J = (J + J.T) / 2
+    return tuple(tuple(exact(float(J[i, j])) for j in range(3)) for i in range(3)), eig, new
+
+
+def read_body(
+    source: str,
+    link: Element,
+    origin,
+    complain,
+    balance: Callable[[Element, tuple, str], tuple] | None = None,
+) -> Body:
     """A link's `<inertial>` in the link frame (massless when absent).
 
     `origin(element)` reads the inertial's `<origin>`; `complain(message)`
     decides what a defect is: an error where the body enters the dynamics, a
     warning where it cannot (the body is then left out: it is massless).
+    `balance(element, I, defect)`, where given, repairs an impossible inertia
+    instead (returns the inertia to use; it records the repair).
     Checked before any merge, which could hide an impossible inertia.
     """
     inertial = link.find("inertial")
@@ -97,6 +155,8 @@ def read_body(source: str, link: Element, origin, complain) -> Body:
     xx, xy, xz, yy, yz, zz = (exact(numbers(source, tensor, k, 1, (0,))[0]) for k in names)
     I = ((xx, xy, xz), (xy, yy, yz), (xz, yz, zz))
     defect = _inertia_defect(I)
+    if defect and balance is not None:
+        I, defect = balance(tensor, I, defect), None
     if defect:
         complain(f"{where(source, tensor)} of link {link.name!r} {defect}")
         return Body.empty()

@@ -30,8 +30,8 @@ from ..placement import exact, placement, rational_rotation, rpy_rotation
 from ..robot import IDENTITY, Link, Robot
 from ..snapping import Snapping, snap_angle, snap_axis
 from .xacro import Expansion, XacroError, expand, is_xacro
-from .bodies import Body, read_body, strict
-from .record import Locked, Snap, UrdfRecord
+from .bodies import Body, balanced, read_body
+from .record import Bone, Locked, Repair, Snap, UrdfRecord
 from .tree import MOVING, MULTI, Tree
 from .xml import Element, Text, URDFError, URDFWarning, numbers, parse, read, where
 
@@ -73,8 +73,10 @@ def _motion(kind: str, axis: tuple, value: float) -> tuple:
 class _Reader:
     """One reading of one file: its tree, the snapping rule, the locks, what was noted."""
 
-    def __init__(self, tree: Tree, file: str, snap: bool):
+    def __init__(self, tree: Tree, file: str, snap: bool, balance: bool = False, on_chain: frozenset = frozenset()):
         self.tree, self.source, self.file, self.snap = tree, tree.source, file, snap
+        self.balance, self.on_chain = balance, on_chain
+        self.repairs: list[Repair] = []
         self.snaps: list[Snap] = []
         self.warnings: list[str] = []
         self.locked: list[Locked] = []
@@ -121,9 +123,33 @@ class _Reader:
         return snapped.value
 
     # ---- bodies
-    def _complain(self, moves: bool):
+    def _branch(self, name: str) -> str:
+        """The first link off the chain on the way from the chain to link `name`."""
+        while self.tree.parent(name) not in self.on_chain:
+            name = self.tree.parent(name)
+        return name
+
+    def _complain(self, moves: bool, name: str, into: str):
         if moves:
-            return strict
+
+            def refuse(message: str) -> None:
+                repairable = "impossible" in message or "positive semidefinite" in message
+                fix = ("repair it with inertia='balance' (the nearest physical inertia, reported)", "--balance-inertia")
+                if name in self.on_chain:
+                    ways = ["correct the file"] + ([fix[0]] if repairable else [])
+                    flags = ["correct the file"] + ([fix[1]] if repairable else [])
+                    say = f"; link {name!r} is on the chain: "
+                    raise URDFError(message + say + ", or ".join(ways), message + say + ", or ".join(flags))
+                branch = self._branch(name)
+                also = f" (or the branch it hangs from: exclude=[{branch!r}])" if branch != name else ""
+                also_cli = f" (or the branch it hangs from: --exclude {branch})" if branch != name else ""
+                say = f"; link {name!r} is off the chain, riding on the moving link {into!r}: leave it out with "
+                raise URDFError(
+                    message + say + f"exclude=[{name!r}]{also}" + (f", or {fix[0]}" if repairable else ""),
+                    message + say + f"--exclude {name}{also_cli}" + (f", or {fix[1]}" if repairable else ""),
+                )
+
+            return refuse
 
         def warn(message: str) -> None:  # issued by from_urdf, to its caller
             self.warnings.append(
@@ -137,7 +163,11 @@ class _Reader:
         excluded subtrees), in its frame; locked joints are recorded as merged into `into`."""
         link = self.tree.links[name]
         body = read_body(
-            self.source, link, lambda e: self.origin(e, f"link {name!r} inertial origin"), self._complain(moves)
+            self.source,
+            link,
+            lambda e: self.origin(e, f"link {name!r} inertial origin"),
+            self._complain(moves, name, into),
+            self._balance(name) if moves and self.balance else None,
         )
         for child in self.tree.children.get(name, []):
             if child in skip:
@@ -155,6 +185,17 @@ class _Reader:
                 raise URDFError(f"{where(self.source, joint)}: unknown joint type {kind!r}")
             body = body + self.subtree(child, skip, into, moves).moved(T)
         return body
+
+    def _balance(self, name: str):
+        def balance(tensor: Element, I: tuple, defect: str) -> tuple:
+            J, before, after = balanced(I)
+            change = float(np.linalg.norm(after - before) / max(abs(before).max(), 1e-300))
+            self.repairs.append(
+                Repair(name, f"{self.file}:{tensor.line}", tuple(before.tolist()), tuple(after.tolist()), change)
+            )
+            return J
+
+        return balance
 
     # ---- the chain's links
     def link(self, joint: Element, origin: tuple, body: Body) -> Link:
@@ -230,9 +271,9 @@ def _excluded(tree: Tree, exclude, on_chain: set, below_base: set) -> tuple:
         if name not in tree.links:
             raise URDFError(f"{tree.source}: excluded link {name!r} is not a link of robot {tree.robot.name!r}")
         if name in on_chain:
+            said = f"{tree.source}: excluded link {name!r} is on the chain from base to tip; "
             raise URDFError(
-                f"{tree.source}: excluded link {name!r} is on the chain from base to tip; "
-                "choose another base_link or tip_link instead"
+                said + "choose another base_link or tip_link instead", said + "choose another --base or --tip"
             )
         if name not in below_base:
             raise URDFError(f"{tree.source}: excluded link {name!r} is not below base_link: it is out already")
@@ -250,6 +291,8 @@ def from_urdf(
     name: str | None = None,
     xacro_args: Mapping[str, object] | None = None,
     package_paths: Iterable[str | os.PathLike[str]] = (),
+    inertia: str = "check",
+    massless: bool = False,
 ) -> Robot:
     """A `Robot` (general convention) of the chain from `base_link` (default: the
     root) to `tip_link` (default: the only leaf) of a URDF file or its text.
@@ -267,6 +310,18 @@ def from_urdf(
     (`symdyn.model.snapping`); False keeps the file's numbers.  The robot's
     `urdf` records all of it.  Raises URDFError naming the element and line.
 
+    inertia: "check" (default) refuses an impossible inertia (not positive semidefinite,
+    or principal moments against the triangle inequality) of a body that moves, naming
+    it and the ways out; "balance" replaces each by the nearest physical inertia
+    (Frobenius norm, same principal axes: the smallest change that makes it physical,
+    like MuJoCo's `balanceinertia` but not its averaging), every repair recorded with
+    its size (`robot.urdf.repairs`, `print(robot)`, a warning).  name: default the
+    file's name without .urdf/.xacro (as on the command line, where it names the
+    generated files), or `<robot name>` for text.  massless: read a chain whose last
+    moving links carry no mass at all (a file without `<inertial>`s, written for
+    kinematics), with a warning naming them, instead of refusing it: its M(q) is
+    singular for every q, so it serves kinematics, printing and pictures only.
+
     Raises:
         URDFError: (a `ValueError`) an unreadable file or text that is not a URDF
             (not well-formed XML, no `<robot>` or no link); a malformed tree
@@ -275,8 +330,13 @@ def from_urdf(
             exclude naming no suitable link or joint, or a locked value that is
             not finite or is outside its limits; an unsupported joint type or a
             mimic joint in the chain, a zero axis, an attribute that is not the
-            right count of finite numbers, an inertia that is no physical body;
-            a chain without a moving joint.
+            right count of finite numbers, an inertia that is no physical body
+            on a moving link (it suggests exclude=[…] for a body off the chain
+            and inertia="balance"), a negative mass; a chain without a moving
+            joint; moving links that carry no mass at all (M(q) singular for every q;
+            it names them, or says that no link has an `<inertial>`), unless
+            `massless`; `inertia` not "check" or "balance".  Its `command_line` is
+            the message in the command line's words (--tip, --exclude, …).
         XacroError: (a `URDFError`) a xacro file that cannot be expanded: the xacro
             package is missing, an argument has no value, a package is found nowhere
             (every place looked in is named), any other xacro error; `xacro_args` or
@@ -284,9 +344,12 @@ def from_urdf(
 
     Warns:
         URDFWarning: a body resting on the fixed base whose inertial is no physical
-            body (accepted and left out: it cannot affect the dynamics); what xacro
-            warns about while expanding.
+            body (accepted and left out: it cannot affect the dynamics); moving links
+            without mass, or a file without any `<inertial>`; each inertia repaired
+            (inertia="balance"); what xacro warns about while expanding.
     """
+    if inertia not in ("check", "balance"):
+        raise URDFError(f"inertia must be 'check' or 'balance', got {inertia!r}")
     if not isinstance(package_paths, (str, os.PathLike)):
         package_paths = tuple(package_paths)  # a file with snaps is read twice (as written, too)
     text = read(path_or_xml)
@@ -299,7 +362,7 @@ def from_urdf(
     excluded = _excluded(tree, exclude, on_chain, below_base)
     given = dict(locked or {})
     moving = {j.name for j in path if j.attrib.get("type") in MOVING and j.name not in given}
-    reader = _Reader(tree, urdf.file, snap)
+    reader = _Reader(tree, urdf.file, snap, inertia == "balance", frozenset(on_chain))
     reader.values = tree.values(tree.below(base, set(excluded)) - {base}, moving, given)
     skip = on_chain | set(excluded)
 
@@ -311,10 +374,8 @@ def from_urdf(
                 "(revolute, continuous, prismatic and fixed are)"
             )
         if joint.find("mimic") is not None and joint.name in moving:
-            raise URDFError(
-                f"{where(urdf.source, joint)}: mimic joints in the chain are not supported: "
-                "end the chain before it (tip_link=…)"
-            )
+            said = f"{where(urdf.source, joint)}: mimic joints in the chain are not supported: end the chain before it"
+            raise URDFError(f"{said} (tip_link=…)", f"{said} (--tip LINK)")
 
     reader.subtree(base, skip, base, False)  # what rests on the base: checked, recorded, left out
     pending, carrier, body, out = IDENTITY, None, Body.empty(), []
@@ -338,9 +399,16 @@ def from_urdf(
     if carrier is None:
         raise URDFError(f"{urdf.source}: the chain from {base!r} to {tip!r} has no moving joint")
     out.append(reader.link(carrier[0], carrier[1], body))
+    empty = _massless(tree, [j.find("child").attrib["link"] for j in path if j.name in moving], out)
+    if empty and not massless:
+        raise URDFError(
+            f"{urdf.source}: {empty}; to read it for its kinematics alone, pass massless=True",
+            f"{urdf.source}: {empty}; `symdyn print` and `symdyn show` read it nonetheless",
+        )
+    reader.warnings += [empty] if empty else []
     tool = tuple(tuple(_number(x) for x in row) for row in pending)
     robot = Robot(
-        name or tree.robot.name or "urdf",
+        name or _file_name(text) or tree.robot.name or "urdf",
         tuple(out),
         convention="general",
         tool=tool,
@@ -359,6 +427,8 @@ def from_urdf(
         tuple(reader.warnings),
         robot.fingerprint(),
         **(xacro.record_fields() if xacro is not None else {}),
+        repairs=tuple(reader.repairs),
+        skeleton=_skeleton(tree, base, on_chain, set(excluded), reader.values),
         **_friction_read(tuple(j.name for j in path if j.name in moving), out),
     )
     if reader.snaps:  # the file's numbers too: the record states how far the snaps move the dynamics
@@ -374,11 +444,47 @@ def from_urdf(
                 name=name,
                 xacro_args=xacro_args,
                 package_paths=package_paths,
+                inertia=inertia,
+                massless=massless,
             )
         record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, urdf=None)))
     for message in record.warnings:
         warnings.warn(message, URDFWarning, stacklevel=2)
+    for r in record.repairs:
+        warnings.warn(f"impossible inertia made physical (inertia='balance'): {r.line()}", URDFWarning, stacklevel=2)
     return dataclasses.replace(robot, urdf=record)
+
+
+def _file_name(text: Text) -> str:
+    """A file's name without .xacro and .urdf (arm.urdf.xacro, arm.xacro, arm.urdf: arm); '' for text."""
+    if text.source == "<urdf string>":
+        return ""
+    name = text.file
+    for suffix in (".xacro", ".urdf"):
+        if name.lower().endswith(suffix) and len(name) > len(suffix):
+            name = name[: -len(suffix)]
+    return name
+
+
+def _massless(tree: Tree, moving_links: list, links: list) -> str | None:
+    """What is wrong with moving links that carry nothing (None when none): joint k moves no mass
+    and no inertia when link k and every link after it have neither; M(q) is singular for every q."""
+    empty = [link.m == 0 and all(x == 0 for row in link.I for x in row) for link in links]
+    tail = len(links)
+    while tail and empty[tail - 1]:
+        tail -= 1
+    if tail == len(links):
+        return None
+    names = moving_links[tail:]
+    if not any(el.find("inertial") is not None for el in tree.links.values()):
+        head = "no link of this file has an <inertial> (a description written for kinematics only, e.g. franka_ros's with gazebo:=false)"
+    else:
+        head = f"the moving link{'s' if len(names) > 1 else ''} {', '.join(names)} ha{'ve' if len(names) > 1 else 's'} no <inertial> (nor anything with mass riding on {'them' if len(names) > 1 else 'it'})"
+    joints = f"joint {tail + 1} moves" if len(names) == 1 else f"joints {tail + 1}-{len(links)} move"
+    return (
+        f"{head}: {joints} no mass, so M(q) is singular for every q and forward dynamics is undefined "
+        "(M, C, G are zero where the file gives no mass)"
+    )
 
 
 def _friction_read(joints: tuple, links: list) -> dict:
@@ -388,3 +494,55 @@ def _friction_read(joints: tuple, links: list) -> dict:
         "viscous": tuple(j for j, link in zip(joints, links) if link.B != 0),
         "coulomb": tuple(j for j, link in zip(joints, links) if link.Tc != (0, 0)),
     }
+
+
+def _float_motion(kind: str, axis: np.ndarray, value: float) -> np.ndarray:
+    T = np.eye(4)
+    if kind == "prismatic":
+        T[:3, 3] = axis * value
+    else:
+        K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        T[:3, :3] = np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K
+    return T
+
+
+def _axis(tree: Tree, joint: Element) -> np.ndarray:
+    a = np.array(numbers(tree.source, joint.find("axis"), "xyz", 3, (1, 0, 0)), dtype=float)
+    return a / (np.linalg.norm(a) or 1.0)
+
+
+def _skeleton(tree: Tree, base: str, on_chain: set, excluded: set, values: dict) -> tuple:
+    """Every link's frame in the root's (floats), the chain at 0 and locked joints at their values."""
+    out_of = set().union(*(tree.below(name) for name in excluded))
+    below_base = tree.below(base)
+    bones, todo = [], [(tree.root, np.eye(4))]
+    while todo:
+        name, T = todo.pop(0)
+        joint = tree.joints.get(name)
+        role = "chain" if name in on_chain else "excluded" if name in out_of else "riding"
+        role = role if name in below_base else "above"
+        kind = joint.attrib.get("type", "") if joint is not None else ""
+        axis = tuple((T[:3, :3] @ _axis(tree, joint)).tolist()) if kind in MOVING else (0.0, 0.0, 0.0)
+        bones.append(
+            Bone(
+                name,
+                tree.parent(name) if joint is not None else "",
+                joint.name if joint is not None else "",
+                kind,
+                tuple(tuple(float(x) for x in row) for row in T),
+                axis,
+                role,
+            )
+        )
+        for child in tree.children.get(name, []):
+            j = tree.joints[child]
+            origin = j.find("origin")
+            P = np.eye(4)
+            if origin is not None:
+                P[:3, :3] = np.array(rpy_rotation(numbers(tree.source, origin, "rpy", 3, (0, 0, 0))), dtype=float)
+                P[:3, 3] = numbers(tree.source, origin, "xyz", 3, (0, 0, 0))
+            if j.attrib.get("type") in MOVING:
+                value = values.get(j.name, (0.0, ""))[0]
+                P = P @ _float_motion(MOVING[j.attrib["type"]], _axis(tree, j), value)
+            todo.append((child, T @ P))
+    return tuple(bones)

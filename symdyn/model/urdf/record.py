@@ -12,7 +12,7 @@ import shlex
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Locked", "Snap", "UrdfRecord", "friction_lines", "snap_lines"]
+__all__ = ["Bone", "Locked", "Snap", "Repair", "UrdfRecord", "friction_lines", "snap_lines"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +41,45 @@ class Snap:
     value: str
     snapped: str
     change: float
+
+
+@dataclass(frozen=True)
+class Repair:
+    """An impossible inertia made physical on request (`inertia="balance"`): the nearest
+    physical inertia in the Frobenius norm, same principal axes (`bodies.balanced`).
+
+    before, after: the principal moments (kg·m²), ascending; change: the Frobenius norm
+    of the change relative to the largest moment's magnitude."""
+
+    link: str
+    where: str
+    before: tuple
+    after: tuple
+    change: float
+
+    def line(self) -> str:
+        """One line a person reads: which moments changed, by how much."""
+        moved = [f"I{k + 1} {a:.6g} -> {b:.6g}" for k, (a, b) in enumerate(zip(self.before, self.after)) if a != b]
+        return f"{self.where} link {self.link!r}: {', '.join(moved)} kg*m^2 (change {self.change:.2e} relative)"
+
+
+@dataclass(frozen=True)
+class Bone:
+    """One link of the file's whole tree as read, for pictures (`symdyn.model.picture`): its
+    frame in the root link's frame with the chain at q = 0 and every locked joint at its value.
+
+    joint: the joint above it ('' for the root), `kind` its URDF type, `axis` its unit axis in
+    the root frame.  role: "chain" (base to tip), "riding" (merged into a moving link or resting
+    on the base: locked or fixed), "excluded" (left out by exclude=), "above" (above base_link).
+    """
+
+    link: str
+    parent: str
+    joint: str
+    kind: str
+    T: tuple
+    axis: tuple
+    role: str
 
 
 @dataclass(frozen=True)
@@ -74,6 +113,10 @@ class UrdfRecord:
     xacro_args: tuple = ()
     packages: tuple = ()
     expanded_sha256: str = ""
+    #: Impossible inertias repaired on request (`inertia="balance"`, `--balance-inertia`): `Repair`s.
+    repairs: tuple = ()
+    #: The whole tree as read (`Bone`s, root first), for `symdyn show` / `robot.plot()`.
+    skeleton: tuple = ()
 
     @property
     def is_xacro(self) -> bool:
@@ -99,6 +142,7 @@ class UrdfRecord:
         args += [f"--exclude={link}" for link in self.excluded]
         args += [] if self.snap else ["--no-snap"]
         args += ["--no-friction"] if self.friction_left_out == "all" else []
+        args += ["--balance-inertia"] if self.repairs else []
         return shlex.join(args)
 
     def without_friction(self, before, robot, all: bool = True) -> "UrdfRecord":  # noqa: A002 (as nofriction)
@@ -141,6 +185,12 @@ class UrdfRecord:
             out.append(f"excluded with their subtrees: {', '.join(self.excluded)}")
         out += snap_lines(self, "numbers as written (snap=False)")
         out += self.friction_report()
+        if self.repairs:
+            out.append(
+                f"impossible inertias made physical on request (inertia='balance', --balance-inertia), "
+                f"each the nearest physical one ({len(self.repairs)}):"
+            )
+            out += [f"  {r.line()}" for r in self.repairs]
         out += [f"warning: {w}" for w in self.warnings]
         return out
 

@@ -87,25 +87,26 @@ class Tree:
 
     def chain(self, base: str | None, tip: str | None) -> tuple[str, str, list]:
         """base, tip and the joints from base to tip in order."""
-        for role, name in (("base_link", base), ("tip_link", tip)):
+        for role, flag, name in (("base_link", "--base", base), ("tip_link", "--tip", tip)):
             if name is not None and name not in self.links:
-                raise URDFError(
-                    f"{self.source}: {role} {name!r} is not a link of robot "
-                    f"{self.robot.name!r}; its links are {sorted(self.links)}"
-                )
+                said = f"is not a link of robot {self.robot.name!r}; its links are {sorted(self.links)}"
+                raise URDFError(f"{self.source}: {role} {name!r} {said}", f"{self.source}: {flag} {name} {said}")
         base = base or self.root
         if tip is None:
             leaves = sorted(n for n in self.below(base) if not self.children.get(n))
             if len(leaves) != 1:
-                raise URDFError(
-                    f"{self.source}: the tree below {base!r} has several leaves {leaves}; "
-                    "choose the chain's end with tip_link=…"
+                said = (
+                    f"{self.source}: the tree below {base!r} has several leaves {leaves}; choose the chain's end with "
                 )
+                raise URDFError(said + "tip_link=…", said + "--tip LINK")
             tip = leaves[0]
         path, name = [], tip
         while name != base:
             if name not in self.joints:
-                raise URDFError(f"{self.source}: tip_link {tip!r} is not below base_link {base!r}")
+                raise URDFError(
+                    f"{self.source}: tip_link {tip!r} is not below base_link {base!r}",
+                    f"{self.source}: --tip {tip} is not below --base {base}",
+                )
             path.append(self.joints[name])
             name = self.parent(name)
         return base, tip, path[::-1]
@@ -175,10 +176,11 @@ class Tree:
                     raise URDFError(f"{here}: mimic joints follow each other in a circle {list(seen)}")
                 lead = value_of(leader, seen + (name,))
                 if lead is None:
+                    child = joint.find("child").attrib["link"]
+                    said = f"{here}: mimics {leader!r}, which moves with the chain, so its body would move too: "
                     raise URDFError(
-                        f"{here}: mimics {leader!r}, which moves with the chain, so its body "
-                        f"would move too: lock {leader!r} (locked={{{leader!r}: value}}) or "
-                        f"exclude link {joint.find('child').attrib['link']!r}"
+                        said + f"lock {leader!r} (locked={{{leader!r}: value}}) or exclude link {child!r}",
+                        said + f"lock it (--lock {leader}=VALUE) or leave link {child} out (--exclude {child})",
                     )
                 mult = numbers(self.source, mimic, "multiplier", 1, (1,))[0]
                 offset = numbers(self.source, mimic, "offset", 1, (0,))[0]

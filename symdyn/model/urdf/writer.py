@@ -180,6 +180,8 @@ def _splice(robot: Robot, text: str) -> str:
             locked=given or None,
             exclude=record.excluded,
             snap=record.snap,
+            inertia="balance" if getattr(record, "repairs", ()) else "check",
+            massless=True,  # the file as read before; its mass, or lack of it, is the robot's to replace
         )
     if original.n != robot.n:
         raise URDFError(f"robot {robot.name!r} has {robot.n} joints, its URDF chain {original.n}")

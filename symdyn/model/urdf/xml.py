@@ -17,7 +17,16 @@ __all__ = ["URDFError", "URDFWarning", "Element", "Text", "read", "parse", "wher
 
 
 class URDFError(ValueError):
-    """A URDF the model cannot take; the message names the element and its line."""
+    """A URDF the model cannot take; the message names the element and its line.
+
+    `command_line` is the same message in the words of the command line (`--tip LINK`,
+    `--exclude LINK`, `--balance-inertia` where the message says `tip_link=…`,
+    `exclude=[…]`, `inertia="balance"`); the command line shows it instead.
+    """
+
+    def __init__(self, message: str, command_line: str | None = None):
+        super().__init__(message)
+        self.command_line = command_line or message
 
 
 class URDFWarning(UserWarning):
