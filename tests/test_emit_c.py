@@ -52,14 +52,14 @@ def test_library_is_rebuilt_when_its_source_changes_and_reused_otherwise(tmp_pat
     c_path, h_path = _copy_model(tmp_path)
     first = load_library(c_path, h_path)
     assert first.functions["M"](np.zeros(2))[1, 1] == 0.25
-    stamp = first.path.stat().st_mtime_ns
+    stamp = first.library("M").stat().st_mtime_ns
     again = load_library(c_path, h_path)
-    assert again.path == first.path and again.path.stat().st_mtime_ns == stamp
+    assert again.library("M") == first.library("M") and again.library("M").stat().st_mtime_ns == stamp
     text = c_path.read_text()
     assert "M[3] = 0.25;" in text
     c_path.write_text(text.replace("M[3] = 0.25;", "M[3] = 0.5;"))
     changed = load_library(c_path, h_path)
-    assert changed.path != first.path
+    assert changed.library("M") != first.library("M")
     assert changed.functions["M"](np.zeros(2))[1, 1] == 0.5
 
 
@@ -74,9 +74,10 @@ def test_missing_compiler_says_what_to_install(tmp_path, monkeypatch):
 def test_compile_error_shows_the_compiler_message(tmp_path, monkeypatch):
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
     c_path, h_path = _copy_model(tmp_path)
-    c_path.write_text(c_path.read_text() + "\nthis is not C;\n")
-    with pytest.raises(RuntimeError, match="compiling twolink.c failed"):
-        load_library(c_path, h_path, CompileOptions(binding="ctypes"))
+    c_path.write_text(c_path.read_text() + "\nthis is not C;\n")  # in the last function's kernel
+    lib = load_library(c_path, h_path, CompileOptions(binding="ctypes"))
+    with pytest.raises(RuntimeError, match=r"(?s)compiling twolink's Minv \(batch kernel\) failed.*error"):
+        lib.functions["Minv"](np.zeros((2, 2)))
 
 
 def test_header_signatures_round_trip():
@@ -148,17 +149,23 @@ def test_short_or_unusual_sources_compile_in_one_piece():
 
 
 def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, monkeypatch):
-    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    """A long source built in one library (CasADi's compiled functions) is compiled in parts
+    in parallel (`split_source`), then linked."""
+    import ctypes
+
     monkeypatch.setattr(clib, "_jobs", lambda: 2)
     monkeypatch.setattr(clib, "SPLIT_BYTES", 0)  # the two-link arm's short file, in parts too
     c_path, h_path = _copy_model(tmp_path)
-    lib = load_library(c_path, h_path, CompileOptions(binding="ctypes"))
-    for function, (args, expected) in cases("twolink").items():
-        assert_close(lib.functions[function](*args), expected, f"split {function}")
-    text = c_path.read_text()
-    c_path.write_text(text.replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, "))
+    files = {p.name: p.read_text() for p in (c_path, h_path)}
+    lib = clib._library(tmp_path / "lib" / "libtwolink.so", clib.DEFAULT_FLAGS, files, [])
+    dll = ctypes.CDLL(str(lib))
+    (q,), M = cases("twolink")["M"]
+    got = np.empty((len(q), 2, 2))
+    dll.twolink_M_batch(ctypes.c_int(len(q)), ctypes.c_void_p(q.ctypes.data), ctypes.c_void_p(got.ctypes.data))
+    assert_close(got, M, "split M")
+    files["twolink.c"] = files["twolink.c"].replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, ")
     with pytest.raises(RuntimeError, match=r"compiling twolink\.part\d\.c failed"):
-        load_library(c_path, h_path, CompileOptions(binding="ctypes"))
+        clib._library(tmp_path / "bad" / "libtwolink.so", clib.DEFAULT_FLAGS, files, [])
 
 
 def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, monkeypatch):

@@ -235,13 +235,13 @@ def run(
     model = load(robot, "c")
     cfile = model.folder / f"{model.name}.c"
     lib = load_library(cfile, model.folder / f"{model.name}.h")
-    dll = ctypes.CDLL(str(lib.path))
     result = Result(name, robot.n, threads, function_costs(cfile, lib.signatures))
     pool, casadi, bot = _peers(robot, threads, log)
     bare = robot.nofriction(all=True)
     rng = np.random.default_rng(seed)
     for fname in functions:
         sig = next(s for s in lib.signatures if s.name == fname)
+        dll = ctypes.CDLL(str(lib.library(fname)))  # the function's scalar code and its _batch loop
         f, loop = model.functions[fname], getattr(dll, f"{model.name}_{fname}_batch")
         for size in map(int, sizes):
             out_bytes = 8 * size * sum(int(np.prod(s)) for _, s in sig.outputs)

@@ -1,21 +1,40 @@
-"""Compile a generated .c/.h into a shared library and call it from Python.
+"""Compile a generated .c/.h into shared libraries, function by function when
+first called, and call them from Python.
 
-The library is built with the system C compiler (`$CC`, else `cc`) into
-symdyn's cache folder (`symdyn.derivation.cache.cache_dir()`, outside the repository),
-under a name derived from the hash of everything that affects it (source,
-header, compiler, flags, Python and NumPy ABI): a changed source is
-rebuilt, an unchanged one is reused once its sha256, recorded beside it when
-it was built, is verified (a truncated library would crash Python when
-loaded).  A cache that cannot be written means a temporary folder.  Two
-bindings: a small CPython extension (per-call overhead well under a
-microsecond; needs Python.h) and ctypes (no headers needed, a few µs per
-call).  Both follow the contract of `symdyn.codegen.contract` (shapes,
-broadcasting, keyword arguments, bad input) and return new arrays.
+`load_library` splits the model's C file into translation units, two per
+function: its scalar code (the public `void <model>_<f>(` and its `_batch`
+loop, with any `static` parts before them) and its SIMD kernel
+(`<model>_<f>_simd` with its static `_lanes`/`_range` helpers), each with the
+file's preamble (includes and static helpers) in front (`function_units`).
+Nothing is compiled then: a function's scalar unit is compiled the first time
+it is called with one state, its SIMD unit the first time it is called with a
+batch (with the scalar unit, which the kernel calls for the states it cannot
+take: see `_Units`), so that the first `tau` does not wait for
+`fdyn_derivatives`.  `CLibrary.build` compiles them all ahead, in parallel.
+
+Every unit is built with the system C compiler (`$CC`, else `cc`) into its
+own shared object in symdyn's cache folder
+(`symdyn.derivation.cache.cache_dir()`, outside the repository) under a name
+from the sha256 of everything that affects it (the unit's text, compiler,
+flags, the host for -march=native): an unchanged function is never rebuilt,
+two models with the same function text share it, and a unit is reused once
+its sha256, recorded beside it when it was built, is verified (a truncated
+library would crash Python when loaded).  A cache that cannot be written
+means a temporary folder; two processes wanting the same unit build it once.
+
+Two bindings: a small CPython extension (per-call overhead well under a
+microsecond once a function is bound; needs Python.h), compiled once for all
+models (it holds no model code: each function's address is bound into its
+table on first use), and ctypes (no headers needed, a few µs per call).  Both
+follow the contract of `symdyn.codegen.contract` (shapes, broadcasting,
+keyword arguments, bad input) and return new arrays.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import dataclasses
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -27,17 +46,19 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ...derivation import progress
 from ...derivation.cache import build_lock, cache_dir, writable
 from .. import contract
 from . import write_atomic
 from .c import Signature, read_signatures
 
-__all__ = ["CompileOptions", "CLibrary", "load_library", "compiler"]
+__all__ = ["CompileOptions", "CLibrary", "load_library", "compiler", "function_units"]
 
 #: -march=native: the library is built for this machine (the cache key includes the host name).
 DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared", "-pthread", "-fopenmp-simd", "-DSYMDYN_OPENMP_SIMD")
@@ -57,7 +78,11 @@ class CompileOptions:
 
 
 def compiler() -> str:
-    """Path of the C compiler ($CC or cc), or a RuntimeError saying what to install."""
+    """Path of the C compiler ($CC or cc).
+
+    Raises:
+        RuntimeError: no compiler found; the message says what to install.
+    """
     cc = os.environ.get("CC", "cc")
     path = shutil.which(cc)
     if path is None:
@@ -86,26 +111,54 @@ _GLUE_HEAD = r"""#define PY_SSIZE_T_CLEAN
 #include <limits.h>
 #include <math.h>
 #include <string.h>
-#include "%(model)s.h"
 
 #define MAXARGS 8
-typedef void (*one_fn)(const double *const *in, double *const *out);
-typedef int (*many_fn)(int n, int threads, const double *const *in, double *const *out);
 
 /* threads= when the call gives none: set by symdyn (the cores this process may use). */
 static int default_threads = 1;
 #define MAXTHREADS 256
+/* One generated function: what the contract needs to know of it, and the addresses of
+   its compiled code (`void f(in..., out...)` for one state, `int f_simd(n, threads,
+   in..., out...)` for a batch), NULL until a call needs them: the call then asks
+   `builder(name, "scalar" or "simd")` (symdyn's Python, which compiles the function's
+   translation unit into the cache or finds it there) for the address and keeps it.
+   The Python function is a builtin whose self is this object and whose PyMethodDef
+   is `def` (CPython drops the function's reference to its self last, for this). */
 typedef struct {
-    const char *name;
-    const char *const *in_names;
+    PyObject_HEAD
+    PyMethodDef def;
+    PyObject *name, *doc, *inputs, *builder;   /* str, str, ((name, size), ...), callable */
+    const char *cname;
     int nin, nout;
-    const npy_intp *in_size;
-    const int *out_nd;
-    const npy_intp (*out_dims)[2];
-    one_fn one;
-    many_fn many;
+    npy_intp in_size[MAXARGS];
+    int out_nd[MAXARGS];
+    npy_intp out_dims[MAXARGS][2];
+    void *one, *many;
 } spec_t;
 
+/* The address of the compiled code from the builder into s->one (many = 0) or
+   s->many; 0, or -1 with the builder's exception (a compiler error) set. */
+static int bind(spec_t *s, int many)
+{
+    void *p;
+    PyObject *r = PyObject_CallFunction(s->builder, "Os", s->name, many ? "simd" : "scalar");
+    if (!r)
+        return -1;
+    p = PyLong_AsVoidPtr(r);
+    Py_DECREF(r);
+    if (!p) {
+        if (!PyErr_Occurred())
+            PyErr_Format(PyExc_RuntimeError, "%%s(): the builder gave no address", s->cname);
+        return -1;
+    }
+    if (many)
+        s->many = p;
+    else
+        s->one = p;
+    return 0;
+}
+
+%(trampolines)s
 /* Whether the call is the common one: positional C-contiguous double arrays
    (..., size) of one leading shape with room for the outputs' dimensions, finite
    when they hold one state (a batch's kernel tests its inputs as it gathers them). */
@@ -145,7 +198,7 @@ static int plain(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObj
 static PyObject *checked(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames, int out_nd)
 {
     static PyObject *arguments = NULL;
-    PyObject *inputs = NULL, *pos = NULL, *kw = NULL, *result = NULL;
+    PyObject *pos = NULL, *kw = NULL, *result = NULL;
     Py_ssize_t i, nkw = kwnames ? PyTuple_GET_SIZE(kwnames) : 0;
     if (!arguments) {
         PyObject *module = PyImport_ImportModule("symdyn.codegen.contract");
@@ -156,17 +209,10 @@ static PyObject *checked(const spec_t *s, PyObject *const *args, Py_ssize_t narg
         if (!arguments)
             return NULL;
     }
-    inputs = PyTuple_New(s->nin);
     pos = PyTuple_New(nargs);
     kw = PyDict_New();
-    if (!inputs || !pos || !kw)
+    if (!pos || !kw)
         goto done;
-    for (i = 0; i < s->nin; ++i) {
-        PyObject *pair = Py_BuildValue("(sn)", s->in_names[i], (Py_ssize_t)s->in_size[i]);
-        if (!pair)
-            goto done;
-        PyTuple_SET_ITEM(inputs, i, pair);
-    }
     for (i = 0; i < nargs; ++i) {
         Py_INCREF(args[i]);
         PyTuple_SET_ITEM(pos, i, args[i]);
@@ -174,9 +220,8 @@ static PyObject *checked(const spec_t *s, PyObject *const *args, Py_ssize_t narg
     for (i = 0; i < nkw; ++i)
         if (PyDict_SetItem(kw, PyTuple_GET_ITEM(kwnames, i), args[nargs + i]) < 0)
             goto done;
-    result = PyObject_CallFunction(arguments, "sOOOi", s->name, inputs, pos, kw, NPY_MAXDIMS - out_nd);
+    result = PyObject_CallFunction(arguments, "OOOOi", s->name, s->inputs, pos, kw, NPY_MAXDIMS - out_nd);
 done:
-    Py_XDECREF(inputs);
     Py_XDECREF(pos);
     Py_XDECREF(kw);
     return result;
@@ -241,7 +286,7 @@ static PyObject *given_out(const spec_t *s, PyObject *outarg, int j, int nd, con
     PyArrayObject *a;
     if (s->nout > 1) {
         if (!PyTuple_Check(outarg) || PyTuple_GET_SIZE(outarg) != s->nout) {
-            PyErr_Format(PyExc_ValueError, "%%s(): out must be a tuple of %%d arrays, one per output", s->name, s->nout);
+            PyErr_Format(PyExc_ValueError, "%%s(): out must be a tuple of %%d arrays, one per output", s->cname, s->nout);
             return NULL;
         }
         o = PyTuple_GET_ITEM(outarg, j);
@@ -251,7 +296,7 @@ static PyObject *given_out(const spec_t *s, PyObject *outarg, int j, int nd, con
         || memcmp(PyArray_DIMS(a), dims, nd * sizeof(npy_intp))) {
         PyErr_Format(PyExc_ValueError, "%%s(): out%%s must be a C-contiguous writeable float64 array of the "
                      "output's shape (leading dimensions of the inputs, then the output's own)",
-                     s->name, s->nout > 1 ? "[k]" : "");
+                     s->cname, s->nout > 1 ? "[k]" : "");
         return NULL;
     }
     Py_INCREF(o);
@@ -260,18 +305,17 @@ static PyObject *given_out(const spec_t *s, PyObject *outarg, int j, int nd, con
 
 /* One output array per output, shaped leading + its own shape (or the caller's out=);
    single or batched call (threads= threads, default: the cores this process may use). */
-static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames)
+static PyObject *call(spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames)
 {
     PyObject *out[MAXARGS] = {0};
     PyObject *normal = NULL, *result = NULL, *vals[2 * MAXARGS], *kw = NULL, *outarg = NULL;
-    const double *pin[MAXARGS];
-    double *pout[MAXARGS];
+    double *pin[MAXARGS], *pout[MAXARGS], *all[2 * MAXARGS];
     npy_intp dims[NPY_MAXDIMS], count = 1;
     int lead_nd, out_nd = 0, i, j, threads;
     for (j = 0; j < s->nout; ++j)   /* an output has lead_nd + out_nd dimensions: they must fit dims */
         out_nd = s->out_nd[j] > out_nd ? s->out_nd[j] : out_nd;
     if (kwnames && PyTuple_GET_SIZE(kwnames)) {
-        if (extras(s->name, args, nargs, kwnames, vals, &kw, &outarg, &threads) < 0)
+        if (extras(s->cname, args, nargs, kwnames, vals, &kw, &outarg, &threads) < 0)
             return NULL;
         args = vals;
         kwnames = kw;
@@ -290,9 +334,9 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, 
     for (i = 0; i < lead_nd; ++i)
         count *= dims[i];
     for (i = 0; i < s->nin; ++i)
-        pin[i] = (const double *)PyArray_DATA((PyArrayObject *)args[i]);
+        pin[i] = (double *)PyArray_DATA((PyArrayObject *)args[i]);
     if (count > INT_MAX) {
-        PyErr_Format(PyExc_ValueError, "%%s(): %%zd states, at most %%d per call", s->name, (Py_ssize_t)count, INT_MAX);
+        PyErr_Format(PyExc_ValueError, "%%s(): %%zd states, at most %%d per call", s->cname, (Py_ssize_t)count, INT_MAX);
         goto done;
     }
     for (j = 0; j < s->nout; ++j) {
@@ -303,17 +347,25 @@ static PyObject *call(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, 
             goto done;
         pout[j] = (double *)PyArray_DATA((PyArrayObject *)out[j]);
     }
+    for (i = 0; i < s->nin; ++i)
+        all[i] = pin[i];
+    for (j = 0; j < s->nout; ++j)
+        all[s->nin + j] = pout[j];
     if (lead_nd == 0) {
-        s->one(pin, pout);
+        if (!s->one && bind(s, 0) < 0)
+            goto done;
+        call_one(s->one, s->nin + s->nout, all);
     } else if (count > 0) {
         int nonfinite;
+        if (!s->many && bind(s, 1) < 0)
+            goto done;
         Py_BEGIN_ALLOW_THREADS
-        nonfinite = s->many((int)count, threads, pin, pout);
+        nonfinite = call_many(s->many, (int)count, threads, s->nin + s->nout, all);
         Py_END_ALLOW_THREADS
         if (nonfinite) {   /* the contract's check names the argument (a checked call is finite) */
             PyObject *why = normal ? NULL : checked(s, args, nargs, kwnames, out_nd);
             if (!PyErr_Occurred())
-                PyErr_Format(PyExc_ValueError, "%%s(): an input contains NaN or infinity", s->name);
+                PyErr_Format(PyExc_ValueError, "%%s(): an input contains NaN or infinity", s->cname);
             Py_XDECREF(why);
             goto done;
         }
@@ -347,45 +399,209 @@ static PyObject *py_set_threads(PyObject *self, PyObject *arg)
 }
 """
 
+_GLUE_TAIL = r"""
+static void spec_dealloc(spec_t *s)
+{
+    Py_XDECREF(s->name);
+    Py_XDECREF(s->doc);
+    Py_XDECREF(s->inputs);
+    Py_XDECREF(s->builder);
+    Py_TYPE(s)->tp_free((PyObject *)s);
+}
 
-def _glue_source(model: str, module: str, sigs: list[Signature]) -> str:
-    """CPython extension wrapping every function of the model's header."""
-    parts = [_GLUE_HEAD % {"model": model}]
-    methods = []
-    for sig in sigs:
-        f, nin, nout = sig.name, len(sig.inputs), len(sig.outputs)
-        ins = ", ".join(f"in[{i}]" for i in range(nin))
-        outs = ", ".join(f"out[{j}]" for j in range(nout))
-        dims = ", ".join("{" + ", ".join(map(str, (list(s) + [0])[:2])) + "}" for _, s in sig.outputs)
-        names = ", ".join(f'"{a}"' for a, _ in sig.inputs)
-        parts.append(
-            f"static void {f}_one(const double *const *in, double *const *out) "
-            f"{{ {model}_{f}({ins}, {outs}); }}\n"
-            f"static int {f}_many(int n, int threads, const double *const *in, double *const *out) "
-            f"{{ return {model}_{f}_simd(n, threads, {ins}, {outs}); }}\n"
-            f"static const char *const {f}_names[] = {{{names}}};\n"
-            f"static const npy_intp {f}_in[] = {{{', '.join(str(k) for _, k in sig.inputs)}}};\n"
-            f"static const int {f}_out_nd[] = {{{', '.join(str(len(s)) for _, s in sig.outputs)}}};\n"
-            f"static const npy_intp {f}_out_dims[][2] = {{{dims}}};\n"
-            f'static const spec_t {f}_spec = {{"{f}", {f}_names, {nin}, {nout}, {f}_in, {f}_out_nd, '
-            f"{f}_out_dims, {f}_one, {f}_many}};\n"
-            f"static PyObject *py_{f}(PyObject *self, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames) "
-            f"{{ return call(&{f}_spec, args, nargs, kwnames); }}\n"
-        )
-        doc = (
-            f"{f}($module, {', '.join(a for a, _ in sig.inputs)}, *, out=None, threads=None)\\n--\\n\\n"
-            f"{sig.line()[len('function: ') :]}; batched over leading axes (SIMD across states, "
-            f"on `threads` threads), into out= if given"
-        )
-        methods.append(f'    {{"{f}", (PyCFunction)(void (*)(void))py_{f}, METH_FASTCALL | METH_KEYWORDS, "{doc}"}},')
-    methods.append('    {"_set_threads", py_set_threads, METH_O, "default number of threads of a batched call"},')
-    parts.append("static PyMethodDef methods[] = {\n" + "\n".join(methods) + "\n    {NULL, NULL, 0, NULL}\n};\n")
-    parts.append(
-        f'static struct PyModuleDef moduledef = {{PyModuleDef_HEAD_INIT, "{module}", NULL, -1, methods}};\n'
-        f"PyMODINIT_FUNC PyInit_{module}(void)\n{{\n    import_array();\n"
-        f"    return PyModule_Create(&moduledef);\n}}\n"
+static PyObject *py_call(PyObject *self, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames)
+{
+    return call((spec_t *)self, args, nargs, kwnames);
+}
+
+/* _bind(kind, address): the compiled code of kind "scalar" or "simd" at address. */
+static PyObject *spec_bind(spec_t *s, PyObject *args)
+{
+    const char *kind;
+    PyObject *address;
+    void *p;
+    if (!PyArg_ParseTuple(args, "sO", &kind, &address))
+        return NULL;
+    p = PyLong_AsVoidPtr(address);
+    if (!p && PyErr_Occurred())
+        return NULL;
+    if (strcmp(kind, "scalar") == 0)
+        s->one = p;
+    else if (strcmp(kind, "simd") == 0)
+        s->many = p;
+    else
+        return PyErr_Format(PyExc_ValueError, "_bind: kind must be 'scalar' or 'simd', got %%s", kind);
+    Py_RETURN_NONE;
+}
+
+/* _bound(): the kinds bound so far, a tuple of "scalar" and "simd". */
+static PyObject *spec_bound(spec_t *s, PyObject *unused)
+{
+    (void)unused;
+    if (s->one && s->many)
+        return Py_BuildValue("(ss)", "scalar", "simd");
+    if (s->one || s->many)
+        return Py_BuildValue("(s)", s->one ? "scalar" : "simd");
+    return PyTuple_New(0);
+}
+
+static PyMethodDef spec_methods[] = {
+    {"_bind", (PyCFunction)spec_bind, METH_VARARGS, "_bind(kind, address): bind compiled code"},
+    {"_bound", (PyCFunction)spec_bound, METH_NOARGS, "the kinds of compiled code bound"},
+    {NULL, NULL, 0, NULL}
+};
+
+static PyTypeObject spec_type = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "%(module)s.Function",
+    .tp_basicsize = sizeof(spec_t),
+    .tp_dealloc = (destructor)spec_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "a generated function's table: its shapes and compiled code",
+    .tp_methods = spec_methods,
+};
+
+/* _function(name, doc, inputs, outputs, builder): a new Python function for a
+   generated function of inputs ((name, size), ...) and outputs' shapes ((rows,) or
+   (rows, cols), ...), unbound: its first call asks builder(name, kind) for the address
+   of its compiled code.  Every call makes a new table, so that two models of one name
+   never share their code. */
+static PyObject *py_function(PyObject *self, PyObject *args)
+{
+    PyObject *name, *doc, *inputs, *outputs, *builder, *fn;
+    spec_t *s;
+    Py_ssize_t i;
+    (void)self;
+    if (!PyArg_ParseTuple(args, "UUO!O!O", &name, &doc, &PyTuple_Type, &inputs, &PyTuple_Type, &outputs, &builder))
+        return NULL;
+    if (PyTuple_GET_SIZE(inputs) < 1 || PyTuple_GET_SIZE(inputs) > MAXARGS || PyTuple_GET_SIZE(outputs) < 1
+        || PyTuple_GET_SIZE(outputs) > MAXARGS)
+        return PyErr_Format(PyExc_ValueError, "_function: 1 to %%d inputs and outputs", MAXARGS);
+    s = PyObject_New(spec_t, &spec_type);
+    if (!s)
+        return NULL;
+    memset((char *)s + sizeof(PyObject), 0, sizeof(spec_t) - sizeof(PyObject));
+    Py_INCREF(name);
+    Py_INCREF(doc);
+    Py_INCREF(inputs);
+    Py_INCREF(builder);
+    s->name = name;
+    s->doc = doc;
+    s->inputs = inputs;
+    s->builder = builder;
+    s->nin = (int)PyTuple_GET_SIZE(inputs);
+    s->nout = (int)PyTuple_GET_SIZE(outputs);
+    s->cname = PyUnicode_AsUTF8(name);
+    if (!s->cname || !PyUnicode_AsUTF8(doc))
+        goto fail;
+    for (i = 0; i < s->nin; ++i) {
+        PyObject *pair = PyTuple_GET_ITEM(inputs, i);
+        if (!PyTuple_Check(pair) || PyTuple_GET_SIZE(pair) != 2 || !PyUnicode_Check(PyTuple_GET_ITEM(pair, 0))) {
+            PyErr_SetString(PyExc_TypeError, "_function: inputs are (name, size) pairs");
+            goto fail;
+        }
+        s->in_size[i] = PyLong_AsSsize_t(PyTuple_GET_ITEM(pair, 1));
+        if (s->in_size[i] < 0)
+            goto fail;
+    }
+    for (i = 0; i < s->nout; ++i) {
+        PyObject *shape = PyTuple_GET_ITEM(outputs, i);
+        Py_ssize_t k;
+        if (!PyTuple_Check(shape) || PyTuple_GET_SIZE(shape) < 1 || PyTuple_GET_SIZE(shape) > 2) {
+            PyErr_SetString(PyExc_TypeError, "_function: an output's shape is (rows,) or (rows, cols)");
+            goto fail;
+        }
+        s->out_nd[i] = (int)PyTuple_GET_SIZE(shape);
+        for (k = 0; k < s->out_nd[i]; ++k) {
+            s->out_dims[i][k] = PyLong_AsSsize_t(PyTuple_GET_ITEM(shape, k));
+            if (s->out_dims[i][k] < 0)
+                goto fail;
+        }
+    }
+    s->def.ml_name = s->cname;
+    s->def.ml_meth = (PyCFunction)(void (*)(void))py_call;
+    s->def.ml_flags = METH_FASTCALL | METH_KEYWORDS;
+    s->def.ml_doc = PyUnicode_AsUTF8(doc);
+    fn = PyCFunction_NewEx(&s->def, (PyObject *)s, NULL);
+    Py_DECREF(s);
+    return fn;
+fail:
+    if (!PyErr_Occurred())
+        PyErr_SetString(PyExc_ValueError, "_function: a size or dimension is negative");
+    Py_DECREF(s);
+    return NULL;
+}
+
+static PyMethodDef methods[] = {
+    {"_function", py_function, METH_VARARGS, "_function(name, doc, inputs, outputs, builder): a new function"},
+    {"_set_threads", py_set_threads, METH_O, "default number of threads of a batched call"},
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "%(module)s", NULL, -1, methods};
+
+PyMODINIT_FUNC PyInit_%(module)s(void)
+{
+    import_array();
+    if (PyType_Ready(&spec_type) < 0)
+        return NULL;
+    return PyModule_Create(&moduledef);
+}
+"""
+
+#: The most inputs and outputs a function may have (MAXARGS of the glue), each.
+MAXARGS = 8
+
+
+def _trampolines() -> str:
+    """C that calls compiled code at an address with k pointer arguments (k = 1 … 2 MAXARGS):
+    every generated function takes only `double` arrays, so its count of them is its type."""
+    one, many = [], []
+    for k in range(1, 2 * MAXARGS + 1):
+        ptrs, args = ", ".join(["double *"] * k), ", ".join(f"a[{i}]" for i in range(k))
+        one.append(f"    case {k}: ((void (*)({ptrs}))f)({args}); break;")
+        many.append(f"    case {k}: return ((int (*)(int, int, {ptrs}))f)(n, threads, {args});")
+    return (
+        "/* f(a[0], ..., a[k-1]): a function's single-state entry point at address f. */\n"
+        "static void call_one(void *f, int k, double *const *a)\n{\n    switch (k) {\n"
+        + "\n".join(one)
+        + "\n    }\n}\n\n"
+        "/* f(n, threads, a[0], ..., a[k-1]): a function's SIMD kernel at address f. */\n"
+        "static int call_many(void *f, int n, int threads, int k, double *const *a)\n{\n    switch (k) {\n"
+        + "\n".join(many)
+        + "\n    }\n    return 0;\n}\n"
     )
-    return "\n".join(parts)
+
+
+def _glue_source(module: str) -> str:
+    """The CPython extension that binds every model's functions (`_function`): the
+    contract's fast path in C, each function's compiled code bound on first use."""
+    return (_GLUE_HEAD + _GLUE_TAIL) % {"trampolines": _trampolines(), "module": module}
+
+
+def _doc(sig: Signature) -> str:
+    """A function's docstring, with its signature for `inspect.signature`."""
+    return (
+        f"{sig.name}($module, {', '.join(a for a, _ in sig.inputs)}, *, out=None, threads=None)\n--\n\n"
+        f"{sig.line()[len('function: ') :]}; batched over leading axes (SIMD across states, "
+        f"on `threads` threads), into out= if given"
+    )
+
+
+def _glue(flags: tuple, headers: tuple[str, str]):
+    """The extension module (imported), built once into the cache for this Python, NumPy,
+    compiler and flags (without -march=native: it holds no model code)."""
+    flags = tuple(f for f in flags if f != "-march=native")
+    key = _digest(_glue_source("MODULE"), os.environ.get("CC", "cc"), " ".join(flags), sys.version, np.__version__)
+    module = f"_symdyn_glue_{key[:16]}"
+    if module in sys.modules:
+        return sys.modules[module]
+    path = cache_dir() / "c" / "glue" / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    with progress.reported("symdyn: compiling the C binding (once for this Python)"):
+        lib = _library(path, flags, {f"{module}.c": _glue_source(module)}, list(headers))
+    ext = _import_extension(module, lib)
+    ext._set_threads(_jobs())
+    return ext
 
 
 # --------------------------------------------------------------------------- building
@@ -412,8 +628,9 @@ def _jobs() -> int:
         return os.cpu_count() or 1
 
 
-#: A function definition at column 0 of a generated C file: `void f(`, `int f(`, static or not.
-_DEFINITION = re.compile(r"(static )?(void|int) \w+\(")
+#: A function definition at column 0 of a generated C file: `void f(`, `int f(`, static or not
+#: (`static SYMDYN_NOINLINE void f(` too: a large function's parts).
+_DEFINITION = re.compile(r"(static (\w+ )*)?(void|int) \w+\(")
 
 
 def split_source(text: str, parts: int) -> list[str]:
@@ -540,8 +757,320 @@ def _library(path: Path, flags: tuple, files: dict, includes: list[str]) -> Path
         return path if intact() else _build(flags, files, includes, path)
 
 
+# --------------------------------------------------------------------------- one unit per function
+
+#: A function definition at column 0: (static and its qualifiers, or None), the name.
+_FUNCTION = re.compile(r"(static (?:\w+ )*)?(?:void|int) (\w+)\(")
+
+#: The two kinds of unit of a function, as named in messages.
+KINDS = {"scalar": "scalar code", "simd": "batch kernel"}
+
+
+def _chunk_start(lines: list[str], start: int, floor: int) -> int:
+    """`start` moved back over the blank lines and whole comments (a function's doc)
+    just before it, never to `floor` or before."""
+    j = start
+    while j - 1 > floor:
+        line = lines[j - 1]
+        if not line.strip():
+            j -= 1
+        elif line.rstrip().endswith("*/"):
+            k = next((k for k in range(j - 1, floor, -1) if "/*" in lines[k]), None)
+            if k is None or not lines[k].lstrip().startswith("/*"):
+                break
+            j = k
+        else:
+            break
+    return j
+
+
+def _layout(model: str, text: str) -> tuple[str, dict[str, str]] | None:
+    """(preamble, {public function name: its chunk}) of a generated C file, or None
+    when it is not laid out as symdyn writes it: the preamble (includes, static
+    helpers), then only definitions of the model's functions (`<model>_…`) at column 0,
+    each public one preceded by the static ones that belong with it (a SIMD kernel's
+    lanes and range, a large function's parts) and by its doc comment."""
+    lines = text.splitlines(keepends=True)
+    ours = [(i, m) for i, line in enumerate(lines) if (m := _FUNCTION.match(line)) and m[2].startswith(model + "_")]
+    if not ours or ours[-1][1][1]:
+        return None
+    for line in lines[ours[0][0] :]:
+        m = _FUNCTION.match(line)
+        if line.startswith("#") or line.startswith("static") and not (m and m[2].startswith(model + "_")):
+            return None  # preprocessing or a helper after the model's first function
+    chunks, pending, floor, bounds = {}, None, -1, []
+    for i, m in ours:
+        if m[1]:
+            pending = i if pending is None else pending
+            continue
+        start = _chunk_start(lines, i if pending is None else pending, floor)
+        bounds.append((m[2], start))
+        pending, floor = None, i
+    head = "".join(lines[: bounds[0][1]])
+    ends = [b for _, b in bounds[1:]] + [len(lines)]
+    for (name, start), end in zip(bounds, ends):
+        chunks[name] = "".join(lines[start:end])
+    return head, chunks
+
+
+def function_units(model: str, c_text: str, h_text: str, names: list[str]) -> dict[tuple[str, str], str]:
+    """The translation units of a generated model's C: {(function, "scalar"): text,
+    (function, "simd"): text} for every function name.
+
+    A scalar unit is the file's preamble (its includes and static helpers, the
+    header's include replaced by the function's own prototypes) and the function's
+    chunk: the public `void <model>_<f>(` with the static functions before it (a large
+    function's parts) and its `_batch` loop.  A SIMD unit is the preamble and the
+    kernel `<model>_<f>_simd` with its static `_lanes` and `_range`; the scalar function
+    it calls for the states it cannot take is a pointer there, `<model>_<f>_scalar_`
+    (`#define <model>_<f> (*<model>_<f>_scalar_)` turns the prototype into it), set
+    to the scalar unit's function when the kernel is loaded.  The file's leading
+    comment (provenance, its own checksum) is left out, so that a function's units
+    change only when its code does.  A file not laid out so (`_layout`) is one unit,
+    the whole file, for every function and kind.
+
+    Raises:
+        ValueError: a function of `names` is not in the file.
+    """
+    layout = _layout(model, c_text)
+    include = re.compile(rf'^#include "{re.escape(model)}\.h"[ \t]*\n', re.M)
+    protos = {
+        (f, s): re.search(rf"^(?:void|int) {re.escape(model)}_{re.escape(f)}{s}\(.*\);[ \t]*$", h_text, re.M)
+        for f in names
+        for s in ("", "_batch", "_simd")
+    }
+    whole = (
+        layout is None
+        or not all(protos.values())
+        or not include.search(layout[0])
+        or any(f"{model}_{f}{s}" not in layout[1] for f in names for s in ("", "_batch", "_simd"))
+    )
+    if whole:
+        for f in names:
+            if not re.search(rf"\b{re.escape(model)}_{re.escape(f)}\(", c_text):
+                raise ValueError(f"the C file of {model} has no function {model}_{f}")
+        text = include.sub(lambda _: h_text + "\n", c_text)
+        return {(f, kind): text for f in names for kind in KINDS}
+    head, chunks = layout
+    if head.startswith("/*"):
+        head = head[head.index("*/") + 2 :].lstrip("\n")
+    units = {}
+    for f in names:
+        own = "".join(protos[f, s][0] + "\n" for s in ("", "_batch", "_simd"))
+        scalar = f"/* {model}_{f}: scalar code, from {model}.h */\n{own}"
+        simd = (
+            f"/* {model}_{f}: batch kernel; the scalar function it calls for the states it cannot\n"
+            f"   take is a pointer, set when the kernel is loaded */\n"
+            f"#define {model}_{f} (*{model}_{f}_scalar_)\n{own}"
+        )
+        units[f, "scalar"] = include.sub(lambda _: scalar, head) + chunks[f"{model}_{f}"] + chunks[f"{model}_{f}_batch"]
+        units[f, "simd"] = include.sub(lambda _: simd, head) + chunks[f"{model}_{f}_simd"]
+    return units
+
+
+#: A SIMD kernel's unit of at least this many bytes is compiled at -O2 instead of -O3, and
+#: at -O1 from SIMD_O1_BYTES on (when the flags say -O3; a scalar unit always keeps them).
+#: Measured with gcc 12.2 on this 2-core machine (2026-11-25, min of two compiles each;
+#: run: µs per state, batch of 2048 on one thread, best of three rounds), -O3 / -O2 / -O1:
+#:
+#:   unit (bytes)                         compile s            run µs/state
+#:   Panda C kernel (84 k)                0.63 / 0.56 / 0.51   0.103 / 0.098 / 0.107
+#:   Panda Y kernel (71 k)                1.72 / 1.44 / 0.99   0.652 / 0.741 / 0.814
+#:   Panda ∂τ kernel (119 k)              1.45 / 1.10 / 0.93   0.195 / 0.192 / 0.211
+#:   Panda ∂fdyn kernel (154 k)           1.98 / 1.67 / 1.31   0.373 / 0.415 / 0.438
+#:   10-joint C kernel (151 k)            1.50 / 1.34 / 1.48   0.230 / 0.219 / 0.233
+#:   10-joint Y kernel (205 k)            4.73 / 3.66 / 3.17   3.531 / 3.648 / 4.035
+#:   10-joint ∂τ kernel (277 k)           4.84 / 4.34 / 3.36   0.510 / 0.510 / 0.524
+#:   10-joint ∂fdyn kernel (409 k)        8.31 / 7.05 / 6.46   0.766 / 0.739 / 0.766
+#:   Panda ∂fdyn scalar (144 k)           1.77 / 1.66 / 1.63   1.457 / 1.469 / 1.753 (one call)
+#:   10-joint ∂fdyn scalar (522 k, parts) 2.57 / 3.06 / 3.48   3.370 / 3.367 / 4.759 (one call)
+#:
+#: A large kernel (one lane loop, which gcc's register allocation and scheduling take
+#: superlinearly) compiles 10-25 % faster at -O2 and runs as fast (within the ±10 % noise
+#: of a shared machine); -O1 saves 20-40 % and costs the smaller kernels up to 25 % of run
+#: time, the largest (over 256 kB: the derivatives of 10 joints) 0-4 %.  Scalar code (a
+#: large function in `static` parts of bounded size, `c.SPLIT_ABOVE`) compiles no faster
+#: at a lower level and runs 10-40 % slower at -O1: it keeps -O3.  Under 64 kB the
+#: difference is a tenth of a second.
+SIMD_O2_BYTES = 64_000
+SIMD_O1_BYTES = 256_000
+
+
+def _unit_flags(flags: tuple, text: str, kind: str) -> tuple:
+    """The flags a unit is compiled with: `flags`, with -O3 lowered for a large SIMD kernel."""
+    if kind != "simd" or "-O3" not in flags or len(text) < SIMD_O2_BYTES:
+        return flags
+    level = "-O1" if len(text) >= SIMD_O1_BYTES else "-O2"
+    return tuple(level if f == "-O3" else f for f in flags)
+
+
+@dataclass(frozen=True)
+class _Unit:
+    """One translation unit to build: what it is (for messages), its text and flags,
+    and the shared object it becomes."""
+
+    model: str
+    function: str
+    kind: str
+    text: str
+    flags: tuple
+    path: Path
+
+    @property
+    def label(self) -> str:
+        return f"{self.model}'s {self.function} ({KINDS[self.kind]})"
+
+
+def _intact(path: Path) -> bool:
+    """Whether the library at `path` has the sha256 recorded when it was built (a
+    truncated or altered library would crash the process that loads it)."""
+    try:
+        return _recorded(path).read_text() == _sha256(path)
+    except OSError:
+        return False
+
+
+def _build_units(units: list[_Unit]) -> None:
+    """Build the units whose library is missing or not intact, `_jobs()` compilers at a
+    time, each under its build lock (another process building one: wait for it), each
+    written atomically with its sha256 beside it; without -march=native when the
+    compiler rejects it.  Over REPORT_AFTER_S the build says so on stderr, naming the
+    functions.  Raises a RuntimeError naming the function and with the compiler's
+    message when one does not compile."""
+    units = list({u.path: u for u in units}.values())
+    if all(_intact(u.path) for u in units):
+        return
+    cc = compiler()
+    with contextlib.ExitStack() as locks:
+        todo = []
+        for u in sorted(units, key=lambda u: str(u.path)):  # one order: two processes never deadlock
+            if _intact(u.path):
+                continue
+            locks.enter_context(build_lock(u.path))
+            if not _intact(u.path):
+                todo.append(u)
+        if not todo:
+            return
+        names = ", ".join(u.label for u in todo)
+        with progress.reported(f"symdyn: compiling {names}"):
+            _compile_units(cc, todo)
+
+
+def _compile_units(cc: str, units: list[_Unit]) -> None:
+    """cc each unit into its library, in parallel; on Ctrl-C or an error the compilers
+    are stopped and no partial file is left."""
+    pending, running, failure = list(units), [], None
+    try:
+        while (pending or running) and failure is None:
+            while pending and len(running) < _jobs():
+                u = pending.pop(0)
+                source = write_atomic(u.path.with_suffix(".c"), u.text)
+                running.append(_start(cc, u, source, u.flags))
+            u, proc, cmd, tmp = running.pop(0)
+            _, err = proc.communicate()
+            if proc.returncode != 0 and "-march=native" in u.flags and "native" in err:
+                flags = tuple(f for f in u.flags if f != "-march=native")
+                running.insert(0, _start(cc, u, u.path.with_suffix(".c"), flags))
+                continue
+            if proc.returncode != 0:
+                failure = f"compiling {u.label} failed ({' '.join(cmd)}):\n{err[-2000:]}"
+                tmp.unlink(missing_ok=True)
+                continue
+            os.replace(tmp, u.path)
+            write_atomic(_recorded(u.path), _sha256(u.path))
+    finally:
+        for u, proc, cmd, tmp in running:
+            proc.kill()
+            proc.wait()
+            tmp.unlink(missing_ok=True)
+    if failure:
+        raise RuntimeError(failure)
+
+
+def _start(cc: str, u: _Unit, source: Path, flags: tuple):
+    """(unit, compiler process, command, temporary output) of one unit's compile."""
+    tmp = u.path.with_name(f".{u.path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    cmd = [cc, *flags, str(source), "-o", str(tmp), "-lm"]
+    return u, subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True), cmd, tmp
+
+
+class _Units:
+    """The units of one loaded model: built (or found in the cache) and loaded when a
+    call first needs them; callable as the binding's builder: (function, kind) → the
+    address of the compiled code (`<model>_<f>` or `<model>_<f>_simd`).  A SIMD unit's
+    scalar fallback is bound to the scalar unit's function when it is loaded (both are
+    compiled at once when neither is built)."""
+
+    def __init__(self, model: str, units: dict[tuple[str, str], str], flags: tuple) -> None:
+        self.model, self.texts, self.flags = model, units, tuple(flags)
+        self.host = platform.node() if "-march=native" in self.flags else ""
+        self.lock = threading.RLock()  # one thread builds; the others wait, then find it loaded
+        self.loaded: dict[tuple[str, str], tuple[ctypes.CDLL, int]] = {}
+        self._units: dict[tuple[str, str], _Unit] = {}
+        self._folder: Path | None = None
+
+    def folder(self) -> Path:
+        if self._folder is None:
+            self._folder = writable(cache_dir() / "c" / "units")
+        return self._folder
+
+    def unit(self, function: str, kind: str) -> _Unit:
+        """The unit of `function` of kind "scalar" or "simd" (its cache name from the sha256 of its
+        text, the compiler, the flags and for -march=native the host; a SIMD unit's also from its
+        scalar unit's, which it calls)."""
+        if (function, kind) not in self._units:
+            if (function, kind) not in self.texts:
+                raise KeyError(f"{self.model} has no function {function!r} (kind {kind!r})")
+            text = self.texts[function, kind]
+            if kind == "simd" and text == self.texts[function, "scalar"]:  # the whole file: one library
+                self._units[function, kind] = dataclasses.replace(self.unit(function, "scalar"), kind=kind)
+                return self._units[function, kind]
+            flags = _unit_flags(self.flags, text, kind)
+            scalar = self.unit(function, "scalar").path.name if kind == "simd" else ""
+            key = _digest(text, os.environ.get("CC", "cc"), " ".join(flags), self.host, scalar)[:20]
+            path = self.folder() / f"{self.model}_{function}.{kind}.{key}.so"
+            self._units[function, kind] = _Unit(self.model, function, kind, text, flags, path)
+        return self._units[function, kind]
+
+    def prepare(self, wanted: list[tuple[str, str]]) -> None:
+        """Build (in parallel) and load the units `wanted` and the scalar units their kernels call."""
+        with self.lock:
+            need = {(f, k) for f, k in wanted} | {(f, "scalar") for f, k in wanted if k == "simd"}
+            need = sorted((u for u in need if u not in self.loaded), key=lambda u: u[1] != "scalar")
+            units = [self.unit(*u) for u in need]
+            _build_units(units)
+            for u in units:  # scalar ones first
+                self._load(u)
+
+    def _load(self, u: _Unit) -> None:
+        dll = ctypes.CDLL(str(u.path))
+        symbol = f"{self.model}_{u.function}" + ("_simd" if u.kind == "simd" else "")
+        address = ctypes.cast(getattr(dll, symbol), ctypes.c_void_p).value
+        if u.kind == "simd" and u.text != self.texts[u.function, "scalar"]:
+            fallback = ctypes.c_void_p.in_dll(dll, f"{self.model}_{u.function}_scalar_")
+            fallback.value = self.loaded[u.function, "scalar"][1]
+        self.loaded[u.function, u.kind] = (dll, address)
+
+    def __call__(self, function: str, kind: str) -> int:
+        """The address of `function`'s compiled code of `kind`, built and loaded if need be."""
+        with self.lock:
+            if (function, kind) not in self.loaded:
+                self.prepare([(function, kind)])
+            return self.loaded[function, kind][1]
+
+
 def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOptions()) -> "CLibrary":
-    """Compile (or reuse from the cache) the model in c_path/h_path and bind it."""
+    """Bind the model in c_path/h_path, compiling nothing of it yet: each function's
+    translation units (`function_units`) are compiled into the cache (or found there)
+    when a call first needs them, its scalar code at its first single-state call, its
+    SIMD kernel at its first batch; `CLibrary.build` compiles them ahead.  Only the
+    extension binding itself is compiled here, once for this Python and compiler.
+
+    Raises:
+        ValueError: the header lists no signatures, or the C file lacks a function it lists.
+        RuntimeError: binding="extension" without Python.h; no C compiler, or the binding
+            does not compile (a function that does not compile raises at its first call).
+    """
     c_path, h_path = Path(c_path), Path(h_path)
     model = h_path.stem
     c_text, h_text = c_path.read_text(), h_path.read_text()
@@ -555,31 +1084,21 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
             "Python development headers (Debian/Ubuntu: apt install python3-dev) "
             "or use binding='ctypes'"
         )
-    kind = "extension" if headers else "ctypes"
-    host = platform.node() if "-march=native" in options.flags else ""
-    glue = _glue_source(model, "_symdyn_MODULE", sigs) if kind == "extension" else ""  # a new binding rebuilds
-    key = _digest(
-        c_text,
-        h_text,
-        glue,
-        os.environ.get("CC", "cc"),
-        " ".join(options.flags),
-        kind,
-        host,
-        sys.version,
-        np.__version__,
-    )[:16]
-    folder = cache_dir() / "c" / f"{model}-{key}"
-    files = {c_path.name: c_text, h_path.name: h_text}
-    if kind == "ctypes":
-        lib = _library(folder / f"lib{model}.so", options.flags, files, [])
-        return CLibrary(model, sigs, lib, _ctypes_functions(model, sigs, lib), kind)
-    module = f"_symdyn_{model}_{key}"
-    files[f"{module}.c"] = _glue_source(model, module, sigs)
-    lib = _library(folder / f"{module}{sysconfig.get_config_var('EXT_SUFFIX')}", options.flags, files, list(headers))
-    ext = _import_extension(module, lib)
-    ext._set_threads(_jobs())
-    return CLibrary(model, sigs, lib, {s.name: getattr(ext, s.name) for s in sigs}, kind)
+    units = _Units(model, function_units(model, c_text, h_text, [s.name for s in sigs]), options.flags)
+    try:
+        compiler()
+    except RuntimeError:  # say so now, not at the first call, unless every unit is built
+        if not all(_intact(units.unit(*u).path) for u in units.texts):
+            raise
+    if headers is None:
+        functions = {s.name: _CtypesFunction(model, s, units) for s in sigs}
+        return CLibrary(model, sigs, cache_dir() / "c" / "units", functions, "ctypes", units)
+    ext = _glue(options.flags, headers)
+    functions = {
+        s.name: ext._function(s.name, _doc(s), tuple(s.inputs), tuple(shape for _, shape in s.outputs), units)
+        for s in sigs
+    }
+    return CLibrary(model, sigs, Path(ext.__file__), functions, "extension", units)
 
 
 def _import_extension(module: str, path: Path):
@@ -598,7 +1117,11 @@ def _import_extension(module: str, path: Path):
 
 def check_out(function: str, out, shapes: list) -> list:
     """The caller's out= as a list of arrays, one per output, each exactly a
-    C-contiguous writeable float64 ndarray of its shape; else a ValueError."""
+    C-contiguous writeable float64 ndarray of its shape.
+
+    Raises:
+        ValueError: out is not such an array (or tuple of them, one per output).
+    """
     arrays = [out] if len(shapes) == 1 else out
     if len(shapes) > 1 and (not isinstance(out, tuple) or len(out) != len(shapes)):
         raise ValueError(f"{function}(): out must be a tuple of {len(shapes)} arrays, one per output")
@@ -621,18 +1144,26 @@ def check_out(function: str, out, shapes: list) -> list:
 class _CtypesFunction:
     """One generated function over ctypes: validates, allocates (or writes into
     out=), calls single or batched (the SIMD kernel on `threads` threads;
-    ctypes releases the GIL)."""
+    ctypes releases the GIL); its compiled code is built and bound at the first
+    call that needs it (`_Units`)."""
 
-    def __init__(self, lib: ctypes.CDLL, model: str, sig: Signature) -> None:
-        self.sig = sig
+    def __init__(self, model: str, sig: Signature, units: _Units) -> None:
+        self.sig, self._units = sig, units
         nargs = len(sig.inputs) + len(sig.outputs)
-        self._one = getattr(lib, f"{model}_{sig.name}")
-        self._one.argtypes, self._one.restype = [ctypes.c_void_p] * nargs, None
-        self._many = getattr(lib, f"{model}_{sig.name}_simd")
-        self._many.argtypes, self._many.restype = [ctypes.c_int, ctypes.c_int] + [ctypes.c_void_p] * nargs, ctypes.c_int
+        self._one_type = ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * nargs)
+        self._many_type = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int, *[ctypes.c_void_p] * nargs)
+        self._one = self._many = None
         self.__name__ = sig.name
         self.__doc__ = f"{sig.line()[len('function: ') :]}; batched over leading axes"
         self._lead_max = contract.MAXDIMS - max(len(shape) for _, shape in sig.outputs)
+
+    def _bind(self, kind: str):
+        address = self._units(self.sig.name, kind)
+        if kind == "simd":
+            self._many = self._many_type(address)
+            return self._many
+        self._one = self._one_type(address)
+        return self._one
 
     def __call__(self, *args, out=None, threads=None, **kwargs):
         arrays, lead = contract.arguments(self.sig.name, self.sig.inputs, args, kwargs, self._lead_max)
@@ -647,23 +1178,48 @@ class _CtypesFunction:
             count = int(np.prod(lead))
             if count > 2**31 - 1:
                 raise ValueError(f"{self.sig.name}(): {count} states, at most {2**31 - 1} per call")
-            self._many(count, min(int(threads), 256), *pointers)
+            if count:
+                (self._many or self._bind("simd"))(count, min(int(threads), 256), *pointers)
         else:
-            self._one(*pointers)
+            (self._one or self._bind("scalar"))(*pointers)
         return outs[0] if len(outs) == 1 else tuple(outs)
-
-
-def _ctypes_functions(model: str, sigs: list[Signature], lib_path: Path) -> dict:
-    lib = ctypes.CDLL(str(lib_path))
-    return {s.name: _CtypesFunction(lib, model, s) for s in sigs}
 
 
 @dataclass(frozen=True)
 class CLibrary:
-    """A compiled model: its signatures, the library file and the callables."""
+    """A bound model: its signatures, the binding's library (the extension; the folder
+    of the function's libraries for ctypes), the callables and the binding's kind."""
 
     model: str
     signatures: list
     path: Path
     functions: dict
     binding: str
+    units: _Units | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    def build(self, functions: list[str] | None = None, batch: bool = True) -> None:
+        """Compile ahead, in parallel, the scalar code of `functions` (default: all) and
+        with `batch` their SIMD kernels, so that no later call waits for a compiler.
+
+        Raises:
+            KeyError: a name that is not one of the model's functions.
+            RuntimeError: a function does not compile (the message names it).
+        """
+        names = [s.name for s in self.signatures] if functions is None else list(functions)
+        for name in names:
+            if name not in self.functions:
+                raise KeyError(f"{self.model} has no function {name!r}")
+        self.units.prepare([(f, k) for f in names for k in (("scalar", "simd") if batch else ("scalar",))])
+
+    def library(self, function: str, kind: str = "scalar") -> Path:
+        """The shared library of `function`'s scalar code (`<model>_<f>` and
+        `<model>_<f>_batch`) or, kind="simd", of its SIMD kernel, built if need be.
+
+        Raises:
+            KeyError: not one of the model's functions, or kind not "scalar" or "simd".
+            RuntimeError: it does not compile (the message names it).
+        """
+        if function not in self.functions or kind not in KINDS:
+            raise KeyError(f"{self.model} has no function {function!r} of kind {kind!r}")
+        self.units.prepare([(function, kind)])
+        return self.units.unit(function, kind).path
