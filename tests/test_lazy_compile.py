@@ -80,6 +80,18 @@ def test_a_large_function_s_parts_travel_with_its_scalar_code(monkeypatch):
     assert "model-fingerprint" not in units["M", "scalar"]  # provenance is not the code: units are shared
 
 
+def test_a_file_not_laid_out_as_symdyn_writes_it_is_one_library_for_every_function(twolink, tmp_path):
+    c_path, h_path = twolink
+    c_path.write_text(c_path.read_text() + "\nstatic double helper(double x) { return x; }\n")
+    units = clib.function_units("twolink", c_path.read_text(), h_path.read_text(), ["tau", "M"])
+    assert len(set(units.values())) == 1
+    lib = load_library(c_path, h_path)
+    (q, qd, qdd), tau = cases("twolink")["tau"]
+    assert_close(lib.functions["tau"](q, qd, qdd), tau, "tau batched")
+    assert lib.functions["M"](np.zeros(2))[1, 1] == 0.25
+    assert [p.name.split(".")[:2] for p in (tmp_path / "cache" / "c" / "units").glob("*.so")] == [["twolink", "whole"]]
+
+
 _CALL_ALL = """
 import sys
 import numpy as np

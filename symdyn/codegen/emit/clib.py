@@ -744,17 +744,10 @@ def _library(path: Path, flags: tuple, files: dict, includes: list[str]) -> Path
     rather than raise, so a missing or different hash means rebuild.  Processes
     that want the same library (test workers, a cluster's workers on one
     machine) build it once: the others wait on a lock file beside it."""
-
-    def intact() -> bool:
-        try:
-            return _recorded(path).read_text() == _sha256(path)
-        except OSError:
-            return False
-
-    if intact():
+    if _intact(path):
         return path
     with build_lock(path):
-        return path if intact() else _build(flags, files, includes, path)
+        return path if _intact(path) else _build(flags, files, includes, path)
 
 
 # --------------------------------------------------------------------------- one unit per function
@@ -1022,13 +1015,12 @@ class _Units:
             if (function, kind) not in self.texts:
                 raise KeyError(f"{self.model} has no function {function!r} (kind {kind!r})")
             text = self.texts[function, kind]
-            if kind == "simd" and text == self.texts[function, "scalar"]:  # the whole file: one library
-                self._units[function, kind] = dataclasses.replace(self.unit(function, "scalar"), kind=kind)
-                return self._units[function, kind]
-            flags = _unit_flags(self.flags, text, kind)
-            scalar = self.unit(function, "scalar").path.name if kind == "simd" else ""
+            whole = len(set(self.texts.values())) == 1  # the whole file: one library for all
+            flags = self.flags if whole else _unit_flags(self.flags, text, kind)
+            scalar = self.unit(function, "scalar").path.name if kind == "simd" and not whole else ""
             key = _digest(text, os.environ.get("CC", "cc"), " ".join(flags), self.host, scalar)[:20]
-            path = self.folder() / f"{self.model}_{function}.{kind}.{key}.so"
+            name = f"{self.model}.whole" if whole else f"{self.model}_{function}.{kind}"
+            path = self.folder() / f"{name}.{key}.so"
             self._units[function, kind] = _Unit(self.model, function, kind, text, flags, path)
         return self._units[function, kind]
 
