@@ -161,7 +161,12 @@ def test_generating_and_compiling_into_the_cache_report_progress(tmp_path, monke
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)
     robot = random_arm(4242, ArmOptions(n_min=2, n_max=2, symbolic=0))
-    codegen.load(robot, "c")
+    codegen.load(robot, "numpy")
+    assert f"symdyn: generating the numpy code of {robot.name}: done in" in capsys.readouterr().err
+    f = codegen.load(robot, "c")  # each function generated and compiled when first called
+    assert "generating" not in capsys.readouterr().err  # (the binding itself may compile, once per Python)
+    f.tau(np.zeros(2), np.zeros(2), np.zeros(2))
     err = capsys.readouterr().err
-    assert f"symdyn: generating the c code of {robot.name}: done in" in err, err
-    assert f"symdyn: loading {robot.name}'s C code (compiled once into the cache): done in" in err, err
+    assert f"symdyn: generating {robot.name}'s tau: done in" in err, err
+    assert f"symdyn: compiling {robot.name}'s tau (scalar code): done in" in err, err
+    assert "fdyn" not in err

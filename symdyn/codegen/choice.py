@@ -11,11 +11,12 @@ from __future__ import annotations
 from typing import Sequence
 
 from ..derivation.dynamics import Dynamics
+from ..model import Robot
 from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
 
-__all__ = ["programs", "Programs"]
+__all__ = ["programs", "Programs", "derivations"]
 
 
 def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
@@ -36,6 +37,21 @@ def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
         candidate = (program.op_count()["total"], k, specs[k], program)
         best = candidate if best is None else min(best, candidate, key=lambda c: c[:2])
     return best[2], best[3]
+
+
+def derivations(robot: Robot) -> tuple[list, list[str]]:
+    """(derivations, their labels) that code generation chooses from: Newton–Euler on the
+    regrouped base parameters when the robot is numeric, and Lagrange where its expanded form
+    may be leaner (up to six joints)."""
+    from ..derivation.entry import EXPANDED_MAX_JOINTS, derive
+
+    regroup = not robot.is_symbolic
+    dyns = [derive(robot, "newton-euler", regroup=regroup)]
+    origins = ["newton-euler, base parameters" if regroup else "newton-euler"]
+    if robot.n <= EXPANDED_MAX_JOINTS:  # Lagrange's expanded M can be the leanest; named, it never is
+        dyns.append(derive(robot, "lagrange"))
+        origins.append("lagrange")
+    return dyns, origins
 
 
 class Programs:

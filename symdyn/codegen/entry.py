@@ -81,19 +81,12 @@ def files(name: str, target: str) -> tuple[str, ...]:
 
 
 def bundle(robot: Robot) -> Bundle:
-    """Derive `robot` (Newton–Euler on the regrouped base parameters when the
-    robot is numeric, and Lagrange where its expanded form may be leaner) and
-    build every function's program, each from the derivation with fewer operations."""
-    from ..derivation.entry import EXPANDED_MAX_JOINTS, derive
+    """Derive `robot` (`derivations`) and build every function's program, each from the
+    derivation with fewer operations."""
     from ..derivation.regressor import regressor
-    from .choice import programs
+    from .choice import derivations, programs
 
-    regroup = not robot.is_symbolic
-    dyns = [derive(robot, "newton-euler", regroup=regroup)]
-    origins = ["newton-euler, base parameters" if regroup else "newton-euler"]
-    if robot.n <= EXPANDED_MAX_JOINTS:  # Lagrange's expanded M can be the leanest; named, it never is
-        dyns.append(derive(robot, "lagrange"))
-        origins.append("lagrange")
+    dyns, origins = derivations(robot)
     try:
         progs = programs(dyns, regressor(robot), origins)
     except ValueError as exc:
@@ -355,7 +348,9 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
     if target == "c":
         from .emit.clib import CompileOptions, load_library
 
-        with progress.reported(f"symdyn: loading {name}'s C code (compiled once into the cache)"):
+        with progress.reported(
+            f"symdyn: loading {name}'s C code (each function compiled into the cache when first called)"
+        ):
             lib = load_library(paths[0], paths[1], options or CompileOptions())
         return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
     from .emit.casadi import deserialize
@@ -442,6 +437,12 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
         if _stale(shipped, found, robot, name) is None:
             return _load_folder(shipped, name, target, robot, options, jit)
     folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
+    if target == "c" and not robot.is_symbolic and not (name in SHIPPED and not in_checkout()):
+        from . import lazy
+        from .emit.clib import CompileOptions
+
+        lib = lazy.load(robot, name, writable(folder), options or CompileOptions())
+        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
     if not _intact(folder, name, target):
         with build_lock(folder):  # processes that want the same code (a cluster's workers) write it once
             if not _intact(folder, name, target):

@@ -28,7 +28,7 @@ import sympy as sp
 from ...derivation.program import Program, lower
 from . import Bundle, Infix, header_lines, seal
 
-__all__ = ["c_source", "h_source", "Signature", "read_signatures"]
+__all__ = ["c_source", "h_source", "function_file", "prototypes", "Signature", "read_signatures", "signature"]
 
 #: The SIMD kernels' spelling: sin/cos/sign without branches, so that a loop over lanes vectorizes.
 VECTOR_ALGEBRA = Infix(
@@ -533,15 +533,32 @@ def function_source(model: str, p: Program) -> str:
     return parts + f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop + "\n" + simd_source(model, p)
 
 
+def _preamble(model: str, split: bool) -> list[str]:
+    """What every C file of a model starts with after its comment: includes, the helpers."""
+    parts = ["#include <math.h>", f'#include "{model}.h"\n', _HELPERS + _SIMD_HELPERS]
+    return parts + ([_NOINLINE] if split else [])
+
+
 def c_source(bundle: Bundle) -> str:
     """The whole .c file of one model."""
-    parts = [
-        _comment(header_lines(bundle, "c")),
-        "#include <math.h>",
-        f'#include "{bundle.name}.h"\n',
-        _HELPERS + _SIMD_HELPERS,
-    ]
-    if any(len(p.assignments) > SPLIT_ABOVE for p in bundle.programs):
-        parts.append(_NOINLINE)
+    parts = [_comment(header_lines(bundle, "c"))]
+    parts += _preamble(bundle.name, any(len(p.assignments) > SPLIT_ABOVE for p in bundle.programs))
     parts += [function_source(bundle.name, p) for p in bundle.programs]
     return seal("\n".join(parts))
+
+
+def function_file(model: str, p: Program, comment: list[str]) -> str:
+    """One function's C as a file of its own, sealed: `comment`, the preamble and the
+    function (the lazy C target keeps one per function; `clib.function_units` makes its
+    translation units from it as from a whole file)."""
+    parts = [_comment(comment), *_preamble(model, len(p.assignments) > SPLIT_ABOVE), function_source(model, p)]
+    return seal("\n".join(parts))
+
+
+def prototypes(model: str, sigs: list[Signature]) -> str:
+    """The prototypes of the functions `sigs` (single, batched, SIMD), as a header lists them."""
+    lines = []
+    for sig in sigs:
+        single, batch = _prototypes(model, sig)
+        lines += [f"{single};", f"{batch};", f"{_simd_prototype(model, sig)};"]
+    return "\n".join(lines) + "\n"

@@ -47,6 +47,7 @@ import sys
 import sysconfig
 import tempfile
 import threading
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -58,7 +59,7 @@ from .. import contract
 from . import write_atomic
 from .c import Signature, read_signatures
 
-__all__ = ["CompileOptions", "CLibrary", "load_library", "compiler", "function_units"]
+__all__ = ["CompileOptions", "CLibrary", "load_library", "load_units", "compiler", "function_units"]
 
 #: -march=native: the library is built for this machine (the cache key includes the host name).
 DEFAULT_FLAGS = ("-O3", "-march=native", "-fPIC", "-shared", "-pthread", "-fopenmp-simd", "-DSYMDYN_OPENMP_SIMD")
@@ -994,8 +995,8 @@ class _Units:
     scalar fallback is bound to the scalar unit's function when it is loaded (both are
     compiled at once when neither is built)."""
 
-    def __init__(self, model: str, units: dict[tuple[str, str], str], flags: tuple) -> None:
-        self.model, self.texts, self.flags = model, units, tuple(flags)
+    def __init__(self, model: str, units: Mapping[tuple[str, str], str], flags: tuple, whole: bool = False) -> None:
+        self.model, self.texts, self.flags, self.whole = model, units, tuple(flags), whole
         self.host = platform.node() if "-march=native" in self.flags else ""
         self.lock = threading.RLock()  # one thread builds; the others wait, then find it loaded
         self.loaded: dict[tuple[str, str], tuple[ctypes.CDLL, int]] = {}
@@ -1015,7 +1016,7 @@ class _Units:
             if (function, kind) not in self.texts:
                 raise KeyError(f"{self.model} has no function {function!r} (kind {kind!r})")
             text = self.texts[function, kind]
-            whole = len(set(self.texts.values())) == 1  # the whole file: one library for all
+            whole = self.whole  # the whole file: one library for all
             flags = self.flags if whole else _unit_flags(self.flags, text, kind)
             scalar = self.unit(function, "scalar").path.name if kind == "simd" and not whole else ""
             key = _digest(text, os.environ.get("CC", "cc"), " ".join(flags), self.host, scalar)[:20]
@@ -1038,7 +1039,7 @@ class _Units:
         dll = ctypes.CDLL(str(u.path))
         symbol = f"{self.model}_{u.function}" + ("_simd" if u.kind == "simd" else "")
         address = ctypes.cast(getattr(dll, symbol), ctypes.c_void_p).value
-        if u.kind == "simd" and u.text != self.texts[u.function, "scalar"]:
+        if u.kind == "simd" and not self.whole:
             fallback = ctypes.c_void_p.in_dll(dll, f"{self.model}_{u.function}_scalar_")
             fallback.value = self.loaded[u.function, "scalar"][1]
         self.loaded[u.function, u.kind] = (dll, address)
@@ -1069,6 +1070,27 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
     sigs = read_signatures(h_text)
     if not sigs:
         raise ValueError(f"{h_path} lists no 'function:' signatures: not a symdyn header")
+    texts = function_units(model, c_text, h_text, [s.name for s in sigs])
+    return load_units(model, sigs, texts, options, whole=len(set(texts.values())) == 1)
+
+
+def load_units(
+    model: str,
+    sigs: list[Signature],
+    texts: Mapping[tuple[str, str], str],
+    options: CompileOptions = CompileOptions(),
+    whole: bool = False,
+) -> "CLibrary":
+    """Bind the functions `sigs` of `model` whose translation units are `texts`
+    ({(function, "scalar" or "simd"): C text}, as `function_units` makes them; a mapping
+    may make each text only when it is first read: nothing is read before a call needs
+    it, beyond checking, for a plain dict, whether a missing compiler matters).  `whole`:
+    every text is the same whole file, one library for all.
+
+    Raises:
+        RuntimeError: binding="extension" without Python.h; no C compiler (for a plain dict:
+            unless every unit is built), or the binding does not compile.
+    """
     headers = _python_headers() if options.binding != "ctypes" else None
     if options.binding == "extension" and headers is None:
         raise RuntimeError(
@@ -1076,11 +1098,11 @@ def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOp
             "Python development headers (Debian/Ubuntu: apt install python3-dev) "
             "or use binding='ctypes'"
         )
-    units = _Units(model, function_units(model, c_text, h_text, [s.name for s in sigs]), options.flags)
+    units = _Units(model, texts, options.flags, whole)
     try:
         compiler()
     except RuntimeError:  # say so now, not at the first call, unless every unit is built
-        if not all(_intact(units.unit(*u).path) for u in units.texts):
+        if not isinstance(texts, dict) or not all(_intact(units.unit(*u).path) for u in texts):
             raise
     if headers is None:
         functions = {s.name: _CtypesFunction(model, s, units) for s in sigs}
