@@ -11,7 +11,7 @@ import shlex
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..urdf.record import friction_lines, snap_lines, without_friction
+from ..urdf.record import friction_lines, lock_lines, snap_lines, without_friction
 
 __all__ = ["MjcfRecord"]
 
@@ -105,20 +105,7 @@ class MjcfRecord:
         if self.read:
             out.append("read from the file's joints and actuators:")
             out += [f"  {line}" for line in self.read]
-        moving = [lock for lock in self.locked if lock.moves]
-        resting = [lock for lock in self.locked if not lock.moves]
-        if moving:
-            out.append(f"locked ({len(moving)}), merged into the moving body named:")
-            out += [
-                f"  {lock.joint} = {lock.value!r} -> {lock.into} ({lock.why}"
-                f"{', a chain joint' if lock.on_chain else ''})"
-                for lock in moving
-            ]
-        if resting:
-            out.append(
-                f"locked on the fixed base, no effect on the dynamics ({len(resting)}): "
-                + ", ".join(f"{lock.joint} = {lock.value!r}" for lock in resting)
-            )
+        out += lock_lines(self.locked, "body")
         if self.left_out:
             out.append(f"left out, no effect on the dynamics: {', '.join(self.left_out)}")
         if self.excluded:

@@ -167,20 +167,7 @@ class UrdfRecord:
                 f"expanded by xacro with arguments {args}; packages {', '.join(self.packages) or 'none'}; "
                 f"the URDF it expanded to has sha256 {self.expanded_sha256}"
             )
-        moving = [lock for lock in self.locked if lock.moves]
-        resting = [lock for lock in self.locked if not lock.moves]
-        if moving:
-            out.append(f"locked ({len(moving)}), merged into the moving link named:")
-            out += [
-                f"  {lock.joint} = {lock.value!r} -> {lock.into} ({lock.why}"
-                f"{', a chain joint' if lock.on_chain else ''})"
-                for lock in moving
-            ]
-        if resting:
-            out.append(
-                f"locked on the fixed base, no effect on the dynamics ({len(resting)}): "
-                + ", ".join(f"{lock.joint} = {lock.value!r}" for lock in resting)
-            )
+        out += lock_lines(self.locked, "link")
         if self.excluded:
             out.append(f"excluded with their subtrees: {', '.join(self.excluded)}")
         out += snap_lines(self, "numbers as written (snap=False)")
@@ -193,6 +180,26 @@ class UrdfRecord:
             out += [f"  {r.line()}" for r in self.repairs]
         out += [f"warning: {w}" for w in self.warnings]
         return out
+
+
+def lock_lines(locked: tuple, part: str) -> list[str]:
+    """The summary lines of the locked joints: those merged into a moving `part` (link, body)
+    one a line, those resting on the fixed base on one."""
+    moving = [lock for lock in locked if lock.moves]
+    resting = [lock for lock in locked if not lock.moves]
+    out = []
+    if moving:
+        out.append(f"locked ({len(moving)}), merged into the moving {part} named:")
+        out += [
+            f"  {lock.joint} = {lock.value!r} -> {lock.into} ({lock.why}{', a chain joint' if lock.on_chain else ''})"
+            for lock in moving
+        ]
+    if resting:
+        out.append(
+            f"locked on the fixed base, no effect on the dynamics ({len(resting)}): "
+            + ", ".join(f"{lock.joint} = {lock.value!r}" for lock in resting)
+        )
+    return out
 
 
 def snap_lines(record, as_written: str) -> list[str]:
