@@ -152,8 +152,7 @@ def _table(rows: list) -> str:
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for label, row in rows:
         cells = [f"{row['phases'][p]:.2f}" if p in row["phases"] else "" for p in PHASES]
-        total = sum(v for k, v in row["phases"].items() if k != "read")
-        first = sum(v for k, v in row["phases"].items() if k != "read" and not k.startswith("others"))
+        total, first = _total(row, False), _total(row, True)
         if row["stopped"]:
             cells[PHASES.index(row["stopped"])] = "**stopped**"
         ops = row.get("ops", {})
@@ -166,13 +165,14 @@ def _table(rows: list) -> str:
     return "\n".join(lines)
 
 
-def _slope(rows: list, phase: str) -> float | None:
-    """Least-squares slope of log(seconds) against log(n), over the arms with n ≥ 6."""
-    pts = [
-        (math.log(r["n"]), math.log(r["phases"][phase]))
-        for _, r in rows
-        if r.get("n", 0) >= 6 and r["phases"].get(phase, 0) > 0
-    ]
+def _total(row: dict, first: bool) -> float:
+    """Seconds from a Robot in hand to the first τ (`first`) or to every function called once."""
+    return sum(v for k, v in row["phases"].items() if k != "read" and (not first or not k.startswith("others")))
+
+
+def _slope(rows: list, value) -> float | None:
+    """Least-squares slope of log(seconds) against log(n), over the finished arms with n ≥ 6."""
+    pts = [(math.log(r["n"]), math.log(value(r))) for _, r in rows if r.get("n", 0) >= 6 and value(r) > 0]
     if len(pts) < 2:
         return None
     mx, my = sum(x for x, _ in pts) / len(pts), sum(y for _, y in pts) / len(pts)
@@ -188,17 +188,21 @@ def main() -> int:
     p.add_argument("--markdown", help="write the table (and slopes) here")
     p.add_argument("--plot", help="write the log-log curve here (matplotlib)")
     p.add_argument("--json", help="write the raw rows here")
+    p.add_argument("--render", nargs="+", metavar="JSON", help="measure nothing: the table and plot of saved rows")
     args = p.parse_args()
     specs = [("real", name) for name in REAL] if args.real else []
     specs += [(kind, int(n)) for kind in args.kinds.split(",") if kind for n in args.n.split(",") if n]
-    rows = []
-    for spec in specs:
+    rows = [tuple(row) for path in args.render for row in json.loads(Path(path).read_text())] if args.render else []
+    for spec in specs if not args.render else ():
         label = spec[1] if spec[0] == "real" else f"random {spec[0]} {spec[1]}"
         row = measure(spec, args.timeout)
         rows.append((label, row))
         print(_table(rows[-1:]).splitlines()[-1], flush=True)
     text = _table(rows)
-    slopes = {ph: _slope([r for r in rows if r[0].startswith("random")], ph) for ph in PHASES[1:]}
+    done = [r for r in rows if r[0].startswith("random") and not r[1]["stopped"]]
+    slopes = {ph: _slope(done, lambda r, ph=ph: r["phases"].get(ph, 0)) for ph in PHASES[1:]}
+    slopes["first τ"] = _slope(done, lambda r: _total(r, True))
+    slopes["every function"] = _slope(done, lambda r: _total(r, False))
     text += "\n\nslope of log(seconds) against log(n), random arms with n ≥ 6: " + ", ".join(
         f"{ph} {s:.2f}" for ph, s in slopes.items() if s is not None
     )
@@ -215,12 +219,17 @@ def main() -> int:
 
         fig, ax = plt.subplots(figsize=(7, 4.5))
         for kind in args.kinds.split(","):
-            pts = [r for label, r in rows if label.startswith(f"random {kind}")]
+            pts = sorted((r for label, r in rows if label.startswith(f"random {kind}")), key=lambda r: r["n"])
             for ph in PHASES[1:]:
                 xs = [r["n"] for r in pts if ph in r["phases"]]
                 ys = [r["phases"][ph] for r in pts if ph in r["phases"]]
                 if xs:
                     ax.loglog(xs, ys, "o-", label=f"{ph} ({kind})", ms=3)
+            for what, first in (("first τ", True), ("every function", False)):
+                xs = [r["n"] for r in pts if not r["stopped"]]
+                ys = [_total(r, first) for r in pts if not r["stopped"]]
+                if xs:
+                    ax.loglog(xs, ys, "s-" if first else "D-", lw=2, label=f"{what} ({kind})", ms=4)
         ns = sorted({r["n"] for _, r in rows if "n" in r})
         if ns:
             ax.loglog(ns, [0.01 * (n / ns[0]) ** 3 for n in ns], "k:", label="n³ (slope 3)")
