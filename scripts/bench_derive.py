@@ -38,8 +38,8 @@ def main() -> int:
     timed("Newton–Euler: tau, M, C, G derived + tau CSE'd", ne_and_cse)
     timed("Lagrange: M, all Christoffel symbols, G (trig polynomials)", lambda: trig_dynamics(robot))
     timed("Lagrange: the same as sympy matrices (derive)", lambda: derive(robot, "lagrange", cache=False))
-    reg = timed("regressor Y (symbolic inertial parameters)", lambda: regressor(robot))
-    timed("base parameters (exact rank analysis)", lambda: base_parameters(robot, reg))
+    timed("regressor Y (symbolic inertial parameters, named columns)", lambda: regressor(robot))
+    timed("base parameters (Khalil's rules, rank in doubles, exact checks mod p)", lambda: base_parameters(robot))
     dyn = timed(
         "Newton–Euler on regrouped base parameters (first run, fills cache)",
         lambda: derive(robot, "newton-euler", regroup=True),
