@@ -14,6 +14,7 @@ import signal
 import sys
 import tempfile
 import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -328,10 +329,24 @@ def _interrupted(signum, frame) -> None:
     os._exit(130)
 
 
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """A warning about a robot file (URDFWarning, MJCFWarning) printed as the errors are, without
+    the Python file and source line that `warnings` adds (`command_line.py:298: … return …`)."""
+    from .model import MJCFWarning, URDFWarning
+
+    if issubclass(category, (URDFWarning, MJCFWarning)):
+        return f"symdyn: warning: {message}\n"
+    return _python_format_warning(message, category, filename, lineno, line)
+
+
+_python_format_warning = warnings.formatwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _interrupted) if main_thread else None
+    formatting, warnings.formatwarning = warnings.formatwarning, _format_warning
     try:
         if getattr(args, "out", None):
             writable_folder(Path(args.out))
@@ -341,6 +356,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"symdyn: error: {msg}", file=sys.stderr)
         return 2
     finally:
+        warnings.formatwarning = formatting
         if main_thread:
             signal.signal(signal.SIGINT, previous)
 
