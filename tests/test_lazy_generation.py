@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 import symdyn
 from symdyn.codegen.lazy import FUNCTIONS, signatures
@@ -64,3 +65,20 @@ def test_a_second_process_derives_nothing_and_an_edited_file_is_rebuilt(tmp_path
     assert run.returncode != 0 and "derived" in run.stdout + run.stderr  # it wanted to generate tau again
     assert np.array_equal(symdyn.load(robot, "c").tau(z, z, z), expected)
     assert "const  double" not in path.read_text()
+
+
+def test_build_generates_and_compiles_every_function_ahead(tmp_path, monkeypatch):
+    """`build()` makes every function's C file and compiles it (the next one generated while the
+    last compiles), so that no later call generates or compiles anything."""
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
+    robot = _arm()
+    model = symdyn.load(robot, "c")
+    model.build(batch=False)
+    assert sorted(p.name for p in model.folder.glob("*.c")) == sorted(f"{model.name}.{f}.c" for f in FUNCTIONS)
+    built = set((tmp_path / "c" / "units").glob(f"{model.name}_*.scalar.*.so"))
+    assert sorted(p.name.split(".")[0] for p in built) == sorted(f"{model.name}_{f}" for f in FUNCTIONS)
+    run = _second_process(tmp_path, "model.fdyn_derivatives(z, z, z); model.Y(z, z, z)")  # derives nothing
+    assert run.returncode == 0, run.stderr
+    assert set((tmp_path / "c" / "units").glob(f"{model.name}_*.scalar.*.so")) == built  # compiles nothing
+    with pytest.raises(ValueError, match="build\\(\\) compiles the C target"):
+        symdyn.load(robot, "numpy").build()

@@ -247,10 +247,27 @@ class GeneratedModel:
     fdyn, Y, tau_derivatives, fdyn_derivatives, Minv), with `name`, `n`, `target`, `fingerprint`, `folder` and
     `functions` (name → callable)."""
 
-    def __init__(self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict):
+    def __init__(
+        self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict, library=None
+    ) -> None:
         self.name, self.n, self.target, self.fingerprint, self.folder = name, n, target, fingerprint, folder
         self.functions = dict(functions)
+        self._library = library  # the C target's `clib.CLibrary`
         self.__dict__.update(self.functions)  # plain attributes, and no __getattr__: it slows every call ~0.1 µs
+
+    def build(self, functions: list[str] | None = None, batch: bool = True) -> None:
+        """C target: compile ahead, on every core, what the first calls would (each function's
+        code, and with `batch` its SIMD kernel), so that no later call waits; a function not
+        yet generated is generated first, the next one while the last compiles.
+
+        Raises:
+            ValueError: not the C target.
+            KeyError: a name that is not one of the model's functions.
+            RuntimeError: a function does not compile (the message names it).
+        """
+        if self._library is None:
+            raise ValueError(f"build() compiles the C target; this is the {self.target} target of {self.name}")
+        self._library.build(functions, batch)
 
     def __repr__(self) -> str:
         return f"<{self.name} model code ({self.target}): {', '.join(self.functions)}>"
@@ -352,7 +369,7 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
             f"symdyn: loading {name}'s C code (each function compiled into the cache when first called)"
         ):
             lib = load_library(paths[0], paths[1], options or CompileOptions())
-        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
+        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib)
     from .emit.casadi import deserialize
 
     funcs = {f.name(): f for f in deserialize(paths[0])[1]}
@@ -442,7 +459,7 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
         from .emit.clib import CompileOptions
 
         lib = lazy.load(robot, name, writable(folder), options or CompileOptions())
-        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions)
+        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib)
     if not _intact(folder, name, target):
         with build_lock(folder):  # processes that want the same code (a cluster's workers) write it once
             if not _intact(folder, name, target):

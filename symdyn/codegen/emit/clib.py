@@ -32,6 +32,7 @@ keyword arguments, bad input) and return new arrays.
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import ctypes
 import dataclasses
@@ -1030,8 +1031,17 @@ class _Units:
         with self.lock:
             need = {(f, k) for f, k in wanted} | {(f, "scalar") for f, k in wanted if k == "simd"}
             need = sorted((u for u in need if u not in self.loaded), key=lambda u: u[1] != "scalar")
-            units = [self.unit(*u) for u in need]
-            _build_units(units)
+            if isinstance(self.texts, dict) or len(need) < 2:
+                units = [self.unit(*u) for u in need]
+                _build_units(units)
+            else:  # texts made when first read (a program each): make the next while the last compiles
+                units, builds = [], []
+                with concurrent.futures.ThreadPoolExecutor(max_workers=_jobs()) as pool:
+                    for u in need:
+                        units.append(self.unit(*u))
+                        builds.append(pool.submit(_build_units, [units[-1]]))
+                    for b in builds:
+                        b.result()
             for u in units:  # scalar ones first
                 self._load(u)
 
