@@ -162,7 +162,10 @@ def test_generating_and_compiling_into_the_cache_report_progress(tmp_path, monke
     monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)
     robot = random_arm(4242, ArmOptions(n_min=2, n_max=2, symbolic=0))
     codegen.load(robot, "numpy")
-    assert f"symdyn: generating the numpy code of {robot.name}: done in" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"symdyn: generating the numpy code of {robot.name}: done in" in err
+    # which program it is at, and about how long is left (the quarters of the job, off a terminal)
+    assert re.search(rf"symdyn: programs of {robot.name}: \d+/11 \w+ \(~\d+ s left\)", err), err
     f = codegen.load(robot, "c")  # each function generated and compiled when first called
     assert "generating" not in capsys.readouterr().err  # (the binding itself may compile, once per Python)
     f.tau(np.zeros(2), np.zeros(2), np.zeros(2))

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
+from ..derivation import progress
 from ..derivation.dynamics import Dynamics
 from ..model import Robot
 from ..derivation.program import Program, dag_size
@@ -104,12 +105,21 @@ class Programs:
             return minv_spec(self.chosen("M")[0]).program()
         return fdyn_derivatives_program(self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"))
 
-    def all(self) -> list[Program]:
-        """Every function's program, in the order of `names`."""
-        return [self.program(name) for name in self.names]
+    def all(self, label: str = "") -> list[Program]:
+        """Every function's program, in the order of `names`; a job over REPORT_AFTER_S says on
+        stderr which function it is at and about how long is left (`label` names it)."""
+        bar = progress.Progress(label or "symdyn: programs", len(self.names), after=progress.REPORT_AFTER_S)
+        out = []
+        for name in self.names:
+            out.append(self.program(name))
+            bar.step(name)
+        bar.done()
+        return out
 
 
-def programs(dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> list[Program]:
+def programs(
+    dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None, label: str = ""
+) -> list[Program]:
     """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is
     given), tau_derivatives, fdyn_derivatives and Minv (`Programs`, all built)."""
-    return Programs(dyns, regressor, origins).all()
+    return Programs(dyns, regressor, origins).all(label)

@@ -88,7 +88,7 @@ def bundle(robot: Robot) -> Bundle:
 
     dyns, origins = derivations(robot)
     try:
-        progs = programs(dyns, regressor(robot), origins)
+        progs = programs(dyns, regressor(robot), origins, f"symdyn: programs of {robot.name}")
     except ValueError as exc:
         raise ValueError(f"cannot generate code for {robot.name!r}: {exc}") from None
     used = sorted({p.origin for p in progs}, key=str)

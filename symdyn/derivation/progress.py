@@ -14,30 +14,38 @@ REPORT_AFTER_S = 2.0
 
 
 class Progress:
-    """Counts steps of a long job and reports them on one stderr line.
+    """Counts steps of a long job and reports them on one stderr line, with an estimate of
+    the time left (the mean step so far times the steps left).
 
-    Silent unless `enabled`; a finished job prints its total time.  On a
-    terminal every step rewrites the line; elsewhere (a log, CI) at most
-    `lines` evenly spread steps are printed (the quarters by default), so a
-    long job leaves a handful of lines.
+    Silent unless `enabled`, and until the job has run `after` seconds (a short job says
+    nothing); a finished job that said something prints its total time.  On a terminal
+    every step rewrites the line; elsewhere (a log, CI) at most `lines` evenly spread steps
+    are printed (the quarters by default), so a long job leaves a handful of lines.
     """
 
-    def __init__(self, label: str, total: int, enabled: bool = True, lines: int = 4) -> None:
-        self.label, self.total, self.enabled, self.lines = label, total, enabled, lines
-        self.count, self.start = 0, time.perf_counter()
+    def __init__(self, label: str, total: int, enabled: bool = True, lines: int = 4, after: float = 0.0) -> None:
+        self.label, self.total, self.enabled, self.lines, self.after = label, total, enabled, lines, after
+        self.count, self.start, self.said = 0, time.perf_counter(), False
 
     def step(self, what: str = "") -> None:
         self.count += 1
-        if not self.enabled:
+        elapsed = time.perf_counter() - self.start
+        if not self.enabled or elapsed < self.after:
             return
+        left = elapsed / self.count * (self.total - self.count)
+        line = f"{self.label}: {self.count}/{self.total} {what}" + (
+            f" (~{left:.0f} s left)" if self.count < self.total else ""
+        )
         if sys.stderr.isatty():
-            print(f"{self.label}: {self.count}/{self.total} {what}".ljust(60), end="\r", file=sys.stderr, flush=True)
+            print(line.ljust(60), end="\r", file=sys.stderr, flush=True)
+            self.said = True
         elif self.lines * self.count // max(self.total, 1) > self.lines * (self.count - 1) // max(self.total, 1):
-            print(f"{self.label}: {self.count}/{self.total} {what}", file=sys.stderr, flush=True)
+            print(line, file=sys.stderr, flush=True)
+            self.said = True
 
     def done(self) -> float:
         elapsed = time.perf_counter() - self.start
-        if self.enabled:
+        if self.enabled and (self.said or elapsed >= self.after):
             print(f"{self.label}: done in {elapsed:.2f} s".ljust(60), file=sys.stderr, flush=True)
         return elapsed
 

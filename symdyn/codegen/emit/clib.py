@@ -1036,12 +1036,15 @@ class _Units:
                 _build_units(units)
             else:  # texts made when first read (a program each): make the next while the last compiles
                 units, builds = [], []
+                bar = progress.Progress(f"symdyn: building {self.model}", len(need), after=progress.REPORT_AFTER_S)
                 with concurrent.futures.ThreadPoolExecutor(max_workers=_jobs()) as pool:
                     for u in need:
                         units.append(self.unit(*u))
                         builds.append(pool.submit(_build_units, [units[-1]]))
-                    for b in builds:
+                    for (f, kind), b in zip(need, builds):
                         b.result()
+                        bar.step(f"{f} ({KINDS[kind]})")
+                bar.done()
             for u in units:  # scalar ones first
                 self._load(u)
 
