@@ -225,15 +225,22 @@ def run(
     budget: float = 0.1,
 ) -> Result:
     """Time every variant of `functions` of the C code of `robot` (`symdyn.load(robot, "c")`: the
-    shipped code of a shipped arm, else generated once into the cache); each time the best of
+    shipped code of a shipped arm, else its whole file generated once into the cache); each time the best of
     `rounds` rounds of calls lasting `budget` seconds."""
     from ..codegen.emit.clib import load_library
-    from ..codegen.entry import load
+    from ..codegen.entry import generate, load
+    from ..derivation.cache import cache_dir, package_fingerprint, writable
 
     threads = threads or len(os.sched_getaffinity(0))
     name = robot.name
     model = load(robot, "c")
     cfile = model.folder / f"{model.name}.c"
+    if not cfile.is_file():  # generated function by function: the whole file, for its costs and batch loops
+        folder = cache_dir() / "bench" / f"{model.name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
+        if not (folder / cfile.name).is_file():
+            generate(robot, "c", writable(folder))
+        model = load(robot, "c", folder=folder)
+        cfile = model.folder / f"{model.name}.c"
     lib = load_library(cfile, model.folder / f"{model.name}.h")
     result = Result(name, robot.n, threads, function_costs(cfile, lib.signatures))
     pool, casadi, bot = _peers(robot, threads, log)
