@@ -37,8 +37,11 @@ __all__ = ["analyse", "Analysis"]
 
 _INERTIAL = 11
 
-#: A column whose part outside the span of the earlier ones is below this fraction of its size is dependent.
-RELATIVE_TOLERANCE = 1e-8
+#: A column whose part outside the span of the earlier ones is below this fraction of its size is taken as
+#: dependent; the exact checks decide, and a refused analysis is redone at the next, tighter tolerance
+#: (nearly parallel axes, off a quarter turn by 4e-6 rad in a real file, leave a rotor column 1e-11 from its
+#: link's ZZ).
+TOLERANCES = (1e-8, 1e-10, 1e-12, 1e-13)
 
 
 class Analysis:
@@ -92,24 +95,37 @@ def analyse(robot: Robot, per: int, seed: int = 1) -> Analysis:
     """Independent inertial slots of `robot` (numeric geometry) and the exact regrouping.
 
     Raises:
-        RuntimeError: the exact checks refuse the numeric analysis (a rank decided
-            wrongly in doubles: an arm so ill-conditioned that 1e-8 cannot tell).
+        RuntimeError: the exact checks refuse the numeric analysis at every tolerance
+            (`TOLERANCES`: a rank no double can decide); the message gives each refusal.
     """
-    n = robot.n
     fs = frames(robot)
     combos, gone = transfer(fs, per)
-    candidates = [k for k in _slots(n, per) if k not in gone]
-    position = {k: s for s, k in enumerate(_slots(n, per))}
-
-    count = max(4, -(-3 * len(candidates) // n))
+    candidates = [k for k in _slots(robot.n, per) if k not in gone]
+    position = {k: s for s, k in enumerate(_slots(robot.n, per))}
+    count = max(4, -(-3 * len(candidates) // robot.n))
     Y = _flat(regressor_columns(robot, Floats(), count, seed))
+    refused = []
+    for tolerance in TOLERANCES:
+        try:
+            independent, beta = _regroup(robot, Y, candidates, combos, position, per, seed, tolerance)
+            _check(robot, independent, beta, per, seed, position)
+        except (RuntimeError, ArithmeticError, ValueError) as exc:  # a rank misjudged in doubles
+            refused.append(f"at {tolerance:g}: {exc}")
+            continue
+        return Analysis(independent, beta)
+    raise RuntimeError("; ".join(refused))
+
+
+def _regroup(robot, Y, candidates, combos, position, per, seed, tolerance) -> tuple[list, dict]:
+    """(independent slots, β of each as a combination of standard slots) from the sampled columns Y,
+    a column taken as dependent when its part outside the earlier ones' span is below `tolerance`."""
     basis, independent, dependent = np.zeros((Y.shape[0], 0)), [], {}
     for k in candidates:
         y = Y[:, position[k]]
         size = np.linalg.norm(y)
         residual = y - basis @ (basis.T @ y) if independent else y
         residual = residual - basis @ (basis.T @ residual) if independent else residual
-        if size > 0 and np.linalg.norm(residual) > RELATIVE_TOLERANCE * size:
+        if size > 0 and np.linalg.norm(residual) > tolerance * size:
             basis = np.column_stack([basis, residual / np.linalg.norm(residual)])
             independent.append(k)
         else:
@@ -123,7 +139,7 @@ def analyse(robot: Robot, per: int, seed: int = 1) -> Analysis:
         A = Y[:, [position[i] for i in earlier]]
         c, *_ = np.linalg.lstsq(A, y, rcond=None)
         scale = np.linalg.norm(A, axis=0)
-        support = [i for i, ci, s in zip(earlier, c, scale) if abs(ci) * s > RELATIVE_TOLERANCE * np.linalg.norm(y)]
+        support = [i for i, ci, s in zip(earlier, c, scale) if abs(ci) * s > tolerance * np.linalg.norm(y)]
         dependent[k] = _exact_coefficients(robot, support, k, per, seed) if support else {}
 
     # regroup: β_i = combo_i + Σ_d c_{i,d}·combo_d
@@ -136,8 +152,7 @@ def analyse(robot: Robot, per: int, seed: int = 1) -> Analysis:
                     beta[i][k] = value
                 else:
                     beta[i].pop(k, None)
-    _check(robot, independent, beta, per, seed, position)
-    return Analysis(independent, beta)
+    return independent, beta
 
 
 def _check(robot: Robot, independent: list, beta: dict, per: int, seed: int, position: dict) -> None:
