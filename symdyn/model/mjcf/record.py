@@ -11,13 +11,13 @@ import shlex
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..urdf.record import friction_lines, lock_lines, snap_lines, without_friction
+from ..urdf.record import FileRecord, friction_lines, lock_lines, snap_lines, without_friction
 
 __all__ = ["MjcfRecord"]
 
 
 @dataclass(frozen=True)
-class MjcfRecord:
+class MjcfRecord(FileRecord):
     """The provenance of a robot read from an MJCF file.
 
     joints: the chain's moving joints, in order (one link each).  locked,
@@ -57,15 +57,6 @@ class MjcfRecord:
     coulomb: tuple = ()
     friction_left_out: str = ""
     coulomb_free: str = ""
-
-    def describes(self, robot) -> bool:
-        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
-        return robot.fingerprint() == self.fingerprint
-
-    @property
-    def max_snap(self) -> float:
-        """The largest change a snap made (0 when none)."""
-        return max((s.change for s in self.snaps), default=0.0)
 
     def command_args(self) -> str:
         """The `symdyn generate`/`print` arguments that read the same robot from the same file."""

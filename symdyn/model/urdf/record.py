@@ -82,8 +82,24 @@ class Bone:
     role: str
 
 
+class FileRecord:
+    """What the records of every file format answer alike (they have `fingerprint` and `snaps`)."""
+
+    fingerprint: str
+    snaps: tuple
+
+    def describes(self, robot) -> bool:
+        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
+        return robot.fingerprint() == self.fingerprint
+
+    @property
+    def max_snap(self) -> float:
+        """The largest change a snap made (0 when none)."""
+        return max((s.change for s in self.snaps), default=0.0)
+
+
 @dataclass(frozen=True)
-class UrdfRecord:
+class UrdfRecord(FileRecord):
     """The provenance of a robot read from a URDF (see the module docstring)."""
 
     file: str
@@ -122,15 +138,6 @@ class UrdfRecord:
     def is_xacro(self) -> bool:
         """Whether the file was xacro, expanded before reading."""
         return bool(self.expanded_sha256)
-
-    def describes(self, robot) -> bool:
-        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
-        return robot.fingerprint() == self.fingerprint
-
-    @property
-    def max_snap(self) -> float:
-        """The largest change a snap made (0 when none)."""
-        return max((s.change for s in self.snaps), default=0.0)
 
     def command_args(self) -> str:
         """The `symdyn generate`/`print` arguments that read the same robot from the same file
