@@ -56,6 +56,7 @@ def derive(
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     if not isinstance(robot, Robot):
         raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
+    robot.require_chain("derive")
     if regroup and (method != "newton-euler" or robot.is_symbolic):
         raise ValueError(
             "regroup=True needs method='newton-euler' and a numeric robot "

@@ -23,6 +23,9 @@ from .placement import axis_rotation, exact, exact_cos_sin, exact_cos_sin_of, ex
 
 CONVENTIONS = ("standard", "modified", "general")
 JOINT_TYPES = ("revolute", "prismatic")
+#: Joints that may carry the whole robot (`Robot(base_joint=…)`): none (a fixed base), a
+#: 6-DOF free base (Pinocchio's free-flyer) or a planar base (x, y, yaw, as a mobile base).
+BASE_JOINTS = (None, "free", "planar")
 
 Number = Any  # int, float or sympy expression
 
@@ -164,6 +167,10 @@ class Link:
     `effort_limit` (N·m or N) and `velocity_limit` (rad/s or m/s), or None.
     `physical=False` waives the triangle inequality of the principal moments
     for published data that violates it (it does not enter the dynamics).
+    Trees: `parent`, the index in `robot.links` of the link this one hangs on
+    (-1: the base; None, the default: the link before it, as in a chain); a
+    parent comes before its children.  `name` names the joint (a file's name;
+    `robot.joint_names`).
 
     Raises:
         ValueError: an unknown joint type; a parameter that is not a finite number
@@ -193,9 +200,15 @@ class Link:
     effort_limit: float | None = field(default=None, compare=False)
     velocity_limit: float | None = field(default=None, compare=False)
     physical: bool = field(default=True, compare=False)
+    parent: int | None = None
+    name: str | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)
+        if self.parent is not None and (isinstance(self.parent, bool) or not isinstance(self.parent, int)):
+            raise ValueError(f"parent must be a link index (int, -1 for the base) or None, got {self.parent!r}")
+        if self.name is not None and not (isinstance(self.name, str) and self.name):
+            raise ValueError(f"name must be a non-empty string or None, got {self.name!r}")
         if self.joint not in JOINT_TYPES:
             raise ValueError(f"unknown joint type {self.joint!r}: expected one of {JOINT_TYPES}")
         for name in ("theta", "d", "a", "alpha", "offset", "m", "Jm", "B", "G"):
@@ -232,7 +245,11 @@ class Link:
     def _params(self) -> tuple:
         """Every parameter that affects the dynamics; a DH link's unused origin
         and axis are left out, so its fingerprint is what it always was."""
-        skip = {"physical", "effort_limit", "velocity_limit"} | (set() if self.is_general else {"origin", "axis"})
+        skip = {"physical", "effort_limit", "velocity_limit", "name"} | (
+            set() if self.is_general else {"origin", "axis"}
+        )
+        if self.parent is None:  # a chain's link: its fingerprint is what it always was
+            skip.add("parent")
         return tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip)
 
 
@@ -327,6 +344,11 @@ class Robot:
     urdf: Any = field(default=None, compare=False, hash=False)
     #: What `from_mjcf` read, locked and snapped (`symdyn.model.mjcf.MjcfRecord`), or None.
     mjcf: Any = field(default=None, compare=False, hash=False)
+    #: None (fixed base), "free" or "planar": the joint that carries the whole robot (`floating`).
+    base_joint: str | None = None
+    #: The body the base joint moves (mass, COM, inertia of a `Link`; its joint fields unused),
+    #: which the links with parent -1 hang on; None: a massless base body.
+    base_body: Link | None = None
     #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: the
     #: arm of a URDF file (`symdyn.model.urdf.from_urdf`, attached by `symdyn.model`, which builds on this module).
     from_urdf: ClassVar[Callable[..., "Robot"]]
@@ -349,13 +371,25 @@ class Robot:
                 raise ValueError(f"links[{i}] of robot {self.name!r} is a {type(link).__name__}, expected Link")
             _check_link_physics(link, i)
             _check_link_convention(link, i, self.convention, self.name)
-        set_("links", links)
+        set_("links", _chain_parents_implicit(links, self.name))
+        if self.base_joint not in BASE_JOINTS:
+            raise ValueError(
+                f"unknown base_joint {self.base_joint!r} of robot {self.name!r}: expected one of {BASE_JOINTS}"
+            )
+        if self.base_body is not None:
+            if self.base_joint is None:
+                raise ValueError(f"robot {self.name!r} has a base_body but no base_joint to move it (fixed base)")
+            if not isinstance(self.base_body, Link):
+                raise ValueError(
+                    f"base_body of robot {self.name!r} must be a Link, got {type(self.base_body).__name__}"
+                )
+            _check_link_physics(self.base_body, -1)
         set_("gravity", _vector(self.gravity, 3, "gravity"))
         set_("base", _transform(self.base, "base"))
         set_("tool", _transform(self.tool, "tool"))
         poses = {}
         for k, v in dict(self.poses).items():
-            poses[k] = _vector(v, len(links), f"pose {k}")
+            poses[k] = _vector(v, self.nq, f"pose {k}")
         set_("poses", poses)
 
     def __str__(self) -> str:
@@ -372,8 +406,89 @@ class Robot:
     # ---- basic facts
     @property
     def n(self) -> int:
-        """Number of joints."""
+        """Number of joints (links), the base joint not counted."""
         return len(self.links)
+
+    @property
+    def parents(self) -> tuple[int, ...]:
+        """Each link's parent: its index in `links`, -1 for the base (a chain: -1, 0, 1, …)."""
+        return tuple(i - 1 if link.parent is None else link.parent for i, link in enumerate(self.links))
+
+    @property
+    def is_chain(self) -> bool:
+        """Every link hangs on the one before it and the base is fixed: what every stage reads."""
+        return self.base_joint is None and all(link.parent is None for link in self.links)
+
+    @property
+    def nq(self) -> int:
+        """Size of q: the base joint's coordinates (7 free, 3 planar), then one per joint."""
+        return self.n + {None: 0, "free": 7, "planar": 3}[self.base_joint]
+
+    @property
+    def nv(self) -> int:
+        """Size of v, v̇ and τ: the base joint's velocities (6 free, 3 planar), then one per joint."""
+        return self.n + {None: 0, "free": 6, "planar": 3}[self.base_joint]
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The joints in the order of their coordinates in q (after the base joint's): the
+        file's names where the robot was read from one (depth-first, as Pinocchio orders
+        them), else q1, q2, …"""
+        return tuple(link.name or f"q{i + 1}" for i, link in enumerate(self.links))
+
+    def require_chain(self, what: str) -> None:
+        """Refuse a tree or a floating base where `what` reads chains only.
+
+        Raises:
+            NotImplementedError: the robot is a tree or has a base joint.
+        """
+        if not self.is_chain:
+            shape = (
+                f"a {self.base_joint} base" if self.base_joint else "a tree (links whose parent is not the link before)"
+            )
+            raise NotImplementedError(
+                f"{what} reads serial chains on a fixed base; robot {self.name!r} has {shape}. "
+                "The numeric reference (symdyn.reference) models trees and floating bases"
+            )
+
+    def integrate(self, q: Any, v: Any, dt: float = 1.0) -> np.ndarray:
+        """q ⊕ v·dt: joints q + v·dt, a free base moved along its body-frame twist (SE(3)
+        exponential, as Pinocchio's `integrate`), a planar one along SE(2)'s.  Batched.
+
+        Raises:
+            ValueError: q or v of the wrong size or not finite; a base quaternion whose norm
+                is not 1 within 1e-6 (`normalize` it first).
+        """
+        from .base_joint import integrate
+
+        return integrate(self, q, v, dt)
+
+    def difference(self, q0: Any, q1: Any) -> np.ndarray:
+        """v with q0 ⊕ v = q1 (Pinocchio's `difference`): the inverse of `integrate` over one unit of time.
+
+        Raises:
+            ValueError: q0 or q1 of the wrong size or not finite, or a quaternion of the wrong norm.
+        """
+        from .base_joint import difference
+
+        return difference(self, q0, q1)
+
+    def normalize(self, q: Any) -> np.ndarray:
+        """q with its base quaternion of unit norm (the only coordinates that must be normalised).
+
+        Raises:
+            ValueError: q of the wrong size, not finite, or with a zero quaternion.
+        """
+        from .base_joint import normalize
+
+        return normalize(self, q)
+
+    def neutral(self) -> np.ndarray:
+        """The zero configuration: joints 0, a free base at the origin with quaternion (0, 0, 0, 1)."""
+        q = np.zeros(self.nq)
+        if self.base_joint == "free":
+            q[6] = 1.0
+        return q
 
     @property
     def is_symbolic(self) -> bool:
@@ -407,7 +522,11 @@ class Robot:
         raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     def _params(self) -> tuple:
-        return (self.convention, self.gravity, self.base, self.tool, tuple(link._params() for link in self.links))
+        links = tuple(link._params() for link in self.links)
+        if self.base_joint is None:  # a fixed base: the fingerprint is what it always was
+            return (self.convention, self.gravity, self.base, self.tool, links)
+        body = self.base_body._params() if self.base_body is not None else None
+        return (self.convention, self.gravity, self.base, self.tool, links, self.base_joint, body)
 
     def fingerprint(self) -> str:
         """SHA-256 of every parameter that affects the dynamics (not name or poses)."""
@@ -506,6 +625,8 @@ class Robot:
         """
         if self.convention == "modified":
             return self
+        if self.convention == "standard":
+            self.require_chain("converting standard DH to modified DH")
         if self.convention == "general":
             return self._axes_along_z()
         links = []
@@ -546,8 +667,9 @@ class Robot:
         and inertia are re-expressed by R_aᵀ, the next origin becomes
         R_aᵀ·origin, and the last R_aᵀ moves into the tool.
         """
-        links, prev = [], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
-        for link in self.links:
+        links, turned, unturned = [], [], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        for link, parent in zip(self.links, self.parents):
+            prev = unturned if parent < 0 else turned[parent]  # the frame this link's origin is given in
             Ra = axis_rotation(link.axis)
             T = link.origin or IDENTITY
             R0 = exact_rotation([row[:3] for row in T[:3]])
@@ -576,9 +698,24 @@ class Robot:
             I = tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3))
             origin = tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
             links.append(dataclasses.replace(link, origin=origin, axis=(0, 0, 1), r=r, I=I))
-            prev = Ra
+            turned.append(Ra)
+        prev = turned[-1]  # the tool hangs on the last link
         back = tuple(tuple(prev[k][i] for k in range(3)) + (0,) for i in range(3)) + ((0, 0, 0, 1),)
         return dataclasses.replace(self, links=tuple(links), tool=_matmul4(back, self.tool))
+
+
+def _chain_parents_implicit(links: tuple, robot: str) -> tuple:
+    """Links with each parent checked (a link before it, or -1) and written None where it is
+    the link before, so that a chain written with explicit parents is the same chain."""
+    out = []
+    for i, link in enumerate(links):
+        if link.parent is not None and not -1 <= link.parent < i:
+            raise ValueError(
+                f"link {i + 1} of robot {robot!r} names parent {link.parent}: a parent is the index of a "
+                f"link before it (0…{i - 1}) or -1 for the base"
+            )
+        out.append(dataclasses.replace(link, parent=None) if link.parent == i - 1 else link)
+    return tuple(out)
 
 
 def _plain(x: sp.Expr, floats: bool) -> Number:
