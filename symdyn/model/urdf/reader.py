@@ -27,9 +27,10 @@ import numpy as np
 import sympy as sp
 
 from ..placement import exact, placement, rational_rotation, rpy_rotation
-from ..robot import IDENTITY, Link, Robot
+from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import Snapping, snap_angle, snap_axis
 from .xacro import Expansion, XacroError, expand, is_xacro
+from . import branches
 from .bodies import Body, balanced, read_body
 from .record import Bone, Locked, Repair, Snap, UrdfRecord
 from .tree import MOVING, MULTI, Tree
@@ -121,6 +122,10 @@ class _Reader:
             )
         )
         return snapped.value
+
+    def motion(self, joint: Element, value: float) -> tuple:
+        """The exact transform of a revolute, continuous or prismatic `joint` held at `value`."""
+        return _motion(MOVING[joint.attrib["type"]], self.axis(joint), value)
 
     # ---- bodies
     def _branch(self, name: str) -> str:
@@ -219,6 +224,7 @@ class _Reader:
                 Tc=(friction, -friction),
                 effort_limit=effort or None,
                 velocity_limit=velocity or None,
+                name=joint.name,
             )
         except ValueError as exc:
             raise URDFError(f"{where(self.source, joint)}: {exc}") from None
@@ -285,6 +291,8 @@ def from_urdf(
     *,
     base_link: str | None = None,
     tip_link: str | None = None,
+    tips: str | Iterable[str] | None = None,
+    base_joint: str | None = None,
     locked: dict | None = None,
     exclude: str | Iterable[str] = (),
     snap: bool = True,
@@ -295,7 +303,20 @@ def from_urdf(
     massless: bool = False,
 ) -> Robot:
     """A `Robot` (general convention) of the chain from `base_link` (default: the
-    root) to `tip_link` (default: the only leaf) of a URDF file or its text.
+    root) to `tip_link` (default: the only leaf) of a URDF file or its text, or of a
+    tree (`tips`), on a fixed or floating base (`base_joint`).
+
+    tips: "all" moves every revolute, continuous and prismatic joint below the base
+    (mimic joints follow their leaders, `locked` joints are held); a list of links moves
+    the joints on the paths from the base to each (their union); None (default): the
+    chain to `tip_link`.  The links come in the file's depth-first order as Pinocchio's
+    `buildModelFromUrdf` gives it (`model.names[1:]`: the joints below a link by name),
+    each naming its parent (`robot.parents`) and its joint (`robot.joint_names`).
+    base_joint: None (a fixed base), "free" (Pinocchio's free-flyer: q = [x, y, z, qx, qy,
+    qz, qw, joints…]) or "planar" (x, y, yaw): `base_link` (default: the root) with
+    everything fixed or locked to it becomes the floating body (`robot.base_body`).  A
+    root link whose only joint is the file's own `floating` joint (a planar one about z
+    for "planar") is read as that base joint: its child floats, placed by its origin.
 
     A xacro file (`.xacro`, or text declaring the xacro namespace) is expanded
     first, in-process and without ROS (`symdyn.model.urdf.xacro`): `xacro_args`
@@ -335,8 +356,14 @@ def from_urdf(
             and inertia="balance"), a negative mass; a chain without a moving
             joint; moving links that carry no mass at all (M(q) singular for every q;
             it names them, or says that no link has an `<inertial>`), unless
-            `massless`; `inertia` not "check" or "balance".  Its `command_line` is
-            the message in the command line's words (--tip, --exclude, …).
+            `massless`; `inertia` not "check" or "balance"; `tips` given with
+            `tip_link`, `tips` neither "all" nor a list of link names, a tip that
+            is not a link below the base or is excluded, a mimic joint or a joint
+            that is neither revolute, continuous, prismatic nor fixed on the way
+            to a tip, no joint that moves; `base_joint` not None, "free" or
+            "planar", or the file's own root joint of the other kind.  Its
+            `command_line` is the message in the command line's words (--tip,
+            --tips, --exclude, …).
         XacroError: (a `URDFError`) a xacro file that cannot be expanded: the xacro
             package is missing, an argument has no value, a package is found nowhere
             (every place looked in is named), any other xacro error; `xacro_args` or
@@ -350,12 +377,55 @@ def from_urdf(
     """
     if inertia not in ("check", "balance"):
         raise URDFError(f"inertia must be 'check' or 'balance', got {inertia!r}")
+    tips = _tips(tips, tip_link)
+    if base_joint not in BASE_JOINTS:
+        raise URDFError(
+            f"unknown base_joint {base_joint!r}: expected None (a fixed base), 'free' (a 6-DOF floating base, "
+            "Pinocchio's free-flyer) or 'planar' (x, y, yaw)",
+            f"unknown --base-joint {base_joint}: expected free or planar (default: a fixed base)",
+        )
     if not isinstance(package_paths, (str, os.PathLike)):
         package_paths = tuple(package_paths)  # a file with snaps is read twice (as written, too)
     text = read(path_or_xml)
     xacro = _expanded(path_or_xml, text, xacro_args, package_paths)
     urdf = xacro.urdf if xacro is not None else text
     tree = Tree.of(urdf.source, parse(urdf.text, urdf.source))
+    given = dict(tree=tree, urdf=urdf, text=text, xacro=xacro, locked=locked, exclude=exclude, snap=snap, name=name)
+    given |= dict(inertia=inertia, massless=massless)
+    if tips is not None or base_joint is not None:
+        robot, record = _read_tree(base_link=base_link, tip_link=tip_link, tips=tips, base_joint=base_joint, **given)
+    else:
+        robot, record = _read_chain(base_link=base_link, tip_link=tip_link, **given)
+    if record.snaps:  # the file's numbers too: the record states how far the snaps move the dynamics
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # this reading says it all
+            literal = from_urdf(
+                path_or_xml,
+                base_link=base_link,
+                tip_link=tip_link,
+                tips=tips,
+                base_joint=base_joint,
+                locked=locked,
+                exclude=exclude,
+                snap=False,
+                name=name,
+                xacro_args=xacro_args,
+                package_paths=package_paths,
+                inertia=inertia,
+                massless=massless,
+            )
+        record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, urdf=None)))
+    for message in record.warnings:
+        warnings.warn(message, URDFWarning, stacklevel=2)
+    for r in record.repairs:
+        warnings.warn(f"impossible inertia made physical (inertia='balance'): {r.line()}", URDFWarning, stacklevel=2)
+    return dataclasses.replace(robot, urdf=record)
+
+
+def _read_chain(
+    *, tree, urdf, text, xacro, base_link, tip_link, locked, exclude, snap, name, inertia, massless
+) -> tuple[Robot, UrdfRecord]:
+    """The robot and record of the chain from base_link to tip_link (`from_urdf` without tips)."""
     base, tip, path = tree.chain(base_link, tip_link)
     on_chain = {base} | {j.find("child").attrib["link"] for j in path}
     below_base = tree.below(base)
@@ -431,28 +501,167 @@ def from_urdf(
         skeleton=_skeleton(tree, base, on_chain, set(excluded), reader.values),
         **_friction_read(tuple(j.name for j in path if j.name in moving), out),
     )
-    if reader.snaps:  # the file's numbers too: the record states how far the snaps move the dynamics
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # this reading says it all
-            literal = from_urdf(
-                path_or_xml,
-                base_link=base_link,
-                tip_link=tip_link,
-                locked=locked,
-                exclude=exclude,
-                snap=False,
-                name=name,
-                xacro_args=xacro_args,
-                package_paths=package_paths,
-                inertia=inertia,
-                massless=massless,
+    return robot, record
+
+
+def _tips(tips, tip_link: str | None):
+    """tips checked: None, "all", or a tuple of link names."""
+    if tips is None:
+        return None
+    if tip_link is not None:
+        raise URDFError(
+            f"tips={tips!r} and tip_link={tip_link!r} together: tips chooses every moving joint (tips='all') or the "
+            "chains to several links, tip_link one chain; give one of them",
+            f"--tips and --tip {tip_link} together: give one of them",
+        )
+    if isinstance(tips, str):
+        if tips == "all":
+            return tips
+        raise URDFError(
+            f"tips={tips!r}: expected 'all' or a list of link names (one chain: tips=[{tips!r}] or tip_link={tips!r})",
+            f"--tips {tips}: expected all or LINK,LINK,…",
+        )
+    try:
+        names = tuple(tips)
+    except TypeError:
+        raise URDFError(f"tips must be 'all' or a list of link names, got {type(tips).__name__} {tips!r}") from None
+    if not names or not all(isinstance(n, str) and n for n in names):
+        raise URDFError(f"tips must be 'all' or a non-empty list of link names, got {tips!r}")
+    return tuple(dict.fromkeys(names))
+
+
+def _read_tree(
+    *, tree, urdf, text, xacro, base_link, tip_link, tips, base_joint, locked, exclude, snap, name, inertia, massless
+) -> tuple[Robot, UrdfRecord]:
+    """The robot and record of a tree (tips) or a floating base (`from_urdf` with tips or base_joint):
+    every joint of the moving set moves (`branches`), in Pinocchio's depth-first order."""
+    source = urdf.source
+    carrier = branches.file_base_joint(tree, source, base_joint, base_link)
+    if carrier is not None:  # the file's own floating joint under a dummy root: its child floats
+        base_link = carrier.find("child").attrib["link"]
+    if tips is None:  # one chain on a floating base
+        base, tip, _ = tree.chain(base_link, tip_link)
+        tip_list = (tip,)
+    else:
+        base, _, _ = tree.chain(base_link, base_link or tree.root)  # base_link checked
+        tip_list = tips
+    below_base = tree.below(base)
+    for tip in () if tip_list == "all" else tip_list:
+        said = f"{source}: tip {tip!r}"
+        if tip not in tree.links:
+            links = f"is not a link of robot {tree.robot.name!r}; its links are {sorted(tree.links)}"
+            raise URDFError(f"{said} {links}", f"{source}: --tips {tip} {links}")
+        if tip not in below_base or tip == base:
+            raise URDFError(
+                f"{said} is not below base_link {base!r}", f"{source}: --tips {tip} is not below --base {base}"
             )
-        record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, urdf=None)))
-    for message in record.warnings:
-        warnings.warn(message, URDFWarning, stacklevel=2)
-    for r in record.repairs:
-        warnings.warn(f"impossible inertia made physical (inertia='balance'): {r.line()}", URDFWarning, stacklevel=2)
-    return dataclasses.replace(robot, urdf=record)
+    given = dict(locked or {})
+    excluded_names = [exclude] if isinstance(exclude, str) else list(exclude)
+    out_of = set().union(*(tree.below(e) for e in excluded_names if e in tree.links))
+    for tip in () if tip_list == "all" else tip_list:
+        if tip in out_of:
+            raise URDFError(
+                f"{source}: tip {tip!r} is excluded (it is in the subtree of an excluded link): choose other tips",
+                f"{source}: --tips {tip} is excluded (it is in the subtree of an excluded link): choose other tips",
+            )
+    moving, on_chain = branches.moving_set(tree, base, tip_list, out_of, given, source)
+    for tip in () if tip_list == "all" else tip_list:
+        name_ = tip
+        while name_ != base:
+            on_chain.add(name_)
+            name_ = tree.parent(name_)
+    excluded = _excluded(tree, exclude, on_chain, below_base)
+    reader = _Reader(tree, urdf.file, snap, inertia == "balance", frozenset(on_chain))
+    reader.values = tree.values(tree.below(base, set(excluded)) - {base}, moving, given)
+    would_move = {
+        tree.joints[c].name
+        for c in on_chain - {base}
+        if tree.joints[c].attrib.get("type") in MOVING and tree.joints[c].name in given
+    }
+    if tip_list == "all":
+        would_move = {n for n in given if tree.named[n].attrib.get("type") in MOVING}
+    base_segment, segments, frames = branches.walk(
+        reader, tree, base, moving, out_of, would_move, base_moves=base_joint is not None
+    )
+    if not segments:
+        where_to = "to the tips" if tip_list != "all" else "below it"
+        raise URDFError(f"{source}: no joint moves from {base!r} {where_to}: every one is fixed, locked or excluded")
+    links = [branches.link_of(reader, seg, seg.parent) for seg in segments]
+    names = [seg.joint.name for seg in segments]
+    parents = tuple(seg.parent for seg in segments)
+    dead = branches.massless_joints(names, links, parents)
+    if dead and not massless:
+        empty = _massless_words(tree, dead)
+        raise URDFError(
+            f"{source}: {empty}; to read it for its kinematics alone, pass massless=True",
+            f"{source}: {empty}; `symdyn print` and `symdyn show` read it nonetheless",
+        )
+    reader.warnings += [_massless_words(tree, dead)] if dead else []
+    tool = IDENTITY
+    if tip_list != "all" and len(tip_list) == 1:  # one chain: the tool is the tip's frame
+        tool = frames[tip_list[0]][1]
+    base_T = IDENTITY
+    if carrier is not None:
+        base_T = reader.origin(carrier, f"joint {carrier.name!r} origin")
+    body = base_segment.body
+    base_body = None
+    if base_joint is not None:
+        base_body = Link(
+            m=_number(body.m),
+            r=tuple(_number(x) for x in body.r),
+            I=tuple(tuple(_number(x) for x in row) for row in body.I),
+            name=base,
+        )
+    robot = Robot(
+        name or _file_name(text) or tree.robot.name or "urdf",
+        tuple(links),
+        convention="general",
+        base=tuple(tuple(_number(x) for x in row) for row in base_T),
+        tool=tuple(tuple(_number(x) for x in row) for row in tool),
+        base_joint=base_joint,
+        base_body=base_body,
+        source=f"{'xacro' if xacro else 'URDF'} {text.file} (sha256 {text.sha256[:16]}…)",
+    )
+    record = UrdfRecord(
+        text.file,
+        text.sha256,
+        base,
+        tip_list[0] if tips is None else "",
+        tuple(names),
+        tuple(reader.locked),
+        excluded,
+        tuple(reader.snaps),
+        snap,
+        tuple(reader.warnings),
+        robot.fingerprint(),
+        **(xacro.record_fields() if xacro is not None else {}),
+        repairs=tuple(reader.repairs),
+        skeleton=_skeleton(tree, tree.root if carrier is not None else base, on_chain, set(excluded), reader.values),
+        **_friction_read(tuple(names), links),
+        tips=() if tips is None else ("all",) if tips == "all" else tuple(tips),
+        base_joint=base_joint,
+        file_base_joint=carrier.name if carrier is not None else "",
+        parents=parents,
+    )
+    return robot, record
+
+
+def _massless_words(tree: Tree, joints: list) -> str:
+    """What is wrong with joints that move no mass (`branches.massless_joints`)."""
+    if not any(el.find("inertial") is not None for el in tree.links.values()):
+        head = "no link of this file has an <inertial> (a description written for kinematics only)"
+    else:
+        links = [tree.named[j].find("child").attrib["link"] for j in joints]
+        head = (
+            f"the moving link{'s' if len(links) > 1 else ''} {', '.join(links)} "
+            f"ha{'ve' if len(links) > 1 else 's'} no <inertial> (nor anything with mass riding on or below "
+            f"{'them' if len(links) > 1 else 'it'})"
+        )
+    return (
+        f"{head}: joint{'s' if len(joints) > 1 else ''} {', '.join(joints)} move{'' if len(joints) > 1 else 's'} "
+        "no mass, so M(q) is singular for every q and forward dynamics is undefined "
+        "(M, C, G are zero where the file gives no mass)"
+    )
 
 
 def _file_name(text: Text) -> str:

@@ -133,6 +133,15 @@ class UrdfRecord(FileRecord):
     repairs: tuple = ()
     #: The whole tree as read (`Bone`s, root first), for `symdyn show` / `robot.plot()`.
     skeleton: tuple = ()
+    #: A tree (`from_urdf(tips=…)`): ("all",) or the tip links (`tip_link` is then ""); () for a chain.
+    tips: tuple = ()
+    #: The joint that carries the whole robot: None (a fixed base), "free" or "planar"; the body it
+    #: moves is `base_link` with everything fixed or locked to it (`Robot.base_body`).
+    base_joint: str | None = None
+    #: The file's own floating (planar) joint under a dummy root, read as the base joint ("" if none).
+    file_base_joint: str = ""
+    #: Each moving joint's parent (an index into `joints`, -1: the base), as `robot.parents`.
+    parents: tuple = ()
 
     @property
     def is_xacro(self) -> bool:
@@ -143,7 +152,9 @@ class UrdfRecord(FileRecord):
         """The `symdyn generate`/`print` arguments that read the same robot from the same file
         (a xacro file's arguments as --xacro-arg; its package folders are the reader's, not
         the model's, and are found again from the file's place or --package-path)."""
-        args = [self.file, "--base", self.base_link, "--tip", self.tip_link]
+        args = [self.file] + (["--base", self.base_link] if not self.file_base_joint else [])
+        args += ["--tips", ",".join(self.tips)] if self.tips else ["--tip", self.tip_link]
+        args += ["--base-joint", self.base_joint] if self.base_joint else []
         args += [f"--xacro-arg={key}:={value}" for key, value in self.xacro_args]
         args += [f"--lock={lock.joint}={lock.value!r}" for lock in self.locked if lock.why == "given"]
         args += [f"--exclude={link}" for link in self.excluded]
@@ -164,10 +175,25 @@ class UrdfRecord(FileRecord):
     def lines(self) -> list[str]:
         """A summary a person reads: the chain, each lock, exclusion and snap (and what the snaps
         do to tau, M and qdd), the friction read from the file."""
-        out = [
-            f"{'xacro' if self.is_xacro else 'URDF'} {self.file} (sha256 {self.sha256}): "
-            f"chain {self.base_link} -> {self.tip_link}, joints {', '.join(self.joints)}"
-        ]
+        kind = f"{'xacro' if self.is_xacro else 'URDF'} {self.file} (sha256 {self.sha256}): "
+        if not self.tips:
+            out = [kind + f"chain {self.base_link} -> {self.tip_link}, joints {', '.join(self.joints)}"]
+        else:
+            to = "every joint" if self.tips == ("all",) else f"the chains to {', '.join(self.tips)}"
+            out = [kind + f"tree from {self.base_link}, {to}: {len(self.joints)} moving joints (depth first)"]
+            names = {-1: self.base_link, **dict(enumerate(self.joints))}
+            hung = [f"{j} (on {names[p]})" for j, p in zip(self.joints, self.parents or [-1] * len(self.joints))]
+            out.append("  moving: " + ", ".join(hung))
+        if self.base_joint:
+            coordinates = {
+                "free": "x y z qx qy qz qw (Pinocchio's free-flyer)",
+                "planar": "x y yaw in the plane of its frame",
+            }[self.base_joint]
+            by = f", the file's joint {self.file_base_joint}" if self.file_base_joint else ""
+            out.append(
+                f"base joint: {self.base_joint}{by} ({coordinates}, before the joints in q); the floating body is "
+                f"link {self.base_link} with everything fixed or locked to it"
+            )
         if self.is_xacro:
             args = " ".join(f"{key}:={value}" for key, value in self.xacro_args) or "none (the defaults)"
             out.append(
