@@ -64,14 +64,30 @@ def pinocchio_model(robot: Robot):
     (and Tx(a)Rx(α) for standard DH).  A general joint is placed by its
     origin and moves about (along) its axis; its body frame is the joint's,
     turned (shifted) by the offset.  Frames "L1".."Ln" are the DH frames
-    {i} and "tool" the tool point, all relative to frame {0}.
+    {i} and "tool" the tool point, all relative to frame {0}.  A tree: each
+    joint hangs on its parent link's joint (`robot.parents`).  A floating base:
+    a FreeFlyer (or Planar) root joint carrying `robot.base_body`, Pinocchio's
+    world being symdyn's frame `robot.base` (a planar q is then [x, y, cos, sin]).
     """
     pin = _pin()
     robot.require_numeric("pinocchio_model")
     model = pin.Model()
     model.name = robot.name
-    parent, prev, frame = 0, pin.SE3.Identity(), 0
+    root, frame = 0, 0
+    if robot.base_joint is not None:
+        kind = pin.JointModelFreeFlyer() if robot.base_joint == "free" else pin.JointModelPlanar()
+        root = model.addJoint(0, kind, pin.SE3.Identity(), "root_joint")
+        if robot.base_body is not None:
+            b = robot.base_body
+            model.appendBodyToJoint(
+                root,
+                pin.Inertia(float(b.m), np.array(b.r, dtype=float), np.array(b.I, dtype=float)),
+                pin.SE3.Identity(),
+            )
+    joints, bodies = [], []  # each link's Pinocchio joint and its body frame in that joint
     for i, link in enumerate(robot.links, start=1):
+        up = robot.parents[i - 1]
+        parent, prev = (joints[up], bodies[up]) if up >= 0 else (root, pin.SE3.Identity())
         if robot.convention == "general":
             place = prev * pin.SE3(np.array(link.origin or np.eye(4), dtype=float))
             j = model.addJoint(parent, _general_joint(pin, link), place, f"j{i}")
@@ -83,6 +99,8 @@ def pinocchio_model(robot: Robot):
             model.appendBodyToJoint(j, body.act(inertia), pin.SE3.Identity())
             frame = model.addBodyFrame(f"L{i}", j, body, frame)
             parent, prev = j, body
+            joints.append(j)
+            bodies.append(body)
             continue
         a, alpha, offset = float(link.a), float(link.alpha), float(link.offset)
         dh_x = pin.SE3(_rot("x", alpha), np.array([a, 0.0, 0.0]))  # Tx(a)Rx(α) = Rx(α)Tx(a)
@@ -99,9 +117,12 @@ def pinocchio_model(robot: Robot):
         model.appendBodyToJoint(j, body.act(inertia), pin.SE3.Identity())
         frame = model.addBodyFrame(f"L{i}", j, body, frame)
         parent, prev = j, body
+        joints.append(j)
+        bodies.append(body)
     tool = pin.SE3(np.array(robot.tool, dtype=float))
     model.addFrame(pin.Frame("tool", parent, frame, prev * tool, pin.FrameType.OP_FRAME))
-    model.armature = np.array([float(l.G) ** 2 * float(l.Jm) for l in robot.links])
+    rotors = [float(l.G) ** 2 * float(l.Jm) for l in robot.links]
+    model.armature = np.array([0.0] * (robot.nv - robot.n) + rotors)
     model.gravity = pin.Motion(_gravity0(robot), np.zeros(3))
     return model
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["integrate", "difference", "normalize", "base_pose", "QUATERNION_TOLERANCE"]
+__all__ = ["integrate", "difference", "normalize", "base_pose", "coordinate_rates", "QUATERNION_TOLERANCE"]
 
 #: Largest |‖quaternion‖ − 1| accepted (and then normalised); a larger one is refused.
 QUATERNION_TOLERANCE = 1e-6
@@ -133,9 +133,10 @@ def normalize(robot, q: Any) -> np.ndarray:
     return q
 
 
-def base_pose(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The base joint's rotation (..., 3, 3) and translation (..., 3) from checked q (nq)."""
-    if robot.base_joint == "free":
+def base_pose(kind: str, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rotation (..., 3, 3) and translation (..., 3) of a base joint of `kind` ("free",
+    "planar") from q (..., nq), its quaternion checked (`QUATERNION_TOLERANCE`)."""
+    if kind == "free":
         return quaternion_matrix(_unit_quaternion(q[..., 3:7], "q")), q[..., :3]
     c, s = np.cos(q[..., 2]), np.sin(q[..., 2])
     R = np.zeros(q.shape[:-1] + (3, 3))
@@ -163,13 +164,13 @@ def integrate(robot, q: Any, v: Any, dt: float = 1.0) -> np.ndarray:
     k = robot.nv - robot.n
     vb, vj = v[..., :k], v[..., k:]
     if robot.base_joint == "free":
-        R, p = base_pose(robot, q)
+        R, p = base_pose(robot.base_joint, q)
         dp, dquat = _exp6(vb[..., :3], vb[..., 3:])
         quat = _quaternion_product(_unit_quaternion(qb[..., 3:7], "q"), dquat)
         quat /= np.linalg.norm(quat, axis=-1, keepdims=True)
         qb = np.concatenate([p + np.einsum("...ij,...j->...i", R, dp), quat], -1)
     elif robot.base_joint == "planar":
-        R, _ = base_pose(robot, q)
+        R, _ = base_pose(robot.base_joint, q)
         dp = np.einsum("...ij,...j->...i", _planar_V(vb[..., 2]), vb[..., :2])
         qb = np.concatenate(
             [qb[..., :2] + np.einsum("...ij,...j->...i", R[..., :2, :2], dp), qb[..., 2:] + vb[..., 2:]], -1
@@ -185,8 +186,8 @@ def difference(robot, q0: Any, q1: Any) -> np.ndarray:
     vj = _split(robot, q1)[1] - _split(robot, q0)[1]
     if robot.base_joint is None:
         return vj
-    R0, p0 = base_pose(robot, q0)
-    R1, p1 = base_pose(robot, q1)
+    R0, p0 = base_pose(robot.base_joint, q0)
+    R1, p1 = base_pose(robot.base_joint, q1)
     dp = np.einsum("...ji,...j->...i", R0, p1 - p0)
     if robot.base_joint == "free":
         _unit_quaternion(q1[..., 3:7], "q1")
@@ -200,3 +201,20 @@ def difference(robot, q0: Any, q1: Any) -> np.ndarray:
         lin = np.linalg.solve(_planar_V(phi), dp[..., :2, None])[..., 0]
         vb = np.concatenate([lin, phi[..., None]], -1)
     return np.concatenate([vb, vj], -1)
+
+
+def coordinate_rates(robot, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """q̇ (..., nq) of the velocity v (..., nv): a free base's ṗ = R·v_lin and quaternion rate
+    ½·quat ⊗ (ω, 0), a planar base's ṗ = R·v_xy, yaw rate ω; the joints' q̇ = v."""
+    k = robot.nv - robot.n
+    vb, vj = v[..., :k], v[..., k:]
+    if robot.base_joint is None:
+        return vj
+    R, _ = base_pose(robot.base_joint, q)
+    if robot.base_joint == "free":
+        quat = q[..., 3:7]
+        rate = 0.5 * _quaternion_product(quat, np.concatenate([vb[..., 3:], np.zeros(vb.shape[:-1] + (1,))], -1))
+        qb = np.concatenate([np.einsum("...ij,...j->...i", R, vb[..., :3]), rate], -1)
+    else:
+        qb = np.concatenate([np.einsum("...ij,...j->...i", R[..., :2, :2], vb[..., :2]), vb[..., 2:]], -1)
+    return np.concatenate([qb, vj], -1)

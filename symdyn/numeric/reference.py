@@ -25,7 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-from ..model import Robot, exact_cos_sin
+from ..model import Link, Robot, exact_cos_sin
+from ..model.base_joint import base_pose, coordinate_rates, normalize
 
 __all__ = [
     "rne",
@@ -40,6 +41,7 @@ __all__ = [
     "fkine",
     "jacob0",
     "energy",
+    "momentum",
 ]
 
 
@@ -72,6 +74,23 @@ class _Chain:
     tool_R: np.ndarray
     tool_p: np.ndarray
     gravity: np.ndarray  # (3,) Corke's convention, world
+    parents: tuple  # each link's parent, -1 for the base
+    base_joint: str | None  # None, "free" or "planar"
+    base_body: tuple  # (m, h, Io) of the body a base joint moves (zeros where none)
+    nq: int
+    nv: int
+
+    @property
+    def nb(self) -> int:
+        """Velocities of the base joint (6 free, 3 planar, 0 fixed): the first rows of v and τ."""
+        return self.nv - self.n
+
+
+#: The base joint's motion subspace in the recursion's (ω, v) order, from v's (v, ω) order.
+_BASE_AXES = {
+    "free": np.concatenate([np.eye(6)[3:], np.eye(6)[:3]]).T,  # columns: vx vy vz ωx ωy ωz
+    "planar": np.array([[0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 1, 0, 0, 0]], dtype=float).T,
+}
 
 
 def _rx(alpha) -> np.ndarray:
@@ -127,10 +146,7 @@ def _chain(robot: Robot) -> _Chain:
             S.append(np.concatenate([Rt @ z, Rt @ np.cross(z, post_p[-1])]))
         else:
             S.append(np.concatenate([np.zeros(3), Rt @ z]))
-    m = np.array([f(l.m) for l in robot.links])
-    r = np.array([[f(x) for x in l.r] for l in robot.links])
-    Ic = np.array([[[f(x) for x in row] for row in l.I] for l in robot.links])
-    Io = Ic + m[:, None, None] * (np.einsum("ij,k->kij", np.eye(3), (r * r).sum(1)) - np.einsum("ki,kj->kij", r, r))
+    m, h, Io = _origin_inertias(robot.links)
     G = np.array([f(l.G) for l in robot.links])
     T = lambda M: np.array([[f(x) for x in row] for row in M])  # noqa: E731
     base, tool = T(robot.base), T(robot.tool)
@@ -146,7 +162,7 @@ def _chain(robot: Robot) -> _Chain:
         post_p=np.array(post_p),
         S=np.array(S),
         m=m,
-        h=m[:, None] * r,
+        h=h,
         Io=Io,
         armature=G**2 * np.array([f(l.Jm) for l in robot.links]),
         G=G,
@@ -157,7 +173,24 @@ def _chain(robot: Robot) -> _Chain:
         tool_R=tool[:3, :3],
         tool_p=tool[:3, 3],
         gravity=np.array([f(x) for x in robot.gravity]),
+        parents=robot.parents,
+        base_joint=robot.base_joint,
+        base_body=tuple(a[0] for a in _origin_inertias([robot.base_body] if robot.base_body else [_MASSLESS])),
+        nq=robot.nq,
+        nv=robot.nv,
     )
+
+
+_MASSLESS = Link()
+
+
+def _origin_inertias(links) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mass (k,), first moment m·r (k, 3) and inertia about the frame origin (k, 3, 3) of links."""
+    m = np.array([float(l.m) for l in links])
+    r = np.array([[float(x) for x in l.r] for l in links])
+    Ic = np.array([[[float(x) for x in row] for row in l.I] for l in links])
+    Io = Ic + m[:, None, None] * (np.einsum("ij,k->kij", np.eye(3), (r * r).sum(1)) - np.einsum("ki,kj->kij", r, r))
+    return m, m[:, None] * r, Io
 
 
 def _link_transforms(c: _Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -176,13 +209,15 @@ def _link_transforms(c: _Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _state(c: _Chain, x, name: str) -> np.ndarray:
-    """A float array of shape (..., n), finite, or a ValueError naming `name`."""
+    """A float array of shape (..., nq) for q (a name starting "q" that is not "qd…": q, q0),
+    else (..., nv), finite, or a ValueError naming `name`."""
+    size = c.nq if name in ("q", "q0") else c.nv
     try:
         a = np.asarray(x, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a numeric array of shape ({c.n},) or (N, {c.n}), got {x!r}") from None
-    if a.ndim == 0 or a.shape[-1] != c.n:
-        raise ValueError(f"{name} must have shape ({c.n},) or (N, {c.n}); got shape {a.shape}")
+        raise ValueError(f"{name} must be a numeric array of shape ({size},) or (N, {size}), got {x!r}") from None
+    if a.ndim == 0 or a.shape[-1] != size:
+        raise ValueError(f"{name} must have shape ({size},) or (N, {size}); got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         bad = np.argwhere(~np.isfinite(a))[0]
         raise ValueError(f"{name} contains NaN or infinity (first at index {tuple(bad.tolist())})")
@@ -192,11 +227,11 @@ def _state(c: _Chain, x, name: str) -> np.ndarray:
 def _states(c: _Chain, **arrays) -> list[np.ndarray]:
     out = [_state(c, v, k) for k, v in arrays.items()]
     try:
-        shape = np.broadcast_shapes(*(a.shape for a in out))
+        batch = np.broadcast_shapes(*(a.shape[:-1] for a in out))
     except ValueError:
         shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(arrays, out))
         raise ValueError(f"state arrays have incompatible shapes: {shapes}") from None
-    return [np.broadcast_to(a, shape) for a in out]
+    return [np.broadcast_to(a, batch + a.shape[-1:]) for a in out]
 
 
 def _vector3(x, name: str) -> np.ndarray:
@@ -218,18 +253,37 @@ def _cross(a, b) -> np.ndarray:
     return a[..., _NEXT] * b[..., _PREV] - a[..., _PREV] * b[..., _NEXT]
 
 
-def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
-    """RNEA core: joint forces without friction (rotor inertia included) and
-    the spatial force (n, f) on link 1 in body-1 coordinates.  g_up_world (3,)
-    or one per state (..., 3)."""
+def _body_force(m, h, Io, w, v, dw, dv) -> tuple[np.ndarray, np.ndarray]:
+    """f = I a + v ×* I v of one body about its frame origin, in its frame: (moment, force)."""
+    L = np.einsum("ij,...j->...i", Io, w) + _cross(h, v)
+    P = m * v + _cross(w, h)
+    n_ = np.einsum("ij,...j->...i", Io, dw) + _cross(h, dv) + _cross(w, L) + _cross(v, P)
+    return n_, m * dv + _cross(dw, h) + _cross(w, P)
+
+
+def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None, base=None):
+    """RNEA core on the tree: the joints' forces without friction (rotor inertia included), and
+    the spatial force (n, f) that frame 0 — the fixed base, or the body a base joint moves —
+    exerts on what it carries (its own body included), about its origin, in its coordinates.
+    q, qd, qdd: the joints' (..., n); g_up_world (3,) or one per state (..., 3).  base: None for a
+    fixed base, else (R, v, a): the base joint's rotation (..., 3, 3) and its velocity and
+    acceleration (..., nb) in v's order (`_BASE_AXES`)."""
     R, p = _link_transforms(c, q)
     batch = q.shape[:-1]
-    w = np.zeros(batch + (3,))
-    v = np.zeros(batch + (3,))
-    dw = np.zeros(batch + (3,))
-    dv = np.broadcast_to(np.einsum("ji,...j->...i", c.base_R, g_up_world), batch + (3,)).copy()
+    g0 = np.einsum("ji,...j->...i", c.base_R, g_up_world)
+    if base is None:
+        w0, v0, dw0 = np.zeros(batch + (3,)), np.zeros(batch + (3,)), np.zeros(batch + (3,))
+        dv0 = np.broadcast_to(g0, batch + (3,)).copy()
+    else:
+        Rb, vb, ab = base
+        axes = _BASE_AXES[c.base_joint]
+        w0, v0 = np.split(np.einsum("ij,...j->...i", axes, vb), 2, -1)
+        dw0, dv0 = np.split(np.einsum("ij,...j->...i", axes, ab), 2, -1)
+        dv0 = dv0 + np.einsum("...ji,...j->...i", Rb, g0)
+    motion = []  # (w, v, dw, dv) of each body
     forces = []
     for i in range(c.n):
+        w, v, dw, dv = motion[c.parents[i]] if c.parents[i] >= 0 else (w0, v0, dw0, dv0)
         Rt = np.swapaxes(R[..., i, :, :], -1, -2)
         pi = p[..., i, :]
         sw, sv = c.S[i, :3], c.S[i, 3:]
@@ -243,35 +297,56 @@ def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None):
         # a = X a_p + S q̈ + v ×m (S q̇)
         dw = dw_new + sw * qddi + _cross(w, sw * qdi)
         dv = dv_new + sv * qddi + _cross(w, sv * qdi) + _cross(v, sw * qdi)
-        m, h, Io = c.m[i], c.h[i], c.Io[i]
-        # f = I a + v ×* I v
-        L = np.einsum("ij,...j->...i", Io, w) + _cross(h, v)
-        P = m * v + _cross(w, h)
-        n_ = np.einsum("ij,...j->...i", Io, dw) + _cross(h, dv) + _cross(w, L) + _cross(v, P)
-        f_ = m * dv + _cross(dw, h) + _cross(w, P)
-        forces.append([n_, f_])
+        motion.append((w, v, dw, dv))
+        forces.append(list(_body_force(c.m[i], c.h[i], c.Io[i], w, v, dw, dv)))
     if wrench is not None:
         fe, ne = wrench[..., :3], wrench[..., 3:]
         fB = np.einsum("ij,...j->...i", c.tool_R, fe)
         forces[-1][1] = forces[-1][1] + fB
         forces[-1][0] = forces[-1][0] + np.einsum("ij,...j->...i", c.tool_R, ne) + _cross(c.tool_p, fB)
+    if base is None:
+        root = [np.zeros(batch + (3,)), np.zeros(batch + (3,))]
+    else:
+        root = list(_body_force(*c.base_body, w0, v0, dw0, dv0))
     tau = np.empty(q.shape)
     for i in range(c.n - 1, -1, -1):
         n_, f_ = forces[i]
         tau[..., i] = n_ @ c.S[i, :3] + f_ @ c.S[i, 3:] + c.armature[i] * qdd[..., i]
-        if i > 0:
-            Ri, pi = R[..., i, :, :], p[..., i, :]
-            fp = np.einsum("...ij,...j->...i", Ri, f_)
-            forces[i - 1][1] = forces[i - 1][1] + fp
-            forces[i - 1][0] = forces[i - 1][0] + np.einsum("...ij,...j->...i", Ri, n_) + _cross(pi, fp)
-    return tau, forces[0], (R[..., 0, :, :], p[..., 0, :])
+        target = forces[c.parents[i]] if c.parents[i] >= 0 else root
+        Ri, pi = R[..., i, :, :], p[..., i, :]
+        fp = np.einsum("...ij,...j->...i", Ri, f_)
+        target[1] = target[1] + fp
+        target[0] = target[0] + np.einsum("...ij,...j->...i", Ri, n_) + _cross(pi, fp)
+    return tau, root
+
+
+def _split_state(c: _Chain, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(base part, joints' part) of q, v or τ."""
+    k = x.shape[-1] - c.n
+    return x[..., :k], x[..., k:]
+
+
+def _dynamics(c: _Chain, q, qd, qdd, g_up_world, wrench=None) -> tuple[np.ndarray, list]:
+    """τ (..., nv) without friction of checked states q (..., nq), v, v̇ (..., nv), the base
+    joint's forces first (`_BASE_AXES`: the base body's force, then moment, in its frame), and the
+    root force of `_recursion`."""
+    if c.base_joint is None:
+        return _recursion(c, q, qd, qdd, g_up_world, wrench)
+    qb, qj = _split_state(c, q)
+    (vb, vj), (ab, aj) = _split_state(c, qd), _split_state(c, qdd)
+    Rb = base_pose(c.base_joint, q)[0]
+    tau, root = _recursion(c, qj, vj, aj, g_up_world, wrench, (Rb, vb, ab))
+    moment, force = root
+    tau_b = np.einsum("ji,...j->...i", _BASE_AXES[c.base_joint], np.concatenate([moment, force], -1))
+    return np.concatenate([tau_b, tau], -1), root
 
 
 # --------------------------------------------------------------------------- public API
 
 
 def friction(robot: Robot, qd: ArrayLike) -> np.ndarray:
-    """Joint friction F(q̇) (..., n): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest.
+    """Joint friction F(q̇) (..., nv): G²·B·q̇ + |G|·Tc⁺ (q̇ > 0) or |G|·Tc⁻ (q̇ < 0), 0 at rest
+    (and 0 on a base joint's rows).
 
     Raises:
         ValueError: a symbolic robot, or `qd` that is not a finite numeric array of
@@ -291,7 +366,7 @@ def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
         ValueError: a symbolic robot.
     """
     c = _chain(robot)
-    viscous, gain, up, down = c.G**2 * c.B, np.abs(c.G), c.Tc[:, 0], c.Tc[:, 1]
+    viscous, gain, up, down = (np.concatenate([np.zeros(c.nb), x]) for x in (c.G**2 * c.B, np.abs(c.G), *c.Tc.T))
 
     def F(qd) -> np.ndarray:
         qd = np.asarray(qd, dtype=float)
@@ -343,21 +418,29 @@ def rne(
     wrench: ArrayLike | None = None,
     base_wrench: bool = False,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """Inverse dynamics τ (..., n), friction included.
+    """Inverse dynamics τ (..., nv), friction included: q (..., nq), qd = v and qdd = v̇ (..., nv).
 
+    A tree: each link moves with its parent (`robot.parents`).  A floating base
+    (`robot.base_joint`): τ's first rows are the force, then the moment, the base joint
+    exerts on the base body, in the base frame (Pinocchio's order; planar: fx, fy, n_z).
     gravity: override of the robot's (Corke's convention, world frame).
     wrench: (6,) or (..., 6) [f; n] exerted by the end-effector on the
     environment, in the tool frame, moment about the tool point (adds JᵀW).
-    base_wrench: also return [f; n] (..., 6) exerted by the base on link 1,
-    in frame {0}, moment about its origin.
+    base_wrench: also return [f; n] (..., 6) exerted by the base on the links it
+    carries, in frame {0}, moment about its origin (a fixed base only).
 
     Raises:
         ValueError: a symbolic robot; q, qd or qdd that are not finite numeric arrays
             of shape (n,) or (..., n), or whose leading shapes do not broadcast; a
             gravity that is not a finite 3-vector; a wrench that is not a finite
-            (6,) or (..., 6) array broadcasting with the states.
+            (6,) or (..., 6) array broadcasting with the states; base_wrench for a
+            floating base (its wrench is τ's first rows); a base quaternion whose norm is not 1.
     """
     c = _chain(robot)
+    if base_wrench and c.base_joint is not None:
+        raise ValueError(
+            f"base_wrench: robot {robot.name!r} has a {c.base_joint} base joint, whose forces are τ's first {c.nb} rows"
+        )
     q, qd, qdd = _states(c, q=q, qd=qd, qdd=qdd)
     g = c.gravity if gravity is None else _vector3(gravity, "gravity")
     W = None
@@ -366,43 +449,47 @@ def rne(
         if W.shape[-1:] != (6,) or not np.all(np.isfinite(W)):
             raise ValueError(f"wrench must be a finite array of shape (6,) or (N, 6); got shape {W.shape}")
         W = np.broadcast_to(W, q.shape[:-1] + (6,))
-    tau, (n1, f1), (R1, p1) = _recursion(c, q, qd, qdd, g, W)
+    tau, (n0, f0) = _dynamics(c, q, qd, qdd, g, W)
     tau = tau + friction(robot, qd)
     if not base_wrench:
         return tau
-    f0 = np.einsum("...ij,...j->...i", R1, f1)
-    n0 = np.einsum("...ij,...j->...i", R1, n1) + _cross(p1, f0)
     return tau, np.concatenate([f0, n0], -1)
 
 
 def _rne_nofriction(c: _Chain, q, qd, qdd, g) -> np.ndarray:
-    return _recursion(c, q, qd, qdd, g)[0]
+    return _dynamics(c, q, qd, qdd, g)[0]
 
 
 def inertia(robot: Robot, q: ArrayLike) -> np.ndarray:
-    """Joint-space inertia M(q) (..., n, n), rotor term G²·Jm on the diagonal.
+    """Joint-space inertia M(q) (..., nv, nv), rotor term G²·Jm on the diagonal.
 
     Raises:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
-            shape (n,) or (..., n).
+            shape (nq,) or (..., nq).
     """
     c = _chain(robot)
     q = _state(c, q, "q")
-    qs = np.repeat(q[..., None, :], c.n, axis=-2)  # (..., n copies, n)
-    eye = np.broadcast_to(np.eye(c.n), qs.shape)
-    cols = _rne_nofriction(c, qs, np.zeros_like(qs), eye, np.zeros(3))
+    qs = np.repeat(q[..., None, :], c.nv, axis=-2)  # (..., nv copies, nq)
+    eye = np.broadcast_to(np.eye(c.nv), qs.shape[:-1] + (c.nv,))
+    cols = _rne_nofriction(c, qs, np.zeros_like(eye), eye, np.zeros(3))
     return np.swapaxes(cols, -1, -2)
 
 
 def christoffel(robot: Robot, q: ArrayLike) -> np.ndarray:
     """Christoffel symbols Γ[..., k, i, j] = ½(∂M_kj/∂q_i + ∂M_ki/∂q_j − ∂M_ij/∂q_k),
-    from velocity-product forces of the recursion (symmetric split).
+    from velocity-product forces of the recursion (symmetric split); trees included.
 
     Raises:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
             shape (n,) or (..., n).
+        NotImplementedError: a floating base (its velocities are not q̇).
     """
     c = _chain(robot)
+    if c.base_joint is not None:
+        raise NotImplementedError(
+            f"Christoffel symbols of robot {robot.name!r}: its {c.base_joint} base's velocities are not the "
+            "derivatives of coordinates; its C(q, v)·v is rne(robot, q, v, 0, gravity=(0, 0, 0))"
+        )
     q = _state(c, q, "q")
     n = c.n
     pairs = [(i, j) for i in range(n) for j in range(i, n)]
@@ -429,6 +516,7 @@ def coriolis(robot: Robot, q: ArrayLike, qd: ArrayLike) -> np.ndarray:
     Raises:
         ValueError: a symbolic robot; q or qd that are not finite numeric arrays of
             shape (n,) or (..., n), or whose leading shapes do not broadcast.
+        NotImplementedError: a floating base (`christoffel`).
     """
     c = _chain(robot)
     q, qd = _states(c, q=q, qd=qd)
@@ -445,33 +533,35 @@ def gravload(robot: Robot, q: ArrayLike, *, gravity: ArrayLike | None = None) ->
     c = _chain(robot)
     q = _state(c, q, "q")
     g = c.gravity if gravity is None else _vector3(gravity, "gravity")
-    z = np.zeros_like(q)
+    z = np.zeros(q.shape[:-1] + (c.nv,))
     return _rne_nofriction(c, q, z, z, g)
 
 
 def accel(robot: Robot, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> np.ndarray:
-    """Forward dynamics q̈ = M⁻¹(τ − C q̇ − F − G) (..., n), friction included.
+    """Forward dynamics v̇ = M⁻¹(τ − C v − F − G) (..., nv), friction included; q (..., nq).
 
     Raises:
         ValueError: a symbolic robot; q, qd or tau that are not finite numeric arrays
-            of shape (n,) or (..., n), or whose leading shapes do not broadcast.
+            of shape (nq,) / (nv,) or (..., nq) / (..., nv), or whose leading shapes do
+            not broadcast; a base quaternion whose norm is not 1.
         SingularInertia: M(q) is singular (a `ValueError`; it names the joint that
             moves no mass where one does not).
     """
     c = _chain(robot)
     q, qd, tau = _states(c, q=q, qd=qd, tau=tau)
-    n, batch = c.n, q.shape[:-1]
+    n, batch = c.nv, q.shape[:-1]
     # one recursion over n + 1 rows: q̈ = e_i (q̇ = 0, no gravity) give M's columns, the last the bias
     rows = np.concatenate([np.zeros(batch + (n, n)), qd[..., None, :]], -2)
     unit = np.concatenate([np.broadcast_to(np.eye(n), batch + (n, n)), np.zeros(batch + (1, n))], -2)
     g = np.concatenate([np.zeros((n, 3)), c.gravity[None]])
-    out = _recursion(c, np.broadcast_to(q[..., None, :], batch + (n + 1, n)), rows, unit, g)[0]
+    out = _dynamics(c, np.broadcast_to(q[..., None, :], batch + (n + 1, c.nq)), rows, unit, g)[0]
     bias = out[..., n, :] + friction(robot, qd)
     M = np.swapaxes(out[..., :n, :], -1, -2)
     diagonal = np.diagonal(M, axis1=-2, axis2=-1)
     dead = diagonal <= 1e-12 * np.maximum(diagonal.max(-1, keepdims=True), 1e-300)
     if dead.any():
-        raise SingularInertia(robot, int(np.nonzero(dead.reshape(-1, n))[1][0]))
+        k = int(np.nonzero(dead.reshape(-1, n))[1][0]) - c.nb
+        raise SingularInertia(robot, k if k >= 0 else None)
     try:
         return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
     except np.linalg.LinAlgError:
@@ -508,13 +598,14 @@ def fdyn(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integrate the forward dynamics from (q0, qd0) over [0, T] with scipy.
 
-    torque(t, q, qd) -> τ (n,), or None for zero torque.  Returns (t, q, qd)
-    with q, qd of shape (len(t), n).
+    torque(t, q, qd) -> τ (nv,), or None for zero torque.  Returns (t, q, qd)
+    with q of shape (len(t), nq), qd = v of shape (len(t), nv).  A floating base's
+    coordinates follow `coordinate_rates`; its quaternion is normalised in the output.
 
     Raises:
         ValueError: a symbolic robot; T that is not a positive finite time; q0 or
-            qd0 that is not one finite state of shape (n,); a torque(t, q, qd) that
-            returns no finite (n,) torque.
+            qd0 that is not one finite state of shape (nq,) / (nv,); a torque(t, q, qd)
+            that returns no finite (nv,) torque; a quaternion whose norm is not 1.
         SingularInertia: M(q) is singular along the motion (a `ValueError`).
         RuntimeError: the integrator fails (scipy's message).
     """
@@ -522,33 +613,54 @@ def fdyn(
     if not (np.isscalar(T) and np.isfinite(T) and T > 0):
         raise ValueError(f"T must be a positive finite time, got {T!r}")
     q0 = _state(c, q0, "q0")
-    qd0 = np.zeros(c.n) if qd0 is None else _state(c, qd0, "qd0")
-    if q0.shape != (c.n,) or qd0.shape != (c.n,):
-        raise ValueError(f"fdyn integrates one state: q0 and qd0 must have shape ({c.n},)")
-    zero = np.zeros(c.n)
+    qd0 = np.zeros(c.nv) if qd0 is None else _state(c, qd0, "qd0")
+    if q0.shape != (c.nq,) or qd0.shape != (c.nv,):
+        shapes = f"shape ({c.nq},)" if c.nq == c.nv else f"shapes ({c.nq},) and ({c.nv},)"
+        raise ValueError(f"fdyn integrates one state: q0 and qd0 must have {shapes}")
+    base_pose(c.base_joint, q0) if c.base_joint else None  # a quaternion of the wrong norm is refused here
+    zero = np.zeros(c.nv)
 
     def rhs(t, x):
-        q, qd = x[: c.n], x[c.n :]
+        q, qd = x[: c.nq], x[c.nq :]
+        if c.base_joint == "free":  # the integrator's drift off the unit sphere, not the user's input
+            q = np.concatenate([q[:3], q[3:7] / np.linalg.norm(q[3:7]), q[7:]])
         tau = zero if torque is None else _state(c, torque(t, q, qd), "torque(t, q, qd)")
-        return np.concatenate([qd, accel(robot, q, qd, tau)])
+        return np.concatenate([coordinate_rates(robot, q, qd), accel(robot, q, qd, tau)])
 
     sol = solve_ivp(rhs, (0.0, float(T)), np.concatenate([q0, qd0]), method=method, rtol=rtol, atol=atol, t_eval=t_eval)
     if not sol.success:
         raise RuntimeError(f"forward dynamics integration failed: {sol.message}")
-    return sol.t, sol.y[: c.n].T, sol.y[c.n :].T
+    q = sol.y[: c.nq].T
+    return sol.t, (normalize(robot, q) if c.base_joint == "free" else q), sol.y[c.nq :].T
+
+
+def _base_frame(c: _Chain, q) -> tuple[np.ndarray, np.ndarray]:
+    """World rotation and origin of frame 0 (the base, or the body a base joint moves) from q (nq)."""
+    if c.base_joint is None:
+        return np.broadcast_to(c.base_R, q.shape[:-1] + (3, 3)), np.broadcast_to(c.base_p, q.shape[:-1] + (3,))
+    Rb, pb = base_pose(c.base_joint, q)
+    return c.base_R @ Rb, c.base_p + np.einsum("ij,...j->...i", c.base_R, pb)
 
 
 def _frames(c: _Chain, q):
-    """World rotation and origin of each body frame: (..., n, 3, 3), (..., n, 3)."""
-    R, p = _link_transforms(c, q)
-    Rw, pw = c.base_R, c.base_p  # broadcast against the batch by the first product
+    """World rotation and origin of each body frame from q (nq): (..., n, 3, 3), (..., n, 3)."""
+    R, p = _link_transforms(c, _split_state(c, q)[1])
+    R0, p0 = _base_frame(c, q)
     Rs, ps = [], []
     for i in range(c.n):
-        pw = pw + np.einsum("...ij,...j->...i", Rw, p[..., i, :])
-        Rw = Rw @ R[..., i, :, :]
-        Rs.append(Rw)
-        ps.append(pw)
+        Rw, pw = (Rs[c.parents[i]], ps[c.parents[i]]) if c.parents[i] >= 0 else (R0, p0)
+        ps.append(pw + np.einsum("...ij,...j->...i", Rw, p[..., i, :]))
+        Rs.append(Rw @ R[..., i, :, :])
     return np.stack(Rs, -3), np.stack(ps, -2)
+
+
+def _ancestors(c: _Chain, i: int) -> list[int]:
+    """Link i and the links it hangs on, down to the base."""
+    out = []
+    while i >= 0:
+        out.append(i)
+        i = c.parents[i]
+    return out
 
 
 def _tool_point(c: _Chain, Rs, ps) -> np.ndarray:
@@ -575,11 +687,13 @@ def fkine(robot: Robot, q: ArrayLike) -> np.ndarray:
 
 
 def jacob0(robot: Robot, q: ArrayLike) -> np.ndarray:
-    """Geometric Jacobian (..., 6, n) of the tool point, [v; ω], world frame.
+    """Geometric Jacobian (..., 6, nv) of the tool point (on the last link), [v; ω], world
+    frame: zero in the columns of joints on other branches; a floating base's columns map
+    its body-frame velocity.
 
     Raises:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
-            shape (n,) or (..., n).
+            shape (nq,) or (..., nq).
     """
     c = _chain(robot)
     q = _state(c, q, "q")
@@ -591,7 +705,19 @@ def jacob0(robot: Robot, q: ArrayLike) -> np.ndarray:
     z = np.einsum("...nij,nj->...ni", Rs, np.where(revolute, c.S[:, :3], c.S[:, 3:]))
     vb = np.einsum("...nij,nj->...ni", Rs, c.S[:, 3:])
     v = np.where(revolute, vb + _cross(z, pe[..., None, :] - ps), z)
-    return np.swapaxes(np.concatenate([v, np.where(revolute, z, 0.0)], -1), -1, -2)
+    on_path = np.isin(np.arange(c.n), _ancestors(c, c.n - 1))[:, None]
+    J = np.swapaxes(np.where(on_path, np.concatenate([v, np.where(revolute, z, 0.0)], -1), 0.0), -1, -2)
+    if c.base_joint is None:
+        return J
+    R0, p0 = _base_frame(c, q)
+    arm = pe - p0  # (ω × arm) = −[arm]× ω
+    skew = np.zeros(arm.shape + (3,))
+    skew[..., 0, 1], skew[..., 0, 2], skew[..., 1, 2] = -arm[..., 2], arm[..., 1], -arm[..., 0]
+    skew = skew - np.swapaxes(skew, -1, -2)
+    top = np.concatenate([R0, -skew @ R0], -1)
+    bottom = np.concatenate([np.zeros_like(R0), R0], -1)
+    base = np.concatenate([top, bottom], -2) @ _BASE_AXES[c.base_joint][[3, 4, 5, 0, 1, 2]]
+    return np.concatenate([base, J], -1)
 
 
 def energy(robot: Robot, q: ArrayLike, qd: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -607,7 +733,62 @@ def energy(robot: Robot, q: ArrayLike, qd: ArrayLike) -> tuple[np.ndarray, np.nd
     c = _chain(robot)
     q, qd = _states(c, q=q, qd=qd)
     kinetic = 0.5 * np.einsum("...i,...ij,...j->...", qd, inertia(robot, q), qd)
-    Rs, ps = _frames(c, q)
-    com = ps + np.einsum("...nij,nj->...ni", Rs, c.h / np.where(c.m > 0, c.m, 1.0)[:, None])
-    potential = np.einsum("n,...ni,i->...", c.m, com, c.gravity)
+    Rs, ps, m, h = _bodies(c, q)
+    com = ps + np.einsum("...nij,nj->...ni", Rs, h / np.where(m > 0, m, 1.0)[:, None])
+    potential = np.einsum("n,...ni,i->...", m, com, c.gravity)
     return kinetic, potential
+
+
+def _bodies(c: _Chain, q) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """World rotations (..., k, 3, 3), origins (..., k, 3), masses (k,) and first moments (k, 3)
+    of every body: the links, then the body a base joint moves (massless for a fixed base)."""
+    Rs, ps = _frames(c, q)
+    R0, p0 = _base_frame(c, q)
+    m0, h0, _ = c.base_body
+    return (
+        np.concatenate([Rs, R0[..., None, :, :]], -3),
+        np.concatenate([ps, p0[..., None, :]], -2),
+        np.append(c.m, m0),
+        np.concatenate([c.h, h0[None]]),
+    )
+
+
+def momentum(robot: Robot, q: ArrayLike, qd: ArrayLike) -> np.ndarray:
+    """The robot's momentum (..., 6) in the world: linear, then angular about the world origin
+    (every body, a floating base's included; rotors not counted).
+
+    Raises:
+        ValueError: a symbolic robot; q or qd that are not finite numeric arrays of
+            shape (nq,) / (nv,) or (..., nq) / (..., nv), or whose leading shapes do not
+            broadcast; a base quaternion whose norm is not 1.
+    """
+    c = _chain(robot)
+    q, qd = _states(c, q=q, qd=qd)
+    Rs, ps, m, h = _bodies(c, q)
+    w, v = _velocities(c, q, qd)  # body coordinates, bodies as in `_bodies`
+    Io = np.concatenate([c.Io, c.base_body[2][None]])
+    # spatial momentum about each body's origin in its frame: (Io w + h × v, m v + w × h)
+    L = np.einsum("kij,...kj->...ki", Io, w) + _cross(h, v)
+    P = m[:, None] * v + _cross(w, h)
+    Pw = np.einsum("...kij,...kj->...ki", Rs, P)
+    Lw = np.einsum("...kij,...kj->...ki", Rs, L) + _cross(ps, Pw)
+    return np.concatenate([Pw.sum(-2), Lw.sum(-2)], -1)
+
+
+def _velocities(c: _Chain, q, qd) -> tuple[np.ndarray, np.ndarray]:
+    """Angular and linear velocity (..., n + 1, 3) of every body in its own frame (`_bodies`' order)."""
+    qj, (vb, vj) = _split_state(c, q)[1], _split_state(c, qd)
+    R, p = _link_transforms(c, qj)
+    batch = q.shape[:-1]
+    if c.base_joint is None:
+        w0 = v0 = np.zeros(batch + (3,))
+    else:
+        w0, v0 = np.split(np.einsum("ij,...j->...i", _BASE_AXES[c.base_joint], vb), 2, -1)
+    ws, vs = [], []
+    for i in range(c.n):
+        w, v = (ws[c.parents[i]], vs[c.parents[i]]) if c.parents[i] >= 0 else (w0, v0)
+        Rt = np.swapaxes(R[..., i, :, :], -1, -2)
+        qdi = vj[..., i, None]
+        vs.append(np.einsum("...ij,...j->...i", Rt, v + _cross(w, p[..., i, :])) + c.S[i, 3:] * qdi)
+        ws.append(np.einsum("...ij,...j->...i", Rt, w) + c.S[i, :3] * qdi)
+    return np.stack(ws + [w0], -2), np.stack(vs + [v0], -2)
