@@ -51,12 +51,24 @@ def derive(
     recursions, the one part that grows like n³: code generation takes C
     as ½ ∂(C q̇)/∂q̇ (fewer operations on every shipped arm and on random arms
     of 3–7 joints: 3289 against 7840 on a 7-joint one), and so does `Dynamics.C`.
+
+    A tree (links whose parent is not the link before) is derived as a chain is, each
+    recursion running through the parents; M's entries between branches are exact zeros.
+
+    Raises:
+        ValueError: an unknown method, something that is not a `Robot`, or regroup=True
+            for Lagrange or a symbolic robot.
+        NotImplementedError: a floating base (`base_joint`).
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     if not isinstance(robot, Robot):
         raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
-    robot.require_chain("derive")
+    if robot.base_joint is not None:
+        raise NotImplementedError(
+            f"derive reads robots on a fixed base (chains and trees); robot {robot.name!r} has a "
+            f"{robot.base_joint} base joint. The numeric reference (symdyn.reference) models floating bases"
+        )
     if regroup and (method != "newton-euler" or robot.is_symbolic):
         raise ValueError(
             "regroup=True needs method='newton-euler' and a numeric robot "

@@ -10,6 +10,7 @@ become exact rationals, so two derivations can be compared exactly.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import sympy as sp
@@ -22,12 +23,41 @@ from .symbols import exact, exact_cos_sin_of, joint_symbols
 @dataclass(frozen=True)
 class LinkFrame:
     """Exact pieces of one link: its transform from the parent (R, p) as
-    functions of the joint symbol, and the joint's axis S = (ω, v) in body
-    coordinates (constant)."""
+    functions of the joint symbol, the joint's axis S = (ω, v) in body
+    coordinates (constant), and `parent`, the index of the link it hangs on
+    (-1: the base; a tree's recursions run through it)."""
 
     R: sp.Matrix
     p: sp.Matrix
     S: tuple
+    parent: int = -1
+
+
+def ancestors(parents, i: int) -> list[int]:
+    """Link i and the links it hangs from, i first, down to the one on the base."""
+    out = []
+    while i >= 0:
+        out.append(i)
+        i = parents[i]
+    return out
+
+
+def along_z(robot: Robot) -> Robot:
+    """The robot in frames whose joint axes are their z (`Robot.to_modified`), trees included.
+
+    A standard-DH tree is converted as a chain is: link j takes the (a, α) of its parent's
+    standard link (0, 0 on the base) and its COM and inertia move through its own
+    Tx(a)·Rx(α); the last link's Tx(a)·Rx(α) goes into the tool, which stays on it.
+    """
+    if robot.convention != "standard" or robot.is_chain:
+        return robot.to_modified()
+    chain = dataclasses.replace(robot, links=tuple(dataclasses.replace(link, parent=None) for link in robot.links))
+    mdh = chain.to_modified()
+    links = []
+    for link, own, parent in zip(mdh.links, robot.links, robot.parents):
+        a, alpha = (0, 0) if parent < 0 else (robot.links[parent].a, robot.links[parent].alpha)
+        links.append(dataclasses.replace(link, a=a, alpha=alpha, parent=own.parent))
+    return dataclasses.replace(mdh, links=tuple(links))
 
 
 def _rx(alpha) -> sp.Matrix:
@@ -46,9 +76,12 @@ def link_frames(robot: Robot, q=None) -> list[LinkFrame]:
     """The exact transform of every body from its parent, in the joint symbols."""
     q = joint_symbols(robot.n)[0] if q is None else q
     if robot.convention == "general":
-        return [_general_frame(link, qi) for link, qi in zip(robot.links, q)]
+        return [
+            dataclasses.replace(_general_frame(link, qi), parent=parent)
+            for link, qi, parent in zip(robot.links, q, robot.parents)
+        ]
     frames = []
-    for link, qi in zip(robot.links, q):
+    for link, qi, parent in zip(robot.links, q, robot.parents):
         Rx, a = _rx(link.alpha), exact(link.a)
         if link.is_revolute:
             c, s = _cos_sin_of(qi, link.offset)
@@ -70,7 +103,7 @@ def link_frames(robot: Robot, q=None) -> list[LinkFrame]:
             S = tuple(post_R.T * z) + tuple(post_R.T * z.cross(post_p))
         else:
             S = (0, 0, 0) + tuple(post_R.T * z)
-        frames.append(LinkFrame(R=R, p=p, S=tuple(sp.sympify(x) for x in S)))
+        frames.append(LinkFrame(R=R, p=p, S=tuple(sp.sympify(x) for x in S), parent=parent))
     return frames
 
 
@@ -98,27 +131,32 @@ def _exact_matrix(T) -> sp.Matrix:
 
 
 def link_poses(robot: Robot, q=None) -> list[sp.Matrix]:
-    """World pose (4×4) of every body frame: base · A₁ ⋯ Aᵢ."""
-    T = _exact_matrix(robot.base)
-    poses = []
+    """World pose (4×4) of every body frame: base · A₁ ⋯ Aᵢ, the A of link i and of the links
+    it hangs from (a tree's other branches do not enter)."""
+    base = _exact_matrix(robot.base)
+    poses: list = []
     for f in link_frames(robot, q):
-        T = T * _homogeneous(f.R, f.p)
-        poses.append(T)
+        poses.append((base if f.parent < 0 else poses[f.parent]) * _homogeneous(f.R, f.p))
     return poses
 
 
 def fkine(robot: Robot, q=None) -> sp.Matrix:
-    """End-effector pose (4×4, sympy) in the world: base · A₁ ⋯ Aₙ · tool."""
+    """End-effector pose (4×4, sympy) in the world: the last link's pose · tool (the tool
+    hangs on the last link, a tree's too)."""
     return link_poses(robot, q)[-1] * _exact_matrix(robot.tool)
 
 
 def jacob0(robot: Robot, q=None) -> sp.Matrix:
-    """Geometric Jacobian (6×n, sympy) of the tool point, [v; ω], world frame."""
+    """Geometric Jacobian (6×n, sympy) of the tool point, [v; ω], world frame; on a tree the
+    columns of joints the last link does not hang from are zero."""
     frames = link_frames(robot, q)
     poses = link_poses(robot, q)
     pe = fkine(robot, q)[:3, 3]
     J = sp.zeros(6, robot.n)
+    path = set(ancestors(robot.parents, robot.n - 1))
     for i, (f, T) in enumerate(zip(frames, poses)):
+        if i not in path:
+            continue
         R, o = T[:3, :3], T[:3, 3]
         w = R * sp.Matrix(f.S[:3])
         v = R * sp.Matrix(f.S[3:])

@@ -126,6 +126,7 @@ class _Link:
     m: TrigPoly
     r: list
     I: list
+    parent: int = -1  # the link it hangs on (-1: the base)
 
 
 def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
@@ -135,7 +136,7 @@ def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
     if robot.convention == "general":
         robot = robot.to_modified()  # every axis along its link's z, exact placements
     out, a_idx = [], 0
-    for i, link in enumerate(robot.links):
+    for i, (link, parent) in enumerate(zip(robot.links, robot.parents)):
         Rx = _rx(link.alpha, f"alpha of link {i + 1}")
         zero3 = [S.zero] * 3
         ax = [const(link.a), S.zero, S.zero]
@@ -168,6 +169,7 @@ def _links(robot: Robot, S: TrigSpace) -> list[_Link]:
                 const(link.m),
                 [const(x) for x in link.r],
                 _symmetric(link.I, const),
+                parent,
             )
         )
     return out
@@ -179,9 +181,10 @@ def _symmetric(I, const) -> list:
 
 
 def _back(links: list[_Link], j: int, S: TrigSpace) -> tuple:
-    """K_j = pre_j⁻¹ · post_{j-1}⁻¹ as (rotation in QQ, translation TrigPolys)."""
-    Rpre_t, Rpost_t = _rot_t(links[j].pre_R), _rot_t(links[j - 1].post_R)
-    post_inv_p = [-x for x in _rot_vec(Rpost_t, links[j - 1].post_p, S)]
+    """K_j = pre_j⁻¹ · post_p⁻¹ (p: the link j hangs on) as (rotation in QQ, translation TrigPolys)."""
+    parent = links[links[j].parent]
+    Rpre_t, Rpost_t = _rot_t(links[j].pre_R), _rot_t(parent.post_R)
+    post_inv_p = [-x for x in _rot_vec(Rpost_t, parent.post_p, S)]
     p = [x - y for x, y in zip(_rot_vec(Rpre_t, post_inv_p, S), _rot_vec(Rpre_t, links[j].pre_p, S))]
     return _rot_mul(Rpre_t, Rpost_t), p
 
@@ -189,26 +192,28 @@ def _back(links: list[_Link], j: int, S: TrigSpace) -> tuple:
 # --------------------------------------------------------------------------- M and V
 
 
-def _body_jacobians(links: list[_Link], backs: list, i: int, S: TrigSpace) -> list:
-    """[(v_j, ω_j)] for j = 0…i: COM-velocity and angular-velocity columns of link i
-    in frame {i}, where the axis and origin of joint j depend on q_{j+1}…q_i only.
+def _body_jacobians(links: list[_Link], backs: list, i: int, S: TrigSpace) -> dict:
+    """{j: (v_j, ω_j)} for link i and the links it hangs from: COM-velocity and
+    angular-velocity columns of link i in frame {i}, where the axis and origin of
+    joint j depend on the joints between j and i only (a tree's other branches never enter).
 
     X_j = ^iT_(joint frame j) runs backwards: X_i = post_i⁻¹,
-    X_{j-1} = X_j · Tz(−d_j) · Rz(−θ_j) · pre_j⁻¹ · post_{j-1}⁻¹.
+    X_p = X_j · Tz(−d_j) · Rz(−θ_j) · pre_j⁻¹ · post_p⁻¹ with p the parent of j.
     """
     L = links
     Rt = _rot_t(L[i].post_R)
     R = [[S.const(x) for x in row] for row in Rt]
     p = [-x for x in _rot_vec(Rt, L[i].post_p, S)]
     r = L[i].r
-    cols = [None] * (i + 1)
-    for j in range(i, -1, -1):
+    cols = {}
+    j = i
+    while True:
         z = [R[a][2] for a in range(3)]
         if L[j].revolute:
             cols[j] = (_cross(z, [r[a] - p[a] for a in range(3)], S), z)
         else:
             cols[j] = (z, None)
-        if j == 0:
+        if L[j].parent < 0:
             break
         p = [p[a] - L[j].d * R[a][2] for a in range(3)]
         c, s = L[j].cos, L[j].sin
@@ -216,23 +221,26 @@ def _body_jacobians(links: list[_Link], backs: list, i: int, S: TrigSpace) -> li
         KR, Kp = backs[j]
         p = [p[a] + _dot(R[a], Kp, S) for a in range(3)]
         R = [[lincomb(((KR[k][b], R[a][k]) for k in range(3)), S) for b in range(3)] for a in range(3)]
+        j = L[j].parent
     return cols
 
 
 def _inertia(robot: Robot, links: list[_Link], S: TrigSpace) -> list:
-    """M (n×n nested lists of TrigPoly), Σ_i m_i J_viᵀJ_vi + J_ωiᵀ I_i J_ωi + G²·Jm on the diagonal."""
+    """M (n×n nested lists of TrigPoly), Σ_i m_i J_viᵀJ_vi + J_ωiᵀ I_i J_ωi + G²·Jm on the diagonal;
+    on a tree, the entries of joints on different branches are sums of nothing (exactly 0)."""
     n = robot.n
-    backs = [None] + [_back(links, j, S) for j in range(1, n)]
+    backs = [None if links[j].parent < 0 else _back(links, j, S) for j in range(n)]
     acc = [[[] for _ in range(n)] for _ in range(n)]
     for i in range(n):
         L = links[i]
         if not L.m and not any(x for row in L.I for x in row):
             continue
         cols = _body_jacobians(links, backs, i, S)
-        Iw = [None if w is None else [_dot(row, w, S) for row in L.I] for _, w in cols]
-        for j in range(i + 1):
+        path = sorted(cols)
+        Iw = {j: None if w is None else [_dot(row, w, S) for row in L.I] for j, (_, w) in cols.items()}
+        for x, j in enumerate(path):
             vj, wj = cols[j]
-            for k in range(j, i + 1):
+            for k in path[x:]:
                 vk = cols[k][0]
                 if L.m:
                     acc[j][k].append(L.m * _dot(vj, vk, S))
@@ -249,17 +257,20 @@ def _inertia(robot: Robot, links: list[_Link], S: TrigSpace) -> list:
 def _potential(robot: Robot, links: list[_Link], S: TrigSpace) -> TrigPoly:
     """V = Σ m_i a·p_ci, a = R_baseᵀ·gravity (the base's upward acceleration in frame {0}).
 
-    Forward recursion on b_i = ^0R_iᵀ a and h_i = a·^0p_i (only dot products with a are formed).
+    Forward recursion on b_i = ^0R_iᵀ a and h_i = a·^0p_i (only dot products with a are formed),
+    each link's from its parent's.
     """
     base_R = [[S.const(robot.base[a][b]) for b in range(3)] for a in range(3)]
     g = [S.const(x) for x in robot.gravity]
-    b = [_dot([base_R[k][a] for k in range(3)], g, S) for a in range(3)]
-    h, terms = S.zero, []
+    b0 = [_dot([base_R[k][a] for k in range(3)], g, S) for a in range(3)]
+    state, terms = [], []
     for L in links:
+        b, h = (b0, S.zero) if L.parent < 0 else state[L.parent]
         u = _rot_vec(_rot_t(L.pre_R), b, S)
         w = [L.cos * u[0] + L.sin * u[1], L.cos * u[1] - L.sin * u[0], u[2]]
         h = h + _dot(b, L.pre_p, S) + _dot(w, L.post_p, S) + L.d * u[2]
         b = _rot_vec(_rot_t(L.post_R), w, S)
+        state.append((b, h))
         if L.m:
             terms.append(L.m * (h + _dot(b, L.r, S)))
     return summation(terms, S)

@@ -18,7 +18,7 @@ import time
 import sympy as sp
 
 from .dynamics import Dynamics, friction_expr, rotor_inertia
-from .kinematics import link_frames
+from .kinematics import along_z, ancestors, link_frames
 from ..model import Robot
 from .newton_euler import gravity_in_base, link_inertias
 from .symbols import joint_symbols
@@ -94,13 +94,13 @@ def derive(robot: Robot) -> Dynamics:
     t0 = time.perf_counter()
     n = robot.n
     q, qd, qdd = joint_symbols(n)
-    frames = link_frames(robot.to_modified(), q)  # every joint axis along its link's z
-    inertias = link_inertias(robot.to_modified())  # about the link origin, first moments h = m·r
+    frames = link_frames(along_z(robot), q)  # every joint axis along its link's z
+    inertias = link_inertias(along_z(robot))  # about the link origin, first moments h = m·r
     tape = Tape()
-    R, o = sp.eye(3), sp.zeros(3, 1)
     axes, origins, rotations = [], [], []
     for i, f in enumerate(frames):
         k = i + 1
+        R, o = (sp.eye(3), sp.zeros(3, 1)) if f.parent < 0 else (rotations[f.parent], origins[f.parent])
         o = sp.Matrix([tape.name(x, f"o{k}_{AXES[a]}") for a, x in enumerate(o + R * f.p)])
         R = _mat(tape, R, f.R, f"R{k}")
         axes.append(R[:, 2])
@@ -113,8 +113,9 @@ def derive(robot: Robot) -> Dynamics:
         k = i + 1
         Rt = rotations[i].T
         m, h, Io = inertias[i].m, sp.Matrix(inertias[i].h), inertias[i].Io
-        cols = []
-        for j in range(i + 1):
+        path = sorted(ancestors(robot.parents, i))  # a tree's other branches do not move link i
+        cols = {}
+        for j in path:
             revolute = frames[j].S[2] == 1
             zj = Rt * axes[j]  # joint j's axis in link i's frame
             w = [tape.name(x, f"w{k}_{j + 1}{AXES[a]}") for a, x in enumerate(zj)] if revolute else [0, 0, 0]
@@ -123,11 +124,11 @@ def derive(robot: Robot) -> Dynamics:
             else:
                 v = zj
             v = [tape.name(x, f"v{k}_{j + 1}{AXES[a]}") for a, x in enumerate(v)]
-            cols.append((sp.Matrix(v), sp.Matrix(w)))
-        for a in range(i + 1):
+            cols[j] = (sp.Matrix(v), sp.Matrix(w))
+        for x, a in enumerate(path):
             va, wa = cols[a]
             Iw = Io * wa
-            for b in range(a + 1):
+            for b in path[: x + 1]:
                 vb, wb = cols[b]
                 term = m * va.dot(vb) + va.dot(wb.cross(h)) + vb.dot(wa.cross(h)) + Iw.dot(wb)
                 M[a][b] += term

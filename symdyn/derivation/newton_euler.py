@@ -1,14 +1,16 @@
 """Symbolic recursive Newton–Euler, customized (Khalil): the second route.
 
 Khalil's form of the recursion, in modified-DH frames (a standard-DH robot
-is re-expressed by `Robot.to_modified()` first, which changes no joint
+is re-expressed first by `kinematics.along_z`, which changes no joint
 quantity): inertia about the body origin and first moments of mass (no COM
 accelerations), no linear velocities, exact constants, products
 with exact zeros and ones skipped, and every non-trivial intermediate given
 a name on a `Tape` as it is formed (w2_z, dv3_x, f4_y, …), so the result is
 a DAG, never one big tree.  M comes from unit accelerations, G from zero
 motion, C from unit velocities with the cross terms split symmetrically
-(which is exactly the Christoffel C).
+(which is exactly the Christoffel C).  On a tree each link's motion comes
+from its parent and its force goes to its parent; M's entries between
+branches are exact zeros, never computed.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import Sequence
 import sympy as sp
 
 from .dynamics import Dynamics, friction_expr, rotor_inertia
-from .kinematics import LinkFrame, link_frames
+from .kinematics import LinkFrame, along_z, ancestors, link_frames
 from ..model import Robot
 from .progress import Progress, silent
 from .symbols import exact, joint_symbols
@@ -103,22 +105,22 @@ def _u_times(U, x):
 
 
 def forward(tape: Tape, frames: Sequence[LinkFrame], qd, qdd, g0, tag: str = "") -> list[Motion]:
-    """Outward pass in modified-DH frames (joint axis = z of the body frame).
+    """Outward pass in modified-DH frames (joint axis = z of the body frame): each
+    link's motion from its parent's (`LinkFrame.parent`; a tree's branches apart).
 
     g0 is the base's upward acceleration in frame {0} (Corke's gravity,
     rotated by the base); the base itself is at rest.
     """
-    w = [0, 0, 0]
-    dw = [0, 0, 0]
-    dV = list(g0)
-    U = [0] * 9
-    out = []
+    at_rest = Motion([0, 0, 0], [0, 0, 0], list(g0), [0] * 9)
+    out: list[Motion] = []
     for i, f in enumerate(frames):
         k = i + 1
         if f.S != (0, 0, 1, 0, 0, 0) and f.S != (0, 0, 0, 0, 0, 1):
             raise ValueError(
                 "the customized recursion needs modified-DH frames (joint axis = z); convert with robot.to_modified()"
             )
+        parent = at_rest if f.parent < 0 else out[f.parent]
+        w, dw, dV, U = parent.w, parent.dw, parent.dV, parent.U
         revolute = f.S[2] == 1
         wI = tape.vector(_tmatvec(f.R, w), f"{tag}wi{k}")
         dwI = _tmatvec(f.R, dw)
@@ -166,24 +168,34 @@ def body_force(tape: Tape, mo: Motion, inertia: LinkInertia, tag: str, k: int) -
 def backward(
     tape: Tape, frames: Sequence[LinkFrame], forces: list, qdd, inertias, tag: str = "", last: int | None = None
 ) -> list:
-    """Inward pass: joint forces τᵢ = Sᵢ·fᵢ (+ rotor inertia), forces
-    transmitted to the parent; `forces[i]` is body i's own (n, f) or None."""
+    """Inward pass: joint forces τᵢ = Sᵢ·fᵢ (+ rotor inertia), each link's force added to
+    its parent's (`LinkFrame.parent`); `forces[i]` is body i's own (n, f) or None.  Links
+    after `last` carry nothing; a link that no force reaches has τᵢ exactly 0 (with the
+    rotor term, when it has one) and nothing named."""
     n_links = len(frames)
     last = n_links - 1 if last is None else last
     tau = [sp.S.Zero] * n_links
-    n_acc, f_acc = [0, 0, 0], [0, 0, 0]
+    carried: list = [None] * n_links  # (n, f) handed in by the children, in link i's frame
     for i in range(last, -1, -1):
         k = i + 1
+        if forces[i] is None and carried[i] is None:
+            tau[i] = inertias[i].Ia * qdd[i]
+            continue
+        n_acc, f_acc = carried[i] or ([0, 0, 0], [0, 0, 0])
         if forces[i] is not None:
             n_acc, f_acc = _add(n_acc, forces[i][0]), _add(f_acc, forces[i][1])
         n_i = tape.vector(n_acc, f"{tag}n{k}")
         f_i = tape.vector(f_acc, f"{tag}f{k}")
         S = frames[i].S
         tau[i] = _dot(S[:3], n_i) + _dot(S[3:], f_i) + inertias[i].Ia * qdd[i]
-        if i > 0:
+        parent = frames[i].parent
+        if parent >= 0:
             R, p = frames[i].R, frames[i].p
-            f_acc = _matvec(R, f_i)
-            n_acc = _add(_matvec(R, n_i), _cross(list(p), f_acc))
+            f_up = _matvec(R, f_i)
+            n_up = _add(_matvec(R, n_i), _cross(list(p), f_up))
+            if carried[parent] is not None:
+                n_up, f_up = _add(carried[parent][0], n_up), _add(carried[parent][1], f_up)
+            carried[parent] = (n_up, f_up)
     return tau
 
 
@@ -197,12 +209,19 @@ def rnea(tape: Tape, frames, inertias, qd, qdd, g0, tag: str = "") -> list:
 def composite_inertia(tape: Tape, frames: Sequence[LinkFrame], inertias, tag: str = "c") -> list:
     """Joint-space inertia M by the customized composite-link algorithm.
 
-    Composite parameters (J, MS, m) are accumulated from the tip in each
-    link's frame: J_j += R Jc Rᵀ + m(|P|²1 − PPᵀ) + 2(P·S′)1 − S′Pᵀ − PS′ᵀ with
-    S′ = R·MSc; then column j's force Ic·S_j is carried down to the base,
-    M_ij = S_i·(n, f).  Named entries keep it a DAG; returns M as n×n lists.
+    Composite parameters (J, MS, m) are accumulated from the tips in each
+    link's frame, each child's added to its parent's (`LinkFrame.parent`):
+    J_j += R Jc Rᵀ + m(|P|²1 − PPᵀ) + 2(P·S′)1 − S′Pᵀ − PS′ᵀ with
+    S′ = R·MSc; then column j's force Ic·S_j is carried down through the
+    links j hangs from, M_ij = S_i·(n, f).  M_ij of joints on different
+    branches of a tree (neither hangs from the other) is exactly 0 and costs
+    nothing.  Named entries keep it a DAG; returns M as n×n lists.
     """
     n = len(frames)
+    children: list[list[int]] = [[] for _ in range(n)]
+    for c in range(n):
+        if frames[c].parent >= 0:
+            children[frames[c].parent].append(c)
     J = [None] * n
     MS = [None] * n
     mass = [None] * n
@@ -211,12 +230,12 @@ def composite_inertia(tape: Tape, frames: Sequence[LinkFrame], inertias, tag: st
         Jj = sp.Matrix(inertias[j].Io)
         MSj = list(inertias[j].h)
         mj = inertias[j].m
-        if j + 1 < n:
-            R, P = frames[j + 1].R, list(frames[j + 1].p)
-            Jc, S, m = J[j + 1], MS[j + 1], mass[j + 1]
+        for c in children[j]:
+            R, P = frames[c].R, list(frames[c].p)
+            Jc, S, m = J[c], MS[c], mass[c]
             RJ = R * Jc
             RJR = sp.Matrix(3, 3, lambda a, b: sp.Add(*(RJ[a, c] * R[b, c] for c in range(3))) if a <= b else 0)
-            Sp = tape.vector(_matvec(R, S), f"{tag}S{k + 1}")
+            Sp = tape.vector(_matvec(R, S), f"{tag}S{c + 1}")
             PS = _dot(P, Sp)
             PP = _dot(P, P)
             for a in range(3):
@@ -239,12 +258,20 @@ def composite_inertia(tape: Tape, frames: Sequence[LinkFrame], inertias, tag: st
         else:
             nn, ff = [MS[j][1], -MS[j][0], 0], [0, 0, mass[j]]
         M[j][j] = (nn[2] if revolute else ff[2]) + inertias[j].Ia
-        for i in range(j - 1, -1, -1):
-            R, P = frames[i + 1].R, list(frames[i + 1].p)
+        child, i = j, frames[j].parent
+        while i >= 0:
+            R, P = frames[child].R, list(frames[child].p)
             ff = tape.vector(_matvec(R, ff), f"{tag}f{j + 1}_{i + 1}")
             nn = tape.vector(_add(_matvec(R, nn), _cross(P, ff)), f"{tag}n{j + 1}_{i + 1}")
             M[i][j] = M[j][i] = nn[2] if frames[i].S[2] == 1 else ff[2]
+            child, i = i, frames[i].parent
     return M
+
+
+def _related(parents) -> set:
+    """Pairs (j, k), j < k, of joints one of which hangs from the other: the pairs whose
+    M_jk and Christoffel symbols Γ_ijk can differ from 0 (on a chain, every pair)."""
+    return {(min(j, k), max(j, k)) for k in range(len(parents)) for j in ancestors(parents, k) if j != k}
 
 
 def gravity_in_base(robot: Robot) -> list:
@@ -276,7 +303,7 @@ def recursion(
     n(n + 1)/2 more recursions, the only part that grows like n³."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
-    robot = robot.to_modified()
+    robot = along_z(robot)
     frames = link_frames(robot, q)
     inertias = link_inertias(robot) if inertias is None else list(inertias)
     tape = Tape()
@@ -299,9 +326,13 @@ def recursion(
         h[j, j] = rnea(tape, frames, inertias, unit(j), zero, none, tag=f"h{j + 1}")
         progress.step(f"Christoffel {j + 1}{j + 1}")
     gamma = {}
+    related = _related(robot.parents)
     for j in range(n):
         gamma[j, j] = h[j, j]
         for k in range(j + 1, n):
+            if (j, k) not in related:  # different branches of a tree: Γ_ijk = 0 for every i
+                gamma[j, k] = gamma[k, j] = [sp.S.Zero] * n
+                continue
             both = rnea(
                 tape, frames, inertias, [a + b for a, b in zip(unit(j), unit(k))], zero, none, tag=f"h{j + 1}{k + 1}"
             )
@@ -319,7 +350,9 @@ def derive(
     christoffel=False leaves C out of the recursion (`Dynamics.C` is then
     ½ ∂(C q̇)/∂q̇, the same matrix)."""
     n = robot.n
-    bar = Progress(f"newton-euler {robot.name}", 3 + (n * (n + 1) // 2 if christoffel else 0), enabled=progress)
+    bar = Progress(
+        f"newton-euler {robot.name}", 3 + (n + len(_related(robot.parents)) if christoffel else 0), enabled=progress
+    )
     rec = recursion(robot, inertias, bar, christoffel)
     bar.done()
     q, qd, qdd = joint_symbols(robot.n)

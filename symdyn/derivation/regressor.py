@@ -11,7 +11,9 @@ evaluated at random exact rational states (sin and cos rational), reduced
 over QQ, and each dependent column is written exactly in the independent
 ones — Gautier's numeric method with Khalil's regrouping as its result.
 As in Khalil's work, the parameters refer to modified-DH link frames; for
-a standard-DH robot these are the frames of `robot.to_modified()`.
+a standard-DH robot these are the frames of `robot.to_modified()`
+(`kinematics.along_z` for a tree, whose links hand what their joints cannot
+move to their parents).
 The regrouped parameters give a numeric model with the same joint-space
 dynamics and many zero parameters, which the customized recursion skips.
 """
@@ -23,7 +25,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from .dynamics import rotor_inertia
-from .kinematics import link_frames
+from .kinematics import along_z, link_frames
 from ..model import Robot, exact_cos_sin
 from .newton_euler import LinkInertia, backward, body_force, forward, gravity_in_base, link_inertias
 from .progress import Progress
@@ -44,7 +46,7 @@ def parameter_values(robot: Robot) -> tuple:
     """The robot's standard parameters, exact, in the order of parameter_symbols
     (in modified-DH link frames: see the module docstring)."""
     values = []
-    robot = robot.to_modified()
+    robot = along_z(robot)
     for link, I, Ia in zip(robot.links, link_inertias(robot), rotor_inertia(robot)):
         G, B, (tp, tn) = exact(link.G), exact(link.B), (exact(x) for x in link.Tc)
         values += [
@@ -100,7 +102,7 @@ def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
     """The joint-torque regressor of `robot` (geometry numeric or symbolic)."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
-    frames = link_frames(robot.to_modified(), q)
+    frames = link_frames(along_z(robot), q)
     tape = Tape()
     motions = forward(tape, frames, qd, qdd, gravity_in_base(robot))
     zero_inertia = [_unit_inertia("none")] * n
@@ -146,7 +148,7 @@ class BaseParameters:
 
 def generic_turns(robot: Robot) -> int:
     """How many links of the robot's recursion frames turn by a generic constant rotation."""
-    mdh = robot.to_modified()
+    mdh = along_z(robot)
     if mdh.convention == "general":
         return sum(any(not sp.sympify(x).is_Integer for row in link.origin[:3] for x in row[:3]) for link in mdh.links)
     return sum(

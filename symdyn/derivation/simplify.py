@@ -21,6 +21,7 @@ import sympy as sp
 
 from ..model import exact_cos_sin
 from . import trigpoly
+from .kinematics import along_z
 from .program import OpCounter, lower, make_program
 
 if TYPE_CHECKING:  # annotations only: Dynamics.op_count calls into this module
@@ -40,26 +41,29 @@ def fold(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
 
 
 def parallel_chains(robot) -> list[tuple[int, ...]]:
-    """Runs of consecutive revolute joints with parallel axes (Puma: joints 2, 3),
-    as 0-based indices: their angle sums are the natural angles of the arm."""
-    mdh = robot.to_modified()
-    chains, run = [], []
-    for j, link in enumerate(mdh.links):
+    """Runs of revolute joints with parallel axes, each hanging on the one before (Puma:
+    joints 2, 3), as 0-based indices: their angle sums are the natural angles of the arm.
+    On a tree a run follows one branch: of a link's parallel children only the first
+    continues its run (the runs stay disjoint)."""
+    mdh = along_z(robot)
+    runs: list[list[int]] = []
+    run_of: dict[int, list[int]] = {}
+    for j, (link, parent) in enumerate(zip(mdh.links, mdh.parents)):
         if mdh.convention == "general":  # axes along z: parallel when the placement keeps z
             turned = link.origin[0][2] != 0 or link.origin[1][2] != 0
         else:
             turned = isinstance(link.alpha, sp.Basic) or exact_cos_sin(link.alpha)[1] != 0
-        parallel = j > 0 and link.is_revolute and mdh.links[j - 1].is_revolute and not turned
-        if parallel:
-            run = run or [j - 1]
-            run.append(j)
-        else:
-            if len(run) > 1:
-                chains.append(tuple(run))
-            run = []
-    if len(run) > 1:
-        chains.append(tuple(run))
-    return chains
+        if parent < 0 or not (link.is_revolute and mdh.links[parent].is_revolute) or turned:
+            continue
+        run = run_of.get(parent)
+        if run is None:
+            run = [parent]
+            runs.append(run)
+        elif run[-1] != parent:  # the parent's run went on along an earlier child
+            continue
+        run.append(j)
+        run_of[parent] = run_of[j] = run
+    return sorted(tuple(run) for run in runs)
 
 
 def _decompose(k: tuple, chains: list) -> list[tuple[tuple[int, ...], int]]:

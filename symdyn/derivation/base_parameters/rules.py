@@ -4,10 +4,11 @@ The part of link j's inertia that its own joint cannot move is carried by the
 parent just as well.  About a revolute joint's axis z that part is the mass M,
 the first moment along the axis MZ and the inertia YY·(1 − zzᵀ) (the kinetic
 energy ½·YY(|ω|² − ω_z²) does not see q̇ⱼ); along a prismatic joint it is the
-whole inertia tensor (the body does not turn).  Moved into link j − 1's frame
-(rotation R₀, origin p₀ of frame j there) by the parallel-axis terms of the
-composite-link recursion, they add to link j − 1's parameters exactly; from
-link 1 they go to the fixed base, which does not move them at all.  So XX −
+whole inertia tensor (the body does not turn).  Moved into the parent link's
+frame (rotation R₀, origin p₀ of frame j there; on a chain link j − 1, on a
+tree the link j hangs on) by the parallel-axis terms of the composite-link
+recursion, they add to the parent's parameters exactly; from a link on the
+base they go to the fixed base, which does not move them at all.  So XX −
 YY, and YY, MZ, M vanish (revolute), or the six inertia entries (prismatic):
 Khalil's rules with his choice of which parameter gives way, which is the
 choice of an exact rank analysis in the column order XX1 … IA1, XX2 ….
@@ -46,7 +47,8 @@ def _combine(*terms: tuple) -> dict:
 
 
 def transfer(frames: list[Frame], per: int) -> tuple[list[dict], set]:
-    """Apply the rules from the tip to the base.
+    """Apply the rules from the tips to the base (a parent comes before its children, so every
+    child has handed its part over when its parent's turn comes).
 
     Returns (combos, gone): for every inertial parameter slot j·per + idx (idx in
     XX … IA), the linear combination of standard parameters it carries after the
@@ -64,12 +66,12 @@ def transfer(frames: list[Frame], per: int) -> tuple[list[dict], set]:
             a["XX"] = _combine((1, a["XX"]), (-1, YY))
             a["YY"], a["MZ"], a["M"] = {}, {}, {}
             gone |= {slot["YY"], slot["MZ"], slot["M"]}
-            if j == 0:
+            if f.parent < 0:
                 continue
             R0, p = f.R0, f.p0
             z = [R0[r][2] for r in range(3)]
             S = [(z[r], MZ) for r in range(3)]  # S′ = R0·(0, 0, MZ)
-            parent = acc[j - 1]
+            parent = acc[f.parent]
             parent["M"] = _combine((1, parent["M"]), (1, M))
             for r in range(3):  # h′ += S′ + M·p
                 parent[_H[r]] = _combine((1, parent[_H[r]]), S[r], (p[r], M))
@@ -88,9 +90,9 @@ def transfer(frames: list[Frame], per: int) -> tuple[list[dict], set]:
                 for c in range(r, 3):
                     a[_IO[r][c]] = {}
                     gone.add(slot[_IO[r][c]])
-            if j == 0:
+            if f.parent < 0:
                 continue
-            R0, parent = f.R0, acc[j - 1]
+            R0, parent = f.R0, acc[f.parent]
             for r in range(3):
                 for c in range(r, 3):  # R0·Io·R0ᵀ
                     terms = [(R0[r][k] * R0[c][m], Io[k][m]) for k in range(3) for m in range(3)]

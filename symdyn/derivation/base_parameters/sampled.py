@@ -15,8 +15,9 @@ K states at once in one of three fields:
 Sample states have rational cos qᵢ, sin qᵢ ((1 − t²)/(1 + t²), 2t/(1 + t²)),
 so the same identity holds in all three.  The link frames are the modified,
 axis-along-z frames of both derivations (`kinematics.link_frames` of
-`robot.to_modified()`): each is a constant rotation R₀ and origin p₀, then a
-turn about z (revolute) or a slide along R₀·z (prismatic).
+`kinematics.along_z(robot)`), each placed in its parent's (a tree's too):
+each is a constant rotation R₀ and origin p₀, then a turn about z
+(revolute) or a slide along R₀·z (prismatic).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import numpy as np
 import sympy as sp
 
 from ...model import Robot
-from ..kinematics import link_frames
+from ..kinematics import along_z, link_frames
 from ..newton_euler import gravity_in_base
 from ..symbols import joint_symbols
 
@@ -50,6 +51,7 @@ class Frame:
     R0: tuple
     p0: tuple
     revolute: bool
+    parent: int = -1  # the link it hangs on (-1: the base)
 
 
 def _fraction(x) -> Fraction:
@@ -60,14 +62,14 @@ def _fraction(x) -> Fraction:
 
 
 def frames(robot: Robot) -> list[Frame]:
-    """The exact constant parts of every link frame of `robot.to_modified()`.
+    """The exact constant parts of every link frame of `kinematics.along_z(robot)`.
 
     Raises:
         ValueError: a symbolic or irrational constant in a placement.
     """
     q = joint_symbols(robot.n)[0]
     out = []
-    for qi, f in zip(q, link_frames(robot.to_modified(), q)):
+    for qi, f in zip(q, link_frames(along_z(robot), q)):
         revolute = f.S[2] == 1
         at_zero = {sp.cos(qi): 1, sp.sin(qi): 0, qi: 0}
         R0 = f.R.xreplace(at_zero)
@@ -84,6 +86,7 @@ def frames(robot: Robot) -> list[Frame]:
                 R0=tuple(tuple(_fraction(R0[r, c]) for c in range(3)) for r in range(3)),
                 p0=tuple(_fraction(x) for x in p0),
                 revolute=revolute,
+                parent=f.parent,
             )
         )
     return out
@@ -153,7 +156,7 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
     rng = random.Random(seed)
     cos, sin, q, qd, qdd = field.states(n, count, rng)
     red, k = field.reduce, field.const
-    g0 = [k(_fraction(x)) for x in gravity_in_base(robot.to_modified())]
+    g0 = [k(_fraction(x)) for x in gravity_in_base(robot)]
     consts = [
         ([[k(x) for x in row] for row in f.R0], [k(x) for x in f.p0], [k(f.R0[r][2]) for r in range(3)]) for f in fs
     ]
@@ -187,10 +190,11 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
     def turn_t(co, si, v):  # Rz(q)ᵀ·v
         return [add(m(co, v[0]), m(si, v[1])), red(m(co, v[1]) - m(si, v[0])), v[2]]
 
-    # outward: w, dw, dV (gravity included) and U of every link, in its own frame
-    w, dw, dV, U = [zero] * 3, [zero] * 3, [zero + g for g in g0], [zero] * 9
+    # outward: w, dw, dV (gravity included) and U of every link, in its own frame, from its parent's
+    at_rest = ([zero] * 3, [zero] * 3, [zero + g for g in g0], [zero] * 9)
     motion, placements = [], []
     for i, (f, (R0, p0, z0)) in enumerate(zip(fs, consts)):
+        w, dw, dV, U = at_rest if f.parent < 0 else motion[f.parent]
         p = p0 if f.revolute else [add(p0[r], m(q[i], z0[r])) for r in range(3)]
         a, b, c = mat_t(R0, w), mat_t(R0, dw), mat_t(R0, [add(x, y) for x, y in zip(dV, u_times(U, p))])
         co = si = None
@@ -234,11 +238,12 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
         columns = out[11 * slot : 11 * slot + 11]
         columns[:] = 0
         columns[10, j] = qdd[j]
-        for i in range(j, -1, -1):
+        i = j
+        while True:  # down through the links j hangs from: the other joints' entries stay 0
             revolute = fs[i].revolute
             for k, (nn, ff) in enumerate(wrenches):
                 columns[k, i] = nn[2] if revolute else ff[2]
-            if i == 0:
+            if fs[i].parent < 0:
                 break
             R0, p, co, si = placements[i]
             moved = []
@@ -247,5 +252,5 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
                     nn, ff = turn(co, si, nn), turn(co, si, ff)
                 ff = mat(R0, ff)
                 moved.append(([add(x, y) for x, y in zip(mat(R0, nn), cross(p, ff))], ff))
-            wrenches = moved
+            wrenches, i = moved, fs[i].parent
     return out
