@@ -4,7 +4,8 @@ Part of the model stage, for `symdyn generate` and `symdyn print` (and any
 command that takes a MODEL): `add_arguments` declares MODEL with the URDF
 options (--tip, --base, --lock JOINT=VALUE, --exclude LINK, --no-snap,
 --no-friction, --name, and for a xacro file --xacro-arg NAME:=VALUE, --package-path DIR),
-`load` turns them into a `Robot` through `arms.load` or `Robot.from_urdf`.
+`load` turns them into a `Robot` through `arms.load` or `Robot.from_urdf`
+(a tree with --tips all|LINK,LINK, a floating base with --base-joint free|planar).
 A robot file's robot is named after the file (not the URDF's <robot name=…>,
 which three unrelated files may share; arm.urdf.xacro's is arm), as
 `Robot.from_urdf` names it from Python, so `symdyn generate arm.urdf` writes
@@ -32,6 +33,7 @@ __all__ = [
     "urdf_options",
     "is_urdf",
     "parse_locks",
+    "parse_tips",
     "parse_xacro_args",
     "URDF_OPTIONS",
 ]
@@ -39,6 +41,8 @@ __all__ = [
 #: The options that only a URDF file takes (argparse dest → option).
 URDF_OPTIONS = {
     "tip": "--tip",
+    "tips": "--tips",
+    "base_joint": "--base-joint",
     "base": "--base",
     "lock": "--lock",
     "exclude": "--exclude",
@@ -73,7 +77,21 @@ def add_urdf_options(p: argparse.ArgumentParser) -> None:
         "--tip", metavar="LINK", help="the chain's last link (an MJCF file's: BODY) (default: the tree's only leaf)"
     )
     urdf.add_argument(
+        "--tips",
+        metavar="all|LINK,LINK",
+        help="a tree instead of one chain: 'all' moves every revolute, continuous and prismatic joint "
+        "(an MJCF file's hinge and slide joints), LINK,LINK the joints on the way to each listed link "
+        "(BODY,BODY); the rest is locked and merged as for a chain (not with --tip)",
+    )
+    urdf.add_argument(
         "--base", metavar="LINK", help="the chain's first link (an MJCF file's: BODY), fixed (default: the root)"
+    )
+    urdf.add_argument(
+        "--base-joint",
+        choices=("free", "planar"),
+        help="the base floats: free (6 DOF, Pinocchio's free-flyer: q = x y z qx qy qz qw, then the joints) or "
+        "planar (x y yaw); --base (default: the root) with what is fixed to it is the floating body "
+        "(default: a fixed base; an MJCF file's <freejoint/> on its root body is read as free)",
     )
     urdf.add_argument(
         "--lock",
@@ -165,6 +183,20 @@ def parse_xacro_args(items) -> dict:
     return args
 
 
+def parse_tips(text: str | None):
+    """--tips: None, "all", or the link (body) names of LINK,LINK,….
+
+    Raises:
+        ValueError: an empty name among them (`--tips a,,b`, `--tips ,`).
+    """
+    if text is None or text == "all":
+        return text
+    names = [name.strip() for name in text.split(",")]
+    if not all(names):
+        raise ValueError(f"--tips {text}: expected all or LINK,LINK,… (link or body names, no empty ones)")
+    return names
+
+
 def parse_locks(items) -> dict:
     """{"joint": value} from ["joint=value", …]; a ValueError naming the item that is not JOINT=VALUE."""
     locks = {}
@@ -191,7 +223,9 @@ def load(
     *,
     symbolic: bool = False,
     tip: str | None = None,
+    tips: str | None = None,
     base: str | None = None,
+    base_joint: str | None = None,
     lock=(),
     exclude=(),
     no_snap: bool = False,
@@ -215,6 +249,7 @@ def load(
         MJCFError: an MJCF file that cannot become a robot.
     """
     values = {"tip": tip, "base": base, "lock": lock, "exclude": exclude, "no_snap": no_snap, "name": name}
+    values |= {"tips": tips, "base_joint": base_joint}
     values |= {"xacro_arg": xacro_arg, "package_path": package_path, "balance_inertia": balance_inertia}
     values |= {"no_friction": no_friction}
     given = {opt for dest, opt in URDF_OPTIONS.items() if values[dest]}
@@ -248,9 +283,23 @@ def load(
                 f"--balance-inertia applies to a URDF or xacro file; for the MJCF file {model}, set MuJoCo's "
                 "<compiler balanceinertia='true'/> in the file"
             )
-        robot = _load_mjcf(path, base=base, tip=tip, locks=locks, exclude=exclude, no_snap=no_snap, name=name)
+        robot = _load_mjcf(
+            path,
+            base=base,
+            tip=tip,
+            locks=locks,
+            exclude=exclude,
+            no_snap=no_snap,
+            name=name,
+            tips=parse_tips(tips),
+            base_joint=base_joint,
+        )
         return _friction_as_asked(robot, no_friction)
     options = {"base_link": base, "tip_link": tip}
+    if tips:
+        options["tips"] = parse_tips(tips)
+    if base_joint:
+        options["base_joint"] = base_joint
     # only what was asked for, so that a reader without an option still reads the plain chain
     if locks:
         options["locked"] = locks
@@ -291,10 +340,16 @@ def _is_mjcf(path: Path) -> bool:
     return is_mjcf(path)
 
 
-def _load_mjcf(path: Path, *, base, tip, locks: dict, exclude, no_snap: bool, name) -> Robot:
-    """The chain of an MJCF file (root `<mujoco>`) by `Robot.from_mjcf`: --base and --tip name
-    bodies, --lock hinge and slide joints, --exclude bodies."""
+def _load_mjcf(
+    path: Path, *, base, tip, locks: dict, exclude, no_snap: bool, name, tips=None, base_joint=None
+) -> Robot:
+    """The chain (or tree, --tips) of an MJCF file (root `<mujoco>`) by `Robot.from_mjcf`: --base,
+    --tip and --tips name bodies, --lock hinge and slide joints, --exclude bodies."""
     options: dict = {"base_body": base, "tip_body": tip, "locked": locks, "exclude": list(exclude)}
+    if tips is not None:
+        options["tips"] = tips
+    if base_joint is not None:
+        options["base_joint"] = base_joint
     return Robot.from_mjcf(path, snap=not no_snap, name=name or path.stem, **options)
 
 

@@ -55,27 +55,51 @@ def _general(link, q: float) -> np.ndarray:
     return T @ M
 
 
+def _base_pose(robot: Any, q: np.ndarray) -> np.ndarray:
+    """The floating base's placement of q's first coordinates (free: x y z qx qy qz qw; planar: x y yaw)."""
+    T = np.eye(4)
+    if robot.base_joint == "free":
+        x, y, z, w = q[3:7] / (np.linalg.norm(q[3:7]) or 1.0)
+        T[:3, :3] = [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+        T[:3, 3] = q[:3]
+    elif robot.base_joint == "planar":
+        c, s = math.cos(q[2]), math.sin(q[2])
+        T[:2, :2] = [[c, -s], [s, c]]
+        T[:2, 3] = q[:2]
+    return T
+
+
 def frames(robot: Any, q: Sequence[float] | None = None) -> list[np.ndarray]:
     """The 4×4 frames (floats) of the base, of each link and of the tool, in the world, at q
-    (default 0): base, base·A1, base·A1·A2, …, then ·tool.
+    (default 0): base, then each link's frame (its parent's · A_i: base·A1, base·A1·A2, … for a
+    chain), then the last link's · tool.  q: the joints (n), or a floating base's whole q (nq),
+    whose base coordinates place the base body (default: at the origin).
 
     Raises:
         ValueError: a symbolic robot (substitute its parameters first), or q of the wrong length.
     """
     robot.require_numeric("a picture")
     q = np.zeros(robot.n) if q is None else np.asarray(q, dtype=float)
+    base = np.array(robot.base, dtype=float)
+    if q.shape == (robot.nq,) and robot.nq != robot.n:
+        base, q = base @ _base_pose(robot, q), q[robot.nq - robot.n :]
     if q.shape != (robot.n,):
-        raise ValueError(f"q must have {robot.n} entries (one per joint), got shape {q.shape}")
-    T = np.array(robot.base, dtype=float)
-    out = [T]
-    for link, qi in zip(robot.links, q):
+        sizes = f"{robot.n} entries (one per joint)" + (
+            f" or {robot.nq} (q with the base's)" if robot.nq != robot.n else ""
+        )
+        raise ValueError(f"q must have {sizes}, got shape {q.shape}")
+    out = [base]
+    for link, qi, parent in zip(robot.links, q, robot.parents):
         if robot.convention == "general":
             A = _general(link, qi)
         else:
             A = _dh(link, qi, robot.convention == "modified")
-        T = T @ A
-        out.append(T)
-    out.append(T @ np.array(robot.tool, dtype=float))
+        out.append(out[parent + 1] @ A)
+    out.append(out[-1] @ np.array(robot.tool, dtype=float))
     return out
 
 
@@ -142,7 +166,17 @@ def plot(robot: Any, q: Sequence[float] | None = None, *, ax: Any = None, title:
             points += [p0, p1]
     pts = np.array(points)
     reach = float(np.ptp(pts, axis=0).max()) or 1.0
-    ax.plot(*pts[: len(Ts)].T, "-o", color="tab:blue", lw=3, ms=4, label="chain: base, joints, tool")
+    if robot.is_chain:
+        ax.plot(*pts[: len(Ts)].T, "-o", color="tab:blue", lw=3, ms=4, label="chain: base, joints, tool")
+    else:  # every branch: each link from its parent's frame, then the tool on the last link
+        ends = [(parent + 1, i + 1) for i, parent in enumerate(robot.parents)] + [(len(Ts) - 2, len(Ts) - 1)]
+        for k, (a, b) in enumerate(ends):
+            label = "tree: base, joints, tool" if k == 0 else None
+            ax.plot(*pts[[a, b]].T, "-o", color="tab:blue", lw=3, ms=4, label=label)
+        body = robot.base_body
+        if body is not None and float(body.m) > 0:  # the floating base's centre of mass
+            c = (Ts[0] @ np.append(np.array(body.r, dtype=float), 1.0))[:3]
+            ax.scatter(*c, color="tab:purple", s=40, label=f"{robot.base_joint} base body's centre of mass")
     for i, link in enumerate(robot.links):
         T = Ts[i + 1]
         axis = T[:3, :3] @ (
