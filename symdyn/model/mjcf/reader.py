@@ -30,7 +30,7 @@ import numpy as np
 import sympy as sp
 
 from ..placement import exact, rational_rotation, rpy_rotation
-from ..robot import IDENTITY, Link, Robot
+from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
 from ..urdf.bodies import Body
 from ..urdf.reader import _compose, _motion, _number
@@ -316,6 +316,8 @@ def from_mjcf(
     *,
     base_body: str | None = None,
     tip_body: str | None = None,
+    tips: str | Iterable[str] | None = None,
+    base_joint: str | None = None,
     locked: dict | None = None,
     exclude: str | Iterable[str] = (),
     snap: bool = True,
@@ -331,18 +333,44 @@ def from_mjcf(
     the file's name without .xml, as on the command line (text: its `<mujoco model>`).
     The robot's `mjcf` records all of it.
 
+    tips: "all" moves every hinge and slide joint below the base (`locked` ones held), a
+    list of bodies the joints on the paths from the base to each; the links then come in
+    the file's depth-first order (MuJoCo's joint order), each naming its parent
+    (`robot.parents`) and joint (`robot.joint_names`).  base_joint: None, "free" or
+    "planar": the base body (with what is welded or locked to it) floats
+    (`robot.base_body`, Pinocchio's conventions for q and v).  With tips or base_joint, a
+    `<freejoint/>` (a free joint) on the world's only child body makes that body the
+    floating base (base_joint "free"; MuJoCo's own q order, [x y z qw qx qy qz], and
+    velocity, [world linear, body angular], are not Pinocchio's: states are not converted).
+
     Raises:
         MJCFError: (a `ValueError`) `mujoco` is not installed; a file MuJoCo cannot read or
             compile; a body whose inertia depends on an absent mesh file; base_body,
             tip_body, locked or exclude naming no suitable body or joint, a locked value
             outside its range; several leaves and no tip_body; a ball or free joint on the
             chain or on a body that rides on it; a chain without a moving joint; an
-            inertia `Link` refuses.
+            inertia `Link` refuses; tips with tip_body, tips neither "all" nor body names,
+            a tip that is not a body below the base; base_joint not None, "free" or
+            "planar", or "planar" for a file whose root body has a free joint; a
+            floating base body (not the free joint's) that has joints of its own.
 
     Warns:
         MJCFWarning: what MuJoCo adds to the dynamics of the moving part that symdyn does
             not model (joint springs, gravcomp, equality constraints, fluid forces).
     """
+    asked = base_joint
+    if base_joint not in BASE_JOINTS:
+        raise MJCFError(
+            f"unknown base_joint {base_joint!r}: expected None (a fixed base), 'free' (6 DOF, Pinocchio's "
+            "free-flyer) or 'planar' (x, y, yaw)"
+        )
+    if tips is not None and tip_body is not None:
+        raise MJCFError(
+            f"tips={tips!r} and tip_body={tip_body!r} together: tips chooses every moving joint (tips='all') or "
+            "the chains to several bodies, tip_body one chain; give one of them"
+        )
+    if isinstance(tips, str) and tips != "all":
+        raise MJCFError(f"tips={tips!r}: expected 'all' or a list of body names (one chain: tip_body={tips!r})")
     mj = mujoco_module()
     excluded = (exclude,) if isinstance(exclude, str) else tuple(exclude)
     compiled = compile_mjcf(path, excluded, base_body, tip_body)
@@ -358,84 +386,98 @@ def from_mjcf(
         return b
 
     base = body_id(base_body, "base_body") if base_body else 0
+    tree = tips is not None or base_joint is not None
+    if tree:
+        base, free_joint = _floating_base(reader, base, base_joint, label)
+        base_joint = "free" if free_joint is not None and base_joint is None else base_joint
+        tip_list = _tip_bodies(reader, base, tips, tip_body, body_id, label)
     below_base = reader.below(base)
-    if tip_body:
-        tip = body_id(tip_body, "tip_body")
-        if tip not in below_base or tip == base:
-            raise MJCFError(f"{label}: tip_body {tip_body!r} is not below base_body {reader.body(base)!r}")
+    given = _given(reader, locked, below_base, base, label)
+    if tree:
+        on_path = {base}
+        for t in () if tip_list == "all" else tip_list:
+            while t not in on_path:
+                on_path.add(t)
+                t = int(m.body_parentid[t])
+        for b in sorted(on_path - {base}):
+            _refuse_ball(reader, b)
+        lockable = [
+            j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in _KIND
+        ]
+        if tip_list == "all":
+            moving = [j for j in lockable if j not in given]
+        else:
+            moving = [j for j in lockable if int(m.jnt_bodyid[j]) in on_path and j not in given]
+        reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
+        held = set(given) if tip_list == "all" else {j for j in given if int(m.jnt_bodyid[j]) in on_path}
+        carriers, base_mass, frames = _walk(reader, base, set(moving), held, base_joint is not None)
+        if not carriers:
+            raise MJCFError(f"{label}: no hinge or slide joint moves below {reader.body(base)!r}")
+        tip = tip_list[0] if tip_list != "all" and len(tip_list) == 1 else None
+        pending = frames[tip][1] if tip is not None else IDENTITY
     else:
-        leaves = sorted(b for b in below_base if b != base and not reader.children.get(b))
-        if len(leaves) != 1:
-            raise MJCFError(
-                f"{label}: the bodies below {reader.body(base)!r} have "
-                + (f"{len(leaves)} leaves {[reader.body(b) for b in leaves]}" if leaves else "no leaf")
-                + ": choose the chain's end with tip_body=… (--tip on the command line)"
-            )
-        tip = leaves[0]
-    chain, b = [], tip
-    while b != base:
-        chain.append(b)
-        b = int(m.body_parentid[b])
-    chain.reverse()
-    on_chain = set(chain) | {base}
-
-    given: dict[int, float] = {}
-    for joint, value in dict(locked or {}).items():
-        j = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, joint)
-        if j < 0:
-            raise MJCFError(f"{label}: locked joint {joint!r} is not a joint of the file")
-        if int(m.jnt_bodyid[j]) not in below_base or int(m.jnt_bodyid[j]) == base:
-            raise MJCFError(f"{label}: locked joint {joint!r} is not below base_body {reader.body(base)!r}")
-        if reader.joint_type(j) not in _KIND:
-            raise MJCFError(
-                f"{label}: locked joint {joint!r} is a {reader.joint_type(j)} joint; hinge and slide joints can be locked"
-            )
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise MJCFError(f"{label}: locked value of joint {joint!r} must be a finite number, got {value!r}")
-        given[j] = float(value)
-    for b in chain:
-        for j in reader.joints_of(b):
-            if reader.joint_type(j) not in _KIND:
+        if tip_body:
+            tip = body_id(tip_body, "tip_body")
+            if tip not in below_base or tip == base:
+                raise MJCFError(f"{label}: tip_body {tip_body!r} is not below base_body {reader.body(base)!r}")
+        else:
+            leaves = sorted(b for b in below_base if b != base and not reader.children.get(b))
+            if len(leaves) != 1:
                 raise MJCFError(
-                    f"{reader.where('joint', m.joint(j).name)}: {reader.joint_type(j)} joint {reader.joint(j)!r} on body "
-                    f"{reader.body(b)!r} is not supported yet (hinge and slide joints are): choose a chain without it"
+                    f"{label}: the bodies below {reader.body(base)!r} have "
+                    + (f"{len(leaves)} leaves {[reader.body(b) for b in leaves]}" if leaves else "no leaf")
+                    + ": choose the chain's end with tip_body=… (--tip on the command line)"
                 )
-    lockable = [
-        j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in _KIND
-    ]
-    moving = [j for b in chain for j in reader.joints_of(b) if j not in given]
-    reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
+            tip = leaves[0]
+        chain, b = [], tip
+        while b != base:
+            chain.append(b)
+            b = int(m.body_parentid[b])
+        chain.reverse()
+        on_chain = set(chain) | {base}
 
-    reader.subtree(base, on_chain, reader.body(base), False)  # resting on the base: recorded, left out
-    pending, carrier, origin, body = IDENTITY, None, IDENTITY, Body.empty()
-    carriers: list[tuple[int, tuple, Body]] = []
-    for b in chain:
-        T = _compose(pending, reader.placement(b))  # body b's frame, from the carrier's link frame (or the base)
-        for j in reader.joints_of(b):
-            if j in given:
-                value, why = reader.values[j]
-                into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
-                reader.locked.append(Locked(reader.joint(j), value, into, why, carrier is not None, on_chain=True))
-                T = _compose(T, reader.motion(j, value))
-                continue
+        for b in chain:
+            _refuse_ball(reader, b)
+        lockable = [
+            j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in _KIND
+        ]
+        moving = [j for b in chain for j in reader.joints_of(b) if j not in given]
+        reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
+
+        reader.subtree(base, on_chain, reader.body(base), False)  # resting on the base: recorded, left out
+        pending, carrier, origin, body = IDENTITY, None, IDENTITY, Body.empty()
+        carriers: list[tuple[int, tuple, Body]] = []
+        for b in chain:
+            T = _compose(pending, reader.placement(b))  # body b's frame, from the carrier's link frame (or the base)
+            for j in reader.joints_of(b):
+                if j in given:
+                    value, why = reader.values[j]
+                    into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
+                    reader.locked.append(Locked(reader.joint(j), value, into, why, carrier is not None, on_chain=True))
+                    T = _compose(T, reader.motion(j, value))
+                    continue
+                if carrier is not None:
+                    carriers.append((carrier, origin, body))
+                if reader.joint_type(j) == "hinge":  # the link frame at the anchor; back to the body frame after
+                    origin, T = _compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+                else:
+                    origin, T = T, IDENTITY
+                carrier, body = j, Body.empty()
+            into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
+            sub = reader.subtree(b, on_chain, into, carrier is not None)
             if carrier is not None:
-                carriers.append((carrier, origin, body))
-            if reader.joint_type(j) == "hinge":  # the link frame at the anchor; back to the body frame after
-                origin, T = _compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
-            else:
-                origin, T = T, IDENTITY
-            carrier, body = j, Body.empty()
-        into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
-        sub = reader.subtree(b, on_chain, into, carrier is not None)
-        if carrier is not None:
-            body = body + sub.moved(T)
-        pending = T
-    if carrier is None:
-        raise MJCFError(f"{label}: the chain from {reader.body(base)!r} to {reader.body(tip)!r} has no moving joint")
-    carriers.append((carrier, origin, body))
+                body = body + sub.moved(T)
+            pending = T
+        if carrier is None:
+            raise MJCFError(
+                f"{label}: the chain from {reader.body(base)!r} to {reader.body(tip)!r} has no moving joint"
+            )
+        carriers.append((carrier, origin, body))
+        carriers = [(j, o, bo, i - 1) for i, (j, o, bo) in enumerate(carriers)]
+        base_mass, free_joint, tip_list = None, None, None
 
     read, links = [], []
-    for j, origin, body_j in carriers:
+    for j, origin, body_j, parent in carriers:
         effort, notes = _effort(reader, j)
         dof = int(m.jnt_dofadr[j])
         terms = [
@@ -449,9 +491,11 @@ def from_mjcf(
         ]
         if terms or notes:
             read.append(f"joint {reader.joint(j)!r}: " + "; ".join(terms + notes))
-        links.append(reader.link(j, origin, body_j, effort))
+        link = reader.link(j, origin, body_j, effort)
+        links.append(dataclasses.replace(link, parent=parent, name=m.joint(j).name or None))
 
-    notes = _unmodelled(reader, [c[0] for c in carriers], reader.below(int(m.jnt_bodyid[carriers[0][0]])))
+    moving_bodies = set().union(*(reader.below(int(m.jnt_bodyid[c[0]])) for c in carriers))
+    notes = _unmodelled(reader, [c[0] for c in carriers], moving_bodies | (below_base if base_joint else set()))
     gravity = tuple(float(x) for x in m.opt.gravity)
     g = (0.0, 0.0, 0.0)
     if m.opt.disableflags & mj.mjtDisableBit.mjDSBL_GRAVITY:
@@ -470,8 +514,18 @@ def from_mjcf(
         base_T = _compose(reader.placement(b), base_T)
         above += [reader.joint(j) for j in reader.joints_of(b)]
         b = int(m.body_parentid[b])
+    if free_joint is not None:  # q places the free body in the world: its joint sits at the origin
+        base_T, above = IDENTITY, [a for a in above if a != reader.joint(free_joint)]
     if above:
         notes.append(f"the base's pose is taken at qpos0 of the joints above it: {', '.join(above)}")
+    floating = None
+    if base_joint is not None:
+        floating = Link(
+            m=_number(base_mass.m),
+            r=tuple(_number(x) for x in base_mass.r),
+            I=tuple(tuple(_number(x) for x in row) for row in base_mass.I),
+            name=reader.body(base),
+        )
 
     robot = Robot(
         name or (Path(label).stem if label != "<string>" else "") or _model_name(m) or "mjcf",
@@ -480,14 +534,24 @@ def from_mjcf(
         gravity=g,
         base=tuple(tuple(_number(x) for x in row) for row in base_T),
         tool=tuple(tuple(_number(x) for x in row) for row in pending),
+        base_joint=base_joint,
+        base_body=floating,
         source=f"MJCF {label} (sha256 {compiled.sha256[:16]}…)",
     )
     record = MjcfRecord(
         file=label,
         sha256=compiled.sha256,
         base_body=reader.body(base),
-        tip_body=reader.body(tip),
+        tip_body=reader.body(tip) if tip is not None else "",
         joints=tuple(reader.joint(c[0]) for c in carriers),
+        tips=()
+        if tip_list is None or (tips is None)
+        else ("all",)
+        if tip_list == "all"
+        else tuple(reader.body(t) for t in tip_list),
+        base_joint=base_joint,
+        free_joint=reader.joint(free_joint) if free_joint is not None else "",
+        parents=tuple(c[3] for c in carriers),
         locked=tuple(reader.locked),
         excluded=excluded,
         snaps=tuple(reader.snaps),
@@ -511,12 +575,172 @@ def from_mjcf(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # this reading says it all
             literal = from_mjcf(
-                path, base_body=base_body, tip_body=tip_body, locked=locked, exclude=exclude, snap=False, name=name
+                path,
+                base_body=base_body,
+                tip_body=tip_body,
+                tips=tips,
+                base_joint=asked,
+                locked=locked,
+                exclude=exclude,
+                snap=False,
+                name=name,
             )
         record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, mjcf=None)))
     for message in notes:
         warnings.warn(f"{label}: {message}", MJCFWarning, stacklevel=2)
     return dataclasses.replace(robot, mjcf=record)
+
+
+def _given(reader: _Reader, locked: dict | None, below_base: set, base: int, label: str) -> dict[int, float]:
+    """{joint id: value} of `locked`, each checked: a hinge or slide joint below the base, a finite value."""
+    mj, m = reader.mj, reader.m
+    given: dict[int, float] = {}
+    for joint, value in dict(locked or {}).items():
+        j = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, joint)
+        if j < 0:
+            raise MJCFError(f"{label}: locked joint {joint!r} is not a joint of the file")
+        if int(m.jnt_bodyid[j]) not in below_base or int(m.jnt_bodyid[j]) == base:
+            raise MJCFError(f"{label}: locked joint {joint!r} is not below base_body {reader.body(base)!r}")
+        if reader.joint_type(j) not in _KIND:
+            raise MJCFError(
+                f"{label}: locked joint {joint!r} is a {reader.joint_type(j)} joint; hinge and slide joints can be locked"
+            )
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise MJCFError(f"{label}: locked value of joint {joint!r} must be a finite number, got {value!r}")
+        given[j] = float(value)
+    return given
+
+
+def _refuse_ball(reader: _Reader, b: int) -> None:
+    """Refuse a ball or free joint on body b of the chain (or on the way to a tip)."""
+    m = reader.m
+    for j in reader.joints_of(b):
+        if reader.joint_type(j) not in _KIND:
+            raise MJCFError(
+                f"{reader.where('joint', m.joint(j).name)}: {reader.joint_type(j)} joint {reader.joint(j)!r} on body "
+                f"{reader.body(b)!r} is not supported yet (hinge and slide joints are): choose a chain without it"
+            )
+
+
+def _floating_base(reader: _Reader, base: int, base_joint: str | None, label: str) -> tuple[int, int | None]:
+    """(the base body, the free joint that carries it or None): with the world as base, a free
+    joint on the world's only child body (MJCF's `<freejoint/>`) makes that body the floating
+    base; else, for a base_joint, the world's only child body (or base_body) floats.
+
+    Raises:
+        MJCFError: base_joint "planar" for a root body with a free joint; a floating base asked
+            of the world with several bodies on it; a floating body with joints of its own.
+    """
+    m = reader.m
+    if base == 0:
+        roots = reader.children.get(0, [])
+        if len(roots) == 1:
+            free = [j for j in reader.joints_of(roots[0]) if reader.joint_type(j) == "free"]
+            if free:
+                if base_joint == "planar":
+                    raise MJCFError(
+                        f"{reader.where('joint', m.joint(free[0]).name)}: body {reader.body(roots[0])!r} floats on the "
+                        f"file's free joint {reader.joint(free[0])!r}, which is not base_joint='planar'"
+                    )
+                if len(reader.joints_of(roots[0])) > 1:
+                    raise MJCFError(
+                        f"{label}: body {reader.body(roots[0])!r} has a free joint and other joints: not supported"
+                    )
+                return roots[0], free[0]
+        if base_joint is None:
+            return base, None
+        if len(roots) != 1:
+            raise MJCFError(
+                f"{label}: base_joint={base_joint!r} floats one body, but the world holds "
+                f"{[reader.body(b) for b in roots]}: choose it with base_body=…"
+            )
+        base = roots[0]
+    if base_joint is not None and reader.joints_of(base):
+        names = [reader.joint(j) for j in reader.joints_of(base)]
+        raise MJCFError(
+            f"{label}: the floating body {reader.body(base)!r} has joints of its own {names}: choose the body below "
+            "them with base_body=…"
+        )
+    return base, None
+
+
+def _tip_bodies(reader: _Reader, base: int, tips, tip_body: str | None, body_id, label: str):
+    """The tips of a tree: "all", or body ids below the base (tip_body alone: one)."""
+    if tips is None:
+        if tip_body is not None:
+            tips = [tip_body]
+        else:
+            leaves = sorted(b for b in reader.below(base) if b != base and not reader.children.get(b))
+            if len(leaves) != 1:
+                raise MJCFError(
+                    f"{label}: the bodies below {reader.body(base)!r} have {len(leaves)} leaves "
+                    f"{[reader.body(b) for b in leaves]}: choose the chain's end with tip_body=… or tips=…"
+                )
+            return [leaves[0]]
+    if tips == "all":
+        return "all"
+    try:
+        names = list(dict.fromkeys(tips))
+    except TypeError:
+        raise MJCFError(f"tips must be 'all' or a list of body names, got {tips!r}") from None
+    if not names or not all(isinstance(n, str) and n for n in names):
+        raise MJCFError(f"tips must be 'all' or a non-empty list of body names, got {tips!r}")
+    below = reader.below(base)
+    out = []
+    for name in names:
+        b = body_id(name, "tip")
+        if b not in below or b == base:
+            raise MJCFError(f"{label}: tip {name!r} is not below base_body {reader.body(base)!r}")
+        out.append(b)
+    return out
+
+
+def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) -> tuple[list, Body, dict]:
+    """(carriers, the base's body, frames): depth first from the base in MuJoCo's body order,
+    each moving joint a carrier (joint, origin, body, parent carrier or -1); joints off the
+    moving set locked (`held`: those that would move), welded bodies merged; each body reached
+    → (its carrier, its frame in the carrier's link frame)."""
+    m = reader.m
+    carriers: list = []
+    base_body = Body.empty()
+    frames: dict = {}
+    todo = [(base, -1, IDENTITY)]
+    while todo:
+        b, seg, T = todo.pop()
+        moves = seg >= 0 or base_moves
+        into = reader.body(int(m.jnt_bodyid[carriers[seg][0]])) if seg >= 0 else reader.body(base)
+        if b != base:
+            T = _compose(T, reader.placement(b))
+            free = [j for j in reader.joints_of(b) if reader.joint_type(j) in ("ball", "free")]
+            if free:
+                what = f"{reader.joint_type(free[0])} joint {reader.joint(free[0])!r} on body {reader.body(b)!r}"
+                if moves:
+                    raise MJCFError(
+                        f"{reader.where('joint', m.joint(free[0]).name)}: {what} is not supported yet (it rides on "
+                        f"body {into!r}, which moves): exclude= the body ({reader.body(b)!r})"
+                    )
+                reader.left_out.append(f"{reader.body(b)!r} and its subtree ({what})")
+                continue
+            for j in reader.joints_of(b):
+                if j in moving:
+                    if reader.joint_type(j) == "hinge":  # the link frame at the anchor
+                        origin, T = _compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+                    else:
+                        origin, T = T, IDENTITY
+                    carriers.append([j, origin, Body.empty(), seg])
+                    seg, moves, into = len(carriers) - 1, True, reader.body(b)
+                    continue
+                value, why = reader.values[j]
+                reader.locked.append(Locked(reader.joint(j), value, into, why, moves, on_chain=j in held))
+                T = _compose(T, reader.motion(j, value))
+        body = reader.inertial(b).moved(T)
+        if seg >= 0:
+            carriers[seg][2] = carriers[seg][2] + body
+        else:
+            base_body = base_body + body
+        frames[b] = (seg, T)
+        todo += [(child, seg, T) for child in reversed(reader.children.get(b, []))]
+    return [tuple(c) for c in carriers], base_body, frames
 
 
 def _model_name(m) -> str:

@@ -57,10 +57,20 @@ class MjcfRecord(FileRecord):
     coulomb: tuple = ()
     friction_left_out: str = ""
     coulomb_free: str = ""
+    #: A tree (`from_mjcf(tips=…)`): ("all",) or the tip bodies (`tip_body` is then ""); () for a chain.
+    tips: tuple = ()
+    #: None (a fixed base), "free" or "planar": the joint that carries `base_body` and all below it.
+    base_joint: str | None = None
+    #: The file's free joint (`<freejoint/>`) read as the base joint ("" if none).
+    free_joint: str = ""
+    #: Each moving joint's parent (an index into `joints`, -1: the base), as `robot.parents`.
+    parents: tuple = ()
 
     def command_args(self) -> str:
         """The `symdyn generate`/`print` arguments that read the same robot from the same file."""
-        args = [self.file, "--base", self.base_body, "--tip", self.tip_body]
+        args = [self.file] + (["--base", self.base_body] if not self.free_joint else [])
+        args += ["--tips", ",".join(self.tips)] if self.tips else ["--tip", self.tip_body]
+        args += ["--base-joint", self.base_joint] if self.base_joint and not self.free_joint else []
         args += [f"--lock={lock.joint}={lock.value!r}" for lock in self.locked if lock.why == "given"]
         args += [f"--exclude={body}" for body in self.excluded]
         args += [] if self.snap else ["--no-snap"]
@@ -88,10 +98,27 @@ class MjcfRecord(FileRecord):
     def lines(self) -> list[str]:
         """A summary a person reads: the chain, what became friction and rotor inertia, each
         lock, exclusion, snap and stripped file."""
-        out = [
-            f"MJCF {self.file} (sha256 {self.sha256}): chain {self.base_body} -> {self.tip_body}, "
-            f"joints {', '.join(self.joints)}; gravity {list(self.gravity)} (MuJoCo's sign)"
-        ]
+        gravity = f"gravity {list(self.gravity)} (MuJoCo's sign)"
+        if not self.tips:
+            out = [
+                f"MJCF {self.file} (sha256 {self.sha256}): chain {self.base_body} -> {self.tip_body}, "
+                f"joints {', '.join(self.joints)}; {gravity}"
+            ]
+        else:
+            to = "every hinge and slide joint" if self.tips == ("all",) else f"the chains to {', '.join(self.tips)}"
+            out = [
+                f"MJCF {self.file} (sha256 {self.sha256}): tree from {self.base_body}, {to}: "
+                f"{len(self.joints)} moving joints (depth first); {gravity}"
+            ]
+            names = {-1: self.base_body, **dict(enumerate(self.joints))}
+            hung = [f"{j} (on {names[p]})" for j, p in zip(self.joints, self.parents or [-1] * len(self.joints))]
+            out.append("  moving: " + ", ".join(hung))
+        if self.base_joint:
+            by = f", the file's free joint {self.free_joint}" if self.free_joint else ""
+            out.append(
+                f"base joint: {self.base_joint}{by} (Pinocchio's q and v, not MuJoCo's: states are not converted); "
+                f"the floating body is {self.base_body} with everything welded or locked to it"
+            )
         out += self.friction_report()
         if self.read:
             out.append("read from the file's joints and actuators:")
