@@ -176,7 +176,9 @@ def _splice(robot: Robot, text: str) -> str:
         original = from_urdf(
             text,
             base_link=record.base_link,
-            tip_link=record.tip_link,
+            tip_link=record.tip_link or None,
+            tips=None if not getattr(record, "tips", ()) else "all" if record.tips == ("all",) else list(record.tips),
+            base_joint=getattr(record, "base_joint", None),
             locked=given or None,
             exclude=record.excluded,
             snap=record.snap,
