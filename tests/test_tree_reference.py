@@ -52,6 +52,7 @@ def test_random_trees_agree_with_pinocchio(seed, base):
     data = model.createData()
     assert (robot.nq + (base == "planar"), robot.nv) == (model.nq, model.nv)
     q, v, a = _states(robot, seed)
+    C = ref.coriolis(robot, q, v)
     tau, M, G, h, acc = (
         ref.rne(robot, q, v, a),
         ref.inertia(robot, q),
@@ -69,6 +70,7 @@ def test_random_trees_agree_with_pinocchio(seed, base):
             h[k], pin.nonLinearEffects(model, data, qp, v[k]) - pin.computeGeneralizedGravity(model, data, qp), "C v"
         )
         _close(acc[k], pin.aba(model, data, qp, v[k], a[k]), "accel")
+        _close(C[k], pin.computeCoriolisMatrix(model, data, qp, v[k]), "C")
 
 
 @pytest.mark.parametrize("base", BASES)
@@ -179,3 +181,23 @@ def test_bad_parents_and_base_joints_are_named():
             [0] * 7,
             base_wrench=True,
         )
+
+
+@pytest.mark.parametrize("base", ("free", "planar"))
+def test_floating_coriolis_matrix_is_skew_with_mdot(base):
+    """C·v is the velocity-product force exactly; Ṁ − 2C is skew (Ṁ along the motion by central differences)."""
+    robot = random_tree_robot(3, n=5, base_joint=base)
+    rng = np.random.default_rng(0)
+    q = robot.integrate(robot.neutral(), rng.normal(size=(5, robot.nv)))
+    v = rng.normal(size=(5, robot.nv))
+    C = ref.coriolis(robot, q, v)
+    h = ref.rne(robot.nofriction(all=True), q, v, 0 * v, gravity=(0, 0, 0))
+    _close(np.einsum("skj,sj->sk", C, v), h, "C v")
+    eps = 1e-6
+    Mdot = (ref.inertia(robot, robot.integrate(q, v, eps)) - ref.inertia(robot, robot.integrate(q, v, -eps))) / (
+        2 * eps
+    )
+    S = Mdot - 2 * C
+    assert np.abs(S + np.swapaxes(S, -1, -2)).max() < 1e-6 * np.abs(S).max()
+    with pytest.raises(NotImplementedError, match="base's velocities are not the derivatives"):
+        ref.christoffel(robot, q)

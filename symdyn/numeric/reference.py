@@ -511,16 +511,83 @@ def christoffel(robot: Robot, q: ArrayLike) -> np.ndarray:
 
 
 def coriolis(robot: Robot, q: ArrayLike, qd: ArrayLike) -> np.ndarray:
-    """Christoffel Coriolis matrix C(q, q̇) (..., n, n): C_kj = Σ_i Γ_kij q̇_i.
+    """Coriolis matrix C(q, v) (..., nv, nv) with C·v the velocity-product forces and Ṁ − 2C
+    skew-symmetric: the Christoffel matrix C_kj = Σ_i Γ_kij q̇_i on a fixed base; on a floating
+    base, whose velocities are no coordinates' rates, the spatial factorisation
+    C = Σ Jᵢᵀ(Iᵢ J̇ᵢ + Bᵢ Jᵢ), Bᵢ = ½[(Vᵢ×*)Iᵢ + Iᵢ(Vᵢ×) + (IᵢVᵢ)×̄] (`_spatial_coriolis`).
 
     Raises:
         ValueError: a symbolic robot; q or qd that are not finite numeric arrays of
-            shape (n,) or (..., n), or whose leading shapes do not broadcast.
-        NotImplementedError: a floating base (`christoffel`).
+            shape (nq,) / (nv,) or (..., nq) / (..., nv), or whose leading shapes do not
+            broadcast; a base quaternion whose norm is not 1.
     """
     c = _chain(robot)
     q, qd = _states(c, q=q, qd=qd)
+    if c.base_joint is not None:
+        return _spatial_coriolis(c, q, qd)
     return np.einsum("...kij,...i->...kj", christoffel(robot, q), qd)
+
+
+def _motion_cross(V: np.ndarray) -> np.ndarray:
+    """V× (..., 6, 6) of motions V = (ω, v): [[ω×, 0], [v×, ω×]]."""
+    w, v = _skew3(V[..., :3]), _skew3(V[..., 3:])
+    zero = np.zeros_like(w)
+    return np.concatenate([np.concatenate([w, zero], -1), np.concatenate([v, w], -1)], -2)
+
+
+def _force_bar(f: np.ndarray) -> np.ndarray:
+    """f×̄ (..., 6, 6) with (f×̄)·V = V×*·f, forces f = (n, f): [[−n×, −f×], [−f×, 0]] (skew)."""
+    n, fl = _skew3(f[..., :3]), _skew3(f[..., 3:])
+    return -np.concatenate([np.concatenate([n, fl], -1), np.concatenate([fl, np.zeros_like(fl)], -1)], -2)
+
+
+def _skew3(a: np.ndarray) -> np.ndarray:
+    S = np.zeros(a.shape + (3,))
+    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -a[..., 2], a[..., 1], -a[..., 0]
+    return S - np.swapaxes(S, -1, -2)
+
+
+def _spatial_coriolis(c: _Chain, q, v) -> np.ndarray:
+    """C = Σ Jᵢᵀ(Iᵢ J̇ᵢ + Bᵢ Jᵢ) over every body (the base body's included) in body coordinates,
+    where Iᵢ is constant: Bᵢ skew with Bᵢ Vᵢ = Vᵢ ×* Iᵢ Vᵢ makes Ṁ − 2C skew.  Body Jacobians
+    down the tree: Jᵢ = X Jₚ + Sᵢ eᵢᵀ, J̇ᵢ = X J̇ₚ − (Sᵢ q̇ᵢ)× X Jₚ."""
+    qj, vj = _split_state(c, q)[1], _split_state(c, v)[1]
+    R, p = _link_transforms(c, qj)
+    batch, nb = q.shape[:-1], c.nb
+
+    def spatial(m, h, Io):  # 6×6 inertia about the origin, (ω, v) → (n, f)
+        H = _skew3(h)
+        return np.block([[Io, H], [-H, m * np.eye(3)]])
+
+    J0 = np.zeros(batch + (6, c.nv))
+    J0[..., :, :nb] = _BASE_AXES[c.base_joint]
+    Jd0 = np.zeros_like(J0)
+    C = np.zeros(batch + (c.nv, c.nv))
+
+    def add(J, Jd, inertia):
+        V = np.einsum("...ij,...j->...i", J, v)
+        cross = _motion_cross(V)  # V×* = −(V×)ᵀ
+        B = 0.5 * (
+            -np.swapaxes(cross, -1, -2) @ inertia + inertia @ cross + _force_bar(np.einsum("ij,...j->...i", inertia, V))
+        )
+        return np.swapaxes(J, -1, -2) @ (inertia @ Jd + B @ J)
+
+    C += add(J0, Jd0, spatial(*c.base_body))
+    Js, Jds = [], []
+    for i in range(c.n):
+        Jp, Jdp = (Js[c.parents[i]], Jds[c.parents[i]]) if c.parents[i] >= 0 else (J0, Jd0)
+        Rt = np.swapaxes(R[..., i, :, :], -1, -2)
+        X = np.zeros(batch + (6, 6))
+        X[..., :3, :3] = X[..., 3:, 3:] = Rt
+        X[..., 3:, :3] = -Rt @ _skew3(p[..., i, :])
+        J = X @ Jp
+        J[..., :, nb + i] += c.S[i]
+        motion = c.S[i] * vj[..., i, None]
+        Jd = X @ Jdp - _motion_cross(motion) @ X @ Jp
+        Js.append(J)
+        Jds.append(Jd)
+        C += add(J, Jd, spatial(c.m[i], c.h[i], c.Io[i]))
+    return C
 
 
 def gravload(robot: Robot, q: ArrayLike, *, gravity: ArrayLike | None = None) -> np.ndarray:
