@@ -186,7 +186,8 @@ FLOATING = (
     + '</link><link name="leg">'
     + _inertial(1.0)
     + "</link>"
-    + '<joint name="root" type="floating"><parent link="world"/><child link="pelvis"/></joint>'
+    + '<joint name="root" type="floating"><parent link="world"/><child link="pelvis"/>'
+    + '<origin xyz="0.1 -0.2 0.9" rpy="0.3 -0.2 0.5"/></joint>'
     + _joint("hip", "revolute", "pelvis", "leg")
     + "</robot>"
 )
@@ -270,3 +271,174 @@ def test_a_mimic_joint_that_would_move_is_refused_by_name():
     held = _read(mimic, tips="all", locked={"zz": 0.25})
     assert "w" not in held.joint_names
     assert next(lock for lock in held.urdf.locked if lock.joint == "w").value == pytest.approx(0.5)
+
+
+# --------------------------------------------------------------------------- dynamics against Pinocchio
+
+STATES = 200
+
+
+def _pinocchio_q(model, robot: Robot, q: np.ndarray) -> np.ndarray:
+    """Pinocchio's configurations (count, model.nq) of symdyn's q (count, robot.nq): the base's
+    coordinates as they are (the free-flyer's convention is symdyn's), (cos, sin) of continuous joints."""
+    base = robot.nq - robot.n
+    columns = [q[:, k] for k in range(base)]
+    if robot.base_joint == "planar":  # x, y, yaw: Pinocchio's x, y, cos, sin
+        columns = columns[:2] + [np.cos(q[:, 2]), np.sin(q[:, 2])]
+    first = 2 if robot.base_joint else 1
+    for k, joint in enumerate(model.joints[first:]):
+        value = q[:, base + k]
+        columns += [np.cos(value), np.sin(value)] if joint.nq == 2 else [value]
+    return np.stack(columns, axis=1)
+
+
+def _states(robot: Robot, seed: int):
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-np.pi, np.pi, (STATES, robot.nq))
+    if robot.base_joint == "free":
+        q[:, :3] = rng.uniform(-1, 1, (STATES, 3))
+        quat = rng.normal(size=(STATES, 4))
+        q[:, 3:7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    v, a = rng.uniform(-2, 2, (2, STATES, robot.nv))
+    return q, v, a
+
+
+ROOT_JOINTS = {"free": "JointModelFreeFlyer", "planar": "JointModelPlanar"}
+
+
+@pytest.mark.parametrize("base_joint", [None, "free", "planar"])
+@pytest.mark.parametrize("seed", range(12))
+def test_tau_of_a_tree_is_pinocchios_rnea(seed, base_joint):
+    from symdyn.numeric import reference as ref
+
+    text = _unmimicked(seed)
+    robot = _read(text, tips="all", base_joint=base_joint, snap=False).nofriction(all=True)
+    root = [getattr(pin, ROOT_JOINTS[base_joint])()] if base_joint else []
+    model = pin.buildModelFromXML(text, *root)
+    data = model.createData()
+    q, v, a = _states(robot, seed)
+    x = _pinocchio_q(model, robot, q)
+    peer = np.array([pin.rnea(model, data, x[k], v[k], a[k]) for k in range(STATES)])
+    tau = ref.rne(robot, q, v, a)
+    scale = max(np.abs(peer).max(), 1.0)
+    assert np.abs(tau - peer).max() / scale < 1e-10
+
+
+def test_a_floating_joint_under_a_dummy_root_has_pinocchios_dynamics():
+    from symdyn.numeric import reference as ref
+
+    robot = _read(FLOATING, tips="all", base_joint="free")
+    model = pin.buildModelFromXML(FLOATING)  # the file's floating joint: a free-flyer where its origin puts it
+    assert robot.base != ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+    data = model.createData()
+    q, v, a = _states(robot, 7)
+    peer = np.array([pin.rnea(model, data, q[k], v[k], a[k]) for k in range(STATES)])
+    assert np.abs(ref.rne(robot, q, v, a) - peer).max() / max(np.abs(peer).max(), 1.0) < 1e-10
+
+
+# --------------------------------------------------------------------------- MJCF
+
+HUMANOID = """<mujoco model="legs">
+  <worldbody>
+    <body name="torso" pos="0 0 1">
+      <freejoint name="root"/>
+      <inertial pos="0 0.01 0" mass="5" diaginertia="0.1 0.2 0.25"/>
+      <body name="l_thigh" pos="0 0.1 -0.1" euler="0.2 0 0">
+        <joint name="l_hip_x" type="hinge" axis="1 0 0" pos="0 0 0.05"/>
+        <joint name="l_hip_y" type="hinge" axis="0 1 0"/>
+        <inertial pos="0 0 -0.2" mass="2" diaginertia="0.02 0.02 0.005"/>
+        <body name="l_shin" pos="0 0 -0.4">
+          <joint name="l_knee" type="hinge" axis="0 1 0" range="-200 200"/>
+          <inertial pos="0 0 -0.2" mass="1" diaginertia="0.01 0.01 0.002"/>
+        </body>
+      </body>
+      <body name="r_thigh" pos="0 -0.1 -0.1">
+        <joint name="r_hip" type="hinge" axis="0 1 0" pos="0 0 0.05"/>
+        <inertial pos="0 0 -0.2" mass="2" diaginertia="0.02 0.02 0.005"/>
+        <body name="r_shin" pos="0 0 -0.4">
+          <joint name="r_knee" type="slide" axis="0 0 1"/>
+          <inertial pos="0 0 -0.2" mass="1" diaginertia="0.01 0.01 0.002"/>
+        </body>
+      </body>
+      <body name="head" pos="0 0 0.3"><inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_an_mjcf_tree_on_its_free_joint_moves_every_hinge_and_slide_in_mujocos_order():
+    mujoco = pytest.importorskip("mujoco")
+    robot = Robot.from_mjcf(HUMANOID, tips="all")
+    model = mujoco.MjModel.from_xml_string(HUMANOID)
+    assert robot.base_joint == "free" and robot.mjcf.free_joint == "root"
+    assert robot.joint_names == tuple(model.joint(j).name for j in range(1, model.njnt))
+    assert robot.parents == (-1, 0, 1, -1, 3)
+    assert float(robot.base_body.m) == pytest.approx(6.0)  # the torso and its welded head
+    assert float(robot.base_body.m) + sum(float(link.m) for link in robot.links) == pytest.approx(model.body_mass.sum())
+    assert "--tips all" in robot.mjcf.command_args() and "base joint: free" in str(robot)
+    legs = Robot.from_mjcf(HUMANOID, tips=["l_shin"], locked={"l_hip_y": 0.2})
+    assert legs.joint_names == ("l_hip_x", "l_knee") and legs.is_chain is False  # on its free base
+
+
+def test_an_mjcf_tree_on_a_fixed_base_has_mujocos_inverse_dynamics():
+    mujoco = pytest.importorskip("mujoco")
+    from symdyn.numeric import reference as ref
+
+    fixed = HUMANOID.replace('<freejoint name="root"/>', "")
+    robot = Robot.from_mjcf(fixed, tips="all")
+    assert robot.base_joint is None and robot.parents == (-1, 0, 1, -1, 3)
+    model = mujoco.MjModel.from_xml_string(fixed)
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(3)
+    q, v, a = rng.uniform(-1, 1, (3, STATES, robot.n))
+    peer = []
+    for k in range(STATES):
+        data.qpos[:], data.qvel[:], data.qacc[:] = q[k], v[k], a[k]
+        mujoco.mj_inverse(model, data)
+        peer.append(data.qfrc_inverse.copy())
+    peer = np.array(peer)
+    assert np.abs(ref.rne(robot, q, v, a) - peer).max() / max(np.abs(peer).max(), 1.0) < 1e-10
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(tips="all", tip_body="l_shin"), r"tips='all' and tip_body='l_shin' together"),
+        (dict(tips=["nowhere"]), r"tip 'nowhere' is not a body"),
+        (dict(tips="l_shin"), r"tips='l_shin': expected 'all' or a list of body names"),
+        (dict(tips="all", base_joint="planar"), r"free joint 'root', which is not base_joint='planar'"),
+        (dict(tips="all", base_joint="ball"), r"unknown base_joint 'ball'"),
+    ],
+)
+def test_bad_mjcf_tips_and_base_joints_are_refused_by_name(kwargs, message):
+    pytest.importorskip("mujoco")
+    from symdyn.model import MJCFError
+
+    with pytest.raises(MJCFError, match=message):
+        Robot.from_mjcf(HUMANOID, **kwargs)
+
+
+def test_an_mjcf_tree_on_its_free_joint_has_mujocos_inverse_dynamics():
+    """MuJoCo's free joint: q = [x y z qw qx qy qz], v = [world linear, body angular], τ's force in
+    the world frame; symdyn's (Pinocchio's): [x y z qx qy qz qw], body-frame v and force."""
+    mujoco = pytest.importorskip("mujoco")
+    from scipy.spatial.transform import Rotation
+
+    from symdyn.numeric import reference as ref
+
+    robot = Robot.from_mjcf(HUMANOID, tips="all")
+    model = mujoco.MjModel.from_xml_string(HUMANOID)
+    data = mujoco.MjData(model)
+    q, v, a = _states(robot, 5)
+    tau = ref.rne(robot, q, v, a)
+    for k in range(STATES):
+        R = Rotation.from_quat(q[k, 3:7]).as_matrix()  # scipy's order is symdyn's: x y z w
+        lin, w = v[k, :3], v[k, 3:6]
+        data.qpos[:] = np.concatenate([q[k, :3], q[k, [6, 3, 4, 5]], q[k, 7:]])
+        data.qvel[:] = np.concatenate([R @ lin, w, v[k, 6:]])
+        data.qacc[:] = np.concatenate([R @ (a[k, :3] + np.cross(w, lin)), a[k, 3:]])
+        mujoco.mj_inverse(model, data)
+        peer = data.qfrc_inverse.copy()
+        peer[:3] = R.T @ peer[:3]
+        assert np.abs(tau[k] - peer).max() / max(np.abs(peer).max(), 1.0) < 1e-10
