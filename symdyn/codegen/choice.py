@@ -69,6 +69,7 @@ class Programs:
         if not dyns:
             raise ValueError("programs() needs at least one derivation")
         self.dyns = list(dyns)
+        self.tree = not self.dyns[0].robot.is_chain  # M's LDLᵀ leaves first (functions.elimination_order)
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
         self.regressor = regressor
         self.names = (*NAMES, *(("Y",) if regressor is not None else ()), "tau_derivatives", "fdyn_derivatives", "Minv")
@@ -95,14 +96,14 @@ class Programs:
         if name in ("tau", "M", "C", "Cqd", "G", "F"):
             return self.chosen(name)[1]
         if name == "fdyn":
-            return fdyn_spec(self.chosen("M")[0], self.chosen("bias")[0]).program()
+            return fdyn_spec(self.chosen("M")[0], self.chosen("bias")[0], tree=self.tree).program()
         if name == "Y":
             reg = self.regressor() if callable(self.regressor) else self.regressor
             return regressor_spec(reg, self.dyns[0]).program()
         if name == "tau_derivatives":
             return tau_derivatives_spec(self.chosen("tau")[0]).program()
         if name == "Minv":
-            return minv_spec(self.chosen("M")[0]).program()
+            return minv_spec(self.chosen("M")[0], tree=self.tree).program()
         return fdyn_derivatives_program(self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"))
 
     def all(self, label: str = "") -> list[Program]:

@@ -21,7 +21,7 @@ from typing import Sequence
 import sympy as sp
 
 from ..derivation.program import Program
-from .functions import FunctionSpec, ldlt_factor, ldlt_inverse
+from .functions import FunctionSpec, elimination_order, ldlt_factor, ldlt_inverse
 
 __all__ = [
     "forward",
@@ -256,10 +256,12 @@ def christoffel_spec(cqd: FunctionSpec) -> FunctionSpec:
     )
 
 
-def minv_spec(M: FunctionSpec) -> FunctionSpec:
-    """M(q)⁻¹ from the spec of M: its LDLᵀ, then L⁻ᵀD⁻¹L⁻¹."""
-    factor, L, iD = ldlt_factor(M.outputs[0][1])
-    inv_defs, inv = ldlt_inverse(L, iD)
+def minv_spec(M: FunctionSpec, *, tree: bool = False) -> FunctionSpec:
+    """M(q)⁻¹ from the spec of M: its LDLᵀ, then L⁻ᵀD⁻¹L⁻¹; `tree`: M is a tree's,
+    factored in its `elimination_order` (no fill-in between branches)."""
+    order = elimination_order(M.outputs[0][1]) if tree else None
+    factor, L, iD = ldlt_factor(M.outputs[0][1], order)
+    inv_defs, inv = ldlt_inverse(L, iD, order)
     return FunctionSpec(
         "Minv",
         M.inputs,

@@ -24,6 +24,7 @@ __all__ = [
     "candidates",
     "fdyn_spec",
     "regressor_spec",
+    "elimination_order",
     "ldlt_factor",
     "ldlt_solve",
     "ldlt_inverse",
@@ -86,65 +87,101 @@ class _Namer:
         return sym
 
 
-def ldlt_factor(M: sp.Matrix) -> tuple[list, list, list]:
+def elimination_order(M: sp.Matrix) -> list[int]:
+    """An order for the unrolled LDLᵀ of a tree's M: 0…n−1, or n−1…0 (the leaves first,
+    as Featherstone's LTDL factorisation) when M's exact zeros make that fill in strictly
+    fewer entries of L.  A tree's joints come after the joints they hang from, so leaves
+    first fills in nothing and the zeros between branches stay zeros in L, where 0…n−1
+    fills in the blocks of the branches above a shared joint.  (Chains keep 0…n−1: their
+    generated code is what it was.)"""
+    n = M.rows
+    pattern = {(i, j) for i in range(n) for j in range(i) if M[i, j] != 0}
+
+    def filled(order: list[int]) -> int:
+        where = {k: position for position, k in enumerate(order)}
+        edges = {(max(where[i], where[j]), min(where[i], where[j])) for i, j in pattern}
+        for k in range(n):  # eliminating k joins every pair of its later neighbours
+            later = sorted(i for i, j in edges if j == k)
+            edges |= {(b, a) for x, a in enumerate(later) for b in later[x + 1 :]}
+        return len(edges)
+
+    forward, backward = list(range(n)), list(range(n - 1, -1, -1))
+    return backward if filled(backward) < filled(forward) else forward
+
+
+def ldlt_factor(M: sp.Matrix, order: Sequence[int] | None = None) -> tuple[list, list, list]:
     """The unrolled LDLᵀ of symmetric positive-definite M: (definitions named
     M21, W21 (= L21·D1), D1, iD1 = 1/D1, L21, …; L as rows of values, 1/D).
-    Exact zeros of M propagate, so a sparse M costs less; n divisions."""
+    Exact zeros of M propagate, so a sparse M costs less; n divisions.  `order`
+    (default 0…n−1, see `elimination_order`): the rows taken in that order, i.e. the
+    factor of PMPᵀ, its L and 1/D indexed by position in `order`, its names by M's indices."""
     n = M.rows
+    order = list(range(n)) if order is None else list(order)
     name = _Namer(n)
-    Ms = [[name("M", M[i, j], i, j) if i >= j else None for j in range(n)] for i in range(n)]
+    Ms = [
+        [name("M", M[order[i], order[j]], order[i], order[j]) if i >= j else None for j in range(n)] for i in range(n)
+    ]
     L = [[sp.S.Zero] * n for _ in range(n)]
     W = [[sp.S.Zero] * n for _ in range(n)]
     iD = [sp.S.Zero] * n
     for j in range(n):
-        D = name("D", Ms[j][j] - sp.Add(*(W[j][k] * L[j][k] for k in range(j))), j)
+        D = name("D", Ms[j][j] - sp.Add(*(W[j][k] * L[j][k] for k in range(j))), order[j])
         if D == 0:
+            joint = order[j] + 1
             raise ValueError(
-                f"M(q) is singular for every q: pivot {j + 1} of its LDLᵀ is exactly 0 (joint "
-                f"{j + 1} moves no mass and has no rotor inertia); forward dynamics is undefined. "
+                f"M(q) is singular for every q: pivot {joint} of its LDLᵀ is exactly 0 (joint "
+                f"{joint} moves no mass and has no rotor inertia); forward dynamics is undefined. "
                 "Give a link beyond that joint mass and inertia, or the joint a rotor (Jm and G)"
             )
-        iD[j] = name("iD", 1 / D, j)
+        iD[j] = name("iD", 1 / D, order[j])
         for i in range(j + 1, n):
-            W[i][j] = name("W", Ms[i][j] - sp.Add(*(W[i][k] * L[j][k] for k in range(j))), i, j)
-            L[i][j] = name("L", W[i][j] * iD[j], i, j)
+            W[i][j] = name("W", Ms[i][j] - sp.Add(*(W[i][k] * L[j][k] for k in range(j))), order[i], order[j])
+            L[i][j] = name("L", W[i][j] * iD[j], order[i], order[j])
     return name.defs, L, iD
 
 
-def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x") -> tuple[list, list]:
-    """x = M⁻¹ r for symmetric positive-definite M by an unrolled LDLᵀ.
+def ldlt_solve(M: sp.Matrix, r: Sequence, result: str = "x", order: Sequence[int] | None = None) -> tuple[list, list]:
+    """x = M⁻¹ r for symmetric positive-definite M by an unrolled LDLᵀ (rows taken in
+    `order`, default 0…n−1: see `elimination_order`).
 
     Returns (definitions, x): the factor's definitions (`ldlt_factor`), z1
     (= L⁻¹r), y1 (= z/D) and the solution {result}1, …; ~n³/6 mul.
     """
     n = M.rows
-    defs, L, iD = ldlt_factor(M)
+    order = list(range(n)) if order is None else list(order)
+    defs, L, iD = ldlt_factor(M, order)
     name = _Namer(n)
     z: list = []
     for i in range(n):
-        z.append(name("z", r[i] - sp.Add(*(L[i][k] * z[k] for k in range(i))), i))
-    y = [name("y", z[i] * iD[i], i) for i in range(n)]
+        z.append(name("z", r[order[i]] - sp.Add(*(L[i][k] * z[k] for k in range(i))), order[i]))
+    y = [name("y", z[i] * iD[i], order[i]) for i in range(n)]
     x = [sp.S.Zero] * n
     for i in reversed(range(n)):
-        x[i] = name(result, y[i] - sp.Add(*(L[k][i] * x[k] for k in range(i + 1, n))), i)
-    return defs + name.defs, x
+        x[i] = name(result, y[i] - sp.Add(*(L[k][i] * x[k] for k in range(i + 1, n))), order[i])
+    solution = [sp.S.Zero] * n
+    for i, k in enumerate(order):
+        solution[k] = x[i]
+    return defs + name.defs, solution
 
 
-def ldlt_inverse(L: list, iD: list) -> tuple[list, sp.ImmutableMatrix]:
-    """M⁻¹ = L⁻ᵀ D⁻¹ L⁻¹ from the factor of `ldlt_factor`: (definitions named
-    Li21 (L⁻¹, unit lower triangular), P21 (= L⁻¹/D), Minv21, …; the symmetric
-    matrix).  ~n³/3 mul."""
+def ldlt_inverse(L: list, iD: list, order: Sequence[int] | None = None) -> tuple[list, sp.ImmutableMatrix]:
+    """M⁻¹ = L⁻ᵀ D⁻¹ L⁻¹ from the factor of `ldlt_factor` (taken in `order`, the same as
+    the factor's): (definitions named Li21 (L⁻¹, unit lower triangular), P21 (= L⁻¹/D),
+    Minv21, …; the symmetric matrix, in M's indices).  ~n³/3 mul."""
     n = len(iD)
+    order = list(range(n)) if order is None else list(order)
     name = _Namer(n)
     Li = [[sp.S.One if i == j else sp.S.Zero for j in range(n)] for i in range(n)]
     for i in range(n):
         for j in range(i):
-            Li[i][j] = name("Li", -sp.Add(*(L[i][k] * Li[k][j] for k in range(j, i))), i, j)
-    P = [[name("P", iD[k] * Li[k][j], k, j) for j in range(k + 1)] for k in range(n)]
+            Li[i][j] = name("Li", -sp.Add(*(L[i][k] * Li[k][j] for k in range(j, i))), order[i], order[j])
+    P = [[name("P", iD[k] * Li[k][j], order[k], order[j]) for j in range(k + 1)] for k in range(n)]
     inv = [[sp.S.Zero] * n for _ in range(n)]
     for i in range(n):
         for j in range(i + 1):
-            inv[i][j] = inv[j][i] = name("Minv", sp.Add(*(Li[k][i] * P[k][j] for k in range(i, n))), i, j)
+            a, b = order[i], order[j]
+            value = name("Minv", sp.Add(*(Li[k][i] * P[k][j] for k in range(i, n))), max(a, b), min(a, b))
+            inv[a][b] = inv[b][a] = value
     return name.defs, sp.ImmutableMatrix(inv)
 
 
@@ -191,15 +228,16 @@ def candidates(dyn: Dynamics, origin: str | None = None) -> dict[str, FunctionSp
     return out
 
 
-def fdyn_spec(M: FunctionSpec, bias: FunctionSpec) -> FunctionSpec:
+def fdyn_spec(M: FunctionSpec, bias: FunctionSpec, *, tree: bool = False) -> FunctionSpec:
     """Forward dynamics from the specs of M and of the bias: r = τ − bias, then
-    the LDLᵀ solve of M q̈ = r, all definitions of one program."""
+    the LDLᵀ solve of M q̈ = r, all definitions of one program; `tree`: M is a tree's,
+    factored in its `elimination_order` (no fill-in between branches)."""
     Mmat, b = M.outputs[0][1], bias.outputs[0][1]
     n = Mmat.rows
     q, qd = M.inputs[0], bias.inputs[1]
     tau = ("tau", tuple(sp.Symbol(f"tau{_label(i, n=n)}", real=True) for i in range(n)))
     rhs = [sp.Symbol(f"r{_label(i, n=n)}", real=True) for i in range(n)]
-    ldl, qdd = ldlt_solve(Mmat, rhs, result="qdd")
+    ldl, qdd = ldlt_solve(Mmat, rhs, result="qdd", order=elimination_order(Mmat) if tree else None)
     defs = dict(M.definitions)
     defs.update(bias.definitions)
     defs.update((r, tau[1][i] - b[i]) for i, r in enumerate(rhs))

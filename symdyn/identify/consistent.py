@@ -54,6 +54,7 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
+from ..derivation.kinematics import along_z
 from ..derivation.regressor import FRICTION, INERTIAL, BaseParameters, base_parameters, parameter_values
 from ..model import Robot
 
@@ -366,11 +367,12 @@ def _solve_casadi(fit, reg, lam, n, x0, tol, nomotor):
 
 def _frame_maps(robot: Robot) -> list:
     """Per link (R, p): a point x of the robot's own link frame is R·x + p in the regressor's
-    (modified-DH) frame, read off `to_modified` itself so that the two never disagree."""
+    (modified-DH) frame, read off `to_modified` itself (`kinematics.along_z`, trees too) so that
+    the two never disagree."""
 
     def probe(v):
         links = tuple(dataclasses.replace(link, r=v, I=((0, 0, 0),) * 3, m=1) for link in robot.links)
-        mdh = dataclasses.replace(robot, links=links).to_modified()
+        mdh = along_z(dataclasses.replace(robot, links=links))
         return np.array([[float(x) for x in link.r] for link in mdh.links])
 
     p = probe((0, 0, 0))

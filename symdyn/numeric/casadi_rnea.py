@@ -2,7 +2,8 @@
 
 No symbolic simplification: the recursion of `symdyn.reference` (Featherstone's
 RNEA in body coordinates, rotor inertia G²·Jm, friction G²·B·q̇ + |G|·Tc) is
-written once over CasADi SX, exactly as a user would write it by hand.  Only
+written once over CasADi SX, exactly as a user would write it by hand (on a
+fixed-base tree each link moves with its parent and hands its force to it).  Only
 CasADi's own constant folding (x·0 → 0, x·1 → x) applies.  The optimal-control
 comparison (`symdyn.apps.studies.ocp`) sets symdyn's simplified functions against
 these.
@@ -34,6 +35,11 @@ def _constants(robot: Robot) -> list[dict]:
     """Per link: pre/post rotation and offset, joint axis S (ω; v) in body coordinates,
     mass, first moment m·r and inertia about the body origin, all as floats."""
     robot.require_numeric("the plain CasADi RNEA")
+    if robot.base_joint is not None:
+        raise NotImplementedError(
+            f"the plain CasADi RNEA reads robots on a fixed base (chains and trees); robot {robot.name!r} "
+            f"has a {robot.base_joint} base joint"
+        )
     out = []
     for link in robot.links:
         Rx = _rx(link.alpha)
@@ -100,10 +106,11 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
     links = _constants(robot)
     base_R = np.array(robot.base, dtype=float)[:3, :3]
     g = np.array(robot.gravity, dtype=float) if gravity else np.zeros(3)
-    w, v, dw = ca.SX.zeros(3), ca.SX.zeros(3), ca.SX.zeros(3)
-    dv = ca.SX(ca.DM(base_R.T @ g))
-    frames, forces = [], []
+    at_rest = (ca.SX.zeros(3), ca.SX.zeros(3), ca.SX.zeros(3), ca.SX(ca.DM(base_R.T @ g)))
+    parents = robot.parents  # a tree's link moves with its parent and hands its force to it
+    frames, forces, motions = [], [], []
     for i, k in enumerate(links):
+        w, v, dw, dv = at_rest if parents[i] < 0 else motions[parents[i]]
         R, p = _transform(k, q[i])
         Rt = R.T
         sw, sv = ca.DM(k["S"][:3]), ca.DM(k["S"][3:])
@@ -122,6 +129,7 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
             ]
         )
         frames.append((R, p))
+        motions.append((w, v, dw, dv))
     tau = [None] * robot.n
     for i in range(robot.n - 1, -1, -1):
         k = links[i]
@@ -129,11 +137,11 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
         tau[i] = ca.dot(n_, ca.DM(k["S"][:3])) + ca.dot(f_, ca.DM(k["S"][3:])) + k["armature"] * qdd[i]
         if friction:
             tau[i] += _friction(k, qd[i])
-        if i > 0:
+        if parents[i] >= 0:
             R, p = frames[i]
             fp = ca.mtimes(R, f_)
-            forces[i - 1][1] = forces[i - 1][1] + fp
-            forces[i - 1][0] = forces[i - 1][0] + ca.mtimes(R, n_) + ca.cross(p, fp)
+            forces[parents[i]][1] = forces[parents[i]][1] + fp
+            forces[parents[i]][0] = forces[parents[i]][0] + ca.mtimes(R, n_) + ca.cross(p, fp)
     return ca.vertcat(*tau)
 
 
