@@ -85,13 +85,11 @@ def branch(robot: Robot, joints) -> Robot:
 # --------------------------------------------------------------------------- derive
 
 
-def test_a_tree_is_derived_and_a_floating_base_refused():
+def test_a_tree_is_derived():
     tree = two_arms()
     assert not tree.is_chain and tree.parents == (-1, 0, -1, 2)
-    assert derive(tree, "newton-euler").M.shape == (4, 4)
-    floating = dataclasses.replace(tree, base_joint="free")
-    with pytest.raises(NotImplementedError, match="free base joint"):
-        derive(floating)
+    for method in ("newton-euler", "lagrange"):
+        assert derive(tree, method).M.shape == (4, 4)
 
 
 def _exact_evaluators(dyns: dict, terms) -> tuple[dict, list]:
