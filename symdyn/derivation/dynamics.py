@@ -55,6 +55,12 @@ class Dynamics:
                 for sym, definition in self.definitions:
                     full[sym] = sp.sympify(definition).xreplace(full)
                 self.expanded["_definitions"] = full
+            if term == "C" and self.robot.base_joint is not None:
+                raise NotImplementedError(
+                    f"C of robot {self.robot.name!r}: its {self.robot.base_joint} base's velocities are no "
+                    "coordinates' rates, so it has no Christoffel matrix; its C·v is Dynamics.Cqd "
+                    "(symdyn.reference.coriolis gives a C with Ṁ − 2C skew)"
+                )
             if term == "C" and "C" not in self.named:  # a recursion without the Christoffel passes
                 self.expanded[term] = sp.ImmutableMatrix(self.Cqd.jacobian(self.qd) / 2)
             else:
@@ -63,7 +69,13 @@ class Dynamics:
 
     @property
     def n(self) -> int:
+        """Number of joints (the base joint's velocities not counted: `nv`)."""
         return self.robot.n
+
+    @property
+    def nv(self) -> int:
+        """Size of v and τ: the base joint's velocities, then the joints'."""
+        return len(self.qd)
 
     @property
     def params(self) -> tuple:

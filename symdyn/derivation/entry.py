@@ -54,20 +54,23 @@ def derive(
 
     A tree (links whose parent is not the link before) is derived as a chain is, each
     recursion running through the parents; M's entries between branches are exact zeros.
+    A floating base (Newton–Euler): q = (base coordinates, joints), v and τ = (base, joints)
+    (`symdyn.derivation.floating`); C·v, no Christoffel C.
 
     Raises:
         ValueError: an unknown method, something that is not a `Robot`, or regroup=True
             for Lagrange or a symbolic robot.
-        NotImplementedError: a floating base (`base_joint`).
+        NotImplementedError: a floating base (`base_joint`) for Lagrange or with regroup=True.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     if not isinstance(robot, Robot):
         raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
-    if robot.base_joint is not None:
+    if robot.base_joint is not None and (method != "newton-euler" or regroup):
         raise NotImplementedError(
-            f"derive reads robots on a fixed base (chains and trees); robot {robot.name!r} has a "
-            f"{robot.base_joint} base joint. The numeric reference (symdyn.reference) models floating bases"
+            f"robot {robot.name!r} has a {robot.base_joint} base joint: Newton–Euler derives it, without "
+            f"regrouping (got method={method!r}, regroup={regroup}); Lagrange's equations in the base's "
+            "body-frame velocities are not written yet"
         )
     if regroup and (method != "newton-euler" or robot.is_symbolic):
         raise ValueError(

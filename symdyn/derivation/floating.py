@@ -1,0 +1,70 @@
+"""A floating base in the customized recursion: its symbols, its motion, its rows of τ and M.
+
+The base body's velocity v = (linear, angular) and acceleration are given in its own
+frame (Pinocchio's free-flyer), so its position never enters the dynamics and its
+orientation only through gravity, Rᵀ·g₀ with R read from the quaternion without
+assuming its norm: R = 1 + (2/|q|²)(w·[u×] + [u×]²), u = (qx, qy, qz) — any non-zero
+quaternion names its rotation.  A planar base moves in frame {0}'s x-y plane (x, y,
+yaw; velocities vx, vy, ω in its frame).  The recursion starts from the base body's
+motion instead of a base at rest; the base joint's rows of τ are the force and moment
+on the base body (its own and what its children hand it), in its frame.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import sympy as sp
+
+__all__ = ["base_symbols", "base_rotation", "BASE_COORDINATES", "BASE_VELOCITIES"]
+
+#: Names of the base joint's coordinates, velocities and accelerations (before the joints' in q, v, v̇).
+BASE_COORDINATES = {"free": ("x", "y", "z", "qx", "qy", "qz", "qw"), "planar": ("x", "y", "yaw")}
+BASE_VELOCITIES = {"free": ("vx", "vy", "vz", "wx", "wy", "wz"), "planar": ("vx", "vy", "wz")}
+
+
+@functools.lru_cache(maxsize=None)
+def base_symbols(kind: str) -> tuple[tuple, tuple, tuple]:
+    """(q, v, v̇) Symbols of a base joint of `kind`: base_x …, base_vx …, base_dvx …"""
+    sym = lambda name: sp.Symbol(f"base_{name}", real=True)  # noqa: E731
+    return (
+        tuple(sym(n) for n in BASE_COORDINATES[kind]),
+        tuple(sym(n) for n in BASE_VELOCITIES[kind]),
+        tuple(sym("d" + n) for n in BASE_VELOCITIES[kind]),
+    )
+
+
+def base_rotation(kind: str, qb) -> sp.Matrix:
+    """The base body's rotation in frame {0} from its coordinates (free: any non-zero quaternion)."""
+    if kind == "planar":
+        c, s = sp.cos(qb[2]), sp.sin(qb[2])
+        return sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    x, y, z, w = qb[3:7]
+    k = 2 / (x * x + y * y + z * z + w * w)
+    return sp.Matrix(
+        [
+            [1 - k * (y * y + z * z), k * (x * y - z * w), k * (x * z + y * w)],
+            [k * (x * y + z * w), 1 - k * (x * x + z * z), k * (y * z - x * w)],
+            [k * (x * z - y * w), k * (y * z + x * w), 1 - k * (x * x + y * y)],
+        ]
+    )
+
+
+def spatial(kind: str, values) -> tuple[list, list]:
+    """(linear, angular) 3-vectors of a base velocity or acceleration given in v's order."""
+    if kind == "free":
+        return list(values[:3]), list(values[3:6])
+    return [values[0], values[1], 0], [0, 0, values[2]]
+
+
+def rows(kind: str, force: list, moment: list) -> list:
+    """τ's base rows of the total force and moment on the base body, in v's order."""
+    if kind == "free":
+        return list(force) + list(moment)
+    return [force[0], force[1], moment[2]]
+
+
+def columns(kind: str) -> list[tuple[list, list]]:
+    """Unit base velocities as (linear, angular) pairs, one per base velocity, in v's order."""
+    count = len(BASE_VELOCITIES[kind])
+    return [spatial(kind, [1 if k == j else 0 for k in range(count)]) for j in range(count)]
