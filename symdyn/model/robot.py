@@ -396,8 +396,10 @@ class Robot:
         """A summary a person reads: joints, convention, source and, for a robot read from a
         URDF or MJCF file, what was locked, excluded and snapped (`robot.urdf`, `robot.mjcf`)."""
         kinds = "".join("R" if link.is_revolute else "P" for link in self.links)
+        shape = "" if all(link.parent is None for link in self.links) else ", a tree"
+        base = f", on a {self.base_joint} base (nq = {self.nq}, nv = {self.nv})" if self.base_joint else ""
         lines = [
-            f"Robot {self.name!r}: {self.n} joints ({kinds}), {self.convention} convention"
+            f"Robot {self.name!r}: {self.n} joints ({kinds}){shape}{base}, {self.convention} convention"
             + (f", {self.source}" if self.source else "")
         ]
         records = [r for r in (self.urdf, self.mjcf) if r is not None]
