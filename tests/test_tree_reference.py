@@ -201,3 +201,26 @@ def test_floating_coriolis_matrix_is_skew_with_mdot(base):
     assert np.abs(S + np.swapaxes(S, -1, -2)).max() < 1e-6 * np.abs(S).max()
     with pytest.raises(NotImplementedError, match="base's velocities are not the derivatives"):
         ref.christoffel(robot, q)
+
+
+def test_air_puck_on_a_planar_base_is_the_three_joint_puck():
+    """Exercise 9's Puma on an air puck: a true planar base (body-frame velocities) is the same system
+    as the chapter's prismatic x, prismatic y, revolute yaw: with v = T·q̇ (T = Rᵀ(yaw) on x, y) and
+    v̇ = d(T·q̇)/dt, τ_planar = T·τ_joints at random states, so the study's numbers carry over."""
+    from symdyn.apps.air_puck import puck_robot
+
+    joints, planar = puck_robot(), puck_robot(planar=True)
+    assert (planar.nq, planar.nv, planar.n) == (9, 9, 6)
+    rng = np.random.default_rng(0)
+    q, qd, qdd = (rng.normal(size=(STATES, 9)) for _ in range(3))
+    c, s = np.cos(q[:, 2]), np.sin(q[:, 2])
+
+    def turned(x):  # Rᵀ(yaw) on the x, y components
+        y = x.copy()
+        y[:, 0], y[:, 1] = c * x[:, 0] + s * x[:, 1], -s * x[:, 0] + c * x[:, 1]
+        return y
+
+    v, vd = turned(qd), turned(qdd)
+    vd[:, 0] += qd[:, 2] * (-s * qd[:, 0] + c * qd[:, 1])
+    vd[:, 1] += qd[:, 2] * (-c * qd[:, 0] - s * qd[:, 1])
+    _close(ref.rne(planar, q, v, vd), turned(ref.rne(joints, q, qd, qdd)), "tau")

@@ -42,18 +42,32 @@ __all__ = [
 BASE_JOINTS = 3
 
 
-def puck_robot(mass: float = 20.0, radius: float = 0.25) -> Robot:
+def puck_robot(mass: float = 20.0, radius: float = 0.25, *, planar: bool = False) -> Robot:
     """The Puma 560 (Coulomb friction removed, viscous kept) on a puck: a thin disc of `mass` (kg)
     and `radius` (m) under it, free in x, y and yaw.  Joints 1, 2 slide along world x and y
     (massless carriages: frame 0 is Ry(π/2), so z0 is world x), joint 3 turns about world z
-    and carries the disc; frame 3 is the Puma's base frame (identity at q = 0)."""
+    and carries the disc; frame 3 is the Puma's base frame (identity at q = 0).
+
+    planar=True: the same system on a true planar base (`base_joint="planar"`, the disc its
+    body): q = [x, y, yaw, arm…] as before, but the base's velocities v = [vx, vy, ω] are in
+    the disc's frame (q̇ = [R(yaw)·(vx, vy), ω, …]), nq = nv = 9."""
     disc = mass * radius**2 / 4
+    body = Link(m=mass, I=((disc, 0, 0), (0, disc, 0), (0, 0, 2 * disc)))
+    puma = arms.load("puma560").nofriction()
+    if planar:
+        return Robot(
+            "puma560_planar_puck",
+            puma.links,
+            gravity=puma.gravity,
+            base_joint="planar",
+            base_body=body,
+            source=f"{puma.source}; planar base: {mass} kg disc of radius {radius} m on an air table",
+        )
     base = (
         Link(joint="prismatic", alpha=-math.pi / 2),
         Link(joint="prismatic", theta=-math.pi / 2, alpha=math.pi / 2),
-        Link(m=mass, I=((disc, 0, 0), (0, disc, 0), (0, 0, 2 * disc))),
+        body,
     )
-    puma = arms.load("puma560").nofriction()
     return Robot(
         "puma560_puck",
         base + puma.links,
