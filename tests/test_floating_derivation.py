@@ -38,13 +38,16 @@ def _angles(dyn) -> list:
     return [s for s in dyn.q if not s.name.startswith("base_") or s.name == "base_yaw"]
 
 
+_COMPILED: dict = {}
+
+
 def _evaluate(dyn, q: dict, trig: dict, v, a) -> dict:
     """τ, M, G, C·v at one state: q {symbol: value}, trig {angle symbol: (cos, sin)}."""
     angles = _angles(dyn)
-    inputs = [*dyn.q, *(f(s) for s in angles for f in (sp.cos, sp.sin)), *dyn.qd, *dyn.qdd]
-    flat = compile_exact(dyn.definitions, [e for t in TERMS for e in dyn.named[t]], inputs)(
-        *(q[s] for s in dyn.q), *(x for s in angles for x in trig[s]), *v, *a
-    )
+    if id(dyn) not in _COMPILED:
+        inputs = [*dyn.q, *(f(s) for s in angles for f in (sp.cos, sp.sin)), *dyn.qd, *dyn.qdd]
+        _COMPILED[id(dyn)] = (dyn, compile_exact(dyn.definitions, [e for t in TERMS for e in dyn.named[t]], inputs))
+    flat = _COMPILED[id(dyn)][1](*(q[s] for s in dyn.q), *(x for s in angles for x in trig[s]), *v, *a)
     out, k = {}, 0
     for t in TERMS:
         out[t], k = flat[k : k + len(dyn.named[t])], k + len(dyn.named[t])
