@@ -68,6 +68,12 @@ CASES = (
         dict(tips="all", base_joint="free", locked={"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}),
     ),
     Case(
+        "talos full",
+        "talos_data/robots/talos_full_v2.urdf",
+        "Talos: every joint on a free base, the grippers' mimic joints moving on their own (Pinocchio's full model)",
+        dict(tips="all", base_joint="free"),
+    ),
+    Case(
         "solo12", "solo_description/robots/solo12.urdf", "Solo 12 on a free base", dict(tips="all", base_joint="free")
     ),
     Case(

@@ -24,8 +24,9 @@ SEED = 0
 
 
 def effect_states(robot: Robot, count: int = STATES, seed: int = SEED) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(q, q̇, q̈), each (count, n): q uniform within the robot's limits (±π, or ±1 m, where a
-    joint has none), q̇ and q̈ uniform in [−1, 1] (rad/s, rad/s² or m/s, m/s²).
+    """(q, q̇, q̈), (count, nq) and (count, nv): the joints' q uniform within the robot's limits
+    (±π, or ±1 m, where a joint has none), a floating base's pose reached along a random twist
+    from the origin, q̇ and q̈ uniform in [−1, 1] (rad/s, rad/s² or m/s, m/s²).
 
     Raises:
         ValueError: count below 1.
@@ -34,8 +35,13 @@ def effect_states(robot: Robot, count: int = STATES, seed: int = SEED) -> tuple[
         raise ValueError(f"count must be at least 1, got {count}")
     rng = np.random.default_rng(seed)
     lo, hi = robot.qlim.T
-    q = lo + (hi - lo) * rng.random((count, robot.n))
-    qd, qdd = (rng.uniform(-1.0, 1.0, (count, robot.n)) for _ in range(2))
+    q = robot.neutral() + np.zeros((count, 1))
+    q[:, robot.nq - robot.n :] = lo + (hi - lo) * rng.random((count, robot.n))
+    if robot.base_joint is not None:  # a floating base: a random pose reached along a random twist
+        twist = np.zeros((count, robot.nv))
+        twist[:, : robot.nv - robot.n] = rng.uniform(-1.0, 1.0, (count, robot.nv - robot.n))
+        q = robot.integrate(q, twist)
+    qd, qdd = (rng.uniform(-1.0, 1.0, (count, robot.nv)) for _ in range(2))
     return q, qd, qdd
 
 

@@ -51,8 +51,9 @@ def moving_set(tree: Tree, base: str, tips, excluded: set, given: dict, source: 
     """(the joints that move, the links on the paths from the base to them and to the tips).
 
     tips: "all" (every revolute, continuous and prismatic joint below the base that is not
-    locked, excluded or a mimic joint: those follow their leaders) or link names (the joints on
-    the paths from the base to each).  Joints in `given` are held (locked).
+    locked or excluded; a mimic joint moves on its own where its leader moves, as Pinocchio's
+    parser reads it, and follows a locked leader) or link names (the joints on the paths from
+    the base to each).  Joints in `given` are held (locked).
     """
     scope = tree.below(base, excluded) - {base}
     if tips == "all":
@@ -63,6 +64,24 @@ def moving_set(tree: Tree, base: str, tips, excluded: set, given: dict, source: 
             and tree.joints[c].name not in given
             and tree.joints[c].find("mimic") is None
         }
+        followers = {
+            c: tree.joints[c].find("mimic").attrib.get("joint")
+            for c in scope
+            if tree.joints[c].find("mimic") is not None
+        }
+        grown = True
+        while grown:  # mimics of mimics: a follower moves where the joint it follows moves
+            grown = False
+            for c, leader in followers.items():
+                name = tree.joints[c].name
+                if (
+                    leader in moving
+                    and name not in moving
+                    and name not in given
+                    and tree.joints[c].attrib.get("type") in MOVING
+                ):
+                    moving.add(name)
+                    grown = True
         heads = {c for c in scope if tree.joints[c].name in moving}
     else:
         heads = set()

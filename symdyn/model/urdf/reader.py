@@ -307,7 +307,9 @@ def from_urdf(
     tree (`tips`), on a fixed or floating base (`base_joint`).
 
     tips: "all" moves every revolute, continuous and prismatic joint below the base
-    (mimic joints follow their leaders, `locked` joints are held); a list of links moves
+    (`locked` joints are held, and mimic joints follow a locked leader; a mimic joint whose
+    leader moves moves on its own, as Pinocchio's URDF parser reads it, with a warning and a
+    record line saying so); a list of links moves
     the joints on the paths from the base to each (their union); None (default): the
     chain to `tip_link`.  The links come in the file's depth-first order as Pinocchio's
     `buildModelFromUrdf` gives it (`model.names[1:]`: the joints below a link by name),
@@ -565,6 +567,7 @@ def _read_tree(
                 f"{source}: --tips {tip} is excluded (it is in the subtree of an excluded link): choose other tips",
             )
     moving, on_chain = branches.moving_set(tree, base, tip_list, out_of, given, source)
+    free_mimics = sorted(n for n in moving if tree.named[n].find("mimic") is not None)
     for tip in () if tip_list == "all" else tip_list:
         name_ = tip
         while name_ != base:
@@ -597,6 +600,12 @@ def _read_tree(
             f"{source}: {empty}; `symdyn print` and `symdyn show` read it nonetheless",
         )
     reader.warnings += [_massless_words(tree, dead)] if dead else []
+    if free_mimics:  # a change of the mechanism: stated, with the way back
+        reader.warnings.append(
+            f"{source}: mimic joints {', '.join(free_mimics)} move on their own (tips='all' reads them as "
+            f"Pinocchio's URDF parser does: {len(free_mimics)} more degrees of freedom than the mechanism "
+            "the file describes); lock their leaders (locked={leader: value}) to have them follow"
+        )
     tool = IDENTITY
     if tip_list != "all" and len(tip_list) == 1:  # one chain: the tool is the tip's frame
         tool = frames[tip_list[0]][1]
