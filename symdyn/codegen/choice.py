@@ -17,7 +17,23 @@ from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
 
-__all__ = ["programs", "Programs", "derivations"]
+__all__ = ["programs", "Programs", "derivations", "DERIVED", "missing"]
+
+#: The functions built from the chosen terms, after them (and Y) in every model's list.
+DERIVED = ("tau_derivatives", "fdyn_derivatives", "Minv")
+
+
+def missing(robot: Robot) -> dict[str, str]:
+    """{function: why robot's code has no such function}: a floating base's C and Y."""
+    if robot.base_joint is None:
+        return {}
+    return {
+        "C": f"{robot.name!r} has a {robot.base_joint} base, whose velocities are no coordinates' rates: "
+        "there is no Christoffel matrix C(q, v); Cqd gives C·v, and symdyn.reference.coriolis a C with "
+        "Ṁ − 2C skew-symmetric",
+        "Y": f"the regressor Y of {robot.name!r} is not generated: its {robot.base_joint} base's "
+        "columns are not derived yet",
+    }
 
 
 def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
@@ -42,14 +58,27 @@ def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
 
 def derivations(robot: Robot) -> tuple[list, list[str]]:
     """(derivations, their labels) that code generation chooses from: Newton–Euler on the
-    regrouped base parameters when the robot is numeric, and Lagrange where its expanded form
-    may be leaner (up to six joints)."""
+    regrouped base parameters when the robot is numeric (a floating base: on the full
+    parameters where derive refuses to regroup it), and Lagrange where its expanded form
+    may be leaner (up to six joints on a fixed base; a floating base has no Lagrange yet).
+
+    Raises:
+        NotImplementedError: what derive refuses besides regrouping a floating base.
+    """
     from ..derivation.entry import EXPANDED_MAX_JOINTS, derive
 
     regroup = not robot.is_symbolic
-    dyns = [derive(robot, "newton-euler", regroup=regroup)]
+    try:
+        dyns = [derive(robot, "newton-euler", regroup=regroup)]
+    except NotImplementedError:  # a floating base without base parameters (yet): the full parameters
+        if robot.base_joint is None or not regroup:
+            raise
+        regroup = False
+        dyns = [derive(robot, "newton-euler")]
     origins = ["newton-euler, base parameters" if regroup else "newton-euler"]
-    if robot.n <= EXPANDED_MAX_JOINTS:  # Lagrange's expanded M can be the leanest; named, it never is
+    if (
+        robot.base_joint is None and robot.n <= EXPANDED_MAX_JOINTS
+    ):  # Lagrange's expanded M can be the leanest; named, it never is
         dyns.append(derive(robot, "lagrange"))
         origins.append("lagrange")
     return dyns, origins
@@ -62,7 +91,9 @@ class Programs:
     the fewest operations (the first on ties); fdyn, the derivatives and M⁻¹ are built
     from the chosen M, bias and τ; Y from `regressor` (a `Regressor`, or a callable
     returning one: it is only built when Y is asked for).  `origins`: a label per
-    derivation for the generated files (default: their methods).
+    derivation for the generated files (default: their methods).  A floating base
+    (`Robot.base_joint`) has no Christoffel C and no Y (`names` leaves them out), and
+    its ∂τ/∂q is taken in the tangent space (`tau_derivatives_spec`).
     """
 
     def __init__(self, dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> None:
@@ -70,9 +101,11 @@ class Programs:
             raise ValueError("programs() needs at least one derivation")
         self.dyns = list(dyns)
         self.tree = not self.dyns[0].robot.is_chain  # M's LDLᵀ leaves first (functions.elimination_order)
+        self.base_joint = self.dyns[0].robot.base_joint
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
-        self.regressor = regressor
-        self.names = (*NAMES, *(("Y",) if regressor is not None else ()), "tau_derivatives", "fdyn_derivatives", "Minv")
+        self.regressor = regressor if self.base_joint is None else None  # no floating-base Y yet
+        terms = NAMES if self.base_joint is None else tuple(n for n in NAMES if n != "C")  # no Christoffel C
+        self.names = (*terms, *(("Y",) if self.regressor is not None else ()), *DERIVED)
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
         self._built: dict[str, Program] = {}
 
@@ -101,7 +134,7 @@ class Programs:
             reg = self.regressor() if callable(self.regressor) else self.regressor
             return regressor_spec(reg, self.dyns[0]).program()
         if name == "tau_derivatives":
-            return tau_derivatives_spec(self.chosen("tau")[0]).program()
+            return tau_derivatives_spec(self.chosen("tau")[0], self.base_joint).program()
         if name == "Minv":
             return minv_spec(self.chosen("M")[0], tree=self.tree).program()
         return fdyn_derivatives_program(self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"))

@@ -211,25 +211,67 @@ def _doc(name: str, n: int, params: list) -> str:
 
 
 def _jacobians(tau: FunctionSpec) -> tuple[list, sp.ImmutableMatrix, sp.ImmutableMatrix]:
-    """(derivative definitions, ∂τ/∂q, ∂τ/∂q̇) of a τ spec, n × n each, by `jacobian`."""
+    """(derivative definitions, ∂τ/∂q, ∂τ/∂q̇) of a τ spec by `jacobian`: nv × nq and nv × nv
+    (n × n each on a fixed base)."""
     q, qd = tau.inputs[0][1], tau.inputs[1][1]
-    n = len(q)
+    nq, nv = len(q), len(qd)
     defs, rows = jacobian(tau.definitions, list(tau.outputs[0][1]), list(q) + list(qd))
-    dq = sp.ImmutableMatrix(n, n, lambda i, k: rows[i][k])
-    dqd = sp.ImmutableMatrix(n, n, lambda i, k: rows[i][n + k])
+    dq = sp.ImmutableMatrix(nv, nq, lambda i, k: rows[i][k])
+    dqd = sp.ImmutableMatrix(nv, nv, lambda i, k: rows[i][nq + k])
     return defs, dq, dqd
 
 
-def tau_derivatives_spec(tau: FunctionSpec) -> FunctionSpec:
-    """(τ, ∂τ/∂q, ∂τ/∂q̇)(q, q̇, q̈) from the spec of τ, in one program."""
+def tangent_map(q: Sequence, nv: int, base_joint: str | None) -> sp.ImmutableMatrix:
+    """∂(q ⊕ δ)/∂δ at δ = 0 (nq × nv): how the coordinates q move with a velocity δ, i.e.
+    q̇ = T(q)·v.  A free base (v in its own frame): ṗ = R(quat)·v_lin and the quaternion
+    (x, y, z, w) turns at ½·quat ⊗ (ω, 0); a planar base: (ẋ, ẏ) = R₂(yaw)·v_xy, yaw's rate ω;
+    the joints' q̇ = v.  Chain rule for derivatives in the tangent space, as Pinocchio takes them.
+
+    Raises:
+        ValueError: an unknown base joint.
+    """
+    from ..derivation.floating import base_rotation
+
+    q = list(q)
+    T = sp.zeros(len(q), nv)
+    if base_joint == "free":
+        R = base_rotation("free", q[:7])
+        x, y, z, w = q[3:7]
+        T[:3, :3] = R
+        T[3:7, 3:6] = sp.Rational(1, 2) * sp.Matrix([[w, -z, y], [z, w, -x], [-y, x, w], [-x, -y, -z]])
+    elif base_joint == "planar":
+        c, s = sp.cos(q[2]), sp.sin(q[2])
+        T[:3, :3] = sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    elif base_joint is not None:
+        raise ValueError(f"unknown base joint {base_joint!r}: expected 'free', 'planar' or None")
+    bq, bv = len(q) - nv + {"free": 6, "planar": 3}.get(base_joint, 0), {"free": 6, "planar": 3}.get(base_joint, 0)
+    for j in range(nv - bv):
+        T[bq + j, bv + j] = 1
+    return sp.ImmutableMatrix(T)
+
+
+def tau_derivatives_spec(tau: FunctionSpec, base_joint: str | None = None) -> FunctionSpec:
+    """(τ, ∂τ/∂q, ∂τ/∂q̇)(q, q̇, q̈) from the spec of τ, in one program.  A floating base
+    (`base_joint` "free" or "planar"): ∂τ/∂q is nv × nv, in the tangent space — d/dε τ(q ⊕ εδ),
+    Pinocchio's computeRNEADerivatives — the coordinates' Jacobian times `tangent_map`."""
     defs, dq, dqd = _jacobians(tau)
     n = dq.rows
+    if base_joint is not None:
+        T = tangent_map(tau.inputs[0][1], n, base_joint)
+        dq = sp.ImmutableMatrix(
+            n,
+            n,
+            lambda i, j: sp.Add(*(dq[i, k] * T[k, j] for k in range(T.rows) if dq[i, k] != 0 and T[k, j] != 0)),
+        )
+    doc = _doc("tau_derivatives", n, _params(tau))
+    if base_joint is not None:
+        doc += f" q: ({len(tau.inputs[0][1])},); dtau_dq in the tangent space (d tau(q + dq) with q + dq Pinocchio's integrate)."
     return FunctionSpec(
         "tau_derivatives",
         tau.inputs,
         (("tau", tau.outputs[0][1]), ("dtau_dq", dq), ("dtau_dqd", dqd)),
         tuple(tau.definitions) + tuple(defs),
-        _doc("tau_derivatives", n, _params(tau)),
+        doc,
         tau.origin,
         ("dtau_dq", "dtau_dqd"),
     )

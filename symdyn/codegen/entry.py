@@ -87,8 +87,9 @@ def bundle(robot: Robot) -> Bundle:
     from .choice import derivations, programs
 
     dyns, origins = derivations(robot)
+    reg = regressor(robot) if robot.base_joint is None else None  # a floating base: no Y yet (choice.missing)
     try:
-        progs = programs(dyns, regressor(robot), origins, f"symdyn: programs of {robot.name}")
+        progs = programs(dyns, reg, origins, f"symdyn: programs of {robot.name}")
     except ValueError as exc:
         raise ValueError(f"cannot generate code for {robot.name!r}: {exc}") from None
     used = sorted({p.origin for p in progs}, key=str)
@@ -97,6 +98,8 @@ def bundle(robot: Robot) -> Bundle:
         name=identifier(robot.name),
         n=robot.n,
         version=__version__,
+        nq=robot.nq,
+        nv=robot.nv,
         fingerprint=robot.fingerprint(),
         programs=tuple(progs),
         derivation="; ".join(used),
@@ -244,13 +247,16 @@ def generate_all(root=None) -> list[Path]:
 
 class GeneratedModel:
     """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
-    fdyn, Y, tau_derivatives, fdyn_derivatives, Minv), with `name`, `n`, `target`, `fingerprint`, `folder` and
-    `functions` (name → callable)."""
+    fdyn, Y, tau_derivatives, fdyn_derivatives, Minv), with `name`, `n`, `nq`, `nv` (the sizes of q and of
+    q̇, q̈, τ: n but on a floating base), `target`, `fingerprint`, `folder` and `functions` (name → callable).
+    A floating base has no C and no Y: asking for them says why (AttributeError)."""
 
     def __init__(
         self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict, library=None
     ) -> None:
         self.name, self.n, self.target, self.fingerprint, self.folder = name, n, target, fingerprint, folder
+        self.nq = self.nv = n  # sizes of q and of v (qd, qdd, tau): a floating base's differ (`_sized`)
+        self._missing: dict = {}  # {function: why a floating base's code has none}
         self.functions = dict(functions)
         self._library = library  # the C target's `clib.CLibrary`
         self.__dict__.update(self.functions)  # plain attributes, and no __getattr__: it slows every call ~0.1 µs
@@ -269,8 +275,23 @@ class GeneratedModel:
             raise ValueError(f"build() compiles the C target; this is the {self.target} target of {self.name}")
         self._library.build(functions, batch)
 
+    def __getattr__(self, attr: str):
+        """Only for a name that is no attribute: a function the model has not, and why."""
+        why = self.__dict__.get("_missing", {}).get(attr)
+        if why:
+            raise AttributeError(f"{self.__dict__.get('name')} has no function {attr}: {why}")
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {attr!r}")
+
     def __repr__(self) -> str:
         return f"<{self.name} model code ({self.target}): {', '.join(self.functions)}>"
+
+
+def _sized(model: GeneratedModel, robot: Robot) -> GeneratedModel:
+    """model with robot's nq, nv and the functions a floating base has not (`choice.missing`)."""
+    from .choice import missing
+
+    model.nq, model.nv, model._missing = robot.nq, robot.nv, missing(robot)
+    return model
 
 
 class CasadiModel(GeneratedModel):
@@ -348,7 +369,7 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
     if target == "numpy":
         module = _import_module(paths[0], f"_symdyn_generated_{name}_{robot.fingerprint()[:12]}")
         funcs = {f: getattr(module, f) for f in module.FUNCTIONS}
-        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
+        return _sized(GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs), robot)
     if target in ("array-api", "jax", "torch"):
         from .emit import array_api
 
@@ -361,7 +382,7 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
             if target == "torch"
             else {f: getattr(module, f) for f in module.FUNCTIONS}
         )
-        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
+        return _sized(GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs), robot)
     if target == "c":
         from .emit.clib import CompileOptions, load_library
 
@@ -369,11 +390,11 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
             f"symdyn: loading {name}'s C code (each function compiled into the cache when first called)"
         ):
             lib = load_library(paths[0], paths[1], options or CompileOptions())
-        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib)
+        return _sized(GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib), robot)
     from .emit.casadi import deserialize
 
     funcs = {f.name(): f for f in deserialize(paths[0])[1]}
-    return CasadiModel(name, robot.n, target, robot.fingerprint(), folder, funcs)
+    return _sized(CasadiModel(name, robot.n, target, robot.fingerprint(), folder, funcs), robot)
 
 
 def _import_module(path: Path, module: str):
@@ -431,7 +452,9 @@ def _compile_casadi(model: "CasadiModel", names: tuple) -> "CasadiModel":
         )
     numeric = {f: getattr(model, f) for f in model.functions}
     numeric.update({f: Numeric(compiled(numeric[f].function), numeric[f].shapes) for f in names})
-    return CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
+    out = CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
+    out.nq, out.nv, out._missing = model.nq, model.nv, model._missing
+    return out
 
 
 def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedModel:
@@ -459,7 +482,7 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
         from .emit.clib import CompileOptions
 
         lib = lazy.load(robot, name, writable(folder), options or CompileOptions())
-        return GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib)
+        return _sized(GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib), robot)
     if not _intact(folder, name, target):
         with build_lock(folder):  # processes that want the same code (a cluster's workers) write it once
             if not _intact(folder, name, target):

@@ -190,8 +190,14 @@ def _params(dyn: Dynamics) -> list:
 
 
 def _doc(term: str, dyn: Dynamics, **extra) -> str:
-    """The function's docstring; a symbolic model's last argument p lists its parameters."""
-    doc = _DOCS[term].format(n=dyn.n, **extra)
+    """The function's docstring (sizes: v's, nv); a symbolic model's last argument p lists its
+    parameters, a floating base's docstring says what q and v hold."""
+    doc = _DOCS[term].format(n=len(dyn.qd), **extra)
+    if dyn.robot.base_joint is not None:  # q and v differ: say which is which
+        doc += (
+            f" q: ({len(dyn.q)},), the {dyn.robot.base_joint} base's coordinates ({', '.join(s.name for s in dyn.q[: len(dyn.q) - dyn.n])}) "
+            f"then the joints'; qd, qdd, tau: ({len(dyn.qd)},), the base's velocity in its own frame first."
+        )
     return doc + (f" p = ({', '.join(map(str, dyn.params))})." if dyn.params else "")
 
 

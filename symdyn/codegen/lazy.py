@@ -28,10 +28,12 @@ __all__ = ["load", "signatures"]
 FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives", "fdyn_derivatives", "Minv")
 
 
-def signatures(n: int) -> list[c_emit.Signature]:
-    """The C signature of every function of a numeric model with n joints (docs/functions.md)."""
-    v, m = (n,), (n, n)
-    q, qd, qdd, tau = ("q", n), ("qd", n), ("qdd", n), ("tau", n)
+def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_emit.Signature]:
+    """The C signature of every function of a numeric model with n joints (docs/functions.md);
+    a floating base: q of size nq, v (q̇, q̈, τ) of size nv, and no C or Y (`choice.missing`)."""
+    nq, nv = nq or n, nv or n
+    v, m = (nv,), (nv, nv)
+    q, qd, qdd, tau = ("q", nq), ("qd", nv), ("qdd", nv), ("tau", nv)
     table = {
         "tau": ((q, qd, qdd), (("tau", v),)),
         "M": ((q,), (("M", m),)),
@@ -45,7 +47,8 @@ def signatures(n: int) -> list[c_emit.Signature]:
         "fdyn_derivatives": ((q, qd, tau), (("qdd", v), ("dqdd_dq", m), ("dqdd_dqd", m), ("Minv", m))),
         "Minv": ((q,), (("Minv", m),)),
     }
-    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS]
+    floating = (nq, nv) != (n, n)
+    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS if not (floating and f in ("C", "Y"))]
 
 
 class _Sources:
@@ -55,7 +58,7 @@ class _Sources:
 
     def __init__(self, robot: Robot, name: str, folder: Path) -> None:
         self.robot, self.name, self.folder = robot, name, folder
-        self.sigs = {s.name: s for s in signatures(robot.n)}
+        self.sigs = {s.name: s for s in signatures(robot.n, robot.nq, robot.nv)}
         self._programs = None
         self._lock = threading.RLock()
 
@@ -66,7 +69,8 @@ class _Sources:
             from .choice import Programs, derivations
 
             dyns, origins = derivations(self.robot)
-            self._programs = Programs(dyns, lambda: regressor(self.robot), origins)
+            reg = (lambda: regressor(self.robot)) if self.robot.base_joint is None else None
+            self._programs = Programs(dyns, reg, origins)
         return self._programs
 
     def _current(self, path: Path) -> str | None:

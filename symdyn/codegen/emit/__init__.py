@@ -48,6 +48,13 @@ class Bundle:
     source: str = ""
     notes: tuple[str, ...] = ()
     command: str = ""
+    nq: int = 0
+    nv: int = 0
+
+    @property
+    def floating(self) -> bool:
+        """Whether q and v differ from the joints (a floating base: nq, nv given and not n)."""
+        return (self.nq or self.n) != self.n or (self.nv or self.n) != self.n
 
     def program(self, name: str) -> Program:
         for p in self.programs:

@@ -291,6 +291,11 @@ def h_source(bundle: Bundle) -> str:
         f"#ifndef {guard}\n#define {guard}\n",
         '#ifdef __cplusplus\nextern "C" {\n#endif\n',
         f"#define {bundle.name.upper()}_NDOF {bundle.n}",
+        *(
+            [f"#define {bundle.name.upper()}_NQ {bundle.nq}", f"#define {bundle.name.upper()}_NV {bundle.nv}"]
+            if bundle.floating
+            else []
+        ),
         f'#define {bundle.name.upper()}_FINGERPRINT "{bundle.fingerprint}"',
         f'#define {bundle.name.upper()}_SYMDYN_VERSION "{bundle.version}"\n',
     ]

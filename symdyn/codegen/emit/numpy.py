@@ -423,6 +423,11 @@ def module_source(bundle: Bundle) -> str:
         f"SYMDYN_VERSION = {bundle.version!r}",
         f"FINGERPRINT = {bundle.fingerprint!r}",
         f"N = {bundle.n}",
+        *(
+            [f"NQ = {bundle.nq}  # q: base coordinates, then the joints", f"NV = {bundle.nv}  # qd, qdd, tau"]
+            if bundle.floating
+            else []
+        ),
         f"FEW = {FEW}  # batches of at most FEW states: the scalar body, state by state",
         f"FUNCTIONS = {tuple(p.name for p in bundle.programs)!r}",
         f"OP_COUNTS = {counts!r}",

@@ -1,0 +1,162 @@
+"""Code generation on floating bases (issue 35): every target against the reference and Pinocchio.
+
+Random trees of 3–4 joints on a free and on a planar base: the NumPy, C (scalar and SIMD
+batch) and CasADi functions tau, M, G, Cqd, F, fdyn and Minv equal the numeric reference
+(itself Pinocchio's, tests/test_tree_reference.py) at 200 states to 1e-10; the derivatives
+equal Pinocchio's computeRNEADerivatives and computeABADerivatives (∂/∂q in the tangent
+space) at the same states, friction's viscous term added; q has nq entries, q̇, q̈, τ nv;
+there is no Christoffel C (and no Y), and asking for it says why.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import symdyn
+import symdyn.reference as ref
+from symdyn.codegen.derivatives import tangent_map
+from symdyn.codegen.lazy import signatures
+from symdyn.model.random_robots import random_tree_robot
+
+STATES = 200
+BASES = {"free": (3, 4), "planar": (5, 3)}  # base: (seed, joints)
+
+
+def _close(a, b, what: str) -> None:
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape, f"{what}: shape {a.shape}, expected {b.shape}"
+    err = np.abs(a - b).max() / (1 + np.abs(b).max())
+    assert err < 1e-10, f"{what}: {err:.2e}"
+
+
+@pytest.fixture(scope="module", params=sorted(BASES))
+def case(request, tmp_path_factory):
+    """(robot, states q, v, a, τ, the reference's answers) of one base, code in a fresh cache."""
+    seed, n = BASES[request.param]
+    robot = random_tree_robot(seed, n=n, base_joint=request.param)
+    rng = np.random.default_rng(seed)
+    q = robot.integrate(robot.neutral(), rng.normal(size=(STATES, robot.nv)) * 2)
+    v, a = rng.normal(size=(2, STATES, robot.nv))
+    qd = v + 0.1 * np.sign(v)  # away from 0: Coulomb friction's sign is defined
+    want = {
+        "tau": ref.rne(robot, q, qd, a),
+        "M": ref.inertia(robot, q),
+        "G": ref.gravload(robot, q),
+        "Cqd": ref.rne(robot, q, qd, 0 * a, gravity=(0, 0, 0)) - ref.friction(robot, qd),
+        "F": ref.friction(robot, qd),
+    }
+    want["fdyn"] = ref.accel(robot, q, qd, want["tau"])
+    want["Minv"] = np.linalg.inv(want["M"])
+    return robot, q, qd, a, want
+
+
+def _check(model, robot, q, qd, a, want, label: str) -> None:
+    assert (model.nq, model.nv) == (robot.nq, robot.nv)
+    got = {
+        "tau": model.tau(q, qd, a),
+        "M": model.M(q),
+        "G": model.G(q),
+        "Cqd": model.Cqd(q, qd),
+        "F": model.F(qd),
+        "fdyn": model.fdyn(q, qd, want["tau"]),
+        "Minv": model.Minv(q),
+    }
+    for term, value in got.items():
+        _close(value, want[term], f"{label} {term}")
+    tau, dq, dqd = model.tau_derivatives(q, qd, a)
+    _close(tau, want["tau"], f"{label} tau_derivatives' tau")
+    qdd, ddq, ddqd, minv = model.fdyn_derivatives(q, qd, want["tau"])
+    _close(qdd, want["fdyn"], f"{label} fdyn_derivatives' qdd")
+    _close(minv, want["Minv"], f"{label} fdyn_derivatives' Minv")
+    _close(ddq, -minv @ dq_at(model, q, qd, qdd), f"{label} dqdd_dq = -Minv dtau_dq")
+    _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label)
+    with pytest.raises(AttributeError, match="no Christoffel matrix"):
+        model.C
+    with pytest.raises(AttributeError, match="regressor"):
+        model.Y
+
+
+def dq_at(model, q, qd, qdd):
+    return model.tau_derivatives(q, qd, qdd)[1]
+
+
+def _pin_q(robot, q):
+    if robot.base_joint != "planar":
+        return q
+    return np.concatenate([q[..., :2], np.cos(q[..., 2:3]), np.sin(q[..., 2:3]), q[..., 3:]], -1)
+
+
+def _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label: str) -> None:
+    """∂τ and ∂q̈ against Pinocchio's (tangent space), the viscous friction's ∂F/∂q̇ added."""
+    pin = pytest.importorskip("pinocchio")
+    from symdyn.bench.peers import pinocchio_model
+
+    model = pinocchio_model(robot)
+    data = model.createData()
+    k = robot.nv - robot.n
+    viscous = np.diag([0.0] * k + [float(link.G) ** 2 * float(link.B) for link in robot.links])
+    for i in range(STATES):
+        qp = _pin_q(robot, q[i])
+        Pq, Pv, _ = pin.computeRNEADerivatives(model, data, qp, qd[i], a[i])
+        _close(dq[i], Pq, f"{label} dtau_dq vs Pinocchio")
+        _close(dqd[i], Pv + viscous, f"{label} dtau_dqd vs Pinocchio")
+        tau_pin = want["tau"][i] - ref.friction(robot, qd[i])  # Pinocchio's τ for the same q̈
+        Aq, Av, Minv = pin.computeABADerivatives(model, data, qp, qd[i], tau_pin)
+        _close(ddq[i], Aq, f"{label} dqdd_dq vs Pinocchio")
+        _close(ddqd[i], Av - Minv @ viscous, f"{label} dqdd_dqd vs Pinocchio")
+
+
+def test_numpy(case):
+    robot, q, qd, a, want = case
+    _check(symdyn.load(robot, "numpy"), robot, q, qd, a, want, "numpy")
+
+
+def test_c_scalar_and_batched(case):
+    robot, q, qd, a, want = case
+    model = symdyn.load(robot, "c")
+    _check(model, robot, q, qd, a, want, "C batch")
+    one = {"tau": model.tau(q[7], qd[7], a[7]), "M": model.M(q[7])}  # one state: the scalar entry point
+    _close(one["tau"], want["tau"][7], "C scalar tau")
+    _close(one["M"], want["M"][7], "C scalar M")
+    _close(model.fdyn(q[7], qd[7], want["tau"][7]), want["fdyn"][7], "C scalar fdyn")
+    with pytest.raises(ValueError, match=rf"\(\.\.\., {robot.nq}\)"):
+        model.tau(q[7][:-1], qd[7], a[7])
+
+
+def test_casadi(case):
+    robot, q, qd, a, want = case
+    model = symdyn.load(robot, "casadi")
+    _check(model, robot, q, qd, a, want, "casadi")
+    assert model.functions["tau"].size1_in(0) == robot.nq and model.functions["tau"].size1_in(1) == robot.nv
+
+
+def test_generate_writes_sizes(case, tmp_path):
+    robot, *_ = case
+    paths = symdyn.generate(robot, "c", tmp_path)
+    header = next(p for p in paths if p.suffix == ".h").read_text()
+    name = robot.name.upper()
+    assert f"#define {name}_NQ {robot.nq}" in header and f"#define {name}_NV {robot.nv}" in header
+    assert f"{robot.name}_C(" not in header and f"{robot.name}_Y(" not in header
+    assert f"function: tau(q: {robot.nq}, qd: {robot.nv}, qdd: {robot.nv}) -> tau: {robot.nv}" in header
+
+
+def test_signatures_and_tangent_map():
+    """Lazy C signatures take q of nq; the free base's map turns v into the quaternion's rate."""
+    sigs = {s.name: s for s in signatures(3, 10, 9)}
+    assert "C" not in sigs and "Y" not in sigs
+    assert sigs["tau"].inputs == (("q", 10), ("qd", 9), ("qdd", 9))
+    assert dict(sigs["tau_derivatives"].outputs)["dtau_dq"] == (9, 9)
+    q = sp.symbols("x y z qx qy qz qw q1", real=True)
+    T = tangent_map(q, 7, "free")
+    point = dict(zip(q, [1, 2, 3, *np.array([0.1, -0.3, 0.5, 0.8]) / np.linalg.norm([0.1, -0.3, 0.5, 0.8]), 0.4]))
+    Tn = np.array(T.subs(point), dtype=float)
+    robot = random_tree_robot(1, n=1, base_joint="free")
+    qn = np.array([float(point[s]) for s in q])
+    v = np.arange(1.0, 8.0)
+    from symdyn.model.base_joint import coordinate_rates
+
+    _close(Tn @ v, coordinate_rates(robot, qn, v), "tangent map vs coordinate_rates")
+    with pytest.raises(ValueError, match="unknown base joint"):
+        tangent_map(q, 7, "spherical")
