@@ -55,21 +55,22 @@ def derive(
     A tree (links whose parent is not the link before) is derived as a chain is, each
     recursion running through the parents; M's entries between branches are exact zeros.
     A floating base (Newton–Euler): q = (base coordinates, joints), v and τ = (base, joints)
-    (`symdyn.derivation.floating`); C·v, no Christoffel C.
+    (`symdyn.derivation.floating`); C·v, no Christoffel C; regroup=True regroups the base
+    body's parameters with the links' (`regressor.base_parameters`).
 
     Raises:
         ValueError: an unknown method, something that is not a `Robot`, or regroup=True
             for Lagrange or a symbolic robot.
-        NotImplementedError: a floating base (`base_joint`) for Lagrange or with regroup=True.
+        NotImplementedError: a floating base (`base_joint`) for Lagrange.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     if not isinstance(robot, Robot):
         raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
-    if robot.base_joint is not None and (method != "newton-euler" or regroup):
+    if robot.base_joint is not None and method != "newton-euler":
         raise NotImplementedError(
-            f"robot {robot.name!r} has a {robot.base_joint} base joint: Newton–Euler derives it, without "
-            f"regrouping (got method={method!r}, regroup={regroup}); Lagrange's equations in the base's "
+            f"robot {robot.name!r} has a {robot.base_joint} base joint: Newton–Euler derives it "
+            f"(got method={method!r}); Lagrange's equations in the base's "
             "body-frame velocities are not written yet"
         )
     if regroup and (method != "newton-euler" or robot.is_symbolic):
@@ -91,12 +92,15 @@ def derive(
         else:
             from .newton_euler import derive as newton_euler
 
-            inertias = None
+            inertias = body = None
             if regroup:
-                from .regressor import base_parameters, regrouped_inertias
+                from .regressor import base_parameters, regrouped_base_body, regrouped_inertias
 
-                inertias = regrouped_inertias(robot, base_parameters(robot))
-            dyn = newton_euler(robot, inertias, progress=progress, christoffel=not regroup)
+                base = base_parameters(robot)
+                inertias = regrouped_inertias(robot, base)
+                if robot.base_joint is not None:  # the base body takes what the links on it cannot move
+                    body = regrouped_base_body(robot, base)
+            dyn = newton_euler(robot, inertias, progress=progress, christoffel=not regroup, body=body)
             dyn.stats["regrouped"] = regroup
         dyn.stats["derive_seconds"] = time.perf_counter() - start
         return dyn

@@ -355,12 +355,14 @@ def recursion(
     inertias: Sequence[LinkInertia] | None = None,
     progress: Progress | None = None,
     christoffel: bool = True,
+    body: LinkInertia | None = None,
 ) -> Recursion:
     """Run the customized recursion for τ, G (rest), C·q̇, M by composite links, and
     (`christoffel`) the Christoffel symbols (unit velocities, symmetric split):
     n(n + 1)/2 more recursions, the only part that grows like n³.  A floating base
-    (`floating`): its rows and columns first; no Christoffel symbols (its velocities are
-    no coordinates' rates)."""
+    (`floating`): its rows and columns first, its body's parameters `body` (default the
+    robot's, `base_inertia`; regrouped ones from `regressor.regrouped_base_body`); no
+    Christoffel symbols (its velocities are no coordinates' rates)."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
     robot = along_z(robot)
@@ -376,7 +378,7 @@ def recursion(
     if kind is not None:  # the body a base joint moves: its velocity, acceleration and gravity in its frame
         qb, vb, ab = floating.base_symbols(kind)
         gb = tape.vector(list(floating.base_rotation(kind, qb).T * sp.Matrix(g0)), "gb")
-        body, rest = base_inertia(robot), [0] * len(vb)
+        body, rest = base_inertia(robot) if body is None else body, [0] * len(vb)
         tau = rnea(tape, frames, inertias, qd, qdd, g0, floating_base=(kind, body, vb, ab, gb))
         progress.step("tau")
         G = rnea(tape, frames, inertias, zero, zero, g0, tag="g", floating_base=(kind, body, rest, rest, gb))
@@ -416,19 +418,25 @@ def recursion(
 
 
 def derive(
-    robot: Robot, inertias: Sequence[LinkInertia] | None = None, *, progress: bool = False, christoffel: bool = True
+    robot: Robot,
+    inertias: Sequence[LinkInertia] | None = None,
+    *,
+    progress: bool = False,
+    christoffel: bool = True,
+    body: LinkInertia | None = None,
 ) -> Dynamics:
     """Closed-form dynamics by Newton–Euler: M, C, G, F and τ written in the
     recursion's named intermediates (plain sympy matrices on request).
     christoffel=False leaves C out of the recursion (`Dynamics.C` is then
     ½ ∂(C q̇)/∂q̇, the same matrix).  A floating base puts its coordinates, velocities and
-    rows first (q of size nq, v and τ of size nv) and has no C (`Dynamics.C` refuses it)."""
+    rows first (q of size nq, v and τ of size nv) and has no C (`Dynamics.C` refuses it);
+    `body` gives its body's parameters (default the robot's)."""
     n = robot.n
     christoffel = christoffel and robot.base_joint is None
     bar = Progress(
         f"newton-euler {robot.name}", 3 + (n + len(_related(robot.parents)) if christoffel else 0), enabled=progress
     )
-    rec = recursion(robot, inertias, bar, christoffel)
+    rec = recursion(robot, inertias, bar, christoffel, body)
     bar.done()
     q, qd, qdd = joint_symbols(robot.n)
     F = friction_expr(robot, qd)

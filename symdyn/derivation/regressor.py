@@ -16,6 +16,14 @@ a standard-DH robot these are the frames of `robot.to_modified()`
 move to their parents).
 The regrouped parameters give a numeric model with the same joint-space
 dynamics and many zero parameters, which the customized recursion skips.
+
+A floating base (`robot.base_joint`): π starts with the base body's ten
+parameters XX0, XY0, XZ0, YY0, YZ0, ZZ0, MX0, MY0, MZ0, M0 (in frame {0},
+the body's own; no rotor, no friction), then each link's fourteen; Y has
+nv rows, the base joint's first (`floating.rows`: the force and moment on
+the base body, in its frame).  Links on the base hand what their joints
+cannot move to the base body; which of its parameters the base joint moves
+(all ten on a free base, fewer on a planar one) the rank analysis decides.
 """
 
 from __future__ import annotations
@@ -24,10 +32,20 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from . import floating
 from .dynamics import rotor_inertia
 from .kinematics import along_z, link_frames
 from ..model import Robot, exact_cos_sin
-from .newton_euler import LinkInertia, backward, body_force, forward, gravity_in_base, link_inertias
+from .newton_euler import (
+    LinkInertia,
+    backward,
+    base_inertia,
+    base_motion,
+    body_force,
+    forward,
+    gravity_in_base,
+    link_inertias,
+)
 from .progress import Progress
 from .symbols import exact, joint_symbols
 from .tape import Tape
@@ -37,16 +55,30 @@ FRICTION = ("FV", "FS", "FO")
 _IO_INDEX = {"XX": (0, 0), "XY": (0, 1), "XZ": (0, 2), "YY": (1, 1), "YZ": (1, 2), "ZZ": (2, 2)}
 
 
-def parameter_symbols(n: int) -> tuple[sp.Symbol, ...]:
-    """XX1, XY1, …, FO1, XX2, … : 14 per link."""
-    return tuple(sp.Symbol(f"{name}{j + 1}", real=True) for j in range(n) for name in INERTIAL + FRICTION)
+#: The base body's standard parameters (a floating base's): a link's inertial ones without the rotor.
+BODY = INERTIAL[:10]
+
+
+def parameter_symbols(n: int, floating: bool = False) -> tuple[sp.Symbol, ...]:
+    """XX1, XY1, …, FO1, XX2, … : 14 per link; `floating`: the base body's XX0 … M0 first."""
+    body = tuple(sp.Symbol(f"{name}0", real=True) for name in BODY) if floating else ()
+    return body + tuple(sp.Symbol(f"{name}{j + 1}", real=True) for j in range(n) for name in INERTIAL + FRICTION)
+
+
+def body_count(robot: Robot) -> int:
+    """How many of π's parameters belong to the base body: 10 on a floating base, else 0
+    (link j's parameters start at body_count + 14·j)."""
+    return len(BODY) if robot.base_joint is not None else 0
 
 
 def parameter_values(robot: Robot) -> tuple:
     """The robot's standard parameters, exact, in the order of parameter_symbols
-    (in modified-DH link frames: see the module docstring)."""
+    (in modified-DH link frames: see the module docstring; a floating base's body first)."""
     values = []
     robot = along_z(robot)
+    if robot.base_joint is not None:
+        body = base_inertia(robot)
+        values += [body.Io[i, j] for i, j in _IO_INDEX.values()] + [*body.h, body.m]
     for link, I, Ia in zip(robot.links, link_inertias(robot), rotor_inertia(robot)):
         G, B, (tp, tn) = exact(link.G), exact(link.B), (exact(x) for x in link.Tc)
         values += [
@@ -83,48 +115,76 @@ def _unit_inertia(name: str) -> LinkInertia:
 @dataclass(frozen=True)
 class Regressor:
     """τ = Y·π: its parameter symbols and the named program behind Y (tape and
-    column outputs in terms of the tape's names)."""
+    column outputs in terms of the tape's names).  `q`, `qd`, `qdd` are Y's inputs:
+    the joints' symbols, a floating base's (`floating.base_symbols`) first."""
 
     robot: Robot
     params: tuple
     tape: Tape
-    columns: tuple  # per parameter: n expressions in the tape's names
+    columns: tuple  # per parameter: nv expressions in the tape's names
+    q: tuple = ()
+    qd: tuple = ()
+    qdd: tuple = ()
 
     @property
     def Y(self) -> sp.ImmutableMatrix:
-        """Y (n × 14n) written out in full, the names substituted: for small arms (it grows
-        exponentially with the joints; code generation uses the named columns)."""
-        n = self.robot.n
-        return sp.ImmutableMatrix(n, len(self.params), lambda i, k: self.tape.full(self.columns[k][i]))
+        """Y (nv × len(params)) written out in full, the names substituted: for small arms (it
+        grows exponentially with the joints; code generation uses the named columns)."""
+        return sp.ImmutableMatrix(self.robot.nv, len(self.params), lambda i, k: self.tape.full(self.columns[k][i]))
 
 
 def regressor(robot: Robot, *, progress: bool = False) -> Regressor:
-    """The joint-torque regressor of `robot` (geometry numeric or symbolic)."""
+    """The joint-torque regressor of `robot` (geometry numeric or symbolic): τ = Y·π with π
+    in the order of `parameter_symbols(robot.n, floating)`.  A floating base: its body's ten
+    columns first and its rows first (each column's force and moment on the base body, what the
+    links hand it included), in the base's body-frame velocities (`floating.base_symbols`)."""
     n = robot.n
     q, qd, qdd = joint_symbols(n)
     frames = link_frames(along_z(robot), q)
     tape = Tape()
-    motions = forward(tape, frames, qd, qdd, gravity_in_base(robot))
-    zero_inertia = [_unit_inertia("none")] * n
-    params = parameter_symbols(n)
-    bar = Progress(f"regressor {robot.name}", n, enabled=progress)
+    kind = robot.base_joint
+    g0 = gravity_in_base(robot)
+    params = parameter_symbols(n, kind is not None)
     columns = []
+    inputs = (q, qd, qdd)
+    base_mo = None
+    if kind is not None:
+        qb, vb, ab = floating.base_symbols(kind)
+        gb = tape.vector(list(floating.base_rotation(kind, qb).T * sp.Matrix(g0)), "gb")
+        base_mo = base_motion(tape, kind, vb, ab, gb)
+        inputs = (qb + q, vb + qd, ab + qdd)
+        for name in BODY:
+            nn, ff = body_force(tape, base_mo, _unit_inertia(name), f"{name}_", 0)
+            rows = [tape.name(x, f"{name}0_r{r}") for r, x in enumerate(floating.rows(kind, ff, nn))]
+            columns.append(tuple(rows) + (sp.S.Zero,) * n)
+    motions = forward(tape, frames, qd, qdd, g0, base=base_mo)
+    zero_inertia = [_unit_inertia("none")] * n
+    bar = Progress(f"regressor {robot.name}", n, enabled=progress)
     for j in range(n):
         for name in INERTIAL:
             col = [sp.S.Zero] * n
+            on_base = [] if kind is None else [sp.S.Zero] * len(floating.BASE_VELOCITIES[kind])
             if name == "IA":
                 col[j] = qdd[j]
             else:
                 forces = [None] * n
                 forces[j] = body_force(tape, motions[j], _unit_inertia(name), f"{name}_", j + 1)
-                col = backward(tape, frames, forces, [0] * n, zero_inertia, tag=f"{name}{j + 1}_", last=j)
-            columns.append(tuple(col))
+                total = None if kind is None else [[0, 0, 0], [0, 0, 0]]
+                tag = f"{name}{j + 1}_"
+                col = backward(tape, frames, forces, [0] * n, zero_inertia, tag=tag, last=j, base=total)
+                if kind is not None:
+                    n0, f0 = tape.vector(total[0], f"{tag}n0"), tape.vector(total[1], f"{tag}f0")
+                    on_base = floating.rows(kind, f0, n0)
+            columns.append(tuple(on_base) + tuple(col))
         s = sp.sign(qd[j])
+        pad = (sp.S.Zero,) * (robot.nv - n)
         for expr in (qd[j], s, s**2):
-            columns.append(tuple(expr if i == j else sp.S.Zero for i in range(n)))
+            columns.append(pad + tuple(expr if i == j else sp.S.Zero for i in range(n)))
         bar.step(f"link {j + 1}")
     bar.done()
-    return Regressor(robot=robot, params=params, tape=tape, columns=tuple(columns))
+    return Regressor(
+        robot=robot, params=params, tape=tape, columns=tuple(columns), q=inputs[0], qd=inputs[1], qdd=inputs[2]
+    )
 
 
 # --------------------------------------------------------------------------- base parameters
@@ -163,7 +223,9 @@ def base_parameters(robot: Robot, *, seed: int = 1) -> BaseParameters:
     Only the inertial parameters (XX…M and the rotor inertia IA) are
     regrouped.  The friction parameters FV, FS, FO are base parameters as
     they stand — their columns q̇ⱼ, sgn q̇ⱼ and sgn² q̇ⱼ are no combination of
-    inertial ones.
+    inertial ones.  A floating base: the base body's parameters come first and
+    take what the links on it cannot move; on a free base all ten of them are
+    identifiable, on a planar base those the plane's motion does not see drop out.
 
     Raises:
         ValueError: symbols in the geometry or gravity.
@@ -192,9 +254,10 @@ def base_parameters(robot: Robot, *, seed: int = 1) -> BaseParameters:
         )
     n = robot.n
     per = len(INERTIAL) + len(FRICTION)
-    pi = parameter_symbols(n)
+    off = body_count(robot)
+    pi = parameter_symbols(n, off > 0)
     analysis = analyse(robot, per, seed)
-    friction = [k for k in range(len(pi)) if k % per >= len(INERTIAL)]
+    friction = [k for k in range(off, len(pi)) if (k - off) % per >= len(INERTIAL)]
     independent = sorted(analysis.independent + friction)
     exprs = [
         sp.Add(*(sp.Rational(c.numerator, c.denominator) * pi[k] for k, c in sorted(analysis.combos[b].items())))
@@ -212,13 +275,45 @@ def base_parameters(robot: Robot, *, seed: int = 1) -> BaseParameters:
     )
 
 
+def _regrouped(values: dict) -> LinkInertia:
+    v = values
+    Io = sp.Matrix([[v["XX"], v["XY"], v["XZ"]], [v["XY"], v["YY"], v["YZ"]], [v["XZ"], v["YZ"], v["ZZ"]]])
+    return LinkInertia(Io=Io, h=(v["MX"], v["MY"], v["MZ"]), m=v["M"], Ia=v.get("IA", sp.S.Zero))
+
+
+def _check_length(robot: Robot, base: BaseParameters) -> None:
+    want = body_count(robot) + robot.n * (len(INERTIAL) + len(FRICTION))
+    if len(base.regrouped) != want:
+        raise ValueError(
+            f"base parameters of {len(base.regrouped)} standard slots do not fit robot {robot.name!r} "
+            f"({want}: base_parameters(robot) of this robot)"
+        )
+
+
 def regrouped_inertias(robot: Robot, base: BaseParameters) -> list[LinkInertia]:
     """Per-link standard parameters with the regrouped values: fewer non-zeros,
-    the same joint-space τ, M, C and G (not the same base wrench)."""
-    per = len(INERTIAL) + len(FRICTION)
-    out = []
-    for j in range(robot.n):
-        v = dict(zip(INERTIAL, base.regrouped[j * per : j * per + len(INERTIAL)]))
-        Io = sp.Matrix([[v["XX"], v["XY"], v["XZ"]], [v["XY"], v["YY"], v["YZ"]], [v["XZ"], v["YZ"], v["ZZ"]]])
-        out.append(LinkInertia(Io=Io, h=(v["MX"], v["MY"], v["MZ"]), m=v["M"], Ia=v["IA"]))
-    return out
+    the same joint-space τ, M, C and G (not the same base wrench).  A floating base's
+    body has its own (`regrouped_base_body`).
+
+    Raises:
+        ValueError: `base` belongs to a robot with another number of parameters.
+    """
+    _check_length(robot, base)
+    per, off = len(INERTIAL) + len(FRICTION), body_count(robot)
+    return [
+        _regrouped(dict(zip(INERTIAL, base.regrouped[off + j * per : off + j * per + len(INERTIAL)])))
+        for j in range(robot.n)
+    ]
+
+
+def regrouped_base_body(robot: Robot, base: BaseParameters) -> LinkInertia:
+    """The base body's standard parameters with the regrouped values (a floating base): with
+    `regrouped_inertias`, the same τ, M, C·v and G, base rows included.
+
+    Raises:
+        ValueError: a fixed base (no base body), or `base` belongs to another robot's layout.
+    """
+    if robot.base_joint is None:
+        raise ValueError(f"robot {robot.name!r} has a fixed base: no base body to regroup")
+    _check_length(robot, base)
+    return _regrouped(dict(zip(BODY, base.regrouped[: len(BODY)])))

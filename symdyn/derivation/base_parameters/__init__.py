@@ -20,6 +20,11 @@ The result is the same as Gautier's exact method (the independent set and β
 are unique once the column order is fixed), at a cost that grows like n³ in
 doubles instead of minutes of rational elimination for generically turned
 links.
+
+A floating base: the base body's ten parameters come first; the links on it
+hand it what their joints cannot move (step 1), and which of its own the base
+joint moves — all on a free base, the in-plane ones on a planar base — is left
+to steps 2 and 3, which decide it like any other column.
 """
 
 from __future__ import annotations
@@ -52,8 +57,22 @@ class Analysis:
         self.combos = combos
 
 
-def _slots(n: int, per: int) -> list[int]:
-    return [j * per + i for j in range(n) for i in range(_INERTIAL)]
+#: A floating base's body: its ten parameters (XX … M, no rotor) take π's first slots.
+_BODY = 10
+
+
+def _slots(n: int, per: int, body: int = 0) -> list[int]:
+    """The inertial slots of π in the sampled columns' order: the base body's `body` first."""
+    return list(range(body)) + [body + j * per + i for j in range(n) for i in range(_INERTIAL)]
+
+
+def _body(robot: Robot) -> int:
+    return _BODY if robot.base_joint is not None else 0
+
+
+def _link_of(k: int, per: int, body: int) -> int:
+    """The link whose parameter slot k is (−1: the base body)."""
+    return -1 if k < body else (k - body) // per
 
 
 def _flat(columns: np.ndarray) -> np.ndarray:
@@ -80,10 +99,12 @@ def _rank_mod_p(A: np.ndarray) -> int:
 
 def _exact_coefficients(robot: Robot, support: list[int], dependent: int, per: int, seed: int) -> dict:
     """The exact c with Y_dependent = Σ c_k·Y_k over k in `support` (slots), from enough rational points."""
-    links = sorted({k // per for k in support + [dependent]})
+    body = _body(robot)
+    links = sorted({_link_of(k, per, body) for k in support + [dependent]})
     count = len(support) + 2  # a point may give a single useful row: the columns of link j vanish below it
     cols = regressor_columns(robot, Rationals(), count, seed, links)
-    index = {j * per + i: s * _INERTIAL + i for s, j in enumerate(links) for i in range(_INERTIAL)}
+    slots = [k for j in links for k in (range(body) if j < 0 else range(body + j * per, body + j * per + _INERTIAL))]
+    index = {k: s for s, k in enumerate(slots)}
     A = sp.Matrix(_flat(cols[[index[k] for k in support]]).tolist())
     b = sp.Matrix(_flat(cols[[index[dependent]]]).tolist())
     normal = (A.T * A).to_DM().convert_to(sp.QQ)
@@ -99,10 +120,11 @@ def analyse(robot: Robot, per: int, seed: int = 1) -> Analysis:
             (`TOLERANCES`: a rank no double can decide); the message gives each refusal.
     """
     fs = frames(robot)
-    combos, gone = transfer(fs, per)
-    candidates = [k for k in _slots(robot.n, per) if k not in gone]
-    position = {k: s for s, k in enumerate(_slots(robot.n, per))}
-    count = max(4, -(-3 * len(candidates) // robot.n))
+    body = _body(robot)
+    combos, gone = transfer(fs, per, body)
+    candidates = [k for k in _slots(robot.n, per, body) if k not in gone]
+    position = {k: s for s, k in enumerate(_slots(robot.n, per, body))}
+    count = max(4, -(-3 * len(candidates) // robot.nv))
     Y = _flat(regressor_columns(robot, Floats(), count, seed))
     refused = []
     for tolerance in TOLERANCES:
@@ -158,7 +180,7 @@ def _regroup(robot, Y, candidates, combos, position, per, seed, tolerance) -> tu
 def _check(robot: Robot, independent: list, beta: dict, per: int, seed: int, position: dict) -> None:
     """Exact (mod p) checks: the independent columns have full rank, and Y = Y_b·P."""
     field = Modular()
-    count = max(3, -(-2 * len(independent) // robot.n))
+    count = max(3, -(-2 * len(independent) // robot.nv))
     Y = _flat(regressor_columns(robot, field, count, seed + 7919))
     Yb = Y[:, [position[i] for i in independent]]
     if _rank_mod_p(Yb) < len(independent):

@@ -18,6 +18,11 @@ axis-along-z frames of both derivations (`kinematics.link_frames` of
 `kinematics.along_z(robot)`), each placed in its parent's (a tree's too):
 each is a constant rotation R₀ and origin p₀, then a turn about z
 (revolute) or a slide along R₀·z (prismatic).
+
+A floating base: frame {0} is the base body's, drawn in a random orientation
+(a rational quaternion or yaw: gravity Rᵀ·g₀ in its frame) with random
+body-frame velocity and acceleration; its ten columns and the base joint's
+rows come first, as in `regressor.regressor`.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import numpy as np
 import sympy as sp
 
 from ...model import Robot
+from .. import floating
 from ..kinematics import along_z, link_frames
 from ..newton_euler import gravity_in_base
 from ..symbols import joint_symbols
@@ -98,6 +104,9 @@ class Floats:
     def const(self, x: Fraction):
         return float(x)
 
+    def inverse(self, a):
+        return 1 / a
+
     def reduce(self, a):
         return a
 
@@ -113,6 +122,9 @@ class Modular:
 
     def const(self, x: Fraction) -> int:
         return x.numerator % PRIME * pow(x.denominator % PRIME, -1, PRIME) % PRIME
+
+    def inverse(self, a):
+        return np.vectorize(lambda x: pow(int(x), -1, PRIME), otypes=[np.int64])(a % PRIME)
 
     def reduce(self, a):
         return a % PRIME
@@ -134,6 +146,9 @@ class Rationals:
     def const(self, x: Fraction) -> Fraction:
         return x
 
+    def inverse(self, a):
+        return np.array([[1 / x for x in row] for row in np.atleast_2d(a)], dtype=object).reshape(np.shape(a))
+
     def reduce(self, a):
         return a
 
@@ -149,10 +164,14 @@ class Rationals:
 
 
 def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) -> np.ndarray:
-    """The inertial columns of Y at `count` sample states: an array (11 per link, n, count)
-    in the order of `regressor.INERTIAL` (XX … M, IA) for the `links` asked (default all)."""
+    """The inertial columns of Y at `count` sample states: an array (columns, nv, count), for each
+    of the `links` asked (default all) its 11 in the order of `regressor.INERTIAL` (XX … M, IA);
+    link −1 is a floating base's body, with 10 (XX … M; asked first by default).  Rows: the base
+    joint's (`floating.rows`), then the joints'."""
     fs = frames(robot)
     n = robot.n
+    kind = robot.base_joint
+    nb = robot.nv - n
     rng = random.Random(seed)
     cos, sin, q, qd, qdd = field.states(n, count, rng)
     red, k = field.reduce, field.const
@@ -190,8 +209,44 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
     def turn_t(co, si, v):  # Rz(q)ᵀ·v
         return [add(m(co, v[0]), m(si, v[1])), red(m(co, v[1]) - m(si, v[0])), v[2]]
 
-    # outward: w, dw, dV (gravity included) and U of every link, in its own frame, from its parent's
+    def u_of(w, dw):  # U = dw× + w×w×, row-major
+        sq = [m(x, x) for x in w]
+        wxy, wxz, wyz = m(w[0], w[1]), m(w[0], w[2]), m(w[1], w[2])
+        return [
+            red(-(sq[1] + sq[2])),
+            red(wxy - dw[2]),
+            add(wxz, dw[1]),
+            add(wxy, dw[2]),
+            red(-(sq[0] + sq[2])),
+            red(wyz - dw[0]),
+            red(wxz - dw[1]),
+            add(wyz, dw[0]),
+            red(-(sq[0] + sq[1])),
+        ]
+
+    # the base: at rest (fixed), or the body a base joint moves, in its own frame
     at_rest = ([zero] * 3, [zero] * 3, [zero + g for g in g0], [zero] * 9)
+    if kind is not None:
+        bcos, bsin, bt, bv, ba = field.states(nb, count, rng)  # drawn after the joints': fixed bases unchanged
+        if kind == "free":
+            x, y, z, w = bt[0], bt[1], bt[2], bt[3]
+            two = field.inverse(add(m(x, x), m(y, y), m(z, z), m(w, w)))
+            two = red(2 * two)
+            R = [
+                [red(1 - m(two, add(m(y, y), m(z, z)))), m(two, red(m(x, y) - m(z, w))), m(two, add(m(x, z), m(y, w)))],
+                [m(two, add(m(x, y), m(z, w))), red(1 - m(two, add(m(x, x), m(z, z)))), m(two, red(m(y, z) - m(x, w)))],
+                [m(two, red(m(x, z) - m(y, w))), m(two, add(m(y, z), m(x, w))), red(1 - m(two, add(m(x, x), m(y, y))))],
+            ]
+            gb = mat_t(R, [zero + g for g in g0])
+        else:
+            gb = turn_t(bcos[0], bsin[0], [zero + g for g in g0])
+        lin, ang = floating.spatial(kind, [row for row in bv])
+        dlin, dang = floating.spatial(kind, [row for row in ba])
+        lin, ang, dlin, dang = ([zero + x for x in vec] for vec in (lin, ang, dlin, dang))
+        dV = [add(a, c, g) for a, c, g in zip(dlin, cross(ang, lin), gb)]
+        at_rest = (ang, dang, dV, u_of(ang, dang))
+
+    # outward: w, dw, dV (gravity included) and U of every link, in its own frame, from its parent's
     motion, placements = [], []
     for i, (f, (R0, p0, z0)) in enumerate(zip(fs, consts)):
         w, dw, dV, U = at_rest if f.parent < 0 else motion[f.parent]
@@ -206,44 +261,43 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
         else:
             w, dw = a, b
             dV = [add(c[0], m(2 * a[1], qd[i])), red(c[1] - m(2 * a[0], qd[i])), add(c[2], qdd[i])]
-        sq = [m(x, x) for x in w]
-        wxy, wxz, wyz = m(w[0], w[1]), m(w[0], w[2]), m(w[1], w[2])
-        U = [
-            red(-(sq[1] + sq[2])),
-            red(wxy - dw[2]),
-            add(wxz, dw[1]),
-            add(wxy, dw[2]),
-            red(-(sq[0] + sq[2])),
-            red(wyz - dw[0]),
-            red(wxz - dw[1]),
-            add(wyz, dw[0]),
-            red(-(sq[0] + sq[1])),
-        ]
-        motion.append((w, dw, dV, U))
+        motion.append((w, dw, dV, u_of(w, dw)))
         placements.append((R0, p, co, si))
 
-    wanted = range(n) if links is None else links
-    out = np.empty((11 * len(wanted), n, count), dtype=zero.dtype)
-    for slot, j in enumerate(wanted):
-        w, dw, dV, U = motion[j]
-        wrenches = []
+    def unit_wrenches(w, dw, dV, U) -> list:
+        out = []
         for r, c in _IO.values():  # a unit inertia tensor entry: n = E·dw + w × (E·w)
             Ew = [w[c] if a == r else w[r] if a == c else zero for a in range(3)]
             Edw = [dw[c] if a == r else dw[r] if a == c else zero for a in range(3)]
-            wrenches.append(([add(x, y) for x, y in zip(Edw, cross(w, Ew))], [zero] * 3))
+            out.append(([add(x, y) for x, y in zip(Edw, cross(w, Ew))], [zero] * 3))
         for axis in range(3):  # a unit first moment: n = e × dV, f = U·e
             e = [zero + (1 if a == axis else 0) for a in range(3)]
-            wrenches.append((cross(e, dV), [U[3 * a + axis] for a in range(3)]))
-        wrenches.append(([zero] * 3, list(dV)))
-        columns = out[11 * slot : 11 * slot + 11]
+            out.append((cross(e, dV), [U[3 * a + axis] for a in range(3)]))
+        out.append(([zero] * 3, list(dV)))
+        return out
+
+    wanted = ([-1] if kind is not None else []) + list(range(n)) if links is None else list(links)
+    if kind is None and -1 in wanted:
+        raise ValueError(f"robot {robot.name!r} has a fixed base: no base body's columns (link -1)")
+    sizes = [10 if j < 0 else 11 for j in wanted]
+    out = np.empty((sum(sizes), robot.nv, count), dtype=zero.dtype)
+    start = 0
+    for j, size in zip(wanted, sizes):
+        columns = out[start : start + size]
+        start += size
         columns[:] = 0
-        columns[10, j] = qdd[j]
+        if j < 0:  # the base body's own parameters: its rows only
+            for c, (nn, ff) in enumerate(unit_wrenches(*at_rest)):
+                columns[c, :nb] = floating.rows(kind, ff, nn)
+            continue
+        wrenches = unit_wrenches(*motion[j])
+        columns[10, nb + j] = qdd[j]
         i = j
         while True:  # down through the links j hangs from: the other joints' entries stay 0
             revolute = fs[i].revolute
-            for k, (nn, ff) in enumerate(wrenches):
-                columns[k, i] = nn[2] if revolute else ff[2]
-            if fs[i].parent < 0:
+            for c, (nn, ff) in enumerate(wrenches):
+                columns[c, nb + i] = nn[2] if revolute else ff[2]
+            if fs[i].parent < 0 and kind is None:
                 break
             R0, p, co, si = placements[i]
             moved = []
@@ -253,4 +307,8 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
                 ff = mat(R0, ff)
                 moved.append(([add(x, y) for x, y in zip(mat(R0, nn), cross(p, ff))], ff))
             wrenches, i = moved, fs[i].parent
+            if i < 0:  # on the base body: the base joint's rows
+                for c, (nn, ff) in enumerate(wrenches):
+                    columns[c, :nb] = floating.rows(kind, ff, nn)
+                break
     return out
