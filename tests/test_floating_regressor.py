@@ -35,6 +35,8 @@ from symdyn.derivation.regressor import (
     regrouped_base_body,
     regrouped_inertias,
 )
+from symdyn import models
+from symdyn.model import Link
 from symdyn.model.random_robots import random_tree_robot
 
 PER = len(INERTIAL) + len(FRICTION)
@@ -46,6 +48,16 @@ def _robot(seed: int, base: str, n: int = 4):
     exact evaluation; its columns are q̇ⱼ, sgn q̇ⱼ, sgn² q̇ⱼ as on a fixed base)."""
     robot = random_tree_robot(seed, n=n, base_joint=base)
     return dataclasses.replace(robot, gravity=(0.3, -1.2, 9.81)).nofriction(all=True)
+
+
+def _case(base: str, seed, n: int):
+    """A random tree (`_robot`), or seed "puma": the Puma 560 (modified DH, friction kept) on `base`
+    carrying a body off its axes: a chain whose first axis is the planar base's yaw axis."""
+    if seed != "puma":
+        return _robot(seed, base, n=n)
+    body = Link(m=2.0, r=(0.1, 0.0, -0.05), I=((0.1, 0.01, 0), (0.01, 0.2, 0), (0, 0, 0.3)))
+    arm = models.load("puma560").to_modified()
+    return dataclasses.replace(arm, base_joint=base, base_body=body, poses={}, gravity=(0.3, -1.2, 9.81))
 
 
 def _inertial(robot) -> list[int]:
@@ -147,20 +159,32 @@ def _revolute(robot) -> list[bool]:
 
 
 @pytest.mark.parametrize(
-    ("base", "seed", "n"),
-    [("free", 3, 4), ("free", 8, 3), ("free", 6, 5), ("planar", 3, 4), ("planar", 11, 3), ("planar", 6, 5)],
+    ("base", "seed", "n", "count"),
+    [
+        ("free", 3, 4, 39),
+        ("free", 8, 3, 34),
+        ("free", 6, 5, 50),
+        ("free", "puma", 6, 58),
+        ("planar", 3, 4, 32),
+        ("planar", 11, 3, 25),
+        ("planar", 6, 5, 43),
+        ("planar", "puma", 6, 47),
+    ],
 )
-def test_base_parameters_of_floating_trees_are_exact(base, seed, n):
+def test_base_parameters_of_floating_trees_are_exact(base, seed, n, count):
     """The rules hand what a joint on the base cannot move to the base body, the rank analysis does
     the rest: as many independent columns as the symbolic regressor's rank at fresh rational points
     (a quaternion of any norm), and Y·β_regrouped = Y·π exactly.  A free base's body keeps all ten
     parameters and nothing regroups beyond the rules (8 per revolute link, 5 per prismatic one); a
-    planar base's body keeps ZZ0, MX0, MY0, M0."""
-    robot = _robot(seed, base, n=n)
+    planar base's body keeps ZZ0, MX0, MY0, M0, and the links on it may lose more than the rules
+    take (the Puma's first axis is the yaw axis: `count` inertial base parameters, 10 + 6·8 on a
+    free base)."""
+    robot = _case(base, seed, n)
     bp = base_parameters(robot)
     cols = _inertial(robot)
-    Y = _exact_Y(robot, 40 // robot.nv + 3, seed=100 + seed)
+    Y = _exact_Y(robot, 40 // robot.nv + 3, seed=100 + (7 if seed == "puma" else seed))
     kept = [c for c, k in enumerate(cols) if k in bp.independent]
+    assert len(kept) == count
     Yb = Y.extract(list(range(Y.shape[0])), kept)
     # rank(Y) ≤ |kept|: every column is the regrouping's combination of the kept ones, Y = Y_b·P over ℚ
     P = [[0] * len(cols) for _ in kept]
@@ -189,11 +213,11 @@ def test_base_parameters_of_floating_trees_are_exact(base, seed, n):
     assert len(friction) == len(FRICTION) * robot.n
 
 
-@pytest.mark.parametrize("base", ["free", "planar"])
-def test_regrouped_derivation_equals_the_plain_one_exactly(base):
+@pytest.mark.parametrize(("base", "seed"), [("free", 2), ("planar", 2), ("planar", "puma")])
+def test_regrouped_derivation_equals_the_plain_one_exactly(base, seed):
     """derive(regroup=True) on a floating base: the base body's regrouped parameters with the
     links', the same τ, M, G, C·v at rational points (base rows included), no more operations."""
-    robot = _robot(2, base, n=4)
+    robot = _case(base, seed, 4).nofriction(all=True)
     plain, grouped = derive(robot, cache=False), derive(robot, regroup=True, cache=False)
     assert grouped.stats["regrouped"] and (grouped.q, grouped.qd) == (plain.q, plain.qd)
     rng = random.Random(5)
