@@ -167,7 +167,12 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
     """The inertial columns of Y at `count` sample states: an array (columns, nv, count), for each
     of the `links` asked (default all) its 11 in the order of `regressor.INERTIAL` (XX … M, IA);
     link −1 is a floating base's body, with 10 (XX … M; asked first by default).  Rows: the base
-    joint's (`floating.rows`), then the joints'."""
+    joint's (`floating.rows`), then the joints'.
+
+    Raises:
+        ValueError: link −1 asked of a fixed base; a symbolic or irrational constant in a
+            placement (`frames`).
+    """
     fs = frames(robot)
     n = robot.n
     kind = robot.base_joint
