@@ -624,11 +624,17 @@ class Robot:
         and shifted by d_j: link j takes α_{j-1}, a_{j-1}; its COM and
         inertia are re-expressed through Tx(a_j)·Rx(α_j); the last link's
         Tx(a_n)·Rx(α_n) moves into the tool.
+
+        Raises:
+            NotImplementedError: a standard-DH tree (`symdyn.derivation.kinematics.along_z` converts those).
         """
         if self.convention == "modified":
             return self
-        if self.convention == "standard":
-            self.require_chain("converting standard DH to modified DH")
+        if self.convention == "standard" and any(link.parent is not None for link in self.links):
+            raise NotImplementedError(
+                f"robot {self.name!r} is a standard-DH tree: to_modified converts chains (a floating base "
+                "included); the derivations convert trees with symdyn.derivation.kinematics.along_z"
+            )
         if self.convention == "general":
             return self._axes_along_z()
         links = []
