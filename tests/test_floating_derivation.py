@@ -103,3 +103,15 @@ def test_floating_base_is_refused_where_it_is_not_derived():
         derive(robot, "lagrange", cache=False)
     with pytest.raises(NotImplementedError, match="no Christoffel matrix"):
         derive(robot, cache=False).C
+
+
+def test_identification_and_named_constants_refuse_a_floating_base_by_name():
+    """Their parameters are laid out per link; a floating base's body comes first (refused, not misread)."""
+    from symdyn.identify.simulate import simulate
+    from symdyn.presentation.constants import constant_form
+
+    robot = _robot(1, "free", n=2)
+    with pytest.raises(NotImplementedError, match="named constants reads robots on a fixed base"):
+        constant_form(derive(robot, cache=False))
+    with pytest.raises(NotImplementedError, match="free base joint"):
+        simulate(robot, None)

@@ -472,6 +472,7 @@ def physical(
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {METHODS}")
     robot.require_numeric("physically consistent parameters")
+    robot.require_fixed_base("physically consistent parameters")
     start = time.perf_counter()
     base = base or _base(robot)
     n = robot.n

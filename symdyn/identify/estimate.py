@@ -375,6 +375,7 @@ def fit(
     if not isinstance(robot, Robot):
         raise ValueError(f"expected a symdyn Robot, got {type(robot).__name__}")
     robot.require_numeric("identification")
+    robot.require_fixed_base("identification")
     if isinstance(data, (str, Path)):
         from .data import load_data
 

@@ -406,6 +406,7 @@ def excitation(
         if round(period * rate) < 1:
             raise ValueError(f"rate={rate!r} Hz gives no design sample in a period of {period} s")
     robot.require_numeric("excitation design")
+    robot.require_fixed_base("excitation design")
     start_time = time.perf_counter()
     n, L = robot.n, int(harmonics)
     limits = limits or ExcitationLimits.for_robot(robot)

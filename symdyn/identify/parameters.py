@@ -37,6 +37,8 @@ def standard_vector(robot: Robot) -> np.ndarray:
     from ..derivation.regressor import parameter_values
 
     robot.require_numeric("identification")
+
+    robot.require_fixed_base("identification")
     return np.array([float(v) for v in parameter_values(robot)])
 
 
@@ -73,6 +75,8 @@ def base_map(robot: Robot) -> BaseMap:
     from ..derivation.regressor import base_parameters
 
     robot.require_numeric("identification")
+
+    robot.require_fixed_base("identification")
 
     def build() -> BaseMap:
         base = base_parameters(robot)

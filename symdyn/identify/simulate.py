@@ -56,6 +56,7 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
     second moments (Σ = ½tr(I)·1 − I scaled as D·Σ·D, D diagonal, so the inertia stays
     physical; the principal moments of a link that waives the triangle inequality), rotor inertia, viscous and each Coulomb friction.  Zeros stay zeros."""
     robot.require_numeric("simulate")
+    robot.require_fixed_base("simulate")
     if not 0 <= perturb < 1:
         raise ValueError(f"perturb must lie in [0, 1), got {perturb}")
     rng = np.random.default_rng(seed)
@@ -129,6 +130,7 @@ def simulate(
             samples, or a NaN or infinite value.
     """
     robot.require_numeric("simulate")
+    robot.require_fixed_base("simulate")
     from ..numeric.reference import rne
 
     n = robot.n

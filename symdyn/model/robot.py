@@ -453,6 +453,18 @@ class Robot:
                 "The numeric reference (symdyn.reference) models trees and floating bases"
             )
 
+    def require_fixed_base(self, what: str) -> None:
+        """Refuse a floating base where `what` reads fixed-base robots (chains and trees) only.
+
+        Raises:
+            NotImplementedError: the robot has a base joint.
+        """
+        if self.base_joint is not None:
+            raise NotImplementedError(
+                f"{what} reads robots on a fixed base (chains and trees); robot {self.name!r} has a "
+                f"{self.base_joint} base joint"
+            )
+
     def integrate(self, q: Any, v: Any, dt: float = 1.0) -> np.ndarray:
         """q ⊕ v·dt: joints q + v·dt, a free base moved along its body-frame twist (SE(3)
         exponential, as Pinocchio's `integrate`), a planar one along SE(2)'s.  Batched.

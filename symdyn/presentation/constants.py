@@ -218,7 +218,9 @@ def constant_form(dyn: Dynamics) -> ConstantForm:
 
     Refused (ValueError) for an arm whose τ has more than `printing.CLOSED_LIMIT`
     terms as a trig polynomial (every 7-joint arm shipped): its form would
-    run to thousands of constants and take minutes; the check takes a second."""
+    run to thousands of constants and take minutes; the check takes a second.  A floating
+    base is refused (NotImplementedError): its parameters are not laid out per link."""
+    dyn.robot.require_fixed_base("named constants")
     size = closed_size(dyn, "tau", FOLD_BUDGET)
     if size is None or size > CLOSED_LIMIT:
         how_big = f"more than {FOLD_BUDGET} terms in its intermediates" if size is None else f"{size} terms"
