@@ -306,6 +306,85 @@ def test_unaligned_axes_reach_the_cpp_unchanged(tmp_path):
     assert np.abs(pin.rnea(rebuilt, rebuilt.createData(), q, qd, qdd) - want).max() < 1e-12
 
 
+def _model_like_the_cpp_tree(path):
+    """A Pinocchio model built from a version-2 arm file (a tree on a fixed, free or planar root) as
+    pin_peer.cpp's read_arm builds it, the file parsed by its documented format."""
+    import pinocchio as pin
+
+    lines = path.read_text().splitlines()
+    assert lines[0] == "symdyn-pin-arm 2" and lines[1].split()[0] == "root"
+    root, *b = lines[1].split()[1:]
+    n, gravity = int(lines[2].split()[1]), np.array(lines[3].split()[1:], dtype=float)
+    assert len(lines) == 4 + n
+    model, index = pin.Model(), [0]
+    if root != "none":
+        kind = pin.JointModelFreeFlyer() if root == "free" else pin.JointModelPlanar()
+        index = [model.addJoint(0, kind, pin.SE3.Identity(), "root_joint")]
+        b = np.array(b, dtype=float)
+        I = np.array([[b[4], b[5], b[6]], [b[5], b[7], b[8]], [b[6], b[8], b[9]]])
+        model.appendBodyToJoint(index[0], pin.Inertia(b[0], b[1:4], I), pin.SE3.Identity())
+    armature = np.zeros(0)
+    for i, line in enumerate(lines[4:], start=1):
+        up, rest = line.split(" ", 1)
+        assert 0 <= int(up) < i
+        (joint,), _ = _read_arm_lines([rest])
+        j = _model_like_the_cpp([joint], (0, 0, 0))  # the joint's kind, placement, inertia as the C++ reads them
+        index.append(model.addJoint(index[int(up)], j.joints[1], j.jointPlacements[1], f"j{i}"))
+        model.appendBodyToJoint(index[-1], j.inertias[1], pin.SE3.Identity())
+        armature = np.append(armature, joint.armature)
+    model.armature = np.concatenate([np.zeros(model.nv - n), armature])
+    model.gravity = pin.Motion(gravity, np.zeros(3))
+    return model
+
+
+def _read_arm_lines(joint_lines):
+    """Version-1 joint lines parsed as _read_arm parses them."""
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "arm.txt"
+        path.write_text(f"symdyn-pin-arm 1\nn {len(joint_lines)}\ngravity 0 0 0\n" + "\n".join(joint_lines) + "\n")
+        return _read_arm(path)
+
+
+@pytest.mark.parametrize("base", ["free", "planar", None])
+def test_tree_arm_file_gives_the_reference_dynamics(base, tmp_path):
+    """A random tree on a free, planar or fixed base, written as a version-2 arm file and rebuilt as
+    pin_peer.cpp builds it (planar: q turned into x y cos sin as the C++ does), has the reference's
+    τ, M and forward dynamics to 1e-10; the chain format is left as it was."""
+    from symdyn.bench.peers import pinocchio_model
+    from symdyn.model.random_robots import random_tree_robot
+
+    robot = random_tree_robot(7, n=5, base_joint=base).nofriction(all=True)
+    tree = pin_peer.tree_joints(pinocchio_model(robot))
+    assert tree.root == (base or "none") and len(tree.joints) == robot.n
+    path = pin_peer.write_arm(
+        tmp_path / "arm.txt", tree.joints, tree.gravity, parents=tree.parents, root=tree.root, base=tree.base
+    )
+    model = _model_like_the_cpp_tree(path)
+    assert model.nv == robot.nv
+    rng = np.random.default_rng(2)
+    q = robot.integrate(robot.neutral(), rng.normal(size=(4, robot.nv)))
+    qd, qdd = rng.uniform(-2, 2, (2, 4, robot.nv))
+    tau = reference.rne(robot, q, qd, qdd)
+    x = q if base != "planar" else np.column_stack([q[:, :2], np.cos(q[:, 2]), np.sin(q[:, 2]), q[:, 3:]])
+    outputs = _outputs(model, x[3], qd[3], qdd[3], tau[3])
+    exact = {k: outputs[k] for k in ("rnea", "crba", "aba", "computeGeneralizedGravity", "crba_cholesky")}
+    assert pin_peer.check_peer(robot, exact, q, qd, qdd, tau, rtol=1e-10) < 1e-10
+
+
+def test_write_arm_keeps_the_chain_format_and_checks_a_tree(tmp_path):
+    from symdyn.bench.peers import pinocchio_model
+
+    joints, gravity = pin_peer.arm_joints(pinocchio_model(models.load("puma560")))
+    assert pin_peer.write_arm(tmp_path / "a.txt", joints, gravity).read_text().startswith("symdyn-pin-arm 1\nn 6\n")
+    with pytest.raises(ValueError, match="parents"):
+        pin_peer.write_arm(tmp_path / "b.txt", joints, gravity, parents=[0, 0, 5, 0, 0, 0])
+    with pytest.raises(ValueError, match="needs its base body"):
+        pin_peer.write_arm(tmp_path / "c.txt", joints, gravity, root="free")
+
+
 def test_arm_joints_refuse_what_the_cpp_cannot_build():
     import pinocchio as pin
 

@@ -171,8 +171,9 @@ def random_states(robot, count: int, seed: int = 0):
 
 
 def write_states(path: Path, q, qd, qdd, tau) -> Path:
-    """The first POOL states as the harness reads them: per state q, q̇, q̈, τ (doubles)."""
-    data = np.stack([q[:POOL], qd[:POOL], qdd[:POOL], tau[:POOL]], axis=1)
+    """The first POOL states as the harness reads them: per state q, q̇, q̈, τ (doubles; on a
+    floating base q has nq entries, the others nv)."""
+    data = np.concatenate([np.asarray(x[:POOL], dtype=np.float64) for x in (q, qd, qdd, tau)], axis=1)
     if len(data) < 4 or len(data) & (len(data) - 1):
         raise ValueError(f"the harness needs a power-of-two pool of at least 4 states, got {len(data)}")
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -215,6 +216,9 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
     ndof = re.search(rf"#define {model.upper()}_NDOF (\d+)", h_text)
     if ndof is None:
         raise ValueError(f"{h_path} defines no {model.upper()}_NDOF: not a symdyn header")
+    floating = [
+        f"-D{k}={m[1]}" for k in ("NQ", "NV") if (m := re.search(rf"#define {model.upper()}_{k} (\d+)", h_text))
+    ]
     cc = _compiler()
     sources = {HARNESS.name: HARNESS.read_text(), c_path.name: c_path.read_text(), h_path.name: h_text}
     if casadi_c is not None:
@@ -232,6 +236,8 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
         f"-DMODEL={model}",
         f"-DNDOF={ndof[1]}",
         f'-DMODEL_HEADER="{h_path.name}"',
+        *floating,
+        *([] if f"{model}_C(" in h_text else ["-DWITHOUT_C"]),
         *(["-DWITH_CASADI"] if casadi_c is not None else []),
         *(["-DWITH_DERIVATIVES"] if f"{model}_tau_derivatives(" in h_text else []),
         f"-I{folder}",

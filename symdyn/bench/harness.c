@@ -9,8 +9,11 @@
  *   cc -O3 -march=native -DMODEL=puma560 -DNDOF=6 -DMODEL_HEADER='"puma560.h"'
  *      [-DWITH_CASADI] harness.c puma560.c [casadi_rnea.c] -lm
  *
+ * A floating base: -DNQ=<NAME>_NQ -DNV=<NAME>_NV -DWITHOUT_C as well (q has NQ entries,
+ * qd, qdd, tau and the outputs NV; both default to NDOF).
+ *
  * Run: harness STATES NCALLS REPS [FUNCTION ...]
- * STATES: K (a power of two) states, each q, qd, qdd, tau as 4*NDOF doubles.
+ * STATES: K (a power of two) states, each q, qd, qdd, tau as NQ + 3*NV doubles.
  * Prints "time NAME NS" per function, then "check NAME v..." with its
  * outputs at state 3 (compared with symdyn.reference by the caller).
  * With -DWITH_CASADI the function "casadi_rnea" (a CasADi-generated plain
@@ -26,6 +29,13 @@
 #include MODEL_HEADER
 #ifdef WITH_CASADI
 #include "casadi_rnea.h"
+#endif
+
+#ifndef NQ
+#define NQ NDOF
+#endif
+#ifndef NV
+#define NV NDOF
 #endif
 
 #define CAT_(a, b) a##_##b
@@ -93,8 +103,8 @@ static void check(const char *name, const double *out, int size)
 
 int main(int argc, char **argv)
 {
-    enum { W = 4 * NDOF };
-    static double out[NDOF * NDOF];
+    enum { W = NQ + 3 * NV };
+    static double out[NV * NV];
     volatile double sink = 0.0;
     double *S, *v;
     long K, ncalls, size;
@@ -127,22 +137,24 @@ int main(int argc, char **argv)
     }
     fclose(fh);
 #define Q (S + k * W)
-#define QD (S + k * W + NDOF)
-#define QDD (S + k * W + 2 * NDOF)
-#define TAU (S + k * W + 3 * NDOF)
+#define QD (S + k * W + NQ)
+#define QDD (S + k * W + NQ + NV)
+#define TAU (S + k * W + NQ + 2 * NV)
     printf("states %ld calls %ld reps %d\n", K, ncalls, reps);
-    TIME("tau", NDOF, FN(tau)(Q, QD, QDD, out))
-    TIME("M", NDOF * NDOF, FN(M)(Q, out))
-    TIME("C", NDOF * NDOF, FN(C)(Q, QD, out))
-    TIME("Cqd", NDOF, FN(Cqd)(Q, QD, out))
-    TIME("G", NDOF, FN(G)(Q, out))
-    TIME("fdyn", NDOF, FN(fdyn)(Q, QD, TAU, out))
+    TIME("tau", NV, FN(tau)(Q, QD, QDD, out))
+    TIME("M", NV * NV, FN(M)(Q, out))
+#ifndef WITHOUT_C  /* a floating base has no Coriolis matrix function (no Christoffel symbols) */
+    TIME("C", NV * NV, FN(C)(Q, QD, out))
+#endif
+    TIME("Cqd", NV, FN(Cqd)(Q, QD, out))
+    TIME("G", NV, FN(G)(Q, out))
+    TIME("fdyn", NV, FN(fdyn)(Q, QD, TAU, out))
 #ifdef WITH_DERIVATIVES
     {
-        static double a[NDOF], b[NDOF * NDOF], c[NDOF * NDOF];
-        TIME("tau_derivatives", NDOF * NDOF, FN(tau_derivatives)(Q, QD, QDD, a, out, b))
-        TIME("fdyn_derivatives", NDOF * NDOF, FN(fdyn_derivatives)(Q, QD, TAU, a, out, b, c))
-        TIME("Minv", NDOF * NDOF, FN(Minv)(Q, out))
+        static double a[NV], b[NV * NV], c[NV * NV];
+        TIME("tau_derivatives", NV * NV, FN(tau_derivatives)(Q, QD, QDD, a, out, b))
+        TIME("fdyn_derivatives", NV * NV, FN(fdyn_derivatives)(Q, QD, TAU, a, out, b, c))
+        TIME("Minv", NV * NV, FN(Minv)(Q, out))
     }
 #endif
 #ifdef WITH_CASADI
@@ -157,7 +169,7 @@ int main(int argc, char **argv)
         iw = malloc((sz_iw + 1) * sizeof *iw);
         w = malloc((sz_w + 1) * sizeof *w);
         res[0] = out;
-        TIME("casadi_rnea", NDOF, (arg[0] = Q, arg[1] = QD, arg[2] = QDD, casadi_rnea(arg, res, iw, w, 0)))
+        TIME("casadi_rnea", NV, (arg[0] = Q, arg[1] = QD, arg[2] = QDD, casadi_rnea(arg, res, iw, w, 0)))
         free(arg);
         free(res);
         free(iw);

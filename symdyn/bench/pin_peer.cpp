@@ -21,8 +21,22 @@
  *     armature (rotor inertia reflected to the joint, G^2 Jm).
  *   An axis along x, y or z becomes JointModelR{X,Y,Z} / P{X,Y,Z}, any other
  *   JointModelRevoluteUnaligned / PrismaticUnaligned.
- * STATES: K (a power of two) states, each q, qd, qdd, tau as 4*N doubles (the
- *   file harness.c reads, so both time the same states).
+ * A tree, on a fixed or floating base (version 2):
+ *   symdyn-pin-arm 2
+ *   root KIND [M CX CY CZ IXX IXY IXZ IYY IYZ IZZ]
+ *     KIND none (fixed base), free (JointModelFreeFlyer: q = x y z qx qy qz qw,
+ *     v = linear, angular velocity in the base frame) or planar
+ *     (JointModelPlanar: q = x y cos sin); a floating root carries the base
+ *     body's inertia (mass, centre of mass, inertia about it, in its frame)
+ *   n N
+ *   gravity GX GY GZ
+ *   then N lines: PARENT followed by a version-1 joint line; PARENT 0 is the
+ *   root (the floating base, or the universe), PARENT i the i-th joint line
+ *   (i < this line's joint); the placement is in the parent joint's frame.
+ * STATES: K (a power of two) states, each q (nq), qd, qdd, tau (nv each)
+ *   doubles: nq = nv = N on a fixed base (the file harness.c reads, so both
+ *   time the same states).  symdyn's q: a planar root's is x y yaw, turned
+ *   into Pinocchio's x y cos sin here, before any timing.
  *
  * Prints "pinocchio VERSION", then "time NAME NS" per algorithm, then
  * "check NAME v..." with its outputs at state 3 (matrices row-major and made
@@ -89,28 +103,51 @@ static Model read_arm(const char *path)
     std::ifstream in(path);
     if (!in)
         throw std::runtime_error(arm_path + ": cannot open");
-    std::string line, word;
+    std::string line, word, root = "none";
     int version = 0, n = 0, lineno = 1;
-    double gx, gy, gz;
+    double gx, gy, gz, b[10] = {0};
     if (!std::getline(in, line) || !(std::istringstream(line) >> word >> version) || word != "symdyn-pin-arm" ||
-        version != 1)
-        bad(1, "not a symdyn arm file (first line must be 'symdyn-pin-arm 1')");
+        (version != 1 && version != 2))
+        bad(1, "not a symdyn arm file (first line must be 'symdyn-pin-arm 1' or 'symdyn-pin-arm 2')");
+    Model model;
+    JointIndex base = 0;
+    if (version == 2) {
+        ++lineno;
+        std::istringstream s;
+        if (std::getline(in, line))
+            s.str(line);
+        if (!(s >> word >> root) || word != "root" || (root != "none" && root != "free" && root != "planar"))
+            bad(lineno, "expected 'root none', 'root free M C I' or 'root planar M C I'");
+        if (root != "none") {
+            for (double &x : b)
+                s >> x;
+            if (!s)
+                bad(lineno, "the floating root needs the base body's 10 numbers (M CX CY CZ IXX IXY IXZ IYY IYZ IZZ)");
+            base = root == "free" ? model.addJoint(0, JointModelFreeFlyer(), SE3::Identity(), "root_joint")
+                                  : model.addJoint(0, JointModelPlanar(), SE3::Identity(), "root_joint");
+            Eigen::Matrix3d I;
+            I << b[4], b[5], b[6], b[5], b[7], b[8], b[6], b[8], b[9];
+            model.appendBodyToJoint(base, Inertia(b[0], Eigen::Vector3d(b[1], b[2], b[3]), I), SE3::Identity());
+        }
+    }
     ++lineno;
     if (!std::getline(in, line) || !(std::istringstream(line) >> word >> n) || word != "n" || n < 1)
         bad(lineno, "expected 'n N' with N >= 1 joints");
     ++lineno;
     if (!std::getline(in, line) || !(std::istringstream(line) >> word >> gx >> gy >> gz) || word != "gravity")
         bad(lineno, "expected 'gravity GX GY GZ'");
-    Model model;
-    Eigen::VectorXd armature(n);
-    JointIndex parent = 0;
+    std::vector<JointIndex> index(1, base);  /* index[i]: the Pinocchio joint of line i (0: the root) */
+    std::vector<double> armature;
     for (int i = 0; i < n; ++i) {
         ++lineno;
         if (!std::getline(in, line))
             bad(lineno, "missing joint " + std::to_string(i + 1) + " of " + std::to_string(n));
         std::istringstream s(line);
         std::string type;
+        int up = i;  /* version 1: a serial chain, each joint on the previous one */
         double v[26];
+        if (version == 2 && (!(s >> up) || up < 0 || up > i))
+            bad(lineno, "joint " + std::to_string(i + 1) + ": expected its parent 0.." + std::to_string(i) + " first");
         s >> type;
         for (double &x : v)
             s >> x;
@@ -130,23 +167,25 @@ static Model read_arm(const char *path)
         Eigen::Matrix3d I;
         I << v[19], v[20], v[21], v[20], v[22], v[23], v[21], v[23], v[24];
         std::string name = "j" + std::to_string(i + 1);
-        JointIndex j = add_joint(model, parent, type[0], axis, SE3(R, p), name);
+        JointIndex j = add_joint(model, index[up], type[0], axis, SE3(R, p), name);
         model.appendBodyToJoint(j, Inertia(v[15], Eigen::Vector3d(v[16], v[17], v[18]), I), SE3::Identity());
-        armature[i] = v[25];
-        parent = j;
+        armature.push_back(v[25]);
+        index.push_back(j);
     }
-    model.armature = armature;
+    model.armature = Eigen::VectorXd::Zero(model.nv);
+    for (int i = 0; i < n; ++i)
+        model.armature[model.idx_vs[index[i + 1]]] = armature[i];
     model.gravity = Motion(Eigen::Vector3d(gx, gy, gz), Eigen::Vector3d::Zero());
     return model;
 }
 
-static std::vector<double> read_states(const char *path, int n)
+static std::vector<double> read_states(const char *path, int nq, int nv)
 {
     std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in)
         throw std::runtime_error(std::string(path) + ": cannot open");
     const std::streamoff bytes = in.tellg();
-    const std::size_t per = 4 * (std::size_t)n;
+    const std::size_t per = (std::size_t)nq + 3 * (std::size_t)nv;
     const std::size_t k = bytes > 0 ? (std::size_t)bytes / (sizeof(double) * per) : 0;
     if (k < 4 || (k & (k - 1)) || (std::size_t)bytes != k * per * sizeof(double))
         throw std::runtime_error(std::string(path) + ": expected a power of two (>= 4) of states of " +
@@ -196,20 +235,25 @@ int main(int argc, char **argv)
     }
     try {
         const Model model = read_arm(argv[1]);
-        const int n = model.nv;
-        const std::vector<double> raw = read_states(argv[2], n);
+        const bool planar = model.njoints > 1 && model.joints[1].shortname() == "JointModelPlanar";
+        const int n = model.nv, nq = model.nq - (planar ? 1 : 0);  /* symdyn's nq */
+        const std::vector<double> raw = read_states(argv[2], nq, n);
         const long ncalls = std::atol(argv[3]);
         const int reps = std::atoi(argv[4]);
         if (ncalls < 1 || reps < 1)
             throw std::runtime_error("NCALLS and REPS must be positive");
-        const std::size_t K = raw.size() / (4 * (std::size_t)n);
+        const std::size_t W = (std::size_t)nq + 3 * (std::size_t)n, K = raw.size() / W;
         std::vector<Eigen::VectorXd> Q(K), V(K), A(K), T(K);
         for (std::size_t k = 0; k < K; ++k) {
-            const double *s = raw.data() + 4 * n * k;
-            Q[k] = Eigen::Map<const Eigen::VectorXd>(s, n);
-            V[k] = Eigen::Map<const Eigen::VectorXd>(s + n, n);
-            A[k] = Eigen::Map<const Eigen::VectorXd>(s + 2 * n, n);
-            T[k] = Eigen::Map<const Eigen::VectorXd>(s + 3 * n, n);
+            const double *s = raw.data() + W * k;
+            Q[k] = Eigen::Map<const Eigen::VectorXd>(s, nq);
+            if (planar) {  /* x y yaw, joints -> x y cos sin, joints */
+                Q[k].resize(model.nq);
+                Q[k] << s[0], s[1], std::cos(s[2]), std::sin(s[2]), Eigen::Map<const Eigen::VectorXd>(s + 3, nq - 3);
+            }
+            V[k] = Eigen::Map<const Eigen::VectorXd>(s + nq, n);
+            A[k] = Eigen::Map<const Eigen::VectorXd>(s + nq + n, n);
+            T[k] = Eigen::Map<const Eigen::VectorXd>(s + nq + 2 * n, n);
         }
         const std::size_t mask = K - 1;
         Data data(model);
@@ -233,6 +277,8 @@ int main(int argc, char **argv)
             {"rnea", [&](std::size_t k) { rnea(model, data, Q[k], V[k], A[k]); sink = data.tau[0]; },
              [&] { return Eigen::MatrixXd(data.tau); }},
             {"crba", [&](std::size_t k) { crba(model, data, Q[k]); sink = data.M(0, 0); },
+             [&] { return symmetric_from_upper(data.M); }},
+            {"crba_world", [&](std::size_t k) { crba(model, data, Q[k], Convention::WORLD); sink = data.M(0, 0); },
              [&] { return symmetric_from_upper(data.M); }},
             {"aba", [&](std::size_t k) { aba(model, data, Q[k], V[k], T[k]); sink = data.ddq[0]; },
              [&] { return Eigen::MatrixXd(data.ddq); }},

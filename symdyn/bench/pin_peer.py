@@ -6,7 +6,10 @@ writes the arm it is fed (`write_arm`: one line per joint — type, unit
 axis, 3×4 placement in the parent joint's frame, mass, centre of mass,
 inertia about it, armature — taken from `peers.pinocchio_model`, the very
 model the reference is tested against, so DH arms of either convention and
-general-joint arms reach the C++ alike), compiles it once into the cache
+general-joint arms reach the C++ alike; a tree, on a fixed base or a
+FreeFlyer / Planar root carrying the base body, by `tree_joints` and
+`write_arm(..., parents=, root=, base=)`, version 2 of the file, timed by
+scripts/bench_whole.py), compiles it once into the cache
 against the headers of the `pin` and `cmeel-eigen` wheels (`peer_binary`:
 keyed by a hash of the source, flags, compiler and Pinocchio version;
 rebuilt when stale or when the binary's recorded sha256 no longer matches),
@@ -39,6 +42,7 @@ __all__ = [
     "PeerUnavailable",
     "PeerJoint",
     "arm_joints",
+    "tree_joints",
     "write_arm",
     "include_dirs",
     "cache_key",
@@ -66,6 +70,7 @@ CXXFLAGS = (
 ALGORITHMS = (
     "rnea",
     "crba",
+    "crba_world",
     "aba",
     "computeGeneralizedGravity",
     "nonLinearEffects",
@@ -123,6 +128,31 @@ class PeerJoint:
 _ALIGNED = {"RX": (True, 0), "RY": (True, 1), "RZ": (True, 2), "PX": (False, 0), "PY": (False, 1), "PZ": (False, 2)}
 
 
+def _peer_joint(model, j: int) -> PeerJoint:
+    """Pinocchio joint j (one-DOF revolute or prismatic) as pin_peer.cpp reads it."""
+    kind = model.joints[j].shortname().removeprefix("JointModel")
+    if kind in _ALIGNED:
+        revolute, k = _ALIGNED[kind]
+        axis = tuple(np.eye(3)[k])
+    elif kind in ("RevoluteUnaligned", "PrismaticUnaligned"):
+        revolute, axis = kind == "RevoluteUnaligned", tuple(np.array(model.joints[j].extract().axis, float))
+    else:
+        raise ValueError(
+            f"joint {j} ({model.names[j]}) is a Pinocchio {kind} joint: the C++ peer "
+            "takes revolute and prismatic joints only"
+        )
+    Y = model.inertias[j]
+    return PeerJoint(
+        revolute,
+        axis,
+        tuple(map(tuple, model.jointPlacements[j].homogeneous[:3])),
+        float(Y.mass),
+        tuple(Y.lever),
+        tuple(map(tuple, Y.inertia)),
+        float(model.armature[model.idx_vs[j]]),
+    )
+
+
 def arm_joints(model) -> tuple[list[PeerJoint], np.ndarray]:
     """(joints, gravity) of a serial `pinocchio.Model` of one-DOF revolute or prismatic joints.
 
@@ -130,43 +160,84 @@ def arm_joints(model) -> tuple[list[PeerJoint], np.ndarray]:
     """
     joints = []
     for j in range(1, model.njoints):
-        kind = model.joints[j].shortname().removeprefix("JointModel")
         if model.parents[j] != j - 1:
             raise ValueError(
                 f"joint {j} ({model.names[j]}) hangs from joint {model.parents[j]}: "
                 "the C++ peer takes a serial chain only"
             )
-        if kind in _ALIGNED:
-            revolute, k = _ALIGNED[kind]
-            axis = tuple(np.eye(3)[k])
-        elif kind in ("RevoluteUnaligned", "PrismaticUnaligned"):
-            revolute, axis = kind == "RevoluteUnaligned", tuple(np.array(model.joints[j].extract().axis, float))
-        else:
-            raise ValueError(
-                f"joint {j} ({model.names[j]}) is a Pinocchio {kind} joint: the C++ peer "
-                "takes revolute and prismatic joints only"
-            )
-        Y = model.inertias[j]
-        joints.append(
-            PeerJoint(
-                revolute,
-                axis,
-                tuple(map(tuple, model.jointPlacements[j].homogeneous[:3])),
-                float(Y.mass),
-                tuple(Y.lever),
-                tuple(map(tuple, Y.inertia)),
-                float(model.armature[j - 1]),
-            )
-        )
+        joints.append(_peer_joint(model, j))
     return joints, np.array(model.gravity.linear, dtype=float)
 
 
-def write_arm(path: str | Path, joints: list[PeerJoint], gravity) -> Path:
-    """Write the arm file pin_peer.cpp reads (format in its header comment); returns the path."""
+_ROOTS = {"FreeFlyer": "free", "Planar": "planar"}
+
+
+@dataclass(frozen=True)
+class PeerTree:
+    """A tree as pin_peer.cpp reads it (arm file version 2): `root` "none", "free" or "planar";
+    `base` the floating root's body (mass, centre of mass, inertia about it; None on a fixed
+    base); `parents[i]` the joint line that joint i hangs on (0: the root, k: joints[k - 1])."""
+
+    root: str
+    base: tuple | None
+    joints: list
+    parents: list
+    gravity: np.ndarray
+
+
+def tree_joints(model) -> PeerTree:
+    """The tree of a `pinocchio.Model`: an optional FreeFlyer or Planar root joint (joint 1, on the
+    universe), then one-DOF revolute or prismatic joints, each on the root or on an earlier joint."""
+    root, base, first = "none", None, 1
+    if model.njoints > 1:
+        kind = model.joints[1].shortname().removeprefix("JointModel")
+        if kind in _ROOTS:
+            root, first = _ROOTS[kind], 2
+            Y = model.inertias[1]
+            base = (float(Y.mass), tuple(Y.lever), tuple(map(tuple, Y.inertia)))
+    joints, parents = [], []
+    for j in range(first, model.njoints):
+        up = int(model.parents[j])
+        if up != 0 and up < first:  # hangs on the floating root
+            up = first - 1
+        elif up == 0 and first == 2:
+            raise ValueError(f"joint {j} ({model.names[j]}) hangs from the universe beside the floating root")
+        parents.append(up - first + 1)
+        joints.append(_peer_joint(model, j))
+    return PeerTree(root, base, joints, parents, np.array(model.gravity.linear, dtype=float))
+
+
+def _numbers(values) -> str:
+    return " ".join(repr(float(x) + 0.0) for x in values)
+
+
+def write_arm(path: str | Path, joints: list[PeerJoint], gravity, *, parents=None, root="none", base=None) -> Path:
+    """Write the arm file pin_peer.cpp reads (format in its header comment); returns the path.
+
+    A serial chain on a fixed base (no `parents`, no `root`): version 1, as it always was.  Else
+    version 2: `parents` (one per joint: 0 the root, k the k-th joint), `root` "none", "free" or
+    "planar" and, for a floating root, `base` = (mass, com, inertia) of its body (`tree_joints`).
+    """
     if not joints:
         raise ValueError("an arm needs at least one joint")
-    g = " ".join(repr(float(x) + 0.0) for x in gravity)
-    text = f"symdyn-pin-arm 1\nn {len(joints)}\ngravity {g}\n" + "".join(j.line() + "\n" for j in joints)
+    g = _numbers(gravity)
+    if parents is None and root == "none":
+        text = f"symdyn-pin-arm 1\nn {len(joints)}\ngravity {g}\n" + "".join(j.line() + "\n" for j in joints)
+    else:
+        parents = list(range(len(joints))) if parents is None else [int(p) for p in parents]
+        if len(parents) != len(joints) or any(not 0 <= p <= i for i, p in enumerate(parents)):
+            raise ValueError(f"parents {parents}: one per joint, each 0 (the root) or an earlier joint's number")
+        if root not in ("none", "free", "planar"):
+            raise ValueError(f"root {root!r}: none, free or planar")
+        head = f"root {root}"
+        if root != "none":
+            if base is None:
+                raise ValueError(f"a {root} root needs its base body (mass, com, inertia)")
+            m, c, I = base
+            head += " " + _numbers([m, *c, I[0][0], I[0][1], I[0][2], I[1][1], I[1][2], I[2][2]])
+        text = f"symdyn-pin-arm 2\n{head}\nn {len(joints)}\ngravity {g}\n" + "".join(
+            f"{p} {j.line()}\n" for p, j in zip(parents, joints)
+        )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
@@ -321,19 +392,20 @@ def check_peer(robot, checks: dict, q, qd, qdd, tau, k: int = 3, rtol: float = 1
     from ..numeric import reference as ref
 
     q, qd, qdd, tau = q[k], qd[k], qdd[k], tau[k]
-    M, C, G = ref.inertia(robot, q), ref.coriolis(robot, q, qd), ref.gravload(robot, q)
-    Minv, n = np.linalg.inv(M), robot.n
+    M = lambda: ref.inertia(robot, q)  # noqa: E731  (each only when asked: a floating base has no C)
+    C, G, n = lambda: ref.coriolis(robot, q, qd), lambda: ref.gravload(robot, q), robot.nv  # noqa: E731
     expected = {
         "rnea": lambda: ref.rne(robot, q, qd, qdd),
-        "crba": lambda: M,
+        "crba": M,
+        "crba_world": M,
         "aba": lambda: ref.accel(robot, q, qd, tau),
-        "computeGeneralizedGravity": lambda: G,
-        "nonLinearEffects": lambda: C @ qd + G,
-        "computeCoriolisMatrix": lambda: C @ qd,  # Pinocchio's C need not be the Christoffel one; C q̇ is
+        "computeGeneralizedGravity": G,
+        "nonLinearEffects": lambda: C() @ qd + G(),
+        "computeCoriolisMatrix": lambda: C() @ qd,  # Pinocchio's C need not be the Christoffel one; C q̇ is
         "crba_cholesky": lambda: ref.accel(robot, q, qd, tau),
         "computeRNEADerivatives": lambda: central_jacobian(lambda x: ref.rne(robot, x, qd, qdd), q),
         "computeABADerivatives": lambda: central_jacobian(lambda x: ref.accel(robot, x, qd, tau), q),
-        "computeMinverse": lambda: Minv,
+        "computeMinverse": lambda: np.linalg.inv(M()),
     }
     worst = 0.0
     for name, got in checks.items():
