@@ -163,11 +163,9 @@ def _revolute(robot) -> list[bool]:
     [
         ("free", 3, 4, 39),
         ("free", 8, 3, 34),
-        ("free", 6, 5, 50),
         ("free", "puma", 6, 58),
         ("planar", 3, 4, 32),
         ("planar", 11, 3, 25),
-        ("planar", 6, 5, 43),
         ("planar", "puma", 6, 47),
     ],
 )

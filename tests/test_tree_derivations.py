@@ -147,7 +147,7 @@ def _exact_differences(dyns: dict, robot: Robot, terms, points: int, seed: int) 
     return worst
 
 
-@pytest.mark.parametrize("seed", [3, 5, 10, 13])
+@pytest.mark.parametrize("seed", [3, 5, 13])
 @pytest.mark.parametrize("options", [SMALL, GENERAL], ids=["dh", "general"])
 def test_lagrange_and_newton_euler_agree_exactly_on_random_trees(seed, options):
     """Lagrange's energy route (expanded trigonometric polynomials and named intermediates)
