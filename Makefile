@@ -17,7 +17,7 @@ run: $(STAMP)
 	$(BIN)/symdyn run
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal
 
 # PyTorch's default wheel is large (~0.5 GB, with its CUDA libraries ~5 GB, 77 s to install here):
 # its tests have their own target, run after the main suite.  A CPU-only machine can install

@@ -108,6 +108,7 @@ def _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label: str) -> N
         _close(ddqd[i], Av - Minv @ viscous, f"{label} dqdd_dqd vs Pinocchio")
 
 
+@pytest.mark.parametrize("case", ["planar"], indirect=True)  # the free base's programs: checked through C and CasADi
 def test_numpy(case):
     robot, q, qd, a, want = case
     _check(symdyn.load(robot, "numpy"), robot, q, qd, a, want, "numpy")
