@@ -95,13 +95,14 @@ def friction_law(robot: Robot, qd) -> np.ndarray:
     return G**2 * B * qd + np.abs(G) * np.where(qd > 0, tp, np.where(qd < 0, tn, 0.0))
 
 
-def pinocchio_at(model, q, qd, qdd, tau) -> dict:
-    """Pinocchio's τ, M, G, C·q̇, Christoffel symbols and forward dynamics at each state."""
+def pinocchio_at(model, q, qd, qdd, tau, *, christoffel: bool = True) -> dict:
+    """Pinocchio's τ, M, G, C·q̇, Christoffel symbols (`christoffel`: n Coriolis matrices per
+    state; a floating base has none) and forward dynamics at each state."""
     import pinocchio as pin
 
     data = model.createData()
     n = model.nv
-    out = {k: [] for k in ("tau", "M", "G", "Cqd", "Gamma", "ddq")}
+    out = {k: [] for k in ("tau", "M", "G", "Cqd", "ddq") + (("Gamma",) if christoffel else ())}
     for x, v, a, t in zip(q, qd, qdd, tau):
         out["tau"].append(pin.rnea(model, data, x, v, a).copy())
         M = pin.crba(model, data, x)
@@ -109,9 +110,9 @@ def pinocchio_at(model, q, qd, qdd, tau) -> dict:
         g = pin.computeGeneralizedGravity(model, data, x).copy()
         out["G"].append(g)
         out["Cqd"].append(pin.nonLinearEffects(model, data, x, v) - g)
-        # Pinocchio's C satisfies Ṁ = C + Cᵀ and is linear in q̇: q̇ = e_i gives ∂M/∂q_i
-        dM = np.stack([(lambda C: C + C.T)(pin.computeCoriolisMatrix(model, data, x, e).copy()) for e in np.eye(n)])
-        out["Gamma"].append(0.5 * (np.einsum("ikj->kij", dM) + np.einsum("jki->kij", dM) - dM))
+        if christoffel:  # Pinocchio's C satisfies Ṁ = C + Cᵀ and is linear in q̇: q̇ = e_i gives ∂M/∂q_i
+            dM = np.stack([(lambda C: C + C.T)(pin.computeCoriolisMatrix(model, data, x, e).copy()) for e in np.eye(n)])
+            out["Gamma"].append(0.5 * (np.einsum("ikj->kij", dM) + np.einsum("jki->kij", dM) - dM))
         out["ddq"].append(pin.aba(model, data, x, v, t).copy())
     return {k: np.array(v) for k, v in out.items()}
 
