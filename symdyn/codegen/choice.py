@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from ..derivation import progress
+from ..derivation import engine, progress
 from ..derivation.dynamics import Dynamics
 from ..model import Robot
 from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
+from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
 
 __all__ = ["programs", "Programs", "derivations", "DERIVED", "missing"]
@@ -54,6 +55,12 @@ def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
         candidate = (program.op_count()["total"], k, specs[k], program)
         best = candidate if best is None else min(best, candidate, key=lambda c: c[:2])
     return best[2], best[3]
+
+
+def _engine(robot: Robot) -> str:
+    """The engine a model's programs are built with (`symdyn.derivation.engine`): sympy for the
+    shipped models, whose code in generated/ is pinned byte for byte, SymEngine for any other."""
+    return "sympy" if is_shipped(robot) else "symengine"
 
 
 def derivations(robot: Robot) -> tuple[list, list[str]]:
@@ -108,13 +115,16 @@ class Programs:
         self.names = (*terms, *(("Y",) if self.regressor is not None else ()), *DERIVED)
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
         self._built: dict[str, Program] = {}
+        self._specs: dict[str, FunctionSpec] = {}
+        self.engine = _engine(self.dyns[0].robot)
 
     def chosen(self, term: str) -> tuple[FunctionSpec, Program]:
         """(spec, program) of a term (tau, M, C, Cqd, G, F, bias) from the derivation that
         gives the fewest operations."""
         if term not in self._chosen:
-            extra = [christoffel_spec(c["Cqd"]) for c in self.cands] if term == "C" else []
-            self._chosen[term] = _cheapest([c[term] for c in self.cands if term in c] + extra)
+            with engine.use(self.engine):
+                extra = [christoffel_spec(c["Cqd"]) for c in self.cands] if term == "C" else []
+                self._chosen[term] = _cheapest([c[term] for c in self.cands if term in c] + extra)
         return self._chosen[term]
 
     def program(self, name: str) -> Program:
@@ -122,7 +132,8 @@ class Programs:
         if name not in self.names:
             raise KeyError(f"no function {name!r}: the functions are {', '.join(self.names)}")
         if name not in self._built:
-            self._built[name] = self._build(name)
+            with engine.use(self.engine):
+                self._built[name] = self._build(name)
         return self._built[name]
 
     def _build(self, name: str) -> Program:
@@ -136,8 +147,16 @@ class Programs:
         if name == "tau_derivatives":
             return tau_derivatives_spec(self.chosen("tau")[0], self.base_joint).program()
         if name == "Minv":
-            return minv_spec(self.chosen("M")[0], tree=self.tree).program()
-        return fdyn_derivatives_program(self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"))
+            return self._minv().program()
+        shared = frozenset(s for s, _ in self._minv().definitions)  # M's terms and factor: fdyn's too
+        return fdyn_derivatives_program(
+            self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"), shared
+        )
+
+    def _minv(self) -> FunctionSpec:
+        if "Minv" not in self._specs:
+            self._specs["Minv"] = minv_spec(self.chosen("M")[0], tree=self.tree)
+        return self._specs["Minv"]
 
     def all(self, label: str = "") -> list[Program]:
         """Every function's program, in the order of `names`; a job over REPORT_AFTER_S says on

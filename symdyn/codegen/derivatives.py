@@ -20,6 +20,7 @@ from typing import Sequence
 
 import sympy as sp
 
+from ..derivation.engine import partials
 from ..derivation.program import Program
 from .functions import FunctionSpec, elimination_order, ldlt_factor, ldlt_inverse
 
@@ -55,15 +56,6 @@ def _reachable(definitions: dict, roots: Sequence) -> list:
     return [(s, e) for s, e in definitions.items() if s in seen]
 
 
-def _partial(expr: sp.Expr, u: sp.Symbol) -> sp.Expr:
-    """∂expr/∂u with every sign(·) held constant (Coulomb friction: 0, not a Dirac delta)."""
-    signs = {node: sp.Dummy() for node in expr.atoms(sp.sign)}
-    if not signs:
-        return expr.diff(u)
-    back = {d: node for node, d in signs.items()}
-    return expr.xreplace(signs).diff(u).xreplace(back)
-
-
 def forward(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str = "D") -> tuple[list, list]:
     """Forward-mode derivatives of a straight-line program.
 
@@ -78,14 +70,11 @@ def forward(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str =
 
     def derivative(expr) -> dict:
         out: dict = {}
-        for u in expr.free_symbols:
-            du = tangent.get(u)
-            if not du:
-                continue
-            pe = _partial(expr, u)
+        active = sorted((u for u in expr.free_symbols if tangent.get(u)), key=str)
+        for u, pe in zip(active, partials(expr, active)):
             if pe == 0:
                 continue
-            for k, v in du.items():
+            for k, v in tangent[u].items():
                 out[k] = out.get(k, sp.S.Zero) + pe * v
         return out
 
@@ -171,13 +160,11 @@ def reverse(definitions: Sequence, outputs: Sequence, wrt: Sequence, stem: str =
     # sens[v][o]: ∂(output o)/∂v over the vertices eliminated so far
     sens: dict = {}
     for i, o in enumerate(outputs):
-        o = sp.sympify(o)
-        for u in operands[("out", i)]:
-            sens.setdefault(u, {})[i] = _partial(o, u)
+        for u, pe in zip(operands[("out", i)], partials(o, operands[("out", i)])):
+            sens.setdefault(u, {})[i] = pe
     for s, e in reversed(nodes):
         out = {i: name(w, f"{stem}o{i + 1}_{s.name}") for i, w in sorted(sens.pop(s, {}).items()) if w != 0}
-        for u in operands[s] if out else ():
-            pe = _partial(e, u)
+        for u, pe in zip(operands[s], partials(e, operands[s]) if out else ()):
             if pe == 0:
                 continue
             pe = name(pe, f"{stem}{s.name}_{u.name}")
@@ -325,6 +312,7 @@ class _Splice:
         self.assignments: list = []
         self.seen: dict = {}
         self.taken = set(taken)
+        self.named: dict = {}  # {derivation's symbol: its spliced name}, for `shared`
 
     def name(self, expr, stem: str):
         """A symbol holding expr: an atom itself, an earlier name for the same
@@ -342,14 +330,21 @@ class _Splice:
         self.seen[expr] = sym
         return sym
 
-    def append(self, program: Program, rename: dict, prefix: str) -> list:
+    def append(self, program: Program, rename: dict, prefix: str, shared: frozenset = frozenset()) -> list:
         """Splice `program` in, its input symbols mapped by `rename`; returns its
-        outputs' matrices in the spliced names."""
+        outputs' matrices in the spliced names.  `shared`: a derivation's symbols that hold
+        the same value in every program spliced (M's named terms and its LDLᵀ factor in fdyn
+        and in Minv): one spliced before is taken as it is, however the programs' CSEs wrote it."""
         rename = dict(rename)
         for sym, expr in program.assignments:
+            if sym in shared and sym in self.named:
+                rename[sym] = self.named[sym]
+                continue
             rename[sym] = self.name(
                 expr.xreplace(rename), sym.name if sym.name not in self.taken else prefix + sym.name
             )
+            if sym in shared:
+                self.named[sym] = rename[sym]
         return [m.xreplace(rename) for _, m in program.outputs]
 
     def live(self, outputs) -> tuple:
@@ -365,23 +360,26 @@ class _Splice:
         return tuple(reversed(kept))
 
 
-def fdyn_derivatives_program(fdyn: Program, tau_derivatives: Program, minv: Program) -> Program:
+def fdyn_derivatives_program(
+    fdyn: Program, tau_derivatives: Program, minv: Program, shared: frozenset = frozenset()
+) -> Program:
     """(q̈, ∂q̈/∂q, ∂q̈/∂q̇, M⁻¹)(q, q̇, τ) from the finished programs of fdyn,
     tau_derivatives and Minv: q̈ = fdyn(q, q̇, τ), then ∂q̈/∂x = −M⁻¹ ∂τ/∂x with ∂τ/∂x
     of tau_derivatives at (q, q̇, q̈) — spliced, not re-CSE'd: a 7-joint arm's
     joint CSE of the whole took ~2.7 s for ~3 % fewer operations.  τ, which
     tau_derivatives computes beside its Jacobians, is not an output: its
-    assignments are dropped."""
+    assignments are dropped.  `shared`: the symbols of M's spec and of its LDLᵀ factor, which
+    fdyn and Minv both compute (`_Splice.append`)."""
     q, qd = fdyn.inputs[0][1], fdyn.inputs[1][1]  # then tau (and p, a symbolic model's parameters)
     inputs = {s.name for _, syms in fdyn.inputs for s in syms} | {a for a, _ in fdyn.inputs}
     splice = _Splice(inputs | {"qdd", "dqdd_dq", "dqdd_dqd", "Minv", "fdyn_derivatives"})
-    (qdd,) = splice.append(fdyn, {}, "f_")
+    (qdd,) = splice.append(fdyn, {}, "f_", shared)
     qdd = [splice.name(e, f"f_qdd{i + 1}") for i, e in enumerate(qdd)]
     tq, tqd, tqdd = (syms for _, syms in tau_derivatives.inputs[:3])
     _, dq, dqd = splice.append(
         tau_derivatives, {**dict(zip(tq, q)), **dict(zip(tqd, qd)), **dict(zip(tqdd, qdd))}, "t_"
     )
-    (inv,) = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_")
+    (inv,) = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
     n = len(qdd)
 
     def named(stem: str, mat) -> sp.ImmutableMatrix:

@@ -29,6 +29,7 @@ from ..derivation import progress
 from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writable
 from ..model import Robot, arms
 from .emit import Bundle, identifier, is_intact, read_header, write_atomic
+from .shipped import SHIPPED, is_shipped
 
 __all__ = [
     "generate",
@@ -48,7 +49,6 @@ TARGETS = ("numpy", "c", "casadi", "array-api")
 LOADS = (*TARGETS, "jax", "torch")
 #: The target whose files a loadable name reads.
 _WRITTEN = {"jax": "array-api", "torch": "array-api"}
-SHIPPED = ("twolink", "puma560", "panda", "iiwa14", "ur5")
 #: The shipped models' code: generated/ of a source checkout (symdyn/generated links to it), or the
 #: copy an installed wheel carries as package data (read only: its C is compiled into the cache).
 GENERATED = (Path(__file__).resolve().parents[1] / "generated").resolve()
@@ -116,7 +116,7 @@ def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
     locked, excluded and snapped, and rebuilds by `symdyn generate FILE --tip … [--name NAME]`,
     run beside the file."""
     record = getattr(robot, "urdf", None) or getattr(robot, "mjcf", None)
-    if _is_shipped(robot):
+    if is_shipped(robot):
         return robot.source, (), robot.name
     if record is None:  # built in Python: no name or file the command line knows rebuilds it
         return robot.source, (), ""
@@ -147,11 +147,6 @@ def in_checkout() -> bool:
     return (GENERATED.parent / "pyproject.toml").is_file()
 
 
-def _is_shipped(robot: Robot) -> bool:
-    """Whether robot is one of the models whose code lives in generated/."""
-    return robot.name in SHIPPED and robot.fingerprint() == arms.load(robot.name).fingerprint()
-
-
 def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False) -> list[Path]:
     """Write the model code of `robot` (a Robot or a model's name) for
     `target` ("numpy", "c", "casadi", "array-api" or "all") into `out_dir` (default, for
@@ -162,7 +157,7 @@ def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False
     robot = _robot(robot)
     targets = _targets(target)
     name = identifier(robot.name)
-    if out_dir is None and not _is_shipped(robot):
+    if out_dir is None and not is_shipped(robot):
         raise ValueError(
             f"generate({robot.name!r}) needs out_dir: generated/ holds only the shipped "
             f"models ({', '.join(SHIPPED)}) with their shipped parameters"

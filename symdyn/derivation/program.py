@@ -18,6 +18,8 @@ from typing import Protocol, Sequence
 
 import sympy as sp
 
+from . import engine
+
 __all__ = ["Program", "make_program", "lower", "Algebra", "OpCounter", "format_ops", "FUNCTIONS"]
 
 #: sympy function → emitted primitive name (each counted as one "fun").
@@ -300,7 +302,7 @@ def make_program(
     def_syms = list(defs)
     exprs = [defs[s] for s in def_syms] + flat
     temps = sp.numbered_symbols("_cse", real=True)
-    replacements, reduced = sp.cse(exprs, symbols=temps, order="none") if exprs else ([], [])
+    replacements, reduced = engine.cse(exprs, temps, _cse_cost) if exprs else ([], [])
     nodes = dict(replacements)
     nodes.update(zip(def_syms, reduced[: len(def_syms)]))
     out_exprs = reduced[len(def_syms) :]
@@ -328,6 +330,14 @@ def make_program(
         origin=origin,
         matrices=frozenset(matrices),
     )
+
+
+def _cse_cost(replacements, reduced) -> int:
+    """Operations (negation free) of a CSE's result, as `Program.op_count` counts them."""
+    counter = OpCounter()
+    for e in [e for _, e in replacements] + list(reduced):
+        lower(e, counter)
+    return sum(v for k, v in counter.counts.items() if k != "neg")
 
 
 def _nodes(exprs):

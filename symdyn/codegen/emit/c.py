@@ -445,10 +445,17 @@ def simd_source(model: str, p: Program) -> str:
 #: assignments each, `static` functions that gcc does not inline, passing the values later
 #: parts use through one array: gcc's register allocation grows faster than linearly with a
 #: function's size (a 10-joint arm's fdyn_derivatives, 3844 lines in one function: 6.6 s at
-#: -O3, 6.1 s at -O1, 51 % of it in LRA), its parts compile in about linear time.  Every
-#: function of the shipped arms is below the threshold (the largest: 1692 lines).
-SPLIT_ABOVE = 2000
-PART_SIZE = 400
+#: -O3, 6.1 s at -O1, 51 % of it in LRA), its parts compile in about linear time.  Seconds
+#: of gcc -O3 as one function / parts of 400 / 200 / 100 lines: G1's arm + waist, C (1953
+#: lines) 1.74 / 1.71 / 0.86 / 0.78, fdyn_derivatives (3848) 7.3 / 2.5 / 2.25 / 2.08;
+#: xArm7's tau_derivatives (1260 lines, long ones) 1.75 whole, 0.77 in parts of 100.  Run
+#: times differ by less than the noise (±5 %).  Files a person reads (`generate`'s, and
+#: generated/, pinned byte for byte) keep a function whole up to SPLIT_ABOVE lines (every
+#: function of the shipped arms: the largest has 1692); the lazy C target's per-function
+#: files, which only a compiler reads, are split above CACHE_SPLIT_ABOVE.
+SPLIT_ABOVE = 1700
+CACHE_SPLIT_ABOVE = 600
+PART_SIZE = 100
 
 _NOINLINE = (
     "#if defined(__GNUC__)\n#define SYMDYN_NOINLINE __attribute__((noinline))\n#else\n#define SYMDYN_NOINLINE\n#endif\n"
@@ -516,13 +523,15 @@ def _parts(model: str, p: Program, sig: Signature) -> tuple[str, list[str]]:
     return "\n".join(source) + "\n", body
 
 
-def function_source(model: str, p: Program) -> str:
-    """The single-state and batched C functions of one program (a large one calls its parts)."""
+def function_source(model: str, p: Program, split_above: int | None = None) -> str:
+    """The single-state and batched C functions of one program (one of more than
+    `split_above` assignments, default SPLIT_ABOVE, calls its parts)."""
+    split_above = SPLIT_ABOVE if split_above is None else split_above
     sig = signature(p)
     single, batch = _prototypes(model, sig)
     used = p.used_inputs()
     parts = ""
-    if len(p.assignments) > SPLIT_ABOVE:
+    if len(p.assignments) > split_above:
         parts, body = _parts(model, p, sig)
     else:
         body = []
@@ -555,8 +564,9 @@ def c_source(bundle: Bundle) -> str:
 def function_file(model: str, p: Program, comment: list[str]) -> str:
     """One function's C as a file of its own, sealed: `comment`, the preamble and the
     function (the lazy C target keeps one per function; `clib.function_units` makes its
-    translation units from it as from a whole file)."""
-    parts = [_comment(comment), *_preamble(model, len(p.assignments) > SPLIT_ABOVE), function_source(model, p)]
+    translation units from it as from a whole file), split above CACHE_SPLIT_ABOVE lines."""
+    split = len(p.assignments) > CACHE_SPLIT_ABOVE
+    parts = [_comment(comment), *_preamble(model, split), function_source(model, p, CACHE_SPLIT_ABOVE)]
     return seal("\n".join(parts))
 
 
