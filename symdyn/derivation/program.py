@@ -130,8 +130,16 @@ def lower(expr: sp.Expr, alg: Algebra):
 
 
 def _is_negative(term: sp.Expr) -> bool:
-    coeff = term.as_coeff_Mul()[0]
-    return coeff.is_Number and coeff.is_negative
+    """Whether term's numeric coefficient is negative (`as_coeff_Mul()[0]`, without building
+    the rest of the product: a program's op count asks this of every term)."""
+    coeff = term if term.is_Number else term.args[0] if term.is_Mul and term.args[0].is_Number else None
+    return coeff is not None and _below_zero(coeff)
+
+
+def _below_zero(number: sp.Number) -> bool:
+    """number < 0, read off its value (sympy's assumption system would deduce every fact of
+    each new number first: a third of a program's op count)."""
+    return number.p < 0 if number.is_Rational else float(number) < 0
 
 
 def _lower_product(expr: sp.Expr, alg: Algebra):
@@ -139,13 +147,13 @@ def _lower_product(expr: sp.Expr, alg: Algebra):
     num, den = [], []
     for f in factors:
         base, e = f.as_base_exp()
-        if e.is_Integer and e < 0:
+        if e.is_Integer and e.p < 0:
             den.append(_power(base, -int(e), alg))
-        elif e.is_Rational and e.q == 2 and e < 0:
+        elif e.is_Rational and e.q == 2 and e.p < 0:
             den.append(_power(sp.sqrt(base), -int(2 * e), alg))
         else:
             num.append(_power(base, e, alg))
-    negative = coeff < 0
+    negative = coeff.p < 0  # as_coeff_mul's coefficient is rational
     if abs(coeff) != 1:
         num.insert(0, alg.number(float(abs(coeff))))
     acc = num[0] if num else None
