@@ -106,3 +106,21 @@ def test_shipped_models_keep_sympy_and_others_get_symengine():
     assert Programs(*derivations(arms.load("twolink"))).engine == "sympy"
     robot = random_arm(3, ArmOptions(general=1.0, symbolic=0.0), n=3)
     assert Programs(*derivations(robot)).engine == "symengine"
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_fast_renaming_builds_what_xreplace_builds(seed):
+    """`program._renamer` (sums and products re-sorted, not re-evaluated) gives sympy's own
+    canonical expression, term order and all: what emitters print and splices compare."""
+    from symdyn.derivation.program import _renamer
+
+    rng = random.Random(300 + seed)
+    exprs = [_random_expr(rng, depth=5) for _ in range(4)]
+    fresh = [sp.Symbol(name, real=True) for name in ("a9", "zz", "b_1", "x00", "q0")]
+    rng.shuffle(fresh)
+    mapping = dict(zip(SYMS, fresh))
+    renamed = _renamer(mapping)
+    for e in exprs:
+        want = e.xreplace(mapping)
+        got = renamed(e)
+        assert got == want and got.args == want.args and hash(got) == hash(want), (got, want)

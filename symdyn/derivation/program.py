@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Protocol, Sequence
 
 import sympy as sp
+from sympy.core.basic import _args_sortkey
 
 from . import engine
 
@@ -326,8 +327,9 @@ def make_program(
         | _RESERVED
     )
     rename = _names(order, nodes, set(def_syms), taken)
-    assignments = tuple((rename.get(s, s), nodes[s].xreplace(rename)) for s in order)
-    out_iter = iter(e.xreplace(rename) for e in out_exprs)
+    renamed = _renamer(rename)
+    assignments = tuple((rename.get(s, s), renamed(nodes[s])) for s in order)
+    out_iter = iter(renamed(e) for e in out_exprs)
     out = tuple((o, sp.ImmutableMatrix(m.rows, m.cols, [next(out_iter) for _ in range(len(m))])) for o, m in outputs)
     return Program(
         name=name,
@@ -338,6 +340,32 @@ def make_program(
         origin=origin,
         matrices=frozenset(matrices),
     )
+
+
+def _renamer(mapping: dict):
+    """expr ↦ expr.xreplace(mapping) for a one-to-one map of symbols to symbols no expression
+    holds yet, without sympy's re-evaluation of every rebuilt sum and product: such a
+    renaming leaves a canonical expression canonical but for the order of its terms and
+    factors, which are sorted again as sympy sorts them (the number first, then
+    `Basic.compare`); a quarter of a program's construction otherwise."""
+    cache = dict(mapping)
+
+    def renamed(e):
+        hit = cache.get(e)
+        if hit is None:
+            args = [renamed(a) for a in e.args]
+            if all(a is b for a, b in zip(args, e.args)):
+                hit = e
+            elif e.is_Add or e.is_Mul:
+                head = [a for a in args if a.is_Number]
+                rest = sorted((a for a in args if not a.is_Number), key=_args_sortkey)
+                hit = e.func._from_args(head + rest, is_commutative=True)
+            else:
+                hit = e.func(*args, evaluate=False)
+            cache[e] = hit
+        return hit
+
+    return renamed
 
 
 def _cse_cost(replacements, reduced) -> int:
