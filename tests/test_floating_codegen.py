@@ -5,7 +5,7 @@ batch) and CasADi functions tau, M, G, Cqd, F, fdyn and Minv equal the numeric r
 (itself Pinocchio's, tests/test_tree_reference.py) at 200 states to 1e-10; the derivatives
 equal Pinocchio's computeRNEADerivatives and computeABADerivatives (∂/∂q in the tangent
 space) at the same states, friction's viscous term added; q has nq entries, q̇, q̈, τ nv;
-there is no Christoffel C (and no Y), and asking for it says why.
+there is no Christoffel C, and asking for it says why; Y has the base body's ten columns first.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import symdyn
 import symdyn.reference as ref
 from symdyn.codegen.derivatives import tangent_map
 from symdyn.codegen.lazy import signatures
+from symdyn.derivation.regressor import parameter_values
 from symdyn.model.random_robots import random_tree_robot
 
 STATES = 200
@@ -74,8 +75,10 @@ def _check(model, robot, q, qd, a, want, label: str) -> None:
     _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label)
     with pytest.raises(AttributeError, match="no Christoffel matrix"):
         model.C
-    with pytest.raises(AttributeError, match="regressor"):
-        model.Y
+    pi = np.array([float(v) for v in parameter_values(robot)])
+    Y = model.Y(q, qd, a)
+    assert Y.shape[-2:] == (robot.nv, 10 + 14 * robot.n)
+    _close(Y @ pi, want["tau"], f"{label} Y pi (the base body's ten columns first)")
 
 
 def dq_at(model, q, qd, qdd):
@@ -139,14 +142,15 @@ def test_generate_writes_sizes(tmp_path):
     header = next(p for p in paths if p.suffix == ".h").read_text()
     name = robot.name.upper()
     assert f"#define {name}_NQ {robot.nq}" in header and f"#define {name}_NV {robot.nv}" in header
-    assert f"{robot.name}_C(" not in header and f"{robot.name}_Y(" not in header
+    assert f"{robot.name}_C(" not in header
+    assert f"function: Y(q: {robot.nq}, qd: {robot.nv}, qdd: {robot.nv}) -> Y: {robot.nv}x{10 + 14 * robot.n}" in header
     assert f"function: tau(q: {robot.nq}, qd: {robot.nv}, qdd: {robot.nv}) -> tau: {robot.nv}" in header
 
 
 def test_signatures_and_tangent_map():
     """Lazy C signatures take q of nq; the free base's map turns v into the quaternion's rate."""
     sigs = {s.name: s for s in signatures(3, 10, 9)}
-    assert "C" not in sigs and "Y" not in sigs
+    assert "C" not in sigs and dict(sigs["Y"].outputs)["Y"] == (9, 10 + 14 * 3)
     assert sigs["tau"].inputs == (("q", 10), ("qd", 9), ("qdd", 9))
     assert dict(sigs["tau_derivatives"].outputs)["dtau_dq"] == (9, 9)
     q = sp.symbols("x y z qx qy qz qw q1", real=True)

@@ -25,15 +25,13 @@ DERIVED = ("tau_derivatives", "fdyn_derivatives", "Minv")
 
 
 def missing(robot: Robot) -> dict[str, str]:
-    """{function: why robot's code has no such function}: a floating base's C and Y."""
+    """{function: why robot's code has no such function}: a floating base's C."""
     if robot.base_joint is None:
         return {}
     return {
         "C": f"{robot.name!r} has a {robot.base_joint} base, whose velocities are no coordinates' rates: "
         "there is no Christoffel matrix C(q, v); Cqd gives C·v, and symdyn.reference.coriolis a C with "
         "Ṁ − 2C skew-symmetric",
-        "Y": f"the regressor Y of {robot.name!r} is not generated: its {robot.base_joint} base's "
-        "columns are not derived yet",
     }
 
 
@@ -99,8 +97,9 @@ class Programs:
     from the chosen M, bias and τ; Y from `regressor` (a `Regressor`, or a callable
     returning one: it is only built when Y is asked for).  `origins`: a label per
     derivation for the generated files (default: their methods).  A floating base
-    (`Robot.base_joint`) has no Christoffel C and no Y (`names` leaves them out), and
-    its ∂τ/∂q is taken in the tangent space (`tau_derivatives_spec`).
+    (`Robot.base_joint`) has no Christoffel C (`names` leaves it out), its Y has the base
+    body's ten columns first, and its ∂τ/∂q is taken in the tangent space
+    (`tau_derivatives_spec`).
     """
 
     def __init__(self, dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None) -> None:
@@ -110,7 +109,7 @@ class Programs:
         self.tree = not self.dyns[0].robot.is_chain  # M's LDLᵀ leaves first (functions.elimination_order)
         self.base_joint = self.dyns[0].robot.base_joint
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
-        self.regressor = regressor if self.base_joint is None else None  # no floating-base Y yet
+        self.regressor = regressor
         terms = NAMES if self.base_joint is None else tuple(n for n in NAMES if n != "C")  # no Christoffel C
         self.names = (*terms, *(("Y",) if self.regressor is not None else ()), *DERIVED)
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}

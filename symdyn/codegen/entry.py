@@ -87,7 +87,7 @@ def bundle(robot: Robot) -> Bundle:
     from .choice import derivations, programs
 
     dyns, origins = derivations(robot)
-    reg = regressor(robot) if robot.base_joint is None else None  # a floating base: no Y yet (choice.missing)
+    reg = regressor(robot)
     try:
         progs = programs(dyns, reg, origins, f"symdyn: programs of {robot.name}")
     except ValueError as exc:
@@ -244,7 +244,7 @@ class GeneratedModel:
     """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
     fdyn, Y, tau_derivatives, fdyn_derivatives, Minv), with `name`, `n`, `nq`, `nv` (the sizes of q and of
     q̇, q̈, τ: n but on a floating base), `target`, `fingerprint`, `folder` and `functions` (name → callable).
-    A floating base has no C and no Y: asking for them says why (AttributeError)."""
+    A floating base has no C: asking for it says why (AttributeError)."""
 
     def __init__(
         self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict, library=None

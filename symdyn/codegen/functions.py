@@ -257,9 +257,10 @@ def fdyn_spec(M: FunctionSpec, bias: FunctionSpec, *, tree: bool = False) -> Fun
 
 
 def regressor_spec(reg, dyn: Dynamics) -> FunctionSpec:
-    """Y(q, q̇, q̈) (n × 14n) of a `symdyn.derivation.regressor.Regressor`, in its named columns."""
-    n, cols = dyn.n, reg.columns
-    Y = sp.ImmutableMatrix(n, len(cols), lambda i, k: cols[k][i])
+    """Y(q, q̇, q̈) (nv × 14n, a floating base's body columns first: nv × (10 + 14n)) of a
+    `symdyn.derivation.regressor.Regressor`, in its named columns."""
+    nv, cols = len(dyn.qd), reg.columns
+    Y = sp.ImmutableMatrix(nv, len(cols), lambda i, k: cols[k][i])
     return FunctionSpec(
         "Y",
         (("q", dyn.q), ("qd", dyn.qd), ("qdd", dyn.qdd), *_params(dyn)),

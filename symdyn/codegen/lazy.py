@@ -30,8 +30,10 @@ FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives", "
 
 def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_emit.Signature]:
     """The C signature of every function of a numeric model with n joints (docs/functions.md);
-    a floating base: q of size nq, v (q̇, q̈, τ) of size nv, and no C or Y (`choice.missing`)."""
+    a floating base: q of size nq, v (q̇, q̈, τ) of size nv, no C (`choice.missing`), and Y
+    with the base body's ten parameters before the links' 14 each."""
     nq, nv = nq or n, nv or n
+    floating = (nq, nv) != (n, n)
     v, m = (nv,), (nv, nv)
     q, qd, qdd, tau = ("q", nq), ("qd", nv), ("qdd", nv), ("tau", nv)
     table = {
@@ -42,13 +44,12 @@ def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_e
         "G": ((q,), (("G", v),)),
         "F": ((qd,), (("F", v),)),
         "fdyn": ((q, qd, tau), (("qdd", v),)),
-        "Y": ((q, qd, qdd), (("Y", (n, 14 * n)),)),
+        "Y": ((q, qd, qdd), (("Y", (nv, 14 * n + (10 if floating else 0))),)),
         "tau_derivatives": ((q, qd, qdd), (("tau", v), ("dtau_dq", m), ("dtau_dqd", m))),
         "fdyn_derivatives": ((q, qd, tau), (("qdd", v), ("dqdd_dq", m), ("dqdd_dqd", m), ("Minv", m))),
         "Minv": ((q,), (("Minv", m),)),
     }
-    floating = (nq, nv) != (n, n)
-    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS if not (floating and f in ("C", "Y"))]
+    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS if not (floating and f == "C")]
 
 
 class _Sources:
@@ -69,8 +70,7 @@ class _Sources:
             from .choice import Programs, derivations
 
             dyns, origins = derivations(self.robot)
-            reg = (lambda: regressor(self.robot)) if self.robot.base_joint is None else None
-            self._programs = Programs(dyns, reg, origins)
+            self._programs = Programs(dyns, lambda: regressor(self.robot), origins)
         return self._programs
 
     def _current(self, path: Path) -> str | None:
