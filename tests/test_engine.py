@@ -124,3 +124,26 @@ def test_fast_renaming_builds_what_xreplace_builds(seed):
         want = e.xreplace(mapping)
         got = renamed(e)
         assert got == want and got.args == want.args and hash(got) == hash(want), (got, want)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_sums_and_products_come_back_as_sympy_would_build_them(seed, monkeypatch):
+    """`engine._canonical` sorts SymEngine's collected terms instead of re-evaluating them: the
+    result is sympy's own expression, argument order and all (or sympy builds it)."""
+    built = []
+    fast = engine._canonical
+
+    def both(kind, args):
+        built.append((fast(kind, args), kind(*args)))
+        return built[-1][1]
+
+    monkeypatch.setattr(engine, "_canonical", both)
+    rng = random.Random(500 + seed)
+    exprs = [_random_expr(rng, depth=5) for _ in range(5)]
+    exprs += [2 * (exprs[0] + exprs[1]), -(exprs[2] - 1) * exprs[3]]
+    with engine.use("symengine"):
+        engine.cse(exprs, sp.numbered_symbols("_t", real=True))
+        engine.partials(exprs[0] * exprs[1], SYMS)
+    assert built
+    for got, want in built:
+        assert got == want and got.args == want.args, (got, want)

@@ -19,6 +19,7 @@ from typing import Iterator, Sequence
 
 import symengine as se
 import sympy as sp
+from sympy.core.basic import _args_sortkey
 
 __all__ = ["use", "current", "cse", "partials"]
 
@@ -127,9 +128,9 @@ class _Bridge:
             elif isinstance(e, se.RealDouble):
                 out = sp.Float(float(e))
             elif isinstance(e, se.Add):
-                out = sp.Add(*(walk(a) for a in e.args))
+                out = _canonical(sp.Add, [walk(a) for a in e.args])
             elif isinstance(e, se.Mul):
-                out = sp.Mul(*(walk(a) for a in e.args))
+                out = _canonical(sp.Mul, [walk(a) for a in e.args])
             elif isinstance(e, se.Pow):
                 out = sp.Pow(walk(e.args[0]), walk(e.args[1]))
             elif type(e) in _BACK:
@@ -151,6 +152,23 @@ class _Bridge:
 #: small expanded forms better (the 3-joint RRP's Lagrange τ: 111 operations, SymEngine's 118),
 #: where a large recursion's program is as lean by SymEngine (±1 %) at a tenth of the time.
 BOTH_BELOW = 500
+
+
+def _canonical(kind, args: list):
+    """sympy's Add or Mul of SymEngine's terms or factors, already collected (one number at
+    most, no two alike): sorted as sympy sorts them, the number first, without re-evaluating
+    them; sympy evaluates what it would rewrite (a nested sum or product, 2·(a + b) → 2a + 2b)."""
+    numbers = [a for a in args if a.is_Number]
+    rest = [a for a in args if not a.is_Number]
+    if (
+        len(numbers) > 1
+        or any(a.func is kind for a in rest)
+        or (kind is sp.Mul and numbers and len(rest) == 1 and rest[0].is_Add)
+        or len(rest) < (2 - len(numbers))
+    ):
+        return kind(*args)
+    rest.sort(key=_args_sortkey)
+    return kind._from_args(numbers + rest, is_commutative=True)
 
 
 def cse(exprs: Sequence, temps: Iterator[sp.Symbol], cost=None) -> tuple[list, list]:
