@@ -1,6 +1,6 @@
 """Whole robots from example-robot-data against Pinocchio (issue 35): the slow check.
 
-Run: .venv/bin/python scripts/whole_robots.py [--robots NAME ...] [--states N] [--markdown PATH]
+Run: .venv/bin/python scripts/whole_robots.py [--robots NAME ...] [--states N] [--code] [--markdown PATH]
 
 Each robot is read by `Robot.from_urdf` with several chains or every joint
 moving (`tips=`), on a fixed, planar or free base (`base_joint=`), and
@@ -9,8 +9,10 @@ same file (its FreeFlyer / Planar root joint for a floating base; joints
 symdyn locks — the grippers, whose fingers mimic a leader — locked by
 `buildReducedModel` at the same values): the reference's τ, M, G, C·v and
 forward dynamics at random states, each a relative error that must be
-≤ 1e-10 (else FAIL, exit status 1).  Needs the `robots` extra
-(example-robot-data) and Pinocchio (`pin`).
+≤ 1e-10 (else FAIL, exit status 1).  `--code` also generates and compiles each robot's C (up to CODE_MAX_JOINTS joints)
+(`symdyn.load(robot, "c")` and `build()`, in the cache `SYMDYN_CACHE_DIR` names) and compares
+its τ, M, G, C·v, q̈, M⁻¹ and ∂τ/∂(q, v) (tangent space: computeRNEADerivatives) with
+Pinocchio at the same states.  Needs the `robots` extra (example-robot-data) and Pinocchio (`pin`).
 """
 
 from __future__ import annotations
@@ -26,6 +28,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 from urdf_trees import robots_folder  # noqa: E402
 
 TOL = 1e-10
+#: `--code` generates the robots up to this many joints (TIAGo++'s 101 joints would take hours:
+#: fdyn_derivatives grows like n³).
+CODE_MAX_JOINTS = 50
 
 
 @dataclass(frozen=True)
@@ -90,6 +95,7 @@ def main(argv=None) -> int:
     parser.add_argument("--robots", nargs="*", help="names of the cases to run (default all)")
     parser.add_argument("--states", type=int, default=200)
     parser.add_argument("--markdown", type=Path)
+    parser.add_argument("--code", action="store_true", help="also the generated C, against Pinocchio")
     parser.add_argument("--data", help="example-robot-data's robots/ folder (default: the installed wheel's)")
     args = parser.parse_args(argv)
     from symdyn.bench.reduced import compare_whole
@@ -97,7 +103,9 @@ def main(argv=None) -> int:
 
     folder = robots_folder(args.data)
     rows, failed = [], False
-    header = "| robot | joints | nq / nv | base | read | worst error (τ, M, G, C·v, q̈) | what |\n|---|---|---|---|---|---|---|"
+    header = "| robot | joints | nq / nv | base | read | worst error (τ, M, G, C·v, q̈) |"
+    header += " C: build | C: worst error (τ, M, G, C·v, q̈, M⁻¹, ∂τ) | what |" if args.code else " what |"
+    header += "\n" + "|---" * (header.count("|") - 1) + "|"
     for case in CASES:
         if args.robots and case.name not in args.robots:
             continue
@@ -107,13 +115,26 @@ def main(argv=None) -> int:
             warnings.simplefilter("always")
             robot = Robot.from_urdf(folder / case.file, **case.options)
         read = time.perf_counter() - start
-        errors = compare_whole(robot, folder / case.file, count=args.states)
-        worst = max(errors.values())
+        model, built = None, " – |" if args.code else ""
+        if args.code and robot.n <= CODE_MAX_JOINTS:
+            import symdyn
+
+            start = time.perf_counter()
+            model = symdyn.load(robot, "c")
+            model.build(batch=False)
+            built = f" {time.perf_counter() - start:.0f} s |"
+        errors = compare_whole(robot, folder / case.file, count=args.states, functions=model)
+        worst = max(e for k, e in errors.items() if not k.startswith("generated"))
+        cells = [f"{worst:.1e}{'' if worst <= TOL else ' **FAIL**'}"]
+        if model is not None:
+            code = max(e for k, e in errors.items() if k.startswith("generated"))
+            cells.append(f"{code:.1e}{'' if code <= TOL else ' **FAIL**'}")
+            worst = max(worst, code)
         failed |= not worst <= TOL
-        verdict = "" if worst <= TOL else " **FAIL**"
         rows.append(
             f"| {case.name} | {robot.n} | {robot.nq} / {robot.nv} | {robot.base_joint or 'fixed'} | {read:.2f} s "
-            f"| {worst:.1e}{verdict} | {case.what}{f'; {len(caught)} warnings' if caught else ''} |"
+            f"| {cells[0]} |{built}{f' {cells[1]} |' if model is not None else ' – |' if args.code else ''} {case.what}"
+            f"{f'; {len(caught)} warnings' if caught else ''} |"
         )
         print(rows[-1], file=sys.stderr, flush=True)
     table = "\n".join([header, *rows])

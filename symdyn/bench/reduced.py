@@ -151,11 +151,13 @@ def pin_configuration(model, q: np.ndarray) -> np.ndarray:
     return np.stack(columns, axis=1)
 
 
-def compare_whole(robot: Robot, path, *, count: int = 200, seed: int = 0) -> dict:
+def compare_whole(robot: Robot, path, *, count: int = 200, seed: int = 0, functions=None) -> dict:
     """Relative errors of symdyn's reference against Pinocchio's reduced model of a tree, on a
     fixed or floating base, at `count` states: τ, M, G, C·v and forward dynamics (no
     Christoffel symbols: a floating base has none, and n² Coriolis matrices of a 100-joint
-    robot take minutes)."""
+    robot take minutes); with `functions` (the robot's loaded generated model) its τ, M, G,
+    C·v, q̈, M⁻¹ and ∂τ/∂(q, v) in the tangent space too, its own friction F(v) taken off
+    (Pinocchio has none)."""
 
     model = reduced_model(path, robot)
     bare = robot.nofriction(all=True)
@@ -171,12 +173,44 @@ def compare_whole(robot: Robot, path, *, count: int = 200, seed: int = 0) -> dic
     peer = pinocchio_at(model, pin_configuration(model, q), v, a, tau, christoffel=False)
     scale = max(np.abs(peer["M"]).max(), np.abs(peer["tau"]).max(), 1e-6)
     zero = np.zeros_like(v)
-    return {
+    errors = {
         "tau": relative_error(ref.rne(bare, q, v, a), peer["tau"], scale),
         "M": relative_error(ref.inertia(bare, q), peer["M"], scale),
         "G": relative_error(ref.gravload(bare, q), peer["G"], scale),
         "C v": relative_error(ref.rne(bare, q, v, zero, gravity=(0, 0, 0)), peer["Cqd"], scale),
         "fdyn": relative_error(ref.accel(bare, q, v, tau), peer["ddq"]),
+    }
+    if functions is not None:
+        errors.update(_generated_whole(functions, robot, model, q, v, a, tau, peer, scale))
+    return errors
+
+
+def _generated_whole(functions, robot: Robot, model, q, v, a, tau, peer: dict, scale: float) -> dict:
+    """The generated model's errors against Pinocchio (`compare_whole`): its friction F(v),
+    checked against the reference's, is taken off τ and added to the τ fdyn is given."""
+    import pinocchio as pin
+
+    F = functions.F(v)
+    B = np.zeros(robot.nv)  # ∂F/∂v: G²·B on the joints (Coulomb's derivative taken as 0)
+    B[robot.nv - robot.n :] = [float(link.G) ** 2 * float(link.B) for link in robot.links]
+    data, x = model.createData(), pin_configuration(model, q)
+    dq, dv = [], []
+    for xi, vi, ai in zip(x, v, a):
+        pin.computeRNEADerivatives(model, data, xi, vi, ai)
+        dq.append(data.dtau_dq.copy())
+        dv.append(data.dtau_dv.copy())
+    _, gq, gv = functions.tau_derivatives(q, v, a)
+    minv = np.linalg.inv(peer["M"])
+    return {
+        "generated F": relative_error(F, ref.friction(robot, v), scale),
+        "generated tau": relative_error(functions.tau(q, v, a) - F, peer["tau"], scale),
+        "generated M": relative_error(functions.M(q), peer["M"], scale),
+        "generated G": relative_error(functions.G(q), peer["G"], scale),
+        "generated C v": relative_error(functions.Cqd(q, v), peer["Cqd"], scale),
+        "generated fdyn": relative_error(functions.fdyn(q, v, tau + F), peer["ddq"]),
+        "generated Minv": relative_error(functions.Minv(q), minv, max(1.0, np.abs(minv).max())),
+        "generated dtau/dq": relative_error(gq, np.array(dq), scale),
+        "generated dtau/dv": relative_error(gv - np.diag(B), np.array(dv), scale),
     }
 
 
