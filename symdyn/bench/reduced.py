@@ -187,10 +187,14 @@ def compare_whole(robot: Robot, path, *, count: int = 200, seed: int = 0, functi
 
 def _generated_whole(functions, robot: Robot, model, q, v, a, tau, peer: dict, scale: float) -> dict:
     """The generated model's errors against Pinocchio (`compare_whole`): its friction F(v),
-    checked against the reference's, is taken off τ and added to the τ fdyn is given."""
+    checked against the reference's, is taken off τ and added to the τ fdyn is given.  State
+    by state: the scalar code, no SIMD kernel to compile."""
     import pinocchio as pin
 
-    F = functions.F(v)
+    def each(function, *args):
+        return np.array([functions.functions[function](*state) for state in zip(*args)])
+
+    F = each("F", v)
     B = np.zeros(robot.nv)  # ∂F/∂v: G²·B on the joints (Coulomb's derivative taken as 0)
     B[robot.nv - robot.n :] = [float(link.G) ** 2 * float(link.B) for link in robot.links]
     data, x = model.createData(), pin_configuration(model, q)
@@ -199,16 +203,17 @@ def _generated_whole(functions, robot: Robot, model, q, v, a, tau, peer: dict, s
         pin.computeRNEADerivatives(model, data, xi, vi, ai)
         dq.append(data.dtau_dq.copy())
         dv.append(data.dtau_dv.copy())
-    _, gq, gv = functions.tau_derivatives(q, v, a)
+    derivatives = [functions.functions["tau_derivatives"](*state) for state in zip(q, v, a)]
+    gq, gv = (np.array([d[k] for d in derivatives]) for k in (1, 2))
     minv = np.linalg.inv(peer["M"])
     return {
         "generated F": relative_error(F, ref.friction(robot, v), scale),
-        "generated tau": relative_error(functions.tau(q, v, a) - F, peer["tau"], scale),
-        "generated M": relative_error(functions.M(q), peer["M"], scale),
-        "generated G": relative_error(functions.G(q), peer["G"], scale),
-        "generated C v": relative_error(functions.Cqd(q, v), peer["Cqd"], scale),
-        "generated fdyn": relative_error(functions.fdyn(q, v, tau + F), peer["ddq"]),
-        "generated Minv": relative_error(functions.Minv(q), minv, max(1.0, np.abs(minv).max())),
+        "generated tau": relative_error(each("tau", q, v, a) - F, peer["tau"], scale),
+        "generated M": relative_error(each("M", q), peer["M"], scale),
+        "generated G": relative_error(each("G", q), peer["G"], scale),
+        "generated C v": relative_error(each("Cqd", q, v), peer["Cqd"], scale),
+        "generated fdyn": relative_error(each("fdyn", q, v, tau + F), peer["ddq"]),
+        "generated Minv": relative_error(each("Minv", q), minv, max(1.0, np.abs(minv).max())),
         "generated dtau/dq": relative_error(gq, np.array(dq), scale),
         "generated dtau/dv": relative_error(gv - np.diag(B), np.array(dv), scale),
     }
