@@ -65,13 +65,29 @@ class _Sources:
 
     def programs(self):
         """The model's `choice.Programs`, its derivations made (or read from their cache) once."""
-        if self._programs is None:
-            from ..derivation.regressor import regressor
-            from .choice import Programs, derivations
+        with self._lock:
+            if self._programs is None:
+                from ..derivation.regressor import regressor
+                from .choice import Programs, derivations
 
-            dyns, origins = derivations(self.robot)
-            self._programs = Programs(dyns, lambda: regressor(self.robot), origins)
-        return self._programs
+                dyns, origins = derivations(self.robot)
+                self._programs = Programs(dyns, lambda: regressor(self.robot), origins)
+            return self._programs
+
+    def prefetch(self) -> None:
+        """Start the derivations on a thread of their own when τ's C file is not in the cache:
+        they run while the binding compiles (a cold machine's first model: 0.3 s) instead of
+        after it.  A failure is left for the first call to meet and report."""
+        if self._current(self.folder / f"{self.name}.tau.c") is not None:
+            return  # a second process: the files are there, nothing to derive
+
+        def derive() -> None:
+            try:
+                self.programs()
+            except Exception:  # noqa: BLE001 - the first call derives again and raises it
+                pass
+
+        threading.Thread(target=derive, name=f"symdyn-derive-{self.name}", daemon=True).start()
 
     def _current(self, path: Path) -> str | None:
         try:
@@ -144,4 +160,5 @@ def load(robot: Robot, name: str, folder: Path, options: clib.CompileOptions) ->
     """The C functions of a numeric `robot`, each generated and compiled into `folder` and the
     cache when first called (see the module docstring)."""
     sources = _Sources(robot, name, folder)
+    sources.prefetch()
     return clib.load_units(name, list(sources.sigs.values()), _Units(sources), options)
