@@ -16,6 +16,19 @@ grow with the arm:
    (a polynomial identity test: a false one passes with probability below
    10⁻⁶ per point, and several points are used).
 
+Doubles cannot see what lies within their rounding of a dependency: exactly
+perpendicular axes in a file come out of the axis-along-z frames'
+rational rotations (`Robot.to_modified`, rounded once where several generic
+turns compose) off by 10⁻¹⁶, which leaves a rotor column that far from its
+link's ZZ (independent, exactly), a coefficient of 10⁻¹⁶ that least squares
+drops (involved, exactly), or a column as small as their rounding, beside
+which an exactly dependent one looks independent.  Where the exact checks
+refuse step 2, it is redone modulo the prime (`_rank_exactly`): the reduced
+row echelon form of the columns sampled there gives which are independent and
+which earlier ones each other involves, with no tolerance; the rational solves
+and step 3 follow as before.  Both give the same result where the checks pass
+(the independent set and β are unique).
+
 The result is the same as Gautier's exact method (the independent set and β
 are unique once the column order is fixed), at a cost that grows like n³ in
 doubles instead of minutes of rational elimination for generically turned
@@ -43,10 +56,9 @@ __all__ = ["analyse", "Analysis"]
 _INERTIAL = 11
 
 #: A column whose part outside the span of the earlier ones is below this fraction of its size is taken as
-#: dependent; the exact checks decide, and a refused analysis is redone at the next, tighter tolerance
-#: (nearly parallel axes, off a quarter turn by 4e-6 rad in a real file, leave a rotor column 1e-11 from its
-#: link's ZZ).
-TOLERANCES = (1e-8, 1e-10, 1e-12, 1e-13)
+#: dependent by the rank in doubles (one try: where the exact checks refuse it, the rank is decided modulo
+#: the prime, which needs no tolerance; tighter ones only told apart what lay above a double's rounding).
+TOLERANCES = (1e-8,)
 
 
 class Analysis:
@@ -80,21 +92,56 @@ def _flat(columns: np.ndarray) -> np.ndarray:
     return columns.reshape(columns.shape[0], -1).T
 
 
-def _rank_mod_p(A: np.ndarray) -> int:
-    """Rank of an integer matrix modulo PRIME (Gaussian elimination, rows vectorised)."""
+def _reduce_mod_p(A: np.ndarray, above: bool = False) -> tuple[list[int], np.ndarray]:
+    """(pivot columns, the reduced matrix) of an integer matrix modulo PRIME, by Gaussian elimination
+    (rows vectorised).  The pivot columns are those that are no combination of the columns before
+    them; `above`: reduced row echelon form (Gauss–Jordan), where a column that is no pivot holds, in
+    row r, its coefficient on the r-th pivot column."""
     A = A.copy() % PRIME
-    rank, rows, cols = 0, *A.shape
+    pivots, rows, cols = [], *A.shape
     for c in range(cols):
+        rank = len(pivots)
         pivot = next((r for r in range(rank, rows) if A[r, c]), None)
         if pivot is None:
             continue
         A[[rank, pivot]] = A[[pivot, rank]]
-        inv = pow(int(A[rank, c]), -1, PRIME)
-        A[rank] = A[rank] * inv % PRIME
-        below = A[rank + 1 :, c].copy()
-        A[rank + 1 :] = (A[rank + 1 :] - below[:, None] * A[rank] % PRIME) % PRIME
-        rank += 1
-    return rank
+        A[rank, c:] = A[rank, c:] * pow(int(A[rank, c]), -1, PRIME) % PRIME
+        factor = A[:, c].copy()
+        factor[: 0 if above else rank] = 0  # echelon form: the rows above keep their entries
+        factor[rank] = 0
+        A[:, c:] = (A[:, c:] - factor[:, None] * A[rank, c:] % PRIME) % PRIME
+        pivots.append(c)
+    return pivots, A
+
+
+def _rank_mod_p(A: np.ndarray) -> int:
+    """Rank of an integer matrix modulo PRIME."""
+    return len(_reduce_mod_p(A)[0])
+
+
+def _rank_exactly(robot: Robot, candidates: list, position: dict, seed: int) -> tuple[list, dict]:
+    """(independent, support): the candidates that are no combination of the earlier ones, and for each
+    other one the earlier independent slots it involves, decided exactly: the reduced row echelon form
+    of the regressor sampled modulo PRIME.
+
+    A set independent there is independent over ℚ (a rational dependency, cleared of denominators,
+    holds modulo p too), and a dependent column's coefficients there are its rational ones modulo p;
+    a column or a coefficient is taken for 0 wrongly only where the random points hit a root of a
+    minor or p divides a numerator (probability of the order of 10⁻⁹; the exact checks would refuse
+    it).  No tolerance: what doubles cannot tell apart (a rotor column 10⁻¹⁶ from its link's ZZ, a
+    coefficient of 10⁻¹⁶, where exactly perpendicular axes in a file come out of `Robot.to_modified`'s
+    rounded rational rotations a last digit off) is told apart here."""
+    count = max(4, -(-3 * len(candidates) // robot.nv))
+    Y = _flat(regressor_columns(robot, Modular(), count, seed + 104729))
+    pivots, R = _reduce_mod_p(Y[:, [position[k] for k in candidates]], above=True)
+    independent = [candidates[c] for c in pivots]
+    kept = set(pivots)
+    support = {
+        k: [independent[r] for r in np.flatnonzero(R[: len(pivots), c])]
+        for c, k in enumerate(candidates)
+        if c not in kept
+    }
+    return independent, support
 
 
 def _exact_coefficients(robot: Robot, support: list[int], dependent: int, per: int, seed: int) -> dict:
@@ -116,8 +163,8 @@ def analyse(robot: Robot, per: int, seed: int = 1) -> Analysis:
     """Independent inertial slots of `robot` (numeric geometry) and the exact regrouping.
 
     Raises:
-        RuntimeError: the exact checks refuse the numeric analysis at every tolerance
-            (`TOLERANCES`: a rank no double can decide); the message gives each refusal.
+        RuntimeError: the exact checks refuse both the analysis in doubles and the one modulo p
+            (which only unlucky random points can make fail); the message gives each refusal.
     """
     fs = frames(robot)
     body = _body(robot)
@@ -127,21 +174,23 @@ def analyse(robot: Robot, per: int, seed: int = 1) -> Analysis:
     count = max(4, -(-3 * len(candidates) // robot.nv))
     Y = _flat(regressor_columns(robot, Floats(), count, seed))
     refused = []
-    for tolerance in TOLERANCES:
+    for tolerance in (*TOLERANCES, None):  # None: the rank decided modulo p
         try:
-            independent, beta = _regroup(robot, Y, candidates, combos, position, per, seed, tolerance)
+            exact = None if tolerance is not None else _rank_exactly(robot, candidates, position, seed)
+            independent, beta = _regroup(robot, Y, candidates, combos, position, per, seed, tolerance, exact)
             _check(robot, independent, beta, per, seed, position)
         except (RuntimeError, ArithmeticError, ValueError) as exc:  # a rank misjudged in doubles
-            refused.append(f"at {tolerance:g}: {exc}")
+            refused.append(f"{'modulo p' if tolerance is None else f'at {tolerance:g}'}: {exc}")
             continue
         return Analysis(independent, beta)
     raise RuntimeError("; ".join(refused))
 
 
-def _regroup(robot, Y, candidates, combos, position, per, seed, tolerance) -> tuple[list, dict]:
-    """(independent slots, β of each as a combination of standard slots) from the sampled columns Y,
-    a column taken as dependent when its part outside the earlier ones' span is below `tolerance`."""
-    basis, independent, dependent = np.zeros((Y.shape[0], 0)), [], {}
+def _rank_in_doubles(Y, candidates, position, tolerance) -> tuple[list, dict]:
+    """(independent, support) from the sampled columns Y: a column is dependent when its part outside
+    the earlier ones' span is below `tolerance` of its size, and involves the earlier independent
+    columns whose least-squares coefficients weigh above `tolerance`."""
+    basis, independent, dependent = np.zeros((Y.shape[0], 0)), [], []
     for k in candidates:
         y = Y[:, position[k]]
         size = np.linalg.norm(y)
@@ -151,18 +200,28 @@ def _regroup(robot, Y, candidates, combos, position, per, seed, tolerance) -> tu
             basis = np.column_stack([basis, residual / np.linalg.norm(residual)])
             independent.append(k)
         else:
-            dependent[k] = None
+            dependent.append(k)
+    support = {}
     for k in dependent:
         y = Y[:, position[k]]
         earlier = [i for i in independent if i < k]
         if np.linalg.norm(y) == 0 or not earlier:
-            dependent[k] = {}
+            support[k] = []
             continue
         A = Y[:, [position[i] for i in earlier]]
         c, *_ = np.linalg.lstsq(A, y, rcond=None)
         scale = np.linalg.norm(A, axis=0)
-        support = [i for i, ci, s in zip(earlier, c, scale) if abs(ci) * s > tolerance * np.linalg.norm(y)]
-        dependent[k] = _exact_coefficients(robot, support, k, per, seed) if support else {}
+        support[k] = [i for i, ci, s in zip(earlier, c, scale) if abs(ci) * s > tolerance * np.linalg.norm(y)]
+    return independent, support
+
+
+def _regroup(robot, Y, candidates, combos, position, per, seed, tolerance, exact=None) -> tuple[list, dict]:
+    """(independent slots, β of each as a combination of standard slots): which columns are independent
+    and which earlier ones each other involves from `exact` ((independent, support) of `_rank_exactly`)
+    or else from the columns Y sampled in doubles at `tolerance` (`_rank_in_doubles`); the coefficients
+    exactly, by a small rational solve on each support."""
+    independent, support = exact if exact is not None else _rank_in_doubles(Y, candidates, position, tolerance)
+    dependent = {k: _exact_coefficients(robot, s, k, per, seed) if s else {} for k, s in support.items()}
 
     # regroup: β_i = combo_i + Σ_d c_{i,d}·combo_d
     beta = {i: dict(combos[i]) for i in independent}
