@@ -1,7 +1,7 @@
 """Whole robots on a free-flying base, C level (issue 35): symdyn's generated C against Pinocchio's C++.
 
 Run: .venv/bin/python scripts/bench_whole.py [--robots solo12 talos] [--calls N] [--reps R] [--rounds K]
-     [--markdown PATH]
+     [--batched] [--sizes 1000 100000] [--markdown PATH]
 
 For each robot (example-robot-data's Solo 12 and Talos, every joint moving, `base_joint="free"`):
 the frictionless generated C (`symdyn.bench.compare.frictionless_sources`) compiled into symdyn's
@@ -14,6 +14,11 @@ call, median of REPS repetitions) and the same flags (-O3 -march=native), in alt
 and WORLD), fdyn / aba.  Before any time is believed, both sides' outputs at state 3 are checked
 against symdyn's reference and against each other to 1e-10 (relative to the largest entry, or 1).
 Prints a Markdown table and the machine; needs the `robots` and `bench` extras.
+
+`--batched`: also ns per state of batched calls from Python, as `symdyn bench --batched` times
+the chains (`symdyn.bench.batched`): the scalar loop, the SIMD kernels on 1 and every thread,
+Pinocchio's `rneaInParallel` / `abaInParallel` on 1 and every thread (τ, q̈), every output
+checked against the reference first, beside the machine's measured ceilings.
 """
 
 from __future__ import annotations
@@ -156,6 +161,8 @@ def main(argv=None) -> int:
     parser.add_argument("--rounds", type=int, default=4, help="alternating rounds, median taken (default 4)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--markdown", type=Path, help="also write the report here")
+    parser.add_argument("--batched", action="store_true", help="also batched calls, ns per state")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 100_000], help="batch sizes (--batched)")
     args = parser.parse_args(argv)
 
     def log(msg):
@@ -183,6 +190,14 @@ def main(argv=None) -> int:
         f"flags -O3 -march=native on both sides; {args.calls} calls × {args.reps} repetitions × "
         f"{args.rounds} rounds, {bench.POOL} random states (seed {args.seed}); {time.monotonic() - start:.0f} s.",
     ]
+    if args.batched:
+        from symdyn.bench import batched
+
+        ceil = batched.ceilings(len(os.sched_getaffinity(0)))
+        results = [
+            batched.run(load(name), sizes=args.sizes, functions=("tau", "M", "fdyn"), log=log) for name in args.robots
+        ]
+        lines += ["", batched.markdown_report(results, ceil)]
     report = "\n".join(lines)
     print(report)
     if args.markdown:

@@ -2,7 +2,8 @@
 
 For each arm (`--model`), function (τ, M, fdyn, `tau_derivatives`) and batch
 size N (`--sizes`, default 10, 10³, 10⁵, 10⁶), from Python with preallocated
-outputs and C-contiguous float64 (N, n) inputs (q, q̇, q̈ uniform in [−3, 3]):
+outputs and C-contiguous float64 (N, n) inputs (q, q̇, q̈ uniform in [−3, 3]; a floating
+base's q of nq, its pose a random twist from the neutral one, v and v̇ of nv):
 
   loop          `<model>_<f>_batch`: the scalar function state after state (through
                 ctypes, one thread) — every batched call before the SIMD kernels
@@ -126,7 +127,8 @@ def ceilings(threads: int, *, copy_bytes: float = 2e8, iters: int = 2_000_000, r
 def function_costs(c_path: Path, signatures) -> dict[str, tuple[int, int]]:
     """{function: (operations, bytes per state)}: mul + add + div + FUN_OPS per sin/cos/sign call,
     from the generated .c file's header, and 8 bytes per input and output element."""
-    head = Path(c_path).read_text()[:6000]
+    text = Path(c_path).read_text()
+    head = text[: text.find("*/") + 1 or 6000]  # the header comment: a whole robot's runs long
     costs = {}
     for m in re.finditer(r"^\s*\*\s+(\w+)\s+([^(\n]*)\((\d+) total\)", head, re.M):
         parts = {k: int(v) for v, k in re.findall(r"(\d+) (mul|add|div|fun)", m[2])}
@@ -155,6 +157,19 @@ def _best(call, states: int, rounds: int = 5, budget: float = 0.1) -> float:
             call()
         best = min(best, (time.perf_counter() - t0) / reps)
     return best / max(states, 1) * 1e9
+
+
+def _inputs(robot, argument: str, size: int, rng) -> np.ndarray:
+    """`size` random values of one argument, uniform in [−3, 3]: q of nq entries (a floating
+    base's pose moved from the neutral one along a random twist: a unit quaternion), the
+    others of nv."""
+    if argument != "q" or robot.base_joint is None:
+        return rng.uniform(-3, 3, (size, robot.nv if argument != "q" else robot.nq))
+    q = robot.neutral() + np.zeros((size, 1))
+    q[:, robot.nq - robot.n :] = rng.uniform(-3, 3, (size, robot.n))
+    twist = np.zeros((size, robot.nv))
+    twist[:, : robot.nv - robot.n] = rng.uniform(-3, 3, (size, robot.nv - robot.n))
+    return np.ascontiguousarray(robot.integrate(q, twist))
 
 
 def _agree(label: str, got, want, rtol: float = 1e-9) -> None:
@@ -255,7 +270,7 @@ def run(
             if out_bytes > max_bytes:
                 result.notes.append(f"{fname} at N = {size}: outputs {out_bytes / 1e9:.1f} GB > --max-bytes, skipped")
                 continue
-            x = {a: rng.uniform(-3, 3, (size, robot.n)) for a in INPUTS[fname]}
+            x = {a: _inputs(robot, a, size, rng) for a in INPUTS[fname]}
             xs = [x[a] for a, _ in sig.inputs]
             outs = tuple(np.zeros((size,) + tuple(s)) for _, s in sig.outputs)
             out = outs[0] if len(outs) == 1 else outs
@@ -290,7 +305,7 @@ def _peer_times(fname: str, size: int, x: dict, pool, casadi, bot, bare, threads
         pin, pmodel, models = pool
         second = "qdd" if fname == "tau" else "tau"
         Q, V, A = (x[a].T for a in ("q", "qd", second))  # (n, N) Fortran views, no copies
-        R = np.zeros_like(Q, order="F")
+        R = np.zeros_like(V, order="F")  # of nv rows: a floating base's q has more
         call = pin.rneaInParallel if fname == "tau" else pin.abaInParallel
         want = (
             ref.rne(bare, x["q"][k], x["qd"][k], x["qdd"][k])
