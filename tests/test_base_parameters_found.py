@@ -16,17 +16,16 @@ import warnings
 
 import numpy as np
 import pytest
-import sympy as sp
 
 from symdyn.derivation import base_parameters as bp
 from symdyn.derivation.base_parameters.rules import transfer
 from symdyn.derivation.base_parameters.sampled import Floats, frames, regressor_columns
-from symdyn.derivation.regressor import base_parameters, parameter_values
+from symdyn.derivation.regressor import base_parameters
 from symdyn.model import Link, Robot
 from symdyn.model.placement import placement
 from symdyn.model.random_arms import ArmOptions, random_arm
 
-from test_regressor import _exact_inertial_Y
+from test_regressor import assert_exact_base_parameters
 
 #: Every tolerance the rank in doubles was ever tried at.
 _DOUBLE_TOLERANCES = (1e-8, 1e-10, 1e-12, 1e-13)
@@ -50,18 +49,6 @@ def _doubles_refused(robot: Robot) -> bool:
     return True
 
 
-def _assert_exact(robot: Robot, base, points: int, seed: int) -> None:
-    """As many independent columns as the symbolic regressor's rank at rational points, and
-    Y·β_regrouped = Y·π exactly."""
-    inertial, Y = _exact_inertial_Y(robot, points, seed=seed)
-    kept = [c for c, k in enumerate(inertial) if k in base.independent]
-    assert Y.rank() == len(kept) == Y.extract(list(range(Y.shape[0])), kept).rank()
-    values = parameter_values(robot)
-    pi = sp.Matrix([values[k] for k in inertial]).to_DM().convert_to(Y.domain)
-    beta = sp.Matrix([base.regrouped[k] for k in inertial]).to_DM().convert_to(Y.domain)
-    assert (Y * pi).to_Matrix() == (Y * beta).to_Matrix()
-
-
 def _names(base) -> set:
     return {str(base.params[k]) for k in base.independent}
 
@@ -75,7 +62,7 @@ def test_the_found_arm_has_exact_base_parameters():
     assert _doubles_refused(robot)
     base = base_parameters(robot)
     assert {"IA3", "ZZ3"} <= _names(base)
-    _assert_exact(robot, base, 12, seed=101)
+    assert_exact_base_parameters(robot, base, 12, seed=101)
 
 
 @pytest.mark.parametrize(("seed", "general"), [(60, 0.5), (52, 1.0)])
@@ -87,7 +74,7 @@ def test_other_found_arms_have_exact_base_parameters(seed, general):
         warnings.simplefilter("ignore")
         robot = random_arm(seed, ArmOptions(general=general, symbolic=0.5), n=4)
     assert _doubles_refused(robot)
-    _assert_exact(robot, base_parameters(robot), 12, seed=100 + seed)
+    assert_exact_base_parameters(robot, base_parameters(robot), 12, seed=100 + seed)
 
 
 def _perpendicular_behind_a_slide(seed: int) -> Robot:
@@ -130,4 +117,4 @@ def test_perpendicular_axes_behind_a_generic_slide_have_exact_base_parameters(se
     assert _doubles_refused(robot)
     base = base_parameters(robot)
     assert {"IA3", "ZZ3"} <= _names(base)
-    _assert_exact(robot, base, 16, seed=200 + seed)
+    assert_exact_base_parameters(robot, base, 16, seed=200 + seed)

@@ -144,6 +144,18 @@ def test_base_parameters_of_generically_turned_arms_are_exact(seed):
     assert (Y * pi.transpose()).to_Matrix() == (Y * beta.transpose()).to_Matrix()
 
 
+def assert_exact_base_parameters(robot, base, points: int, seed: int) -> None:
+    """`base` (base_parameters(robot)) against the symbolic regressor at rational points, exactly:
+    as many independent columns as its rank, and Y·β_regrouped = Y·π."""
+    inertial, Y = _exact_inertial_Y(robot, points, seed=seed)
+    kept = [c for c, k in enumerate(inertial) if k in base.independent]
+    assert Y.rank() == len(kept) == Y.extract(list(range(Y.shape[0])), kept).rank()
+    values = parameter_values(robot)
+    pi = sp.Matrix([values[k] for k in inertial]).to_DM().convert_to(Y.domain)
+    beta = sp.Matrix([base.regrouped[k] for k in inertial]).to_DM().convert_to(Y.domain)
+    assert (Y * pi).to_Matrix() == (Y * beta).to_Matrix()
+
+
 def test_the_regrouped_recursion_gives_c_as_half_the_derivative_of_c_qd():
     """Code generation's derivation skips the n(n+1)/2 Christoffel recursions (the only part
     that grows like n³): its C is ½ ∂(C q̇)/∂q̇, exactly the Christoffel C of the full recursion."""
@@ -190,14 +202,7 @@ def test_nearly_parallel_axes_are_told_apart_exactly():
         robot = Robot.from_urdf(SO101_SHOULDER, tip_link="upper_arm_link")
     with pytest.raises(RuntimeError, match="does not reproduce the regressor"):
         bp._check(robot, *_first_try(robot, bp), 14, 1, {k: k - 3 * (k // 14) for k in range(28)})
-    base = base_parameters(robot)
-    inertial, Y = _exact_inertial_Y(robot, 14, seed=7)
-    kept = [c for c, k in enumerate(inertial) if k in base.independent]
-    assert Y.rank() == len(kept) == Y.extract(list(range(Y.shape[0])), kept).rank()
-    values = parameter_values(robot)
-    pi = sp.Matrix([values[k] for k in inertial]).to_DM().convert_to(Y.domain)
-    beta = sp.Matrix([base.regrouped[k] for k in inertial]).to_DM().convert_to(Y.domain)
-    assert (Y * pi).to_Matrix() == (Y * beta).to_Matrix()
+    assert_exact_base_parameters(robot, base_parameters(robot), 14, seed=7)
 
 
 def _first_try(robot, bp):

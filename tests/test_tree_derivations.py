@@ -33,7 +33,7 @@ from symdyn.presentation.printing import closed_form, elements
 
 from conftest import random_states
 from exact_eval import exact_value, random_point
-from test_regressor import _exact_inertial_Y
+from test_regressor import assert_exact_base_parameters
 
 SMALL = ArmOptions(n_min=3, n_max=5, symbolic=0.0)
 GENERAL = ArmOptions(n_min=3, n_max=5, symbolic=0.0, general=1.0)
@@ -265,14 +265,7 @@ def test_base_parameters_of_trees_are_exact(seed):
     symbolic regressor's rank at fresh rational points, and Y·β_regrouped = Y·π exactly."""
     robot = random_tree(seed, GENERAL)
     assert not robot.is_chain
-    base = base_parameters(robot)
-    inertial, Y = _exact_inertial_Y(robot, 40 // robot.n + 2, seed=100 + seed)
-    kept = [c for c, k in enumerate(inertial) if k in base.independent]
-    assert Y.rank() == len(kept) == Y.extract(list(range(Y.shape[0])), kept).rank()
-    values = parameter_values(robot)
-    pi = sp.Matrix([values[k] for k in inertial]).to_DM().convert_to(Y.domain)
-    beta = sp.Matrix([base.regrouped[k] for k in inertial]).to_DM().convert_to(Y.domain)
-    assert (Y * pi).to_Matrix() == (Y * beta).to_Matrix()
+    assert_exact_base_parameters(robot, base_parameters(robot), 40 // robot.n + 2, seed=100 + seed)
 
 
 def test_two_arms_have_the_base_parameters_of_the_two_arms():
