@@ -128,16 +128,16 @@ def test_fast_renaming_builds_what_xreplace_builds(seed):
 
 @pytest.mark.parametrize("seed", range(10))
 def test_sums_and_products_come_back_as_sympy_would_build_them(seed, monkeypatch):
-    """`engine._canonical` sorts SymEngine's collected terms instead of re-evaluating them: the
+    """`engine.canonical` sorts SymEngine's collected terms instead of re-evaluating them: the
     result is sympy's own expression, argument order and all (or sympy builds it)."""
     built = []
-    fast = engine._canonical
+    fast = engine.canonical
 
     def both(kind, args):
         built.append((fast(kind, args), kind(*args)))
         return built[-1][1]
 
-    monkeypatch.setattr(engine, "_canonical", both)
+    monkeypatch.setattr(engine, "canonical", both)
     rng = random.Random(500 + seed)
     exprs = [_random_expr(rng, depth=5) for _ in range(5)]
     exprs += [2 * (exprs[0] + exprs[1]), -(exprs[2] - 1) * exprs[3]]

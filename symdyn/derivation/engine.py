@@ -21,7 +21,7 @@ import symengine as se
 import sympy as sp
 from sympy.core.basic import _args_sortkey
 
-__all__ = ["use", "current", "cse", "partials"]
+__all__ = ["use", "current", "cse", "partials", "canonical"]
 
 ENGINES = ("symengine", "sympy")
 _ENGINE: contextvars.ContextVar[str] = contextvars.ContextVar("symdyn_engine", default="sympy")
@@ -128,9 +128,9 @@ class _Bridge:
             elif isinstance(e, se.RealDouble):
                 out = sp.Float(float(e))
             elif isinstance(e, se.Add):
-                out = _canonical(sp.Add, [walk(a) for a in e.args])
+                out = canonical(sp.Add, [walk(a) for a in e.args])
             elif isinstance(e, se.Mul):
-                out = _canonical(sp.Mul, [walk(a) for a in e.args])
+                out = canonical(sp.Mul, [walk(a) for a in e.args])
             elif isinstance(e, se.Pow):
                 out = sp.Pow(walk(e.args[0]), walk(e.args[1]))
             elif type(e) in _BACK:
@@ -154,10 +154,11 @@ class _Bridge:
 BOTH_BELOW = 500
 
 
-def _canonical(kind, args: list):
-    """sympy's Add or Mul of SymEngine's terms or factors, already collected (one number at
-    most, no two alike): sorted as sympy sorts them, the number first, without re-evaluating
-    them; sympy evaluates what it would rewrite (a nested sum or product, 2·(a + b) → 2a + 2b)."""
+def canonical(kind, args: list):
+    """sympy's Add or Mul of terms or factors already collected (one number at most, no two
+    alike: SymEngine's, or a canonical expression's renamed one to one): sorted as sympy sorts
+    them, the number first, without re-evaluating them; sympy evaluates what it would rewrite
+    (a nested sum or product, 2·(a + b) → 2a + 2b)."""
     numbers = [a for a in args if a.is_Number]
     rest = [a for a in args if not a.is_Number]
     if (

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import Protocol, Sequence
 
 import sympy as sp
-from sympy.core.basic import _args_sortkey
 
 from . import engine
 
@@ -357,9 +356,7 @@ def _renamer(mapping: dict):
             if all(a is b for a, b in zip(args, e.args)):
                 hit = e
             elif e.is_Add or e.is_Mul:
-                head = [a for a in args if a.is_Number]
-                rest = sorted((a for a in args if not a.is_Number), key=_args_sortkey)
-                hit = e.func._from_args(head + rest, is_commutative=True)
+                hit = engine.canonical(e.func, args)
             else:
                 hit = e.func(*args, evaluate=False)
             cache[e] = hit
