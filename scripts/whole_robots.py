@@ -11,7 +11,7 @@ symdyn locks — the grippers, whose fingers mimic a leader — locked by
 forward dynamics at random states, each a relative error that must be
 ≤ 1e-10 (else FAIL, exit status 1).  `--code` also generates and compiles each robot's C (up to CODE_MAX_JOINTS joints)
 (`symdyn.load(robot, "c")` and `build()`, in the cache `SYMDYN_CACHE_DIR` names) and compares
-its τ, M, G, C·v, q̈, M⁻¹ and ∂τ/∂(q, v) (tangent space: computeRNEADerivatives) with
+its τ, M, C (computeCoriolisMatrix), G, C·v, q̈, M⁻¹ and ∂τ/∂(q, v) (tangent space: computeRNEADerivatives) with
 Pinocchio at the same states.  Needs the `robots` extra (example-robot-data) and Pinocchio (`pin`).
 """
 
@@ -104,7 +104,7 @@ def main(argv=None) -> int:
     folder = robots_folder(args.data)
     rows, failed = [], False
     header = "| robot | joints | nq / nv | base | read | worst error (τ, M, G, C·v, q̈) |"
-    header += " C: build | C: worst error (τ, M, G, C·v, q̈, M⁻¹, ∂τ) | what |" if args.code else " what |"
+    header += " C: build | C: worst error (τ, M, C, G, C·v, q̈, M⁻¹, ∂τ) | what |" if args.code else " what |"
     header += "\n" + "|---" * (header.count("|") - 1) + "|"
     for case in CASES:
         if args.robots and case.name not in args.robots:

@@ -1,11 +1,11 @@
 """Code generation on floating bases (issue 35): every target against the reference and Pinocchio.
 
 Random trees of 2 joints on a free and on a planar base: the NumPy, C (scalar and SIMD
-batch) and CasADi functions tau, M, G, Cqd, F, fdyn and Minv equal the numeric reference
+batch) and CasADi functions tau, M, C, G, Cqd, F, fdyn and Minv equal the numeric reference
 (itself Pinocchio's, tests/test_tree_reference.py) at 200 states to 1e-10; the derivatives
 equal Pinocchio's computeRNEADerivatives and computeABADerivatives (∂/∂q in the tangent
 space) at the same states, friction's viscous term added; q has nq entries, q̇, q̈, τ nv;
-there is no Christoffel C, and asking for it says why; Y has the base body's ten columns first.
+C is the reference's (Pinocchio's computeCoriolisMatrix); Y has the base body's ten columns first.
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ def case(request, tmp_path_factory):
         "G": ref.gravload(robot, q),
         "Cqd": ref.rne(robot, q, qd, 0 * a, gravity=(0, 0, 0)) - ref.friction(robot, qd),
         "F": ref.friction(robot, qd),
+        "C": ref.coriolis(robot, q, qd),
     }
     want["fdyn"] = ref.accel(robot, q, qd, want["tau"])
     want["Minv"] = np.linalg.inv(want["M"])
@@ -58,6 +59,7 @@ def _check(model, robot, q, qd, a, want, label: str) -> None:
     got = {
         "tau": model.tau(q, qd, a),
         "M": model.M(q),
+        "C": model.C(q, qd),
         "G": model.G(q),
         "Cqd": model.Cqd(q, qd),
         "F": model.F(qd),
@@ -73,8 +75,6 @@ def _check(model, robot, q, qd, a, want, label: str) -> None:
     _close(minv, want["Minv"], f"{label} fdyn_derivatives' Minv")
     _close(ddq, -minv @ dq_at(model, q, qd, qdd), f"{label} dqdd_dq = -Minv dtau_dq")
     _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label)
-    with pytest.raises(AttributeError, match="no Christoffel matrix"):
-        model.C
     pi = np.array([float(v) for v in parameter_values(robot)])
     Y = model.Y(q, qd, a)
     assert Y.shape[-2:] == (robot.nv, 10 + 14 * robot.n)
@@ -142,7 +142,7 @@ def test_generate_writes_sizes(tmp_path):
     header = next(p for p in paths if p.suffix == ".h").read_text()
     name = robot.name.upper()
     assert f"#define {name}_NQ {robot.nq}" in header and f"#define {name}_NV {robot.nv}" in header
-    assert f"{robot.name}_C(" not in header
+    assert f"function: C(q: {robot.nq}, qd: {robot.nv}) -> C: {robot.nv}x{robot.nv}" in header
     assert f"function: Y(q: {robot.nq}, qd: {robot.nv}, qdd: {robot.nv}) -> Y: {robot.nv}x{10 + 14 * robot.n}" in header
     assert f"function: tau(q: {robot.nq}, qd: {robot.nv}, qdd: {robot.nv}) -> tau: {robot.nv}" in header
 
@@ -150,7 +150,7 @@ def test_generate_writes_sizes(tmp_path):
 def test_signatures_and_tangent_map():
     """Lazy C signatures take q of nq; the free base's map turns v into the quaternion's rate."""
     sigs = {s.name: s for s in signatures(3, 10, 9)}
-    assert "C" not in sigs and dict(sigs["Y"].outputs)["Y"] == (9, 10 + 14 * 3)
+    assert dict(sigs["C"].outputs)["C"] == (9, 9) and dict(sigs["Y"].outputs)["Y"] == (9, 10 + 14 * 3)
     assert sigs["tau"].inputs == (("q", 10), ("qd", 9), ("qdd", 9))
     assert dict(sigs["tau_derivatives"].outputs)["dtau_dq"] == (9, 9)
     q = sp.symbols("x y z qx qy qz qw q1", real=True)

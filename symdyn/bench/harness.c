@@ -9,7 +9,7 @@
  *   cc -O3 -march=native -DMODEL=puma560 -DNDOF=6 -DMODEL_HEADER='"puma560.h"'
  *      [-DWITH_CASADI] harness.c puma560.c [casadi_rnea.c] -lm
  *
- * A floating base: -DNQ=<NAME>_NQ -DNV=<NAME>_NV -DWITHOUT_C as well (q has NQ entries,
+ * A floating base: -DNQ=<NAME>_NQ -DNV=<NAME>_NV as well (q has NQ entries,
  * qd, qdd, tau and the outputs NV; both default to NDOF).
  *
  * Run: harness STATES NCALLS REPS [FUNCTION ...]
@@ -143,7 +143,7 @@ int main(int argc, char **argv)
     printf("states %ld calls %ld reps %d\n", K, ncalls, reps);
     TIME("tau", NV, FN(tau)(Q, QD, QDD, out))
     TIME("M", NV * NV, FN(M)(Q, out))
-#ifndef WITHOUT_C  /* a floating base has no Coriolis matrix function (no Christoffel symbols) */
+#ifndef WITHOUT_C  /* code generated without its C function (a subset of the functions) */
     TIME("C", NV * NV, FN(C)(Q, QD, out))
 #endif
     TIME("Cqd", NV, FN(Cqd)(Q, QD, out))

@@ -154,8 +154,8 @@ def pin_configuration(model, q: np.ndarray) -> np.ndarray:
 def compare_whole(robot: Robot, path, *, count: int = 200, seed: int = 0, functions=None) -> dict:
     """Relative errors of symdyn's reference against Pinocchio's reduced model of a tree, on a
     fixed or floating base, at `count` states: τ, M, G, C·v and forward dynamics (no
-    Christoffel symbols: a floating base has none, and n² Coriolis matrices of a 100-joint
-    robot take minutes); with `functions` (the robot's loaded generated model) its τ, M, G,
+    Christoffel symbols: n² Coriolis matrices of a 100-joint robot take minutes); with
+    `functions` (the robot's loaded generated model) its τ, M, C (computeCoriolisMatrix's), G,
     C·v, q̈, M⁻¹ and ∂τ/∂(q, v) in the tangent space too, its own friction F(v) taken off
     (Pinocchio has none)."""
 
@@ -206,11 +206,13 @@ def _generated_whole(functions, robot: Robot, model, q, v, a, tau, peer: dict, s
     derivatives = [functions.functions["tau_derivatives"](*state) for state in zip(q, v, a)]
     gq, gv = (np.array([d[k] for d in derivatives]) for k in (1, 2))
     minv = np.linalg.inv(peer["M"])
+    C = np.array([pin.computeCoriolisMatrix(model, data, xi, vi).copy() for xi, vi in zip(x, v)])
     return {
         "generated F": relative_error(F, ref.friction(robot, v), scale),
         "generated tau": relative_error(each("tau", q, v, a) - F, peer["tau"], scale),
         "generated M": relative_error(each("M", q), peer["M"], scale),
         "generated G": relative_error(each("G", q), peer["G"], scale),
+        "generated C": relative_error(each("C", q, v), C, scale),
         "generated C v": relative_error(each("Cqd", q, v), peer["Cqd"], scale),
         "generated fdyn": relative_error(each("fdyn", q, v, tau + F), peer["ddq"]),
         "generated Minv": relative_error(each("Minv", q), minv, max(1.0, np.abs(minv).max())),

@@ -18,21 +18,10 @@ from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, 
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
 
-__all__ = ["programs", "Programs", "derivations", "DERIVED", "missing"]
+__all__ = ["programs", "Programs", "derivations", "DERIVED"]
 
 #: The functions built from the chosen terms, after them (and Y) in every model's list.
 DERIVED = ("tau_derivatives", "fdyn_derivatives", "Minv")
-
-
-def missing(robot: Robot) -> dict[str, str]:
-    """{function: why robot's code has no such function}: a floating base's C."""
-    if robot.base_joint is None:
-        return {}
-    return {
-        "C": f"{robot.name!r} has a {robot.base_joint} base, whose velocities are no coordinates' rates: "
-        "there is no Christoffel matrix C(q, v); Cqd gives C·v, and symdyn.reference.coriolis a C with "
-        "Ṁ − 2C skew-symmetric",
-    }
 
 
 def _cheapest(specs: Sequence[FunctionSpec]) -> tuple[FunctionSpec, Program]:
@@ -97,7 +86,7 @@ class Programs:
     from the chosen M, bias and τ; Y from `regressor` (a `Regressor`, or a callable
     returning one: it is only built when Y is asked for).  `origins`: a label per
     derivation for the generated files (default: their methods).  A floating base
-    (`Robot.base_joint`) has no Christoffel C (`names` leaves it out), its Y has the base
+    (`Robot.base_joint`) adds its velocities' brackets to C (`christoffel_spec`), its Y has the base
     body's ten columns first, and its ∂τ/∂q is taken in the tangent space
     (`tau_derivatives_spec`).
     """
@@ -110,8 +99,7 @@ class Programs:
         self.base_joint = self.dyns[0].robot.base_joint
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
         self.regressor = regressor
-        terms = NAMES if self.base_joint is None else tuple(n for n in NAMES if n != "C")  # no Christoffel C
-        self.names = (*terms, *(("Y",) if self.regressor is not None else ()), *DERIVED)
+        self.names = (*NAMES, *(("Y",) if self.regressor is not None else ()), *DERIVED)
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
         self._built: dict[str, Program] = {}
         self._specs: dict[str, FunctionSpec] = {}
@@ -122,7 +110,7 @@ class Programs:
         gives the fewest operations."""
         if term not in self._chosen:
             with engine.use(self.engine):
-                extra = [christoffel_spec(c["Cqd"]) for c in self.cands] if term == "C" else []
+                extra = [christoffel_spec(c["Cqd"], c["M"], self.base_joint) for c in self.cands] if term == "C" else []
                 self._chosen[term] = _cheapest([c[term] for c in self.cands if term in c] + extra)
         return self._chosen[term]
 

@@ -21,6 +21,7 @@ from typing import Sequence
 import sympy as sp
 
 from ..derivation.engine import partials
+from ..derivation.floating import bracket_term
 from ..derivation.program import Program
 from .functions import FunctionSpec, elimination_order, ldlt_factor, ldlt_inverse
 
@@ -264,23 +265,30 @@ def tau_derivatives_spec(tau: FunctionSpec, base_joint: str | None = None) -> Fu
     )
 
 
-def christoffel_spec(cqd: FunctionSpec) -> FunctionSpec:
+def christoffel_spec(cqd: FunctionSpec, M: FunctionSpec, base_joint: str | None = None) -> FunctionSpec:
     """The Christoffel C(q, q̇) as ½ ∂(C q̇)/∂q̇ from the spec of C·q̇: C·q̇ = q̇ᵀΓ_k q̇
     with Γ_k symmetric, so its q̇-Jacobian is 2 Σ_i Γ_kij q̇_i = 2 C exactly — one
     differentiated recursion instead of n(n+1)/2 unit-velocity ones (Panda: 3126
-    operations, not 8939)."""
+    operations, not 8939).  A floating base's Γ is not symmetric: its base columns add
+    ½ M[:, base]·ad(v_base) from the spec of M (`floating.bracket_term`)."""
     qd = cqd.inputs[1][1]
     out = list(cqd.outputs[0][1])
     defs, rows = jacobian(cqd.definitions, out, list(qd), stem="DC")
-    C = sp.ImmutableMatrix(len(out), len(qd), lambda i, j: rows[i][j] / 2)
+    C = sp.Matrix(len(out), len(qd), lambda i, j: rows[i][j] / 2)
+    shared = dict(cqd.definitions)
+    if base_joint is not None:
+        C += bracket_term(base_joint, M.outputs[0][1], qd)
+        shared.update(M.definitions)
     return FunctionSpec(
         "C",
         cqd.inputs,
-        (("C", C),),
-        tuple(cqd.definitions) + tuple(defs),
+        (("C", sp.ImmutableMatrix(C)),),
+        tuple(shared.items()) + tuple(defs),
         f"Christoffel Coriolis/centripetal matrix C(q, qd), ({len(qd)}, {len(qd)}) row-major, "
-        "as d(C qd)/d qd / 2." + cqd.doc.partition(".")[2],
-        f"{cqd.origin}, C = d(C qd)/d qd / 2",
+        "as d(C qd)/d qd / 2"
+        + (" and the base velocities' brackets." if base_joint else ".")
+        + cqd.doc.partition(".")[2],
+        f"{cqd.origin}, C = d(C qd)/d qd / 2" + (" + M ad(v_base) / 2" if base_joint else ""),
         ("C",),
     )
 

@@ -243,15 +243,13 @@ def generate_all(root=None) -> list[Path]:
 class GeneratedModel:
     """Generated functions of one model as attributes (tau, M, C, Cqd, G, F,
     fdyn, Y, tau_derivatives, fdyn_derivatives, Minv), with `name`, `n`, `nq`, `nv` (the sizes of q and of
-    q̇, q̈, τ: n but on a floating base), `target`, `fingerprint`, `folder` and `functions` (name → callable).
-    A floating base has no C: asking for it says why (AttributeError)."""
+    q̇, q̈, τ: n but on a floating base), `target`, `fingerprint`, `folder` and `functions` (name → callable)."""
 
     def __init__(
         self, name: str, n: int, target: str, fingerprint: str, folder: Path, functions: dict, library=None
     ) -> None:
         self.name, self.n, self.target, self.fingerprint, self.folder = name, n, target, fingerprint, folder
         self.nq = self.nv = n  # sizes of q and of v (qd, qdd, tau): a floating base's differ (`_sized`)
-        self._missing: dict = {}  # {function: why a floating base's code has none}
         self.functions = dict(functions)
         self._library = library  # the C target's `clib.CLibrary`
         self.__dict__.update(self.functions)  # plain attributes, and no __getattr__: it slows every call ~0.1 µs
@@ -270,22 +268,13 @@ class GeneratedModel:
             raise ValueError(f"build() compiles the C target; this is the {self.target} target of {self.name}")
         self._library.build(functions, batch)
 
-    def __getattr__(self, attr: str):
-        """Only for a name that is no attribute: a function the model has not, and why."""
-        why = self.__dict__.get("_missing", {}).get(attr)
-        if why:
-            raise AttributeError(f"{self.__dict__.get('name')} has no function {attr}: {why}")
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {attr!r}")
-
     def __repr__(self) -> str:
         return f"<{self.name} model code ({self.target}): {', '.join(self.functions)}>"
 
 
 def _sized(model: GeneratedModel, robot: Robot) -> GeneratedModel:
-    """model with robot's nq, nv and the functions a floating base has not (`choice.missing`)."""
-    from .choice import missing
-
-    model.nq, model.nv, model._missing = robot.nq, robot.nv, missing(robot)
+    """model with robot's nq and nv (a floating base's differ from n)."""
+    model.nq, model.nv = robot.nq, robot.nv
     return model
 
 
@@ -448,7 +437,7 @@ def _compile_casadi(model: "CasadiModel", names: tuple) -> "CasadiModel":
     numeric = {f: getattr(model, f) for f in model.functions}
     numeric.update({f: Numeric(compiled(numeric[f].function), numeric[f].shapes) for f in names})
     out = CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
-    out.nq, out.nv, out._missing = model.nq, model.nv, model._missing
+    out.nq, out.nv = model.nq, model.nv
     return out
 
 

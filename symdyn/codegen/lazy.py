@@ -30,7 +30,7 @@ FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives", "
 
 def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_emit.Signature]:
     """The C signature of every function of a numeric model with n joints (docs/functions.md);
-    a floating base: q of size nq, v (q̇, q̈, τ) of size nv, no C (`choice.missing`), and Y
+    a floating base: q of size nq, v (q̇, q̈, τ) of size nv, and Y
     with the base body's ten parameters before the links' 14 each."""
     nq, nv = nq or n, nv or n
     floating = (nq, nv) != (n, n)
@@ -49,7 +49,7 @@ def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_e
         "fdyn_derivatives": ((q, qd, tau), (("qdd", v), ("dqdd_dq", m), ("dqdd_dqd", m), ("Minv", m))),
         "Minv": ((q,), (("Minv", m),)),
     }
-    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS if not (floating and f == "C")]
+    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS]
 
 
 class _Sources:

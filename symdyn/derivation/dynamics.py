@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..model import Robot
+from .floating import bracket_term
 from .symbols import exact, joint_symbols
 
 METHODS = ("lagrange", "newton-euler")
@@ -42,7 +43,10 @@ class Dynamics:
     expanded: dict = field(default_factory=dict, compare=False, repr=False)
 
     M = property(lambda self: self._expanded("M"), doc="Joint-space inertia M(q), n×n.")
-    C = property(lambda self: self._expanded("C"), doc="Christoffel Coriolis/centripetal matrix C(q, q̇), n×n.")
+    C = property(
+        lambda self: self._expanded("C"),
+        doc="Christoffel Coriolis/centripetal matrix C(q, v), nv×nv (a floating base's: `floating.bracket_term`).",
+    )
     G = property(lambda self: self._expanded("G"), doc="Gravity load G(q), n×1.")
     tau = property(lambda self: self._expanded("tau"), doc="Inverse dynamics τ = M q̈ + C q̇ + F + G, n×1.")
 
@@ -55,14 +59,11 @@ class Dynamics:
                 for sym, definition in self.definitions:
                     full[sym] = sp.sympify(definition).xreplace(full)
                 self.expanded["_definitions"] = full
-            if term == "C" and self.robot.base_joint is not None:
-                raise NotImplementedError(
-                    f"C of robot {self.robot.name!r}: its {self.robot.base_joint} base's velocities are no "
-                    "coordinates' rates, so it has no Christoffel matrix; its C·v is Dynamics.Cqd "
-                    "(symdyn.reference.coriolis gives a C with Ṁ − 2C skew)"
-                )
             if term == "C" and "C" not in self.named:  # a recursion without the Christoffel passes
-                self.expanded[term] = sp.ImmutableMatrix(self.Cqd.jacobian(self.qd) / 2)
+                C = self.Cqd.jacobian(self.qd) / 2
+                if self.robot.base_joint is not None:  # its velocities' brackets: floating.bracket_term
+                    C += bracket_term(self.robot.base_joint, self.M, self.qd)
+                self.expanded[term] = sp.ImmutableMatrix(C)
             else:
                 self.expanded[term] = sp.ImmutableMatrix(self.named[term].xreplace(self.expanded["_definitions"]))
         return self.expanded[term]

@@ -55,7 +55,7 @@ def derive(
     A tree (links whose parent is not the link before) is derived as a chain is, each
     recursion running through the parents; M's entries between branches are exact zeros.
     A floating base (Newton–Euler): q = (base coordinates, joints), v and τ = (base, joints)
-    (`symdyn.derivation.floating`); C·v, no Christoffel C; regroup=True regroups the base
+    (`symdyn.derivation.floating`), C with its velocities' brackets; regroup=True regroups the base
     body's parameters with the links' (`regressor.base_parameters`).
 
     Raises:

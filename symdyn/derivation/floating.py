@@ -16,7 +16,7 @@ import functools
 
 import sympy as sp
 
-__all__ = ["base_symbols", "base_rotation", "BASE_COORDINATES", "BASE_VELOCITIES"]
+__all__ = ["base_symbols", "base_rotation", "bracket_term", "BASE_COORDINATES", "BASE_VELOCITIES"]
 
 #: Names of the base joint's coordinates, velocities and accelerations (before the joints' in q, v, v̇).
 BASE_COORDINATES = {"free": ("x", "y", "z", "qx", "qy", "qz", "qw"), "planar": ("x", "y", "yaw")}
@@ -68,3 +68,28 @@ def columns(kind: str) -> list[tuple[list, list]]:
     """Unit base velocities as (linear, angular) pairs, one per base velocity, in v's order."""
     count = len(BASE_VELOCITIES[kind])
     return [spatial(kind, [1 if k == j else 0 for k in range(count)]) for j in range(count)]
+
+
+def bracket(kind: str, vb) -> sp.Matrix:
+    """ad(ξ) in v's order: [ξ, η] = ad(ξ)·η, the Lie bracket of the base's body-frame velocity ξ
+    with η (se(3): [[ω×, v×], [0, ω×]] on (linear, angular); se(2) its planar rows)."""
+    if kind == "planar":
+        vx, vy, w = vb
+        return sp.Matrix([[0, -w, vy], [w, 0, -vx], [0, 0, 0]])
+    (vx, vy, vz), (wx, wy, wz) = vb[:3], vb[3:6]
+    cross = lambda x, y, z: sp.Matrix([[0, -z, y], [z, 0, -x], [-y, x, 0]])  # noqa: E731
+    return sp.Matrix(sp.BlockMatrix([[cross(wx, wy, wz), cross(vx, vy, vz)], [sp.zeros(3), cross(wx, wy, wz)]]))
+
+
+def bracket_term(kind: str, M, v) -> sp.Matrix:
+    """What a floating base adds to ½ ∂(C v)/∂v to make C the Christoffel matrix of its velocities.
+
+    The base's velocities are body-frame (left-invariant) fields whose brackets do not vanish,
+    so the connection's symbols are not symmetric in their two lower indices: with torsion
+    zero, Γ_i,jk − Γ_i,kj = M([X_j, X_k], X_i), and C = ½ ∂(C v)/∂v + ½ M[:, base]·ad(v_base)
+    in the base's columns (zero elsewhere).  Ṁ − 2C is then skew, and C is Pinocchio's
+    computeCoriolisMatrix (`symdyn.reference.coriolis`)."""
+    nb = len(BASE_VELOCITIES[kind])
+    M = sp.Matrix(M)
+    extra = M[:, :nb] * bracket(kind, list(v[:nb])) / 2
+    return sp.Matrix.hstack(extra, sp.zeros(M.rows, M.cols - nb))

@@ -429,8 +429,9 @@ def derive(
     recursion's named intermediates (plain sympy matrices on request).
     christoffel=False leaves C out of the recursion (`Dynamics.C` is then
     ½ ∂(C q̇)/∂q̇, the same matrix).  A floating base puts its coordinates, velocities and
-    rows first (q of size nq, v and τ of size nv) and has no C (`Dynamics.C` refuses it);
-    `body` gives its body's parameters (default the robot's)."""
+    rows first (q of size nq, v and τ of size nv) and takes C as ½ ∂(C v)/∂v plus its
+    velocities' brackets (`floating.bracket_term`); `body` gives its body's parameters
+    (default the robot's)."""
     n = robot.n
     christoffel = christoffel and robot.base_joint is None
     bar = Progress(
