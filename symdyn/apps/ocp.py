@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike
 
 from ..derivation.progress import reported
 from ..model import Robot
+from ..model.base_joint import coordinate_rates
 from ..numeric import casadi_rnea, reference
 
 __all__ = [
@@ -39,6 +40,7 @@ __all__ = [
     "Tracker",
     "RTITracker",
     "dynamics",
+    "planar_rates",
     "motor_torque_limits",
     "solve",
     "resimulate",
@@ -81,14 +83,17 @@ class ArmFunctions:
     #: `fdyn_derivatives`); else the shooting step takes CasADi's AD of fdyn_sx.
     fdyn_derivatives_sx: ca.Function | None = None
     name: str = ""  # the arm's, for progress lines
+    #: (q, v) → q̇ of a planar base, whose velocities are in its own frame (`planar_rates`);
+    #: None: q̇ = v.
+    rates: ca.Function | None = None
 
     def shooting_step(self, substeps: int) -> ca.Function:
         """(q, q̇, τ, h) → (q⁺, q̇⁺), `substeps` RK4 steps: compiled with explicit Jacobian and
         Hessian (`ocp_step.rk4_step`, built once into the cache) when these dynamics are
-        compiled from SX, else CasADi's AD through the RK4 stages."""
-        if self.compiled and self.fdyn_sx is not None:
+        compiled from SX and q̇ = v, else CasADi's AD through the RK4 stages."""
+        if self.compiled and self.fdyn_sx is not None and self.rates is None:
             return _compiled_step(self.fdyn_sx, self.n, substeps, self.fdyn_derivatives_sx, self.name)
-        return _rk4_step(self.need("multiple-shooting"), self.n, substeps)
+        return _rk4_step(self.need("multiple-shooting"), self.n, substeps, self.rates)
 
     @property
     def label(self) -> str:
@@ -133,16 +138,29 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
     first build; not a read from the cache) says what it builds on stderr, and
     how long it took (`symdyn.derivation.progress.reported`).
 
+    A planar base (`Robot.base_joint`) adds its coordinates' rates (`planar_rates`): q and v
+    both have nq = nv entries, v's base part in the base's own frame; whether the base is
+    driven is the problem's (`Problem.unactuated`).
+
     Returns:
         An `ArmFunctions` (cached per robot, source and compiled).
 
     Raises:
         ValueError: an unknown source, or an arm whose code cannot be derived or
-            generated (a symbolic robot).
+            generated (a symbolic robot); a free base (q has 7 base entries, v 6: not
+            transcribed) or source="plain" on a floating base.
         RuntimeError: compiled=True without a C compiler, or a failed build.
     """
     from ..codegen.emit.casadi import compiled as compile_function
 
+    if robot.base_joint == "free":
+        raise ValueError(
+            f"ocp.dynamics({robot.name!r}): a free base is not transcribed (its quaternion makes q 7 "
+            "entries long and v 6); a planar base is, and any fixed base"
+        )
+    if robot.base_joint is not None and source == "plain":
+        raise ValueError(f"ocp.dynamics({robot.name!r}): the plain source has no floating base: use source='symdyn'")
+    rates = planar_rates(robot) if robot.base_joint == "planar" else None
     derivatives = None
     if source == "plain":
         tau, fdyn = casadi_rnea.rnea_function(robot), casadi_rnea.fdyn_function(robot)
@@ -161,8 +179,17 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
                 f"ocp {robot.name}: compiling {name} ({source}) with its Jacobian and Hessian (once, into the cache)"
             ):
                 built.append(compile_function(f))
-        return ArmFunctions(*built, source, True, fdyn, derivatives, robot.name)
-    return ArmFunctions(tau, fdyn, source, False, name=robot.name)
+        return ArmFunctions(*built, source, True, fdyn, derivatives, robot.name, rates)
+    return ArmFunctions(tau, fdyn, source, False, name=robot.name, rates=rates)
+
+
+def planar_rates(robot: Robot) -> ca.Function:
+    """(q, v) → q̇ of a robot on a planar base: ẋ, ẏ = R(yaw)·(vx, vy), the yaw rate ω and the
+    joints' q̇ = v (`symdyn.model.base_joint.coordinate_rates`, in CasADi)."""
+    q, v = ca.SX.sym("q", robot.nq), ca.SX.sym("v", robot.nv)
+    c, s = ca.cos(q[2]), ca.sin(q[2])
+    qd = ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2:])
+    return ca.Function("rates", [q, v], [qd], ["q", "v"], ["qd"])
 
 
 @functools.lru_cache(maxsize=16)
@@ -323,7 +350,9 @@ class Problem:
             or without any finite torque or speed limit; q0, qf, qd0, qdf of
             different lengths or with a NaN or infinite entry; joint limits not
             (n, 2); speed or torque limits that are not n positive numbers (or a
-            NaN one: `Limits`); cost weights that are not n entries.
+            NaN one: `Limits`); cost weights that are not n entries; `unactuated`
+            indices that are not distinct integers in 0 … n − 1, or all of them; a
+            guess that is not (t, q, v) with t increasing from 0, q and v (len(t), n), finite.
     """
 
     q0: np.ndarray
@@ -338,6 +367,12 @@ class Problem:
     T_guess: float = 1.0
     T_bounds: tuple = (0.01, 20.0)
     substeps: int = 4
+    #: (t, q, v) samples of a motion over [0, t[-1]] to start IPOPT from (a simulation, a plan),
+    #: taken as a path in t/t[-1] and stretched to T; default the minimum-jerk path q0 → qf.
+    guess: tuple | None = None
+    #: Indices of v whose τ is held at zero: a free-floating base's velocities (no thruster, no
+    #: wheel), or a passive joint.  Default none: every row is driven, a mobile base's too.
+    unactuated: tuple = ()
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -362,6 +397,13 @@ class Problem:
                 if bad.size:
                     j = int(bad[0])
                     raise ValueError(f"{name} must be finite: joint {j + 1} has {float(values[j])}, got {v!r}")
+        if self.guess is not None:
+            _check_guess(self.guess, n)
+        held = list(self.unactuated)
+        if not all(isinstance(i, numbers.Integral) and 0 <= i < n for i in held) or len(set(held)) != len(held):
+            raise ValueError(f"unactuated must be distinct joint indices in 0 … {n - 1}, got {self.unactuated!r}")
+        if len(held) == n:
+            raise ValueError(f"unactuated names every one of the {n} joints: nothing is left to drive the motion")
         if self.cost.weights is not None and len(self.cost.weights) != n:
             raise ValueError(f"the cost weights must be {n} numbers (one per joint), got {self.cost.weights!r}")
         lim = self.limits
@@ -445,10 +487,12 @@ class Solution:
 # --------------------------------------------------------------------------- transcription
 
 
-def _rk4_step(fdyn: ca.Function, n: int, substeps: int) -> ca.Function:
-    """(q, qd, tau, h) -> (q⁺, qd⁺): `substeps` RK4 steps of q̈ = fdyn(q, q̇, τ), τ held."""
+def _rk4_step(fdyn: ca.Function, n: int, substeps: int, rates: ca.Function | None = None) -> ca.Function:
+    """(q, qd, tau, h) -> (q⁺, qd⁺): `substeps` RK4 steps of q̈ = fdyn(q, q̇, τ), τ held;
+    q̇ = rates(q, v) where given (a planar base)."""
     q, qd, tau, h = ca.MX.sym("q", n), ca.MX.sym("qd", n), ca.MX.sym("tau", n), ca.MX.sym("h")
-    x = rk4_steps(lambda x: ca.vertcat(x[n:], fdyn(x[:n], x[n:], tau)), ca.vertcat(q, qd), h, substeps)
+    qdot = (lambda x: x[n:]) if rates is None else (lambda x: rates(x[:n], x[n:]))  # noqa: E731
+    x = rk4_steps(lambda x: ca.vertcat(qdot(x), fdyn(x[:n], x[n:], tau)), ca.vertcat(q, qd), h, substeps)
     return ca.Function("rk4", [q, qd, tau, h], [x[:n], x[n:]])
 
 
@@ -471,17 +515,40 @@ def _quadratic_smoothness(a, b, c, h):
     return A**2 * h + A * B * h**2 + B**2 * h**3 / 3
 
 
+def _check_guess(guess, n: int) -> None:
+    """Raise ValueError unless guess is (t, q, v): t increasing from 0, q and v (len(t), n), all finite."""
+    try:
+        t, q, v = (np.asarray(x, dtype=float) for x in guess)
+    except (TypeError, ValueError):
+        raise ValueError(f"guess must be (t, q, v) arrays, got {type(guess).__name__}") from None
+    if t.ndim != 1 or t.size < 2 or t[0] != 0 or not np.all(np.diff(t) > 0):
+        raise ValueError(f"the guess's t must increase from 0 over at least 2 samples, got shape {t.shape}")
+    for name, x in (("q", q), ("v", v)):
+        if x.shape != (t.size, n):
+            raise ValueError(f"the guess's {name} must have shape ({t.size}, {n}) like t and q0, got {x.shape}")
+    if not all(np.isfinite(x).all() for x in (t, q, v)):
+        raise ValueError("the guess must be finite: it has a NaN or infinite entry")
+
+
 def _guess(problem: Problem, arm: ArmFunctions, T: float):
-    """A minimum-jerk path q0 → qf with its velocities, accelerations and ID torques
-    at fractions s (N+1 nodes and N midpoints)."""
+    """The starting path with its velocities, accelerations and ID torques at fractions s
+    (N+1 nodes and N midpoints): `problem.guess` stretched to T, or a minimum-jerk path
+    q0 → qf; the unactuated rows' torques zero."""
     q0, _, qf, _ = problem.boundary()
     s = np.linspace(0, 1, 2 * problem.N + 1)[:, None]
-    q = q0 + (qf - q0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
-    qd = (qf - q0) * (30 * s**2 - 60 * s**3 + 30 * s**4) / T
-    qdd = (qf - q0) * (60 * s - 180 * s**2 + 120 * s**3) / T**2
+    if problem.guess is None:
+        q = q0 + (qf - q0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
+        qd = (qf - q0) * (30 * s**2 - 60 * s**3 + 30 * s**4) / T
+        qdd = (qf - q0) * (60 * s - 180 * s**2 + 120 * s**3) / T**2
+    else:
+        t, qg, vg = (np.asarray(x, dtype=float) for x in problem.guess)
+        along = lambda x: np.stack([np.interp(s[:, 0], t / t[-1], c) for c in x.T], -1)  # noqa: E731
+        q, qd = along(qg), along(vg) * t[-1] / T
+        qdd = np.gradient(qd, s[:, 0] * T, axis=0)
     if arm.tau is None:
         return q, qd, qdd, np.zeros_like(q)
     tau = np.array(arm.tau.map(len(s))(q.T, qd.T, qdd.T)).T
+    tau[:, list(problem.unactuated)] = 0.0
     if problem.limits.tau is not None:
         tau = np.clip(tau, -problem.limits.tau, problem.limits.tau)
     return q, qd, qdd, tau
@@ -508,9 +575,12 @@ def _bound_states(opti: ca.Opti, limits: Limits, Q, QD) -> None:
         _bound(opti, -limits.qd, QD, limits.qd)
 
 
-def _bound_torque(opti: ca.Opti, limits: Limits, U) -> None:
-    if limits.tau is not None:
-        _bound(opti, -limits.tau, U, limits.tau)
+def _bound_torque(opti: ca.Opti, problem: Problem, U) -> None:
+    """The torque limits on U (n, K), and τ = 0 on the unactuated rows."""
+    if problem.limits.tau is not None:
+        _bound(opti, -problem.limits.tau, U, problem.limits.tau)
+    if problem.unactuated:
+        opti.subject_to(U[list(problem.unactuated), :] == 0)
 
 
 def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
@@ -549,7 +619,7 @@ def _multiple_shooting(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handl
     Q, QD = handles["Q"], handles["QD"]
     U = handles["U"] = opti.variable(n, N)
     opti.set_initial(U, guess[3][1::2].T)
-    _bound_torque(opti, problem.limits, U)
+    _bound_torque(opti, problem, U)
     step = arm.shooting_step(problem.substeps).map(N)
     qn, qdn = step(Q[:, :N], QD[:, :N], U, h)
     opti.subject_to([Q[:, 1:] == qn, QD[:, 1:] == qdn])
@@ -567,15 +637,17 @@ def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: di
     QDD, U = opti.variable(n, N + 1), opti.variable(n, N + 1)
     opti.set_initial(QDD, gqdd[::2].T)
     opti.set_initial(U, gtau[::2].T)
-    _bound_torque(opti, lim, U)
+    _bound_torque(opti, problem, U)
     ID = arm.need(problem.method)
     scale = ca.DM(_finite_or_one(lim.tau, n))
     opti.subject_to((ID.map(N + 1)(Q, QD, QDD) - U) / ca.repmat(scale, 1, N + 1) == 0)
     a, b = slice(0, N), slice(1, N + 1)
     handles.update(QDD=QDD, U=U)
     w = _weighted(problem)
+    rate = (lambda Q, V: V) if arm.rates is None else (lambda Q, V: arm.rates.map(Q.shape[1])(Q, V))  # noqa: E731
+    QDOT = rate(Q, QD)  # q̇ at the nodes: v, or a planar base's rates
     if problem.method == "trapezoidal":
-        opti.subject_to(Q[:, b] - Q[:, a] == h / 2 * (QD[:, a] + QD[:, b]))
+        opti.subject_to(Q[:, b] - Q[:, a] == h / 2 * (QDOT[:, a] + QDOT[:, b]))
         opti.subject_to(QD[:, b] - QD[:, a] == h / 2 * (QDD[:, a] + QDD[:, b]))
         return (
             cost.effort * h / 2 * ca.sum2(w(U[:, a] ** 2) + w(U[:, b] ** 2))
@@ -585,10 +657,10 @@ def _collocation(problem: Problem, arm: ArmFunctions, opti: ca.Opti, handles: di
     for X, g in ((Qm, gq), (QDm, gqd), (QDDm, gqdd), (Um, gtau)):
         opti.set_initial(X, g[1::2].T)
     _bound_states(opti, lim, Qm, QDm)
-    _bound_torque(opti, lim, Um)
-    opti.subject_to(Qm == (Q[:, a] + Q[:, b]) / 2 + h / 8 * (QD[:, a] - QD[:, b]))
+    _bound_torque(opti, problem, Um)
+    opti.subject_to(Qm == (Q[:, a] + Q[:, b]) / 2 + h / 8 * (QDOT[:, a] - QDOT[:, b]))
     opti.subject_to(QDm == (QD[:, a] + QD[:, b]) / 2 + h / 8 * (QDD[:, a] - QDD[:, b]))
-    opti.subject_to(Q[:, b] - Q[:, a] == h / 6 * (QD[:, a] + 4 * QDm + QD[:, b]))
+    opti.subject_to(Q[:, b] - Q[:, a] == h / 6 * (QDOT[:, a] + 4 * rate(Qm, QDm) + QDOT[:, b]))
     opti.subject_to(QD[:, b] - QD[:, a] == h / 6 * (QDD[:, a] + 4 * QDDm + QDD[:, b]))
     opti.subject_to((ID.map(N)(Qm, QDm, QDDm) - Um) / ca.repmat(scale, 1, N) == 0)
     handles.update(Qm=Qm, QDm=QDm, QDDm=QDDm, Um=Um)
@@ -720,7 +792,7 @@ def resimulate(
             a state that turns NaN or infinite (the reference's input check).
         SingularInertia: M(q) is singular along the motion (a `ValueError`).
     """
-    n = robot.n
+    n = robot.nv  # a planar base's q and v are both nq = nv long
     x = np.concatenate([solution.q[0], solution.qd[0]])
     qs, qds = [x[:n]], [x[n:]]
     for k in range(solution.N):
@@ -729,7 +801,8 @@ def resimulate(
         h = (solution.t[k + 1] - solution.t[k]) / substeps
 
         def f(x, s, k=k):
-            return np.concatenate([x[n:], reference.accel(robot, x[:n], x[n:], solution.interval_torque(k, s))])
+            tau = solution.interval_torque(k, s)
+            return np.concatenate([coordinate_rates(robot, x[:n], x[n:]), reference.accel(robot, x[:n], x[n:], tau)])
 
         for j in range(substeps):
             s = j * h
