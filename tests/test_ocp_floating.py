@@ -104,6 +104,8 @@ def test_floating_bases_the_transcription_does_not_take_are_refused_by_name(puck
     free = Robot("free_arm", robot.links, base_joint="free", base_body=robot.base_body)
     with pytest.raises(ValueError, match="a free base is not transcribed"):
         ocp.dynamics(free, compiled=False)
+    with pytest.raises(ValueError, match="its base is free, not planar"):
+        ocp.planar_rates(free)
     with pytest.raises(ValueError, match="plain source has no floating base"):
         ocp.dynamics(robot, "plain", compiled=False)
     for bad in ((0, 0), (5,), (0.5,), tuple(range(5))):

@@ -185,7 +185,13 @@ def dynamics(robot: Robot, source: str = "symdyn", *, compiled: bool = True) -> 
 
 def planar_rates(robot: Robot) -> ca.Function:
     """(q, v) → q̇ of a robot on a planar base: ẋ, ẏ = R(yaw)·(vx, vy), the yaw rate ω and the
-    joints' q̇ = v (`symdyn.model.base_joint.coordinate_rates`, in CasADi)."""
+    joints' q̇ = v (`symdyn.model.base_joint.coordinate_rates`, in CasADi).
+
+    Raises:
+        ValueError: a robot whose base is not planar.
+    """
+    if robot.base_joint != "planar":
+        raise ValueError(f"planar_rates({robot.name!r}): its base is {robot.base_joint or 'fixed'}, not planar")
     q, v = ca.SX.sym("q", robot.nq), ca.SX.sym("v", robot.nv)
     c, s = ca.cos(q[2]), ca.sin(q[2])
     qd = ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1], v[2:])
