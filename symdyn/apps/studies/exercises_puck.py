@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...model.base_joint import base_pose
 from ...numeric import backend
 from ...numeric import reference as ref
 from .. import air_puck as P
@@ -46,9 +47,8 @@ def optimal(trace: C.Trace, arm_end, T: float):
     robot = P.puck_robot(planar=True)
     k = trace.t <= T + 1e-9
     t, q, qd = trace.t[k], trace.q[k], trace.qd[k]
-    c, s = np.cos(q[:, 2]), np.sin(q[:, 2])
-    v = qd.copy()
-    v[:, 0], v[:, 1] = c * qd[:, 0] + s * qd[:, 1], -s * qd[:, 0] + c * qd[:, 1]
+    R = base_pose("planar", q)[0][:, :2, :2]  # the disc's turn: v = Rᵀ·(ẋ, ẏ), the yaw rate as it is
+    v = np.concatenate([np.einsum("kji,kj->ki", R, qd[:, :2]), qd[:, 2:]], -1)
     problem = ocp.Problem(
         np.r_[np.zeros(3), START],
         np.r_[GOAL, arm_end],
