@@ -54,25 +54,19 @@ def derive(
 
     A tree (links whose parent is not the link before) is derived as a chain is, each
     recursion running through the parents; M's entries between branches are exact zeros.
-    A floating base (Newton–Euler): q = (base coordinates, joints), v and τ = (base, joints)
+    A floating base: q = (base coordinates, joints), v and τ = (base, joints)
     (`symdyn.derivation.floating`), C with its velocities' brackets; regroup=True regroups the base
-    body's parameters with the links' (`regressor.base_parameters`).
+    body's parameters with the links' (`regressor.base_parameters`).  Lagrange derives it on
+    named intermediates at any size (`lagrange_dag`: Hamel's equations in the base's velocities).
 
     Raises:
         ValueError: an unknown method, something that is not a `Robot`, or regroup=True
             for Lagrange or a symbolic robot.
-        NotImplementedError: a floating base (`base_joint`) for Lagrange.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {', '.join(METHODS)}")
     if not isinstance(robot, Robot):
         raise ValueError(f"derive needs a symdyn Robot, got {type(robot).__name__}")
-    if robot.base_joint is not None and method != "newton-euler":
-        raise NotImplementedError(
-            f"robot {robot.name!r} has a {robot.base_joint} base joint: Newton–Euler derives it "
-            f"(got method={method!r}); Lagrange's equations in the base's "
-            "body-frame velocities are not written yet"
-        )
     if regroup and (method != "newton-euler" or robot.is_symbolic):
         raise ValueError(
             "regroup=True needs method='newton-euler' and a numeric robot "
@@ -81,7 +75,8 @@ def derive(
 
     def build() -> Dynamics:
         start = time.perf_counter()
-        if method == "lagrange" and robot.n <= EXPANDED_MAX_JOINTS:  # under a second for the Puma
+        expanded = robot.n <= EXPANDED_MAX_JOINTS and robot.base_joint is None
+        if method == "lagrange" and expanded:  # under a second for the Puma
             from .lagrange import derive as lagrange
 
             dyn = lagrange(robot)

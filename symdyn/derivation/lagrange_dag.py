@@ -20,7 +20,8 @@ import sympy as sp
 from .dynamics import Dynamics, friction_expr, rotor_inertia
 from .kinematics import along_z, ancestors, link_frames
 from ..model import Robot
-from .newton_euler import gravity_in_base, link_inertias
+from . import floating
+from .newton_euler import base_inertia, gravity_in_base, link_inertias
 from .symbols import joint_symbols
 from .tape import AXES, Tape
 
@@ -89,11 +90,82 @@ def _mat(tape: Tape, A, B, label: str) -> sp.Matrix:
     )
 
 
+def _columns(tape: Tape, k: int, Rt, o, units: list, joints: list, axes, origins, frames) -> list:
+    """Link k's Jacobian columns (v at its origin, ω), in its own frame: the base's velocities
+    `units` ((linear, angular) in the base frame) and then its ancestors `joints`."""
+    cols = []
+    for c, (lin, ang) in enumerate(units):  # v = lin + ang × o in the base frame
+        w = Rt * sp.Matrix(ang)
+        v = Rt * (sp.Matrix(lin) + sp.Matrix(ang).cross(o))
+        cols.append(
+            (
+                sp.Matrix([tape.name(x, f"v{k}_b{c + 1}{AXES[a]}") for a, x in enumerate(v)]),
+                sp.Matrix([tape.name(x, f"w{k}_b{c + 1}{AXES[a]}") for a, x in enumerate(w)]),
+            )
+        )
+    for j in joints:
+        revolute = frames[j].S[2] == 1
+        zj = Rt * axes[j]  # joint j's axis in link k's frame
+        w = [tape.name(x, f"w{k}_{j + 1}{AXES[a]}") for a, x in enumerate(zj)] if revolute else [0, 0, 0]
+        v = sp.Matrix(w).cross(Rt * (o - origins[j])) if revolute else zj
+        cols.append((sp.Matrix([tape.name(x, f"v{k}_{j + 1}{AXES[a]}") for a, x in enumerate(v)]), sp.Matrix(w)))
+    return cols
+
+
+def _kinetic(M, index: list, cols: list, inertia) -> None:
+    """Add one body's ½ m v_c² + ½ ωᵀ I_c ω to M's lower triangle: with Jacobian columns at
+    its origin, m va·vb + va·(ωb × h) + vb·(ωa × h) + ωaᵀ Io ωb (h = m·r, Io about the origin)."""
+    m, h, Io = inertia.m, sp.Matrix(inertia.h), inertia.Io
+    for x, a in enumerate(index):
+        va, wa = cols[x]
+        Iw = Io * wa
+        for y, b in enumerate(index[: x + 1]):
+            vb, wb = cols[y]
+            M[a][b] += m * va.dot(vb) + va.dot(wb.cross(h)) + vb.dot(wa.cross(h)) + Iw.dot(wb)
+
+
+def _base_gravity(kind: str, gb, mass, X) -> list:
+    """The base rows of G: V = m·g0·p + gb·X (X = Σ m_i c_i in the base frame) differentiated along
+    each base velocity's left-invariant field, p → p + ε R·lin, R → R (1 + ε [ang×])."""
+    eps = sp.Symbol("epsilon")
+    out = []
+    for lin, ang in floating.columns(kind):
+        moved = sp.Matrix(X) + eps * sp.Matrix(ang).cross(sp.Matrix(X))
+        V = mass * eps * gb.dot(sp.Matrix(lin)) + gb.dot(moved)
+        out.append(sp.diff(V, eps))
+    return out
+
+
+def _bracket_part(kind: str, M, k: int, i: int, j: int, nb: int) -> sp.Expr:
+    """Koszul's bracket terms of Γ_k,ij = ⟨∇_{X_i} X_j, X_k⟩ for left-invariant base fields:
+    ½ (M([X_i, X_j], X_k) − M([X_j, X_k], X_i) + M([X_k, X_i], X_j)), brackets only between
+    base velocities ([e_a, e_b] = ad(e_a)·e_b, `floating.bracket`)."""
+    if kind is None:
+        return sp.S.Zero
+
+    def term(a, b, c):
+        if a >= nb or b >= nb:
+            return sp.S.Zero
+        unit = [1 if r == a else 0 for r in range(nb)]
+        ab = floating.bracket(kind, unit)[:, b]
+        return sum((ab[r] * M[r][c] for r in range(nb) if ab[r] != 0), sp.S.Zero)
+
+    return (term(i, j, k) - term(j, k, i) + term(k, i, j)) / 2
+
+
 def derive(robot: Robot) -> Dynamics:
-    """The Lagrange `Dynamics` of `robot`, M, C, G and τ written in named intermediates."""
+    """The Lagrange `Dynamics` of `robot`, M, C, G and τ written in named intermediates.
+
+    A floating base (Hamel's form of Lagrange's equations in the base's body-frame velocities,
+    Pinocchio's free-flyer v): T = ½ vᵀ M v with the base's columns in every body's Jacobian;
+    G from V along each base velocity's left-invariant field; C's Christoffel symbols by Koszul's
+    formula, whose brackets of base velocities do not vanish (Ṁ − 2C skew)."""
     t0 = time.perf_counter()
     n = robot.n
     q, qd, qdd = joint_symbols(n)
+    kind = robot.base_joint
+    units = floating.columns(kind) if kind else []
+    nb = len(units)
     frames = link_frames(along_z(robot), q)  # every joint axis along its link's z
     inertias = link_inertias(along_z(robot))  # about the link origin, first moments h = m·r
     tape = Tape()
@@ -106,61 +178,63 @@ def derive(robot: Robot) -> Dynamics:
         axes.append(R[:, 2])
         origins.append(o)
         rotations.append(R)
-    # link i's kinetic energy: ½ m v_c² + ½ ωᵀ I_c ω = ½ (m v_o² + 2 v_o·(ω × R h) + ωᵀ R I_o Rᵀ ω)
-    # with Jacobian columns at the link origin: v_o = Σ_j Jv_ij q̇_j, ω = Σ_j Jw_ij q̇_j
-    M = [[sp.S.Zero] * n for _ in range(n)]
+    # kinetic energy, body by body; v = (base velocities, joint rates), a tree's other branches
+    # do not move a link
+    nv = nb + n
+    M = [[sp.S.Zero] * nv for _ in range(nv)]
+    if kind:
+        body = base_inertia(robot)
+        _kinetic(M, list(range(nb)), [(sp.Matrix(lin), sp.Matrix(ang)) for lin, ang in units], body)
     for i in range(n):
-        k = i + 1
-        Rt = rotations[i].T
-        m, h, Io = inertias[i].m, sp.Matrix(inertias[i].h), inertias[i].Io
-        path = sorted(ancestors(robot.parents, i))  # a tree's other branches do not move link i
-        cols = {}
-        for j in path:
-            revolute = frames[j].S[2] == 1
-            zj = Rt * axes[j]  # joint j's axis in link i's frame
-            w = [tape.name(x, f"w{k}_{j + 1}{AXES[a]}") for a, x in enumerate(zj)] if revolute else [0, 0, 0]
-            if revolute:
-                v = sp.Matrix(w).cross(Rt * (origins[i] - origins[j]))
-            else:
-                v = zj
-            v = [tape.name(x, f"v{k}_{j + 1}{AXES[a]}") for a, x in enumerate(v)]
-            cols[j] = (sp.Matrix(v), sp.Matrix(w))
-        for x, a in enumerate(path):
-            va, wa = cols[a]
-            Iw = Io * wa
-            for b in path[: x + 1]:
-                vb, wb = cols[b]
-                term = m * va.dot(vb) + va.dot(wb.cross(h)) + vb.dot(wa.cross(h)) + Iw.dot(wb)
-                M[a][b] += term
-    Ia = rotor_inertia(robot)
-    for a in range(n):
+        path = sorted(ancestors(robot.parents, i))
+        cols = _columns(tape, i + 1, rotations[i].T, origins[i], units, path, axes, origins, frames)
+        _kinetic(M, list(range(nb)) + [nb + j for j in path], cols, inertias[i])
+    Ia = [0] * nb + rotor_inertia(robot)
+    for a in range(nv):
         for b in range(a + 1):
             M[a][b] = tape.name(M[a][b] + (Ia[a] if a == b else 0), f"M{a + 1}{b + 1}")
             M[b][a] = M[a][b]
     t1 = time.perf_counter()
+    # potential energy V = Σ_i m_i g0·c_i over the links' centres of mass c_i in frame {0}
     g0 = sp.Matrix(gravity_in_base(robot))  # the base's upward acceleration, in frame {0}
     V = sum(
         (inertias[i].m * g0.dot(origins[i]) + g0.dot(rotations[i] * sp.Matrix(inertias[i].h)) for i in range(n)),
         sp.S.Zero,
     )
     d = _Derivatives(tape, q)
-    G = [tape.name(d.of(V, l), f"G{l + 1}") for l in range(n)]
+    G = []
+    if kind:  # V = m·g0·p + gb·X: the base's position p, gravity turned into its frame, X = Σ m_i c_i there
+        qb, vb, ab = floating.base_symbols(kind)
+        gb = sp.Matrix(tape.vector(list(floating.base_rotation(kind, qb).T * g0), "gb"))
+        X = sum(
+            (inertias[i].m * origins[i] + rotations[i] * sp.Matrix(inertias[i].h) for i in range(n)), sp.zeros(3, 1)
+        )
+        X = sp.Matrix(tape.vector(list(X + sp.Matrix(body.h)), "X"))
+        mass = sum((inertia.m for inertia in inertias), body.m)
+        G = [tape.name(x, f"G{c + 1}") for c, x in enumerate(_base_gravity(kind, gb, mass, X))]
+        V = gb.dot(X)
+    G += [tape.name(d.of(V, l), f"G{nb + l + 1}") for l in range(n)]
     t2 = time.perf_counter()
-    dM = {(a, b, l): d.of(M[a][b], l) for a in range(n) for b in range(a + 1) for l in range(n)}
-    dm = lambda a, b, l: dM[max(a, b), min(a, b), l]  # noqa: E731
+    dM = {(a, b, l): d.of(M[a][b], l) for a in range(nv) for b in range(a + 1) for l in range(n)}
+    # X_l M_ab: the joints' fields are ∂/∂q_l; M does not change along the base's
+    dm = lambda a, b, l: sp.S.Zero if l < nb else dM[max(a, b), min(a, b), l - nb]  # noqa: E731
     gamma = {}
-    for k in range(n):
-        for i in range(n):
-            for j in range(i, n):
+    for k in range(nv):
+        for i in range(nv):
+            for j in range(i, nv):
                 g = (dm(k, i, j) + dm(k, j, i) - dm(i, j, k)) / 2
-                gamma[k, i, j] = gamma[k, j, i] = tape.name(g, f"Gam{k + 1}_{i + 1}{j + 1}")
-    C = sp.ImmutableMatrix(n, n, lambda k, j: sum((gamma[k, i, j] * qd[i] for i in range(n)), sp.S.Zero))
+                gamma[k, i, j] = tape.name(g + _bracket_part(kind, M, k, i, j, nb), f"Gam{k + 1}_{i + 1}{j + 1}")
+                gamma[k, j, i] = tape.name(g + _bracket_part(kind, M, k, j, i, nb), f"Gam{k + 1}_{j + 1}{i + 1}")
+    v, dv = (tuple(vb) + qd, tuple(ab) + qdd) if kind else (qd, qdd)
+    C = sp.ImmutableMatrix(nv, nv, lambda k, j: sum((gamma[k, i, j] * v[i] for i in range(nv)), sp.S.Zero))
     t3 = time.perf_counter()
     F = friction_expr(robot, qd)
+    if kind:
+        F = sp.ImmutableMatrix([0] * nb + list(F))
     Mm = sp.ImmutableMatrix(M)
-    Cqd = sp.ImmutableMatrix(C * sp.Matrix(qd))
+    Cqd = sp.ImmutableMatrix(C * sp.Matrix(v))
     Gm = sp.ImmutableMatrix(G)
-    named = {"M": Mm, "C": C, "Cqd": Cqd, "G": Gm, "F": F, "tau": Mm * sp.Matrix(qdd) + Cqd + Gm + F}
+    named = {"M": Mm, "C": C, "Cqd": Cqd, "G": Gm, "F": F, "tau": Mm * sp.Matrix(dv) + Cqd + Gm + F}
     stats = {
         "time_M": t1 - t0,
         "time_G": t2 - t1,
@@ -172,9 +246,9 @@ def derive(robot: Robot) -> Dynamics:
     return Dynamics(
         robot=robot,
         method="lagrange",
-        q=q,
-        qd=qd,
-        qdd=qdd,
+        q=tuple(qb) + q if kind else q,
+        qd=v,
+        qdd=dv,
         F=F,
         definitions=tuple(tape.used_by(list(named["tau"]) + list(C) + list(Mm))),
         named=named,
