@@ -142,13 +142,10 @@ def test_floating_christoffel_matrix_is_the_references():
         assert np.abs(np.array(half(q, v), dtype=float) - want).max() > 1e-3 * np.abs(want).max()
 
 
-def test_identification_and_named_constants_refuse_a_floating_base_by_name():
-    """Their parameters are laid out per link; a floating base's body comes first (refused, not misread)."""
-    from symdyn.identify.simulate import simulate
+def test_named_constants_refuse_a_floating_base_by_name():
+    """Its constants are laid out per link; a floating base's body comes first (refused, not misread)."""
     from symdyn.presentation.constants import constant_form
 
     robot = _robot(1, "free", n=2)
     with pytest.raises(NotImplementedError, match="named constants reads robots on a fixed base"):
         constant_form(derive(robot, cache=False))
-    with pytest.raises(NotImplementedError, match="free base joint"):
-        simulate(robot, None)

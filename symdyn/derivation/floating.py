@@ -16,11 +16,32 @@ import functools
 
 import sympy as sp
 
-__all__ = ["base_symbols", "base_rotation", "bracket_term", "BASE_COORDINATES", "BASE_VELOCITIES"]
+__all__ = [
+    "base_symbols",
+    "base_rotation",
+    "base_columns",
+    "bracket_term",
+    "BASE_COORDINATES",
+    "BASE_VELOCITIES",
+    "BASE_WRENCH",
+]
 
 #: Names of the base joint's coordinates, velocities and accelerations (before the joints' in q, v, v̇).
 BASE_COORDINATES = {"free": ("x", "y", "z", "qx", "qy", "qz", "qw"), "planar": ("x", "y", "yaw")}
 BASE_VELOCITIES = {"free": ("vx", "vy", "vz", "wx", "wy", "wz"), "planar": ("vx", "vy", "wz")}
+#: Names of τ's base rows: the force and moment on the base body, in its frame (`rows`).
+BASE_WRENCH = {"free": ("fx", "fy", "fz", "nx", "ny", "nz"), "planar": ("fx", "fy", "nz")}
+
+
+def base_columns(kind: str) -> dict[str, tuple[str, ...]]:
+    """A base joint's data columns by kind of quantity ("q", "qd", "qdd", "tau"): base_x …,
+    base_vx …, base_dvx …, base_fx … (the names of `base_symbols`, and of τ's rows)."""
+    return {
+        "q": tuple(f"base_{c}" for c in BASE_COORDINATES[kind]),
+        "qd": tuple(f"base_{c}" for c in BASE_VELOCITIES[kind]),
+        "qdd": tuple(f"base_d{c}" for c in BASE_VELOCITIES[kind]),
+        "tau": tuple(f"base_{c}" for c in BASE_WRENCH[kind]),
+    }
 
 
 @functools.lru_cache(maxsize=None)

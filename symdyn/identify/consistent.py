@@ -55,8 +55,8 @@ import numpy as np
 import sympy as sp
 
 from ..derivation.kinematics import along_z
-from ..derivation.regressor import FRICTION, INERTIAL, BaseParameters, base_parameters, parameter_values
-from ..model import Robot
+from ..derivation.regressor import BODY, FRICTION, INERTIAL, BaseParameters, base_parameters, parameter_values
+from ..model import Link, Robot
 
 __all__ = ["physical", "Consistent", "pseudo_inertia", "METHODS"]
 
@@ -397,7 +397,29 @@ def _rounded_onto_physical(I: np.ndarray, scale: float) -> np.ndarray:
     return (I + I.T) / 2
 
 
+def _padded(x: np.ndarray) -> np.ndarray:
+    """A floating base's π (or P's columns) with four zeros after the body's ten: a block like a link's."""
+    return np.insert(x, [len(BODY)] * (PER - len(BODY)), 0.0, axis=-1)
+
+
 def _robot_from(robot: Robot, pi: np.ndarray, maps: list) -> Robot:
+    body = len(BODY) if robot.base_joint is not None else 0
+    if body:  # the base body in its own frame, the recursion's frame {0}
+        v = pi[:body]
+        Io = np.array([[v[0], v[1], v[2]], [v[1], v[3], v[4]], [v[2], v[4], v[5]]])
+        m = float(v[9])
+        c = v[6:9] / m if m > 0 else np.zeros(3)
+        Ic = Io - m * (c @ c * np.eye(3) - np.outer(c, c))
+        robot = dataclasses.replace(
+            robot,
+            base_body=dataclasses.replace(
+                robot.base_body or Link(),
+                m=max(m, 0.0),
+                r=tuple(float(x) for x in c),
+                I=tuple(tuple(float(x) for x in row) for row in _rounded_onto_physical(Ic, np.abs(Io).max())),
+            ),
+        )
+        pi = pi[body:]
     links = []
     for j, (link, (R, p)) in enumerate(zip(robot.links, maps)):
         v = pi[j * PER : (j + 1) * PER]
@@ -472,10 +494,10 @@ def physical(
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}: expected one of {METHODS}")
     robot.require_numeric("physically consistent parameters")
-    robot.require_fixed_base("physically consistent parameters")
     start = time.perf_counter()
     base = base or _base(robot)
-    n = robot.n
+    floating = robot.base_joint is not None
+    n = robot.n + floating  # blocks of PER: a floating base's body is the first, its motor terms held at 0
     names = [str(s) for s in base.params]
     pivots = [names[k] for k in base.independent]
     base_names = [str(s) for s in base_names]
@@ -498,6 +520,8 @@ def physical(
     beta = values[order]
     P = _matrix_P(base)
     pi0 = _prior_vector(robot, prior, names)
+    if floating:  # the body's ten padded to a block of fourteen
+        P, pi0 = _padded(P), _padded(pi0)
     s, ms, L = _scales(pi0, n, beta, P)
 
     # weights of the fit: Σ^{-1/2}, or the inverse scale of each base parameter's pivot
@@ -523,7 +547,9 @@ def physical(
     x0 = np.linalg.lstsq(T, pi0, rcond=None)[0]
 
     solve = _solve_clarabel if method == "sdp" else _solve_casadi
-    nomotor = [j for j, link in enumerate(robot.links) if float(link.G) == 0]  # no motor: IA = FV = FS = FO = 0
+    nomotor = [0] * floating + [
+        j + floating for j, link in enumerate(robot.links) if float(link.G) == 0
+    ]  # no motor: IA = FV = FS = FO = 0
     x, status = solve(fit, reg, regularisation, n, x0, tol, nomotor)
 
     # onto the constraint set exactly (a solver's tolerance may leave −1e-10)
@@ -547,6 +573,8 @@ def physical(
     r = achieved - beta
     moved = float(np.linalg.norm(Wrel @ r) / max(np.linalg.norm(Wrel @ beta), 1e-300))
     sigmas = float(np.linalg.norm(W @ r)) if base_cov is not None else None
+    if floating:
+        pi = np.delete(pi, slice(len(BODY), PER))
     new = _robot_from(robot, pi, _frame_maps(robot))
     seconds = time.perf_counter() - start
     # report in the caller's order

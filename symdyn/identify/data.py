@@ -3,7 +3,8 @@
 The data step of identify (excitation → **data** → base regressor → estimate):
 `load_data(path)` reads a CSV (header `t, q1…qn, tau1…taun`, optionally
 `qd1…qdn`, `qdd1…qddn`, or motor currents `i1…in` with a torque constant
-instead of τ) or an NPZ with the same names, and preprocesses it as
+instead of τ; a floating base's columns base_x …, base_vx …, base_dvx …, base_fx … before the
+joints') or an NPZ with the same names, and preprocesses it as
 practitioners do: a zero-phase Butterworth low-pass on q (`filtfilt`), q̇ and q̈
 by central differences of the filtered q where they are not given.  The
 decimation of τ and of the regressor Y through one and the same low-pass
@@ -24,6 +25,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..derivation.floating import base_columns
+
 if TYPE_CHECKING:
     from ..model import Robot
 
@@ -42,7 +45,8 @@ _KINDS = ("q", "qd", "qdd", "tau", "i")
 @dataclass(frozen=True)
 class Data:
     """Samples of one motion: t (N,) in s; q, qd, qdd (N, n) in rad (m for prismatic joints),
-    rad/s, rad/s²; tau (N, n) in N·m or N.  `decimate`: the factor by which `fit` decimates τ
+    rad/s, rad/s²; tau (N, n) in N·m or N.  On a floating base (`base`, its kind) q is (N, nq) and
+    qd, qdd, tau (N, nv), the base's columns first (`columns`).  `decimate`: the factor by which `fit` decimates τ
     and Y through the same filter (1: none).  `source` names where the samples came from and
     `notes` what was done to them; `truth` is the arm that simulated data came from."""
 
@@ -56,17 +60,30 @@ class Data:
     differentiated: bool = False  # q̇ computed from q (then its sign at rest is noise: see fit's rest_speed)
     notes: tuple = field(default=())
     truth: object = field(default=None, compare=False, repr=False)  # the true arm of simulated data
+    base: str | None = None  # a floating base's kind: q (N, nq) and qd, qdd, tau (N, nv) start with its columns
 
     @property
     def n(self) -> int:
-        return self.q.shape[1]
+        """The number of joints (a floating base's coordinates not counted)."""
+        return self.q.shape[1] - (len(base_columns(self.base)["q"]) if self.base else 0)
+
+    def columns(self, kind: str) -> list[str]:
+        """The names of q's, qd's, qdd's or tau's columns: a floating base's (`base_columns`), then
+        the joints' (q1…qn)."""
+        return [*(base_columns(self.base)[kind] if self.base else ()), *(f"{kind}{j + 1}" for j in range(self.n))]
 
     @property
     def N(self) -> int:
         return self.q.shape[0]
 
     def check_joints(self, robot: Robot) -> "Data":
-        """self, or a ValueError naming the column where the joint count differs from robot's."""
+        """self, or a ValueError naming the column where the joint count differs from robot's, or
+        naming the base joint where the data's differs."""
+        if self.base != robot.base_joint:
+            raise ValueError(
+                f"{self.source}: the data are of a {self.base or 'fixed'} base but the model {robot.name!r} "
+                f"has a {robot.base_joint or 'fixed'} base"
+            )
         if self.n != robot.n:
             if self.n < robot.n:
                 col = f"column q{self.n + 1} is missing"
@@ -172,7 +189,9 @@ def load_data(
 ) -> Data:
     """Read and preprocess measured motion from a CSV or NPZ file (see the module docstring).
 
-    joints: the model (a Robot) or its joint count, checked against the file's.  torque_constant:
+    joints: the model (a Robot) or its joint count, checked against the file's; a Robot on a floating
+    base also reads its base's columns base_x …, base_vx …, base_dvx …, base_fx … (`floating.base_columns`:
+    its pose, body-frame velocity and acceleration, the force and moment on it).  torque_constant:
     a number or one per joint (N·m/A): τ = K·i from the currents i1…in instead of tau columns.
     cutoff: the low-pass cutoff in Hz of q (and of qd, qdd where given) before differentiation
     (default: `DEFAULT_CUTOFF` where q̇ or q̈ must be computed, else no filtering).  decimate: the
@@ -188,7 +207,8 @@ def load_data(
             naming line and column; no t, no q1…qn, a missing or extra joint
             column, no tau1…taun (or currents without a torque constant, or a torque
             constant without currents or of the wrong length); a joint count other
-            than `joints`'; a NaN or infinite value; fewer than 2 rows, time that
+            than `joints`'; a floating base's column missing, or one without a
+            floating-base model; a NaN or infinite value; fewer than 2 rows, time that
             does not increase, non-uniform sampling where filtering,
             differentiation or decimation needs it; a cutoff outside (0, Nyquist);
             too few samples to filter; decimate not a positive integer.
@@ -226,13 +246,24 @@ def from_arrays(
     source: str = "arrays",
 ) -> Data:
     """`load_data` for arrays in memory: t (N,), q (N, n) and tau (N, n) (or currents with a torque
-    constant), qd and qdd (N, n) optional."""
+    constant), qd and qdd (N, n) optional.  joints a Robot on a floating base: q (N, nq), qd, qdd and
+    tau (N, nv), the base's columns first (its velocities and accelerations required).
+
+    Raises:
+        ValueError: as `load_data`, and arrays too narrow for a floating base's columns.
+    """
     cols = {"t": np.asarray(t, dtype=float)}
+    floating = getattr(joints, "base_joint", None)
+    base = base_columns(floating) if floating else {}
     for kind, a in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau), ("i", current)):
         if a is not None:
             a = np.asarray(a, dtype=float)
             a = a[:, None] if a.ndim == 1 else a
-            cols.update((f"{kind}{j + 1}", a[:, j]) for j in range(a.shape[1]))
+            named = base.get(kind, ())  # a floating base's columns come first
+            if a.ndim != 2 or a.shape[1] < len(named):
+                raise ValueError(f"{source}: {kind} of shape {a.shape} has no room for the base's {', '.join(named)}")
+            cols.update(zip(named, a.T))
+            cols.update((f"{kind}{j + 1}", a[:, len(named) + j]) for j in range(a.shape[1] - len(named)))
     return _from_columns(
         cols,
         source=source,
@@ -275,6 +306,25 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             label = f"the model {joints.name!r}" if not isinstance(joints, int) else "the model"
             col = f"column q{n + 1} is missing" if n < expected else f"column q{expected + 1} is one too many"
             raise ValueError(f"{source}: the data have {n} joints (q1…q{n}) but {label} has {expected}: {col}")
+    kind = getattr(joints, "base_joint", None)
+    base = base_columns(kind) if kind else {}
+    expected = [c for k in ("q", "qd", "qdd", "tau") for c in base.get(k, ())]
+    stray = [c for c in names if c.startswith("base_") and c not in expected]
+    if stray:
+        raise ValueError(
+            f"{source}: column {stray[0]} describes a floating base "
+            + (
+                f"but is not one of the {kind} base's columns ({', '.join(expected)})"
+                if kind
+                else "but the data are read without a floating-base model (give joints=the Robot)"
+            )
+        )
+    for c in expected:
+        if c not in cols:
+            raise ValueError(
+                f"{source}: column {c} is missing: a {kind} base's data give its coordinates, velocities "
+                f"and accelerations (its frame) and the force and moment on it ({', '.join(expected)})"
+            )
     if torque_constant is not None:
         if "i1" not in cols:
             raise ValueError(
@@ -294,6 +344,7 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             raise ValueError(f"{source}: column tau1 is missing: the joint torques tau1…tau{n}{extra}")
         K, tau_cols = np.ones(n), [f"tau{j + 1}" for j in range(n)]
     used = ["t", *qs] + [f"{k}{j + 1}" for k in ("qd", "qdd") if f"{k}1" in cols for j in range(n)] + tau_cols
+    used += expected
     for name in used:  # the first NaN or infinity, by row
         bad = np.flatnonzero(~np.isfinite(cols[name]))
         if bad.size:
@@ -316,7 +367,9 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
     qd = stack("qd") if "qd1" in cols else None
     qdd = stack("qdd") if "qdd1" in cols else None
     tau = np.column_stack([cols[c] for c in tau_cols]).astype(float) * K
-    notes = [f"{len(t)} samples of {n} joints from {source}"]
+    # a floating base: its pose, velocity, acceleration and wrench as given (a quaternion is not low-passed)
+    bq, bv, ba, bf = (np.column_stack([cols[c] for c in base[k]]).astype(float) for k in base) if kind else [None] * 4
+    notes = [f"{len(t)} samples of {n} joints{f' on a {kind} base' if kind else ''} from {source}"]
     if torque_constant is not None:
         notes.append(f"tau = K·i with K = {K.tolist()}")
     if not isinstance(decimate, (int, np.integer)) or decimate < 1:
@@ -337,6 +390,9 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             f"q{', given qd/qdd' if not needs_derivative else ''} low-passed: Butterworth order {order}, "
             f"{cutoff:g} Hz, zero phase (filtfilt) at {rate:g} Hz"
         )
+        if kind:
+            bv, ba = lowpass(bv, cutoff, rate, order), lowpass(ba, cutoff, rate, order)
+            notes.append("the base's velocities and accelerations low-passed alike, its coordinates as given")
         if qd is None:
             qd = np.gradient(q, t, axis=0, edge_order=2)
             notes.append("qd by central differences of the filtered q")
@@ -351,9 +407,13 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             )
         keep = slice(edge, len(t) - edge)
         t, q, qd, qdd, tau = t[keep], q[keep], qd[keep], qdd[keep], tau[keep]
+        if kind:
+            bq, bv, ba, bf = bq[keep], bv[keep], ba[keep], bf[keep]
         notes.append(f"the first and last {edge} samples dropped ({EDGE:g}/cutoff: the filter's edge transients)")
     if decimate > 1:
         notes.append(f"tau and Y decimated by {decimate} through one filter (parallel filtering) in fit")
+    if kind:  # the base's columns first, as every function of the model takes them
+        q, qd, qdd, tau = np.hstack([bq, q]), np.hstack([bv, qd]), np.hstack([ba, qdd]), np.hstack([bf, tau])
     return Data(
         t=t,
         q=q,
@@ -364,6 +424,7 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
         source=source,
         notes=tuple(notes),
         differentiated=differentiated,
+        base=kind,
     )
 
 
@@ -426,13 +487,16 @@ def parallel_decimate(Y: np.ndarray, tau: np.ndarray, factor: int, t: np.ndarray
 
 
 def write_csv(path, data: Data, *, derivatives: bool = True) -> Path:
-    """Write `data` as CSV: t, q1…qn, (qd1…qdn, qdd1…qddn when `derivatives`), tau1…taun."""
+    """Write `data` as CSV: t, q1…qn, (qd1…qdn, qdd1…qddn when `derivatives`), tau1…taun; a floating
+    base's columns before the joints' of each kind (its velocities and accelerations always)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    n = data.n
-    kinds = ("q", "qd", "qdd", "tau") if derivatives else ("q", "tau")
-    header = ["t"] + [f"{k}{j + 1}" for k in kinds for j in range(n)]
+    kinds = ("q", "qd", "qdd", "tau") if derivatives or data.base else ("q", "tau")
+    header = ["t"] + [c for k in kinds for c in data.columns(k)]
     values = np.column_stack([data.t] + [getattr(data, k) for k in kinds])
+    if data.base and not derivatives:  # the base's velocities and accelerations stay (never differentiated)
+        keep = [c for c in header if not c.startswith(("qd", "qdd"))]
+        values, header = values[:, [header.index(c) for c in keep]], keep
     np.savetxt(path, values, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
     return path
 

@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike
 
 from ..model import Robot
 from .data import Data, parallel_decimate
-from .parameters import BaseMap, base_map, standard_names, standard_vector, with_standard
+from .parameters import BaseMap, base_map, robot_names, standard_vector, with_standard
 
 __all__ = ["fit", "Identification", "BaseEstimate", "Validation", "regressor_rows", "METHODS"]
 
@@ -116,10 +116,10 @@ class _Regressor:
         self.model = _MODELS[entry]
         self.target = target
         self.columns = np.asarray(bmap.columns)
-        self.n, self.p = robot.n, 14 * robot.n
+        self.n, self.p = robot.nv, len(bmap.P[0])  # rows: τ's (a floating base's first); every standard column
 
     def chunks(self, q, qd, qdd, chunk: int = CHUNK):
-        """(start, Y_b (m, n, b)) for consecutive chunks of the states (N, n)."""
+        """(start, Y_b (m, nv, b)) for consecutive chunks of the states (N, nq), (N, nv), (N, nv)."""
         N = len(q)
         q, qd, qdd = (np.ascontiguousarray(x, dtype=float) for x in (q, qd, qdd))
         buffer = np.empty((min(chunk, N), self.n, self.p)) if self.target == "c" else None
@@ -337,7 +337,8 @@ def fit(
     rest_speed: float | None = None,
 ) -> "Identification":
     """Identify the base parameters of `robot`'s geometry from `data` (a `Data`, or a CSV/NPZ file
-    read by `load_data` with its defaults; see the module docstring).
+    read by `load_data` with its defaults; see the module docstring).  A floating base: its body's
+    parameters with the links', from its rows of τ (the force and moment on it) and the joints'.
 
     method: "wls" (weighted by each joint's residual variance, Gautier & Khalil) or "ols".
     consistent: also find physically consistent standard parameters (`consistent.physical`,
@@ -360,7 +361,7 @@ def fit(
     Raises:
         ValueError: an unknown method; something other than a `Robot`, or a symbolic
             one; data that is neither `Data` nor a file (a file: `load_data`'s
-            errors), or with another joint count than the robot; a negative
+            errors), or with another joint count or base joint than the robot; a negative
             rest_speed; an unknown target; fewer equations than base parameters; a
             motion that does not excite or does not separate the base parameters.
         RuntimeError: consistent=True where this installation lacks
@@ -375,7 +376,6 @@ def fit(
     if not isinstance(robot, Robot):
         raise ValueError(f"expected a symdyn Robot, got {type(robot).__name__}")
     robot.require_numeric("identification")
-    robot.require_fixed_base("identification")
     if isinstance(data, (str, Path)):
         from .data import load_data
 
@@ -420,14 +420,16 @@ def _moving(robot: Robot, data: Data, rest_speed: float) -> np.ndarray | None:
     and the joint is slower than rest_speed there (then None: keep all)."""
     if rest_speed == 0 or not any(float(t) != 0 for link in robot.links for t in link.Tc):
         return None
-    return np.abs(data.qd) >= rest_speed
+    moving = np.abs(data.qd) >= rest_speed
+    moving[:, : robot.nv - robot.n] = True  # a floating base's rows have no joint friction
+    return moving
 
 
 def _fit(robot: Robot, data: Data, method: str, target: str, rest_speed: float = 0.0) -> "Identification":
     start = time.perf_counter()
     bmap = base_map(robot)
     reg = _Regressor(robot, bmap, target)
-    n, b = robot.n, len(bmap.names)
+    n, b = robot.nv, len(bmap.names)  # n rows per sample: τ's, a floating base's first
     keep = _moving(robot, data, rest_speed)
     if data.decimate > 1:
         Yb, tau, _ = parallel_decimate(reg.full(data.q, data.qd, data.qdd), data.tau, data.decimate, data.t)
@@ -576,8 +578,7 @@ class Identification:
         """Standard parameters π (14n,) reproducing β̂: the consistent ones, else the prior's
         moved by the minimum-norm correction π₀ + P⁺(β̂ − P·π₀)."""
         if self.consistent is not None:
-            names = standard_names(self.prior.n)
-            return np.array([self.consistent.standard[k] for k in names])
+            return np.array([self.consistent.standard[k] for k in robot_names(self.prior)])
         pi0 = standard_vector(self.prior)
         P = self.map.P
         return pi0 + np.linalg.lstsq(P, self.base.values - P @ pi0, rcond=None)[0]
@@ -596,9 +597,9 @@ class Identification:
         """
         single = np.ndim(q) == 1
         q, qd, qdd = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (q, qd, qdd))
-        for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
-            if x.shape[-1] != self.prior.n or not np.all(np.isfinite(x)):
-                raise ValueError(f"predict(): {name} must be finite with shape (N, {self.prior.n}), got {x.shape}")
+        for name, x, size in (("q", q, self.prior.nq), ("qd", qd, self.prior.nv), ("qdd", qdd, self.prior.nv)):
+            if x.shape[-1] != size or not np.all(np.isfinite(x)):
+                raise ValueError(f"predict(): {name} must be finite with shape (N, {size}), got {x.shape}")
         out = self._reg().predict(self.base.values, q, qd, qdd)
         return out[0] if single else out
 
@@ -621,11 +622,17 @@ class Identification:
     # ---- report
     def summary(self, validation: Validation | None = None) -> str:
         d = self.data
+        floating = self.prior.base_joint
+        on = f" on a {floating} base" if floating else ""
+        rows = (
+            f"{self.prior.nv} equations (the base's {self.prior.nv - self.prior.n} first)"
+            if floating
+            else f"{self.prior.n} joints"
+        )
         lines = [
-            f"identification of {self.prior.name} ({self.prior.n} joints) by {self.method.upper()}",
+            f"identification of {self.prior.name} ({self.prior.n} joints{on}) by {self.method.upper()}",
             *(f"  {note}" for note in d.notes),
-            f"{self.samples} samples × {self.prior.n} joints, {len(self.base)} base parameters, "
-            f"least squares in {self.seconds:.3f} s",
+            f"{self.samples} samples × {rows}, {len(self.base)} base parameters, least squares in {self.seconds:.3f} s",
             f"condition number of the {'weighted ' if self.method == 'wls' else ''}base regressor: "
             f"{self.condition:.4g} ({self.scaled_condition:.4g} with unit columns)",
             "residual rms per joint: " + ", ".join(f"{x:.4g}" for x in self.rms),
@@ -669,7 +676,7 @@ class Identification:
                 )
             ],
         }
-        names = standard_names(self.prior.n)
+        names = robot_names(self.prior)
         prior = standard_vector(self.prior)
         try:
             standard = self.standard()
@@ -764,14 +771,15 @@ class Identification:
         for name, v in (("fit", fit_view), ("validation", validation)):
             if v is None:
                 continue
-            n = self.prior.n
+            rows = self.data.columns("tau")
+            n = len(rows)
             fig, axes = plt.subplots(n, 1, figsize=(8, 1.6 * n + 0.6), sharex=True, squeeze=False)
             for j, ax in enumerate(axes[:, 0]):
                 ax.plot(v.t, v.measured[:, j], lw=0.6, color="0.6", label="measured")
                 ax.plot(v.t, v.predicted[:, j], lw=0.9, color="C0", label="predicted")
-                ax.set_ylabel(f"τ{j + 1}")
+                ax.set_ylabel(rows[j])
                 if name == "validation":
-                    ax.set_title(f"joint {j + 1}: rms error {v.rms[j]:.3g} ({100 * v.relative[j]:.1f} %)", fontsize=8)
+                    ax.set_title(f"{rows[j]}: rms error {v.rms[j]:.3g} ({100 * v.relative[j]:.1f} %)", fontsize=8)
             axes[0, 0].legend(fontsize=7, loc="upper right")
             axes[-1, 0].set_xlabel("t (s)")
             fig.suptitle(f"{self.prior.name}: {name} ({v.source})", fontsize=9)

@@ -17,28 +17,35 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import __version__
-from ..model import Robot, exact_cos_sin
+from ..model import Link, Robot, exact_cos_sin
 
-__all__ = ["BaseMap", "base_map", "standard_names", "standard_vector", "with_standard", "PER_LINK"]
+__all__ = ["BaseMap", "base_map", "robot_names", "standard_names", "standard_vector", "with_standard", "PER_LINK"]
 
 #: Standard parameters per link: XX XY XZ YY YZ ZZ MX MY MZ M IA FV FS FO.
 PER_LINK = 14
+#: A floating base's body's: the first ten (no rotor, no friction), before the links'.
+BODY = 10
 
 
-def standard_names(n: int) -> tuple[str, ...]:
-    """XX1, XY1, …, FO1, XX2, …: the regressor's parameter names (14 per link)."""
+def standard_names(n: int, floating: bool = False) -> tuple[str, ...]:
+    """XX1, XY1, …, FO1, XX2, …: the regressor's parameter names (14 per link); `floating`: the
+    base body's XX0 … M0 first."""
     from ..derivation.regressor import parameter_symbols
 
-    return tuple(str(s) for s in parameter_symbols(n))
+    return tuple(str(s) for s in parameter_symbols(n, floating))
+
+
+def robot_names(robot: Robot) -> tuple[str, ...]:
+    """`standard_names` of this robot (its base body's first on a floating base)."""
+    return standard_names(robot.n, robot.base_joint is not None)
 
 
 def standard_vector(robot: Robot) -> np.ndarray:
-    """The robot's standard parameters π (14n,) as floats, in the order of the regressor's columns."""
+    """The robot's standard parameters π (14n,; a floating base's body's ten first) as floats, in the
+    order of the regressor's columns."""
     from ..derivation.regressor import parameter_values
 
     robot.require_numeric("identification")
-
-    robot.require_fixed_base("identification")
     return np.array([float(v) for v in parameter_values(robot)])
 
 
@@ -75,8 +82,6 @@ def base_map(robot: Robot) -> BaseMap:
     from ..derivation.regressor import base_parameters
 
     robot.require_numeric("identification")
-
-    robot.require_fixed_base("identification")
 
     def build() -> BaseMap:
         base = base_parameters(robot)
@@ -130,23 +135,28 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
     not positive semidefinite, negative friction): `Robot` checks each link as it always does.
     """
     pi = np.asarray(pi, dtype=float)
-    if pi.shape != (PER_LINK * robot.n,):
-        raise ValueError(f"expected {PER_LINK * robot.n} standard parameters for {robot.name!r}, got shape {pi.shape}")
+    body = BODY if robot.base_joint is not None else 0
+    if pi.shape != (body + PER_LINK * robot.n,):
+        raise ValueError(
+            f"expected {body + PER_LINK * robot.n} standard parameters for {robot.name!r}, got shape {pi.shape}"
+        )
+    base_body = None
+    if body:  # the base body's ten, in its own frame (the recursion's frame {0})
+        m, r, Ic = _body(pi[:BODY], f"the base body of {robot.name!r}", "0")
+        eig = np.linalg.eigvalsh(Ic)
+        base_body = dataclasses.replace(
+            robot.base_body or Link(),
+            m=float(m),
+            r=tuple(float(x) for x in r),
+            I=tuple(tuple(float(x) for x in row) for row in Ic),
+            physical=bool(eig[0] + eig[1] >= eig[2] * (1 - 1e-9)),
+        )
+        pi = pi[BODY:]
     links = []
     for j, link in enumerate(robot.links):
-        XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M, IA, FV, FS, FO = pi[PER_LINK * j : PER_LINK * (j + 1)]
-        Io = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
-        h = np.array([MX, MY, MZ])
-        if M > 0:
-            r = h / M
-            Ic = Io - M * (r @ r * np.eye(3) - np.outer(r, r))
-        elif M == 0 and not h.any():
-            r, Ic = np.zeros(3), Io
-        else:
-            raise ValueError(
-                f"link {j + 1} of {robot.name!r}: mass M{j + 1} = {M:.6g} with first moments "
-                f"(MX, MY, MZ) = {tuple(np.round(h, 12))} is no physical body"
-            )
+        block = pi[PER_LINK * j : PER_LINK * (j + 1)]
+        M, r, Ic = _body(block[:BODY], f"link {j + 1} of {robot.name!r}", str(j + 1))
+        IA, FV, FS, FO = block[BODY:]
         R, p = _recursion_rotation(robot, j)
         r_own = R.T @ (r - p) if M > 0 else np.zeros(3)
         I_own = R.T @ Ic @ R
@@ -167,4 +177,21 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
                 **motor,
             )
         )
-    return dataclasses.replace(robot, links=tuple(links), name=name or robot.name)
+    out = dataclasses.replace(robot, links=tuple(links), name=name or robot.name)
+    return dataclasses.replace(out, base_body=base_body) if body else out
+
+
+def _body(ten, what: str, index: str) -> tuple:
+    """(m, COM r, inertia about the COM) of a body's ten inertial parameters XX … MZ, M about its
+    origin; a ValueError where a mass ≤ 0 carries first moments."""
+    XX, XY, XZ, YY, YZ, ZZ, MX, MY, MZ, M = ten
+    Io = np.array([[XX, XY, XZ], [XY, YY, YZ], [XZ, YZ, ZZ]])
+    h = np.array([MX, MY, MZ])
+    if M > 0:
+        r = h / M
+        return M, r, Io - M * (r @ r * np.eye(3) - np.outer(r, r))
+    if M == 0 and not h.any():
+        return M, np.zeros(3), Io
+    raise ValueError(
+        f"{what}: mass M{index} = {M:.6g} with first moments (MX, MY, MZ) = {tuple(np.round(h, 12))} is no physical body"
+    )

@@ -56,12 +56,12 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
     second moments (Σ = ½tr(I)·1 − I scaled as D·Σ·D, D diagonal, so the inertia stays
     physical; the principal moments of a link that waives the triangle inequality), rotor inertia, viscous and each Coulomb friction.  Zeros stay zeros."""
     robot.require_numeric("simulate")
-    robot.require_fixed_base("simulate")
     if not 0 <= perturb < 1:
         raise ValueError(f"perturb must lie in [0, 1), got {perturb}")
     rng = np.random.default_rng(seed)
     links = []
-    for link in robot.links:
+    floating = robot.base_joint is not None and robot.base_body is not None
+    for link in (robot.base_body,) * floating + robot.links:
         u = lambda k=None: 1 + rng.uniform(-perturb, perturb, k)  # noqa: E731
         I = np.array(link.I, dtype=float)
         S = 0.5 * np.trace(I) * np.eye(3) - I
@@ -83,10 +83,12 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
                 Tc=tuple(float(x) * f for x, f in zip(link.Tc, u(2))),
             )
         )
+    if floating:
+        return dataclasses.replace(robot, base_body=links[0], links=tuple(links[1:]), name=f"{robot.name}_perturbed")
     return dataclasses.replace(robot, links=tuple(links), name=f"{robot.name}_perturbed")
 
 
-def _trajectory(trajectory, n: int) -> Trajectory:
+def _trajectory(trajectory, n: int, nv: int | None = None) -> Trajectory:
     if isinstance(trajectory, (str, Path)):
         trajectory = read_trajectory(trajectory)
     elif hasattr(trajectory, "sample") and not hasattr(trajectory, "t"):  # an optimised Excitation: 100 Hz
@@ -97,9 +99,9 @@ def _trajectory(trajectory, n: int) -> Trajectory:
         raise ValueError(
             f"a trajectory has t, q, qd and qdd (a Trajectory, Data or CSV file), got {type(trajectory).__name__}"
         ) from None
-    for name, x in (("q", q), ("qd", qd), ("qdd", qdd)):
-        if x.ndim != 2 or x.shape != (len(t), n):
-            raise ValueError(f"trajectory {name} must have shape ({len(t)}, {n}), got {x.shape}")
+    for name, x, size in (("q", q, n), ("qd", qd, nv or n), ("qdd", qdd, nv or n)):
+        if x.ndim != 2 or x.shape != (len(t), size):
+            raise ValueError(f"trajectory {name} must have shape ({len(t)}, {size}), got {x.shape}")
     return Trajectory(t, q, qd, qdd)
 
 
@@ -130,16 +132,15 @@ def simulate(
             samples, or a NaN or infinite value.
     """
     robot.require_numeric("simulate")
-    robot.require_fixed_base("simulate")
     from ..numeric.reference import rne
 
-    n = robot.n
-    traj = _trajectory(trajectory, n)
+    n, nb = robot.n, robot.nq - robot.n  # a floating base's coordinates come first
+    traj = _trajectory(trajectory, robot.nq, robot.nv)
     truth = truth if truth is not None else perturbed(robot, perturb, seed)
     rng = np.random.default_rng([seed, 1])
     tau = rne(truth, traj.q, traj.qd, traj.qdd)
-    noise = _per_joint(noise, n, "noise")
-    res = _per_joint(quantisation, n, "quantisation")
+    noise = _per_joint(noise, robot.nv, "noise")
+    res = np.concatenate([np.zeros(nb), _per_joint(quantisation, n, "quantisation")])
     tau = tau + rng.standard_normal(tau.shape) * noise
     q = np.where(res > 0, np.round(traj.q / np.where(res > 0, res, 1)) * res, traj.q)
     data = from_arrays(
@@ -205,12 +206,39 @@ def fourier(
         q[:, j] = (lo[j] + hi[j]) / 2 + g * x * win
         qd[:, j] = g * (xd * win + x * wd)
         qdd[:, j] = g * (xdd * win + 2 * xd * wd + x * wdd)
+    if robot.base_joint is not None:
+        q, qd, qdd = _base_motion(robot, rng, t, q, qd, qdd, (k, w, fill, win, wd, wdd))
     hold = int(round(rest * rate))
     if hold:
         t = np.arange(len(t) + hold) / rate
         q = np.concatenate([q, np.repeat(q[-1:], hold, axis=0)])
-        qd, qdd = (np.concatenate([x, np.zeros((hold, robot.n))]) for x in (qd, qdd))
+        qd, qdd = (np.concatenate([x, np.zeros((hold, robot.nv))]) for x in (qd, qdd))
     return Trajectory(t, q, qd, qdd)
+
+
+def _base_motion(robot: Robot, rng, t, q, qd, qdd, series) -> tuple:
+    """A floating base's motion beside the joints': each body-frame velocity a Fourier series of the
+    same harmonics (peak `fill` m/s or rad/s, windowed alike), the pose integrated from the neutral
+    one along it (exponential map, midpoint velocity per sample: the pose follows v to second order;
+    τ is computed at the stored states, so identification data stay exact)."""
+    k, w, fill, win, wd, _ = series
+    nb, count = robot.nv - robot.n, len(k)
+    s, c = np.sin(np.outer(t, k * w)), np.cos(np.outer(t, k * w))
+    v, a = np.empty((len(t), nb)), np.empty((len(t), nb))
+    for j in range(nb):
+        x_a, x_b = rng.standard_normal(count) / k, rng.standard_normal(count) / k
+        x, xd = c @ x_a + s @ x_b, (-s @ (x_a * k * w)) + c @ (x_b * k * w)
+        g = fill / np.abs(x).max()
+        v[:, j] = g * x * win
+        a[:, j] = g * (xd * win + x * wd)
+    pose = np.empty((len(t), robot.nq))
+    pose[0] = robot.neutral()
+    zeros = np.zeros(robot.n)
+    for i in range(1, len(t)):
+        mid = np.concatenate([(v[i - 1] + v[i]) / 2, zeros])
+        pose[i] = robot.integrate(pose[i - 1], mid, t[i] - t[i - 1])
+    pose[:, robot.nq - robot.n :] = q  # the joints' own series
+    return pose, np.hstack([v, qd]), np.hstack([a, qdd])
 
 
 def read_trajectory(path) -> Trajectory:
@@ -271,13 +299,13 @@ def write(path, data: Data, *, derivatives: bool = True, robot: Robot | None = N
 
 def write_truth(path, truth: Robot, *, robot: Robot | None = None) -> Path:
     """The true arm's standard parameters (regressor frames) and base parameters as JSON."""
-    from .parameters import base_map, standard_names, standard_vector
+    from .parameters import base_map, robot_names, standard_vector
 
     pi = standard_vector(truth)
     bmap = base_map(robot if robot is not None else truth)
     doc = {
         "model": truth.name,
-        "standard": dict(zip(standard_names(truth.n), pi.tolist())),
+        "standard": dict(zip(robot_names(truth), pi.tolist())),
         "base": dict(zip(bmap.names, (bmap.P @ pi).tolist())),
         "links": [
             {
