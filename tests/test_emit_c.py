@@ -187,3 +187,44 @@ def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, mo
             continue
         assert_close(lib.functions[function](*(a[3] for a in args)), expected[3], f"parts {function}")
         assert_close(lib.functions[function](*args), expected, f"parts, batched {function}")
+
+
+def _compiled(tmp_path, name: str, program):
+    from symdyn.codegen.emit import Bundle
+
+    bundle = Bundle(name, 1, "test", "none", (program,))
+    folder = tmp_path / name
+    folder.mkdir()
+    (folder / f"{name}.c").write_text(c_emit.c_source(bundle))
+    (folder / f"{name}.h").write_text(c_emit.h_source(bundle))
+    return (folder / f"{name}.c").read_text(), load_library(folder / f"{name}.c", folder / f"{name}.h")
+
+
+def test_the_coordinates_sines_in_one_loop_are_sincos_bits_and_zeros_are_one_memset(tmp_path, monkeypatch):
+    """q's sin/cos pairs computed in one vectorizable loop (libm beyond |q| ≥ 1e5) give the bits of
+    one sincos_ call each (what the sines feed may differ by the compiler's fused multiply-adds); an output of many exact zeros is zeroed by memset, whatever the buffer held."""
+    import sympy as sp
+
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    q = joint_symbols(5)[0]
+    values = [e for x in q[1:] for e in (sp.sin(x), sp.cos(x))]  # each pair also in a product: named once
+    out = sp.Matrix(values + [sp.sin(x) * sp.cos(x) + q[0] for x in q[1:]] + [0] * 20)
+    program = make_program("sc", [("q", q)], [("y", out)])
+    text, looped = _compiled(tmp_path, "looped", program)
+    assert "sincosv_(q[1 + j_]" in text and "memset(y, 0, sizeof(double) * 32);  /* its 20 exact zeros */" in text
+    monkeypatch.setattr(c_emit, "TRIG_LOOP_MIN", 99)
+    monkeypatch.setattr(c_emit, "MEMSET_MIN", 10**9)
+    text, calls = _compiled(tmp_path, "calls", program)
+    assert "sincosv_(q[" not in text.split("_lanes(")[0].split("void calls_sc(")[1] and "memset" not in text
+    rng = np.random.default_rng(1)
+    states = rng.uniform(-20, 20, (2000, 5))
+    states[:3, 1:] = [[3e5, -1e7, 1e5, 2.5], [np.pi / 2, -np.pi, 99999.9, 0.0], [1e-300, 7.0, -3e5, 1e6]]
+    a, b = looped.functions["sc"](states), calls.functions["sc"](states)
+    assert np.array_equal(a[:, :8], b[:, :8])  # the sines and cosines: the same bits
+    assert np.abs(a - b).max() <= 4.5e-16  # what uses them: as the compiler contracts it (fused multiply-adds)
+    assert not a[:, 12:].any()
+    want = np.column_stack([f(states[:, j]) for j in range(1, 5) for f in (np.sin, np.cos)])
+    assert np.abs(a[:, :8] - want).max() <= 2.3e-16

@@ -141,8 +141,8 @@ def frictionless_sources(robot, shipped: Path | None = None) -> dict[str, Path]:
     """Generated C (.c, .h) and NumPy (.py) of `robot.nofriction(all=True)` in the cache.
 
     Regenerated (≈ 10 s) whenever the shipped generated code in `shipped`
-    (default generated/<name>) or the model changes, so it never lags behind
-    the emitter that produced the checked-in files.
+    (default generated/<name>), the emitters' source or the model changes, so it
+    never lags behind the emitter (robots with no checked-in files included).
     """
     from ..codegen.emit import c as c_emit, identifier, numpy as np_emit
     from ..codegen.entry import GENERATED, bundle
@@ -151,7 +151,8 @@ def frictionless_sources(robot, shipped: Path | None = None) -> dict[str, Path]:
     name = identifier(bare.name)
     shipped = Path(shipped) if shipped is not None else GENERATED / name
     texts = [p.read_bytes() for p in sorted(shipped.glob(f"{name}.*"))] if shipped.is_dir() else []
-    key = _digest(__version__, bare.fingerprint(), *texts)
+    emitters = [p.read_bytes() for p in sorted((Path(__file__).parent.parent / "codegen" / "emit").glob("*.py"))]
+    key = _digest(__version__, bare.fingerprint(), *texts, *emitters)
     folder = writable(cache_dir() / "bench" / f"{name}-nofriction-{key}")
     paths = {"c": folder / f"{name}.c", "h": folder / f"{name}.h", "py": folder / f"{name}.py"}
     if not all(p.exists() for p in paths.values()):
