@@ -28,16 +28,29 @@ if TYPE_CHECKING:  # annotations only: Dynamics.op_count calls into this module
     from .dynamics import Dynamics
 
 
+def _coefficients(exprs) -> dict:
+    """{atom: a placeholder Symbol} for what a trig polynomial carries as a coefficient but cannot
+    write in its ring: friction's sign(q̇), and a free base's 1/|quaternion|² (its rotation holds
+    any non-zero quaternion)."""
+    found: set = set()
+    for e in exprs:
+        e = sp.sympify(e)
+        found |= e.atoms(sp.sign)
+        found |= {p for p in e.atoms(sp.Pow) if p.exp.is_negative and p.base.is_Add and _is_quaternion(p.base)}
+    return {a: sp.Symbol(f"_sgn{k}") for k, a in enumerate(sorted(found, key=str))}
+
+
+def _is_quaternion(expr) -> bool:
+    return all(s.name in ("base_qx", "base_qy", "base_qz", "base_qw") for s in expr.free_symbols)
+
+
 def fold(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
     """expr as an exact trig polynomial in the joint angles (cos(q2 + q3), …)."""
     angles = _angles(dyn)
     expr = sp.sympify(expr)
-    if expr.has(sp.sign):  # friction: sign(qd) is a coefficient, not an angle
-        signs = sorted(expr.atoms(sp.sign), key=str)
-        names = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(signs)}
-        back = {v: k for k, v in names.items()}
-        return trigpoly.fold(expr.xreplace(names), angles).xreplace(back)
-    return trigpoly.fold(expr, angles)
+    names = _coefficients([expr])  # friction's sign(qd), a quaternion's norm: coefficients, not angles
+    back = {v: k for k, v in names.items()}
+    return trigpoly.fold(expr.xreplace(names), angles).xreplace(back)
 
 
 def parallel_chains(robot) -> list[tuple[int, ...]]:
@@ -105,7 +118,7 @@ def book_form(expr: sp.Expr, dyn: Dynamics) -> sp.Expr:
     sympy's expand_trig took most of a minute."""
     angles = tuple(_angles(dyn))
     expr = sp.sympify(expr)
-    signs = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(sorted(expr.atoms(sp.sign), key=str))}
+    signs = _coefficients([expr])
     space = trigpoly.space_for([expr.xreplace(signs)], angles)
     terms = book_terms(trigpoly.from_expr(expr.xreplace(signs), space), natural_chains(dyn))
     out = [coeff.as_expr() * _product_expr(mono, angles) for mono, coeff in terms.items()]
@@ -127,8 +140,7 @@ def term_polys(dyn: Dynamics, term: str, budget: int | None = None):
         exprs, used = list(dyn.term(term)), []
     else:
         exprs, used = list(named), used_definitions(dyn, named)
-    found = {s for e in exprs for s in e.atoms(sp.sign)} | {s for _, d in used for s in d.atoms(sp.sign)}
-    signs = {s: sp.Symbol(f"_sgn{k}") for k, s in enumerate(sorted(found, key=str))}
+    signs = _coefficients(exprs + [d for _, d in used])
     exprs = [e.xreplace(signs) for e in exprs]
     used = [(sym, d.xreplace(signs)) for sym, d in used]
     angles = _angles(dyn)
@@ -195,11 +207,11 @@ def closed_size(dyn: Dynamics, term: str, budget: int | None = None) -> int | No
 
 def natural_chains(dyn: Dynamics) -> tuple:
     """The parallel chains of `dyn`'s robot as indices into its revolute angles."""
-    angles = _angles(dyn)
+    angles, joints = _angles(dyn), _joint_coordinates(dyn)
     return tuple(
-        tuple(angles.index(dyn.q[i]) for i in c)
+        tuple(angles.index(joints[i]) for i in c)
         for c in parallel_chains(dyn.robot)
-        if all(dyn.q[i] in angles for i in c)
+        if all(joints[i] in angles for i in c)
     )
 
 
@@ -287,8 +299,16 @@ def _add_times_sin(acc: dict, es: int, ec: int, x: int) -> None:
         _add(acc, 0, ec + 2, -x)
 
 
+def _joint_coordinates(dyn: Dynamics) -> tuple:
+    """The joints' coordinates (after a floating base's)."""
+    return dyn.q[len(dyn.q) - dyn.robot.n :]
+
+
 def _angles(dyn: Dynamics) -> list:
-    return [q for q, link in zip(dyn.q, dyn.robot.links) if link.is_revolute]
+    """The coordinates that enter through sines and cosines: a planar base's yaw (a free base's
+    quaternion enters as a rational function), then the revolute joints'."""
+    yaw = [s for s in dyn.q[: len(dyn.q) - dyn.robot.n] if s.name == "base_yaw"]
+    return yaw + [q for q, link in zip(_joint_coordinates(dyn), dyn.robot.links) if link.is_revolute]
 
 
 def inertial_symbols(dyn: Dynamics) -> list:
