@@ -81,3 +81,40 @@ def test_floating_data_files_carry_the_bases_named_columns(tmp_path):
         from_arrays(data.t, data.q[:, :2], data.tau, qd=data.qd, qdd=data.qdd, joints=robot)
     with pytest.raises(ValueError, match="a planar base but the model 'tree2' has a free base"):
         fit(_robot("free"), data, consistent=False)
+
+
+PUCK = """<robot name="puck">
+  <link name="disc"><inertial><mass value="2"/><inertia ixx="0.1" iyy="0.1" izz="0.2" ixy="0" ixz="0" iyz="0"/>
+  </inertial></link>
+  <link name="arm"><inertial><origin xyz="0.5 0 0"/><mass value="1"/>
+  <inertia ixx="0.01" iyy="0.03" izz="0.04" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="hinge" type="revolute"><parent link="disc"/><child link="arm"/><origin xyz="0.3 0 0"/>
+  <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="5" velocity="3"/></joint>
+</robot>
+"""
+
+
+def test_the_command_line_simulates_and_fits_a_floating_base(tmp_path):
+    """A trajectory file with the base's columns, `identify simulate` and `identify fit` of a URDF read
+    with --base-joint planar: the truth's base parameters back, the base body in the truth file."""
+    import json
+
+    from symdyn import Robot, cli
+    from symdyn.identify.simulate import write_trajectory
+
+    urdf = tmp_path / "puck.urdf"
+    urdf.write_text(PUCK)
+    robot = Robot.from_urdf(str(urdf), base_joint="planar")
+    trajectory = write_trajectory(tmp_path / "traj.csv", fourier(robot, period=4, harmonics=4, rate=50), robot)
+    assert trajectory.read_text().startswith("t,base_x,base_y,base_yaw,q1,base_vx,")
+    model = [str(urdf), "--base-joint", "planar"]
+    data = tmp_path / "data.csv"
+    assert cli.main(["identify", "simulate", *model, str(trajectory), "--seed", "3", "--out", str(data)]) == 0
+    truth = json.loads(data.with_suffix(".truth.json").read_text())
+    assert truth["base_body"]["m"] != 2.0 and "XX0" in truth["standard"]  # the body perturbed, and identified
+    out = tmp_path / "fit"
+    assert cli.main(["identify", "fit", *model, str(data), "--out", str(out), "--no-consistent"]) == 0
+    params = json.loads((out / "parameters.json").read_text())
+    assert params["base"][0]["name"].endswith("0")
+    for row in params["base"]:
+        assert row["value"] == pytest.approx(truth["base"][row["name"]], rel=1e-8, abs=1e-10)

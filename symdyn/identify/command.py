@@ -47,7 +47,8 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     s.add_argument(
         "trajectory",
         metavar="TRAJECTORY",
-        help="CSV or NPZ with t, q1…qn, qd1…qdn, qdd1…qddn (e.g. identify excite's excitation.csv)",
+        help="CSV or NPZ with t, q1…qn, qd1…qdn, qdd1…qddn (e.g. identify excite's excitation.csv; a "
+        "floating base's base_x…, base_vx…, base_dvx… columns too)",
     )
     s.add_argument(
         "--out",

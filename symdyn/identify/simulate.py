@@ -88,9 +88,10 @@ def perturbed(robot: Robot, perturb: float = 0.2, seed: int = 0) -> Robot:
     return dataclasses.replace(robot, links=tuple(links), name=f"{robot.name}_perturbed")
 
 
-def _trajectory(trajectory, n: int, nv: int | None = None) -> Trajectory:
+def _trajectory(trajectory, robot: Robot) -> Trajectory:
+    n, nv = robot.nq, robot.nv
     if isinstance(trajectory, (str, Path)):
-        trajectory = read_trajectory(trajectory)
+        trajectory = read_trajectory(trajectory, robot)
     elif hasattr(trajectory, "sample") and not hasattr(trajectory, "t"):  # an optimised Excitation: 100 Hz
         trajectory = Trajectory(*trajectory.sample(100.0))
     try:
@@ -135,7 +136,7 @@ def simulate(
     from ..numeric.reference import rne
 
     n, nb = robot.n, robot.nq - robot.n  # a floating base's coordinates come first
-    traj = _trajectory(trajectory, robot.nq, robot.nv)
+    traj = _trajectory(trajectory, robot)
     truth = truth if truth is not None else perturbed(robot, perturb, seed)
     rng = np.random.default_rng([seed, 1])
     tau = rne(truth, traj.q, traj.qd, traj.qdd)
@@ -241,9 +242,16 @@ def _base_motion(robot: Robot, rng, t, q, qd, qdd, series) -> tuple:
     return pose, np.hstack([v, qd]), np.hstack([a, qdd])
 
 
-def read_trajectory(path) -> Trajectory:
+def read_trajectory(path, robot: Robot | None = None) -> Trajectory:
     """t, q1…qn and qd, qdd columns (q̇, q̈ by filtered differences where missing) of a CSV/NPZ file;
-    torque columns, if any, are ignored."""
+    torque columns, if any, are ignored.  `robot` on a floating base: its base's coordinate,
+    velocity and acceleration columns too (`floating.base_columns`).
+
+    Raises:
+        ValueError: no such file, or columns `load_data` refuses.
+    """
+    from ..derivation.floating import base_columns
+
     from .data import _joint_columns, _read_csv, _read_npz
 
     path = Path(path)
@@ -252,15 +260,17 @@ def read_trajectory(path) -> Trajectory:
     names, values = (_read_npz if path.suffix.lower() == ".npz" else _read_csv)(path)
     cols = dict(zip(names, values.T))
     qs = _joint_columns(names, "q")
-    cols = {k: v for k, v in cols.items() if not k.startswith(("tau", "i"))}
+    wrench = base_columns(robot.base_joint)["tau"] if robot is not None and robot.base_joint else ()
+    cols = {k: v for k, v in cols.items() if not k.startswith(("tau", "i")) and k not in wrench}
     zeros = np.zeros(len(values))
     cols.update((f"tau{j + 1}", zeros) for j in range(len(qs)))
+    cols.update((c, zeros) for c in wrench)
     from .data import _from_columns
 
     data = _from_columns(
         cols,
         source=str(path),
-        joints=None,
+        joints=robot if robot is not None and robot.base_joint else None,
         torque_constant=None,
         cutoff=None,
         order=4,
@@ -270,12 +280,18 @@ def read_trajectory(path) -> Trajectory:
     return Trajectory(data.t, data.q, data.qd, data.qdd)
 
 
-def write_trajectory(path, trajectory: Trajectory) -> Path:
-    """A trajectory as CSV: t, q1…qn, qd1…qdn, qdd1…qddn (what `simulate` and `read_trajectory` read)."""
+def write_trajectory(path, trajectory: Trajectory, robot: Robot | None = None) -> Path:
+    """A trajectory as CSV: t, q1…qn, qd1…qdn, qdd1…qddn (what `simulate` and `read_trajectory` read);
+    `robot` on a floating base: its base's columns first in each kind."""
+    from ..derivation.floating import base_columns
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    n = trajectory.q.shape[1]
-    header = ["t"] + [f"{k}{j + 1}" for k in ("q", "qd", "qdd") for j in range(n)]
+    base = base_columns(robot.base_joint) if robot is not None and robot.base_joint else {}
+    header = ["t"]
+    for k, a in (("q", trajectory.q), ("qd", trajectory.qd), ("qdd", trajectory.qdd)):
+        named = base.get(k, ())
+        header += [*named, *(f"{k}{j + 1}" for j in range(a.shape[1] - len(named)))]
     np.savetxt(
         path,
         np.column_stack([trajectory.t, trajectory.q, trajectory.qd, trajectory.qdd]),
@@ -320,5 +336,12 @@ def write_truth(path, truth: Robot, *, robot: Robot | None = None) -> Path:
             for l in truth.links
         ],
     }
+    if truth.base_joint is not None and truth.base_body is not None:  # the floating base's body
+        body = truth.base_body
+        doc["base_body"] = {
+            "m": float(body.m),
+            "r": [float(x) for x in body.r],
+            "I": [[float(x) for x in row] for row in body.I],
+        }
     Path(path).write_text(json.dumps(doc, indent=1) + "\n")
     return Path(path)
