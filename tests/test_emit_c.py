@@ -214,11 +214,14 @@ def test_the_coordinates_sines_in_one_loop_are_sincos_bits_and_zeros_are_one_mem
     out = sp.Matrix(values + [sp.sin(x) * sp.cos(x) + q[0] for x in q[1:]] + [0] * 20)
     program = make_program("sc", [("q", q)], [("y", out)])
     text, looped = _compiled(tmp_path, "looped", program)
-    assert "sincosv_(q[1 + j_]" in text and "memset(y, 0, sizeof(double) * 32);  /* its 20 exact zeros */" in text
+    assert (
+        "sincos_loop_(q + 1, 4, sin_q_, cos_q_);" in text
+        and "memset(y, 0, sizeof(double) * 32);  /* its 20 exact zeros */" in text
+    )
     monkeypatch.setattr(c_emit, "TRIG_LOOP_MIN", 99)
     monkeypatch.setattr(c_emit, "MEMSET_MIN", 10**9)
     text, calls = _compiled(tmp_path, "calls", program)
-    assert "sincosv_(q[" not in text.split("_lanes(")[0].split("void calls_sc(")[1] and "memset" not in text
+    assert "sincos_loop_(q" not in text.split("_lanes(")[0].split("void calls_sc(")[1] and "memset" not in text
     rng = np.random.default_rng(1)
     states = rng.uniform(-20, 20, (2000, 5))
     states[:3, 1:] = [[3e5, -1e7, 1e5, 2.5], [np.pi / 2, -np.pi, 99999.9, 0.0], [1e-300, 7.0, -3e5, 1e6]]

@@ -141,6 +141,20 @@ static inline void sincosv_(double x, double *s, double *c)
 static inline double sinv_(double x) { double s, c; sincosv_(x, &s, &c); return s; }
 static inline double cosv_(double x) { double s, c; sincosv_(x, &s, &c); return c; }
 
+/* s[j], c[j] = sin, cos of x[j] for j < m: sincosv_ in a loop the compiler vectorizes, then
+   libm where |x[j]| >= 1e5 (or NaN), so the same values as a sincos_ call each. */
+static inline void sincos_loop_(const double *x, int m, double *s, double *c)
+{
+    int j;
+    for (j = 0; j < m; ++j)
+        sincosv_(x[j], &s[j], &c[j]);
+    for (j = 0; j < m; ++j)
+        if (!(fabs(x[j]) < 1e5)) {
+            s[j] = sin(x[j]);
+            c[j] = cos(x[j]);
+        }
+}
+
 /* A kernel over the states [i0, i1) of its arrays (in: inputs, out: outputs); nonzero
    when an input there is NaN or infinite. */
 typedef int (*symdyn_range_)(const double *const *in, double *const *out, long i0, long i1);
@@ -335,9 +349,9 @@ TRIG_LOOP_MIN = 4
 
 
 def _trig_loop(items: list, inputs) -> tuple[list[str], dict]:
-    """The sin/cos pairs of plain coordinates of the first input (q), computed together: sincosv_
-    over q[a..b] in a loop the compiler vectorizes (the same bits as sincos_ below |x| < 1e5; libm
-    where a coordinate lies beyond), then each pair read from it where it stood.  With `_stores`'
+    """The sin/cos pairs of plain coordinates of the first input (q), computed together: the
+    preamble's sincos_loop_ over q[a..b] (sincosv_ in a loop the compiler vectorizes, the same bits
+    as sincos_ below |x| < 1e5; libm where a coordinate lies beyond), then each pair read from it where it stood.  With `_stores`'
     memset: Talos' 30-joint M 1002 → 769 ns, τ 801 → 664 ns (docs/whole_robots.md).  Returns (the
     loop's lines, {item index: its lines})."""
     if not inputs:
@@ -349,16 +363,9 @@ def _trig_loop(items: list, inputs) -> tuple[list[str], dict]:
         return [], {}
     lo, hi = min(pairs.values()), max(pairs.values())
     m = hi - lo + 1
-    at = f"{arg}[{lo} + j_]" if lo else f"{arg}[j_]"
     loop = [
         f"    double sin_{arg}_[{m}], cos_{arg}_[{m}];",
-        f"    for (int j_ = 0; j_ < {m}; ++j_)",
-        f"        sincosv_({at}, &sin_{arg}_[j_], &cos_{arg}_[j_]);",
-        f"    for (int j_ = 0; j_ < {m}; ++j_)",
-        f"        if (!(fabs({at}) < 1e5)) {{",
-        f"            sin_{arg}_[j_] = sin({at});",
-        f"            cos_{arg}_[j_] = cos({at});",
-        "        }",
+        f"    sincos_loop_({arg} + {lo}, {m}, sin_{arg}_, cos_{arg}_);",
     ]
     reads = {
         i: [f"    const double {items[i][1].name} = sin_{arg}_[{k - lo}], {items[i][2].name} = cos_{arg}_[{k - lo}];"]
