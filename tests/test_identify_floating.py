@@ -77,6 +77,11 @@ def test_floating_data_files_carry_the_bases_named_columns(tmp_path):
     short.write_text("\n".join(",".join(r[:drop] + r[drop + 1 :]) for r in rows) + "\n")
     with pytest.raises(ValueError, match="column base_fx is missing: a planar base's data give"):
         load_data(short, joints=robot)
+    rows[3][header.index("base_vx")] = "nan"
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(",".join(r) for r in rows) + "\n")
+    with pytest.raises(ValueError, match=r"bad.csv:4: row 3, column base_vx: nan"):
+        load_data(bad, joints=robot)
     with pytest.raises(ValueError, match="has no room for the base's"):
         from_arrays(data.t, data.q[:, :2], data.tau, qd=data.qd, qdd=data.qdd, joints=robot)
     with pytest.raises(ValueError, match="a planar base but the model 'tree2' has a free base"):
