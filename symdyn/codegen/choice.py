@@ -14,9 +14,11 @@ from ..derivation import engine, progress
 from ..derivation.dynamics import Dynamics
 from ..model import Robot
 from ..derivation.program import Program, dag_size
+from ..derivation.task_space import functions, task_space
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
+from .task_functions import task_spec
 
 __all__ = ["programs", "Programs", "derivations", "DERIVED"]
 
@@ -81,6 +83,8 @@ def derivations(robot: Robot) -> tuple[list, list[str]]:
 class Programs:
     """Every function's program, each built when first asked for (with what it needs), then kept.
 
+    The task-space functions (`symdyn.derivation.task_space.functions`: frames, centre of
+    mass, centroidal momentum) come last, from the task-space derivation of the robot's frames.
     The terms tau, M, C, Cqd, G, F and the bias take the derivation whose program has
     the fewest operations (the first on ties); fdyn, the derivatives and M⁻¹ are built
     from the chosen M, bias and τ; Y from `regressor` (a `Regressor`, or a callable
@@ -99,7 +103,10 @@ class Programs:
         self.base_joint = self.dyns[0].robot.base_joint
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
         self.regressor = regressor
-        self.names = (*NAMES, *(("Y",) if self.regressor is not None else ()), *DERIVED)
+        self.robot = self.dyns[0].robot
+        self.task = functions(self.robot)
+        self.names = (*NAMES, *(("Y",) if self.regressor is not None else ()), *DERIVED, *self.task)
+        self._task_space = None
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
         self._built: dict[str, Program] = {}
         self._specs: dict[str, FunctionSpec] = {}
@@ -123,7 +130,15 @@ class Programs:
                 self._built[name] = self._build(name)
         return self._built[name]
 
+    def task_space(self):
+        """The task-space derivation of the robot's frames (`symdyn.derivation.task_space`), made once."""
+        if self._task_space is None:
+            self._task_space = task_space(self.robot)
+        return self._task_space
+
     def _build(self, name: str) -> Program:
+        if name in self.task:
+            return task_spec(self.task_space(), name, self.dyns[0].params).program()
         if name in ("tau", "M", "C", "Cqd", "G", "F"):
             return self.chosen(name)[1]
         if name == "fdyn":

@@ -60,10 +60,11 @@ class FunctionSpec:
     doc: str = ""
     origin: str = ""
     matrices: tuple = ()
+    shapes: tuple = ()
 
     def program(self) -> Program:
         return make_program(
-            self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin, self.matrices
+            self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin, self.matrices, self.shapes
         )
 
 

@@ -17,23 +17,24 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from .. import __version__
-from ..derivation import progress
+from ..derivation import progress, task_space
 from ..derivation.cache import build_lock, write_atomic
 from ..model import Robot
 from .emit import c as c_emit, clib, format_ops, is_intact, read_header
 
 __all__ = ["load", "signatures"]
 
-#: The functions of a numeric model, in the order of the whole file (`choice.Programs.names`).
+#: The joint-space functions of a numeric model, in the order of the whole file (`choice.Programs.names`);
+#: the task-space functions follow (`symdyn.derivation.task_space.functions`).
 FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "F", "fdyn", "Y", "tau_derivatives", "fdyn_derivatives", "Minv")
 
 
-def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_emit.Signature]:
-    """The C signature of every function of a numeric model with n joints (docs/functions.md);
-    a floating base: q of size nq, v (q̇, q̈, τ) of size nv, and Y
-    with the base body's ten parameters before the links' 14 each."""
-    nq, nv = nq or n, nv or n
-    floating = (nq, nv) != (n, n)
+def signatures(robot: Robot) -> list[c_emit.Signature]:
+    """The C signature of every function of a numeric robot (docs/functions.md); a floating base:
+    q of size nq, v (q̇, q̈, τ) of size nv, and Y with the base body's ten parameters before the
+    links' 14 each; its m task frames: poses (m, 4, 4), Jacobians (m, 6, nv), …"""
+    n, nq, nv = robot.n, robot.nq, robot.nv
+    floating = robot.base_joint is not None
     v, m = (nv,), (nv, nv)
     q, qd, qdd, tau = ("q", nq), ("qd", nv), ("qdd", nv), ("tau", nv)
     table = {
@@ -49,7 +50,12 @@ def signatures(n: int, nq: int | None = None, nv: int | None = None) -> list[c_e
         "fdyn_derivatives": ((q, qd, tau), (("qdd", v), ("dqdd_dq", m), ("dqdd_dqd", m), ("Minv", m))),
         "Minv": ((q,), (("Minv", m),)),
     }
-    return [c_emit.Signature(f, *table[f]) for f in FUNCTIONS]
+    frames = len(robot.task_frames)
+    sizes = {"q": nq, "v": nv, "a": nv}
+    for name in task_space.functions(robot):
+        out, args = task_space.OUTPUTS[name]
+        table[name] = (tuple((a, sizes[a]) for a in args), ((out, task_space.shape(name, frames, nv)),))
+    return [c_emit.Signature(f, *table[f]) for f in (*FUNCTIONS, *task_space.functions(robot))]
 
 
 class _Sources:
@@ -59,7 +65,7 @@ class _Sources:
 
     def __init__(self, robot: Robot, name: str, folder: Path) -> None:
         self.robot, self.name, self.folder = robot, name, folder
-        self.sigs = {s.name: s for s in signatures(robot.n, robot.nq, robot.nv)}
+        self.sigs = {s.name: s for s in signatures(robot)}
         self._programs = None
         self._lock = threading.RLock()
 

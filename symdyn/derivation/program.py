@@ -235,7 +235,8 @@ class Program:
     assignments: ((Symbol, expr), …) in evaluation order, each expr in the
     inputs and earlier symbols; outputs: ((outname, ImmutableMatrix), …);
     `matrices` names the outputs that are matrices even with one column (M of
-    a one-joint arm is 1×1, not a vector).
+    a one-joint arm is 1×1, not a vector); `shapes` gives ((outname, shape), …) for outputs
+    of more dimensions, their matrix's entries row-major (frame poses: 4m×4 as (m, 4, 4)).
     """
 
     name: str
@@ -245,10 +246,16 @@ class Program:
     doc: str = ""
     origin: str = ""
     matrices: frozenset = frozenset()
+    shapes: tuple = ()
 
     def output_shapes(self) -> tuple[tuple[int, ...], ...]:
-        """Shape of each output per state: (rows,) for a vector, (rows, cols) for a matrix."""
-        return tuple((m.rows, m.cols) if o in self.matrices or m.cols != 1 else (m.rows,) for o, m in self.outputs)
+        """Shape of each output per state: (rows,) for a vector, (rows, cols) for a matrix, or
+        the shape `shapes` gives it."""
+        given = dict(self.shapes)
+        return tuple(
+            tuple(given[o]) if o in given else (m.rows, m.cols) if o in self.matrices or m.cols != 1 else (m.rows,)
+            for o, m in self.outputs
+        )
 
     def op_count(self) -> dict[str, int]:
         """Primitive operations of the emitted code ({"mul", "add", "div", "neg",
@@ -288,6 +295,7 @@ def make_program(
     doc: str = "",
     origin: str = "",
     matrices: Sequence[str] = (),
+    shapes: Sequence = (),
 ) -> Program:
     """Build the program of one function by a joint CSE over all its outputs.
 
@@ -338,6 +346,7 @@ def make_program(
         doc=doc,
         origin=origin,
         matrices=frozenset(matrices),
+        shapes=tuple((str(o), tuple(shape)) for o, shape in shapes),
     )
 
 

@@ -19,6 +19,7 @@ from typing import Any, Callable, ClassVar, Mapping, Sequence
 import numpy as np
 import sympy as sp
 
+from . import frames
 from .placement import axis_rotation, exact, exact_cos_sin, exact_cos_sin_of, exact_rotation, rational_rotation
 
 CONVENTIONS = ("standard", "modified", "general")
@@ -349,6 +350,12 @@ class Robot:
     #: The body the base joint moves (mass, COM, inertia of a `Link`; its joint fields unused),
     #: which the links with parent -1 hang on; None: a massless base body.
     base_body: Link | None = None
+    #: The frames the task-space functions serve, by name, in order (`frame_names` lists the
+    #: known ones); empty: the default (`task_frames`).  `with_frames(names)` chooses them.
+    frames: tuple = ()
+    #: Every frame of the file the robot was read from (`symdyn.model.frames.Frame`: each link of
+    #: the file, moving, locked or merged; each MJCF body and site); empty for a robot built here.
+    frame_catalog: tuple = field(default=(), compare=False, hash=False)
     #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: the
     #: arm of a URDF file (`symdyn.model.urdf.from_urdf`, attached by `symdyn.model`, which builds on this module).
     from_urdf: ClassVar[Callable[..., "Robot"]]
@@ -391,6 +398,12 @@ class Robot:
         for k, v in dict(self.poses).items():
             poses[k] = _vector(v, self.nq, f"pose {k}")
         set_("poses", poses)
+        set_("frame_catalog", tuple(self.frame_catalog))
+        if isinstance(self.frames, str):
+            raise ValueError(f"frames of robot {self.name!r} must be a list of names, got the string {self.frames!r}")
+        set_("frames", tuple(self.frames))
+        if self.frames:
+            frames.resolve(self, self.frames)  # every name known, none twice
 
     def __str__(self) -> str:
         """A summary a person reads: joints, convention, source and, for a robot read from a
@@ -437,6 +450,28 @@ class Robot:
         file's names where the robot was read from one (depth-first, as Pinocchio orders
         them), else q1, q2, …"""
         return tuple(link.name or f"q{i + 1}" for i, link in enumerate(self.links))
+
+    @property
+    def frame_names(self) -> tuple[str, ...]:
+        """Every frame the task-space functions can serve (`with_frames`): the file's links, bodies
+        and sites, the tool, and where no file names them "base" and link1 … linkn."""
+        return tuple(frames.known_frames(self))
+
+    @property
+    def task_frames(self) -> tuple:
+        """The `Frame`s the task-space functions serve, in order: those of `frames`, else the
+        tool of a chain or each leaf link of a tree (`symdyn.model.frames.default_names`)."""
+        return frames.resolve(self, self.frames or frames.default_names(self))
+
+    def with_frames(self, names) -> "Robot":
+        """A copy serving the frames `names` (in that order) in its task-space functions.
+
+        Raises:
+            ValueError: a name the robot does not know (the closest known ones are named),
+                a name given twice, or no name.
+        """
+        frames.resolve(self, names)
+        return dataclasses.replace(self, frames=tuple(names))
 
     def require_chain(self, what: str) -> None:
         """Refuse a tree or a floating base where `what` reads chains only.
@@ -537,10 +572,13 @@ class Robot:
 
     def _params(self) -> tuple:
         links = tuple(link._params() for link in self.links)
+        # chosen frames enter the generated code: their names and placements count (none chosen:
+        # the default frames follow from the fields here, and the fingerprint is what it was)
+        chosen = (tuple(f.key() for f in self.task_frames),) if self.frames else ()
         if self.base_joint is None:  # a fixed base: the fingerprint is what it always was
-            return (self.convention, self.gravity, self.base, self.tool, links)
+            return (self.convention, self.gravity, self.base, self.tool, links) + chosen
         body = self.base_body._params() if self.base_body is not None else None
-        return (self.convention, self.gravity, self.base, self.tool, links, self.base_joint, body)
+        return (self.convention, self.gravity, self.base, self.tool, links, self.base_joint, body) + chosen
 
     def fingerprint(self) -> str:
         """SHA-256 of every parameter that affects the dynamics (not name or poses)."""
@@ -637,11 +675,16 @@ class Robot:
         inertia are re-expressed through Tx(a_j)·Rx(α_j); the last link's
         Tx(a_n)·Rx(α_n) moves into the tool.
 
+        The link frames move, so the file's frames (`frame_catalog`) and the chosen `frames` do
+        not carry over: the result serves its tool (choose its frames anew).
+
         Raises:
             NotImplementedError: a standard-DH tree (`symdyn.derivation.kinematics.along_z` converts those).
         """
         if self.convention == "modified":
             return self
+        if self.frames or self.frame_catalog:
+            return dataclasses.replace(self, frames=(), frame_catalog=()).to_modified()
         if self.convention == "standard" and any(link.parent is not None for link in self.links):
             raise NotImplementedError(
                 f"robot {self.name!r} is a standard-DH tree: to_modified converts chains (a floating base "

@@ -134,7 +134,7 @@ typedef struct {
     int nin, nout;
     npy_intp in_size[MAXARGS];
     int out_nd[MAXARGS];
-    npy_intp out_dims[MAXARGS][2];
+    npy_intp out_dims[MAXARGS][3];
     void *one, *many;
 } spec_t;
 
@@ -464,8 +464,8 @@ static PyTypeObject spec_type = {
 };
 
 /* _function(name, doc, inputs, outputs, builder): a new Python function for a
-   generated function of inputs ((name, size), ...) and outputs' shapes ((rows,) or
-   (rows, cols), ...), unbound: its first call asks builder(name, kind) for the address
+   generated function of inputs ((name, size), ...) and outputs' shapes ((rows,),
+   (rows, cols) or (m, rows, cols), ...), unbound: its first call asks builder(name, kind) for the address
    of its compiled code.  Every call makes a new table, so that two models of one name
    never share their code. */
 static PyObject *py_function(PyObject *self, PyObject *args)
@@ -509,8 +509,8 @@ static PyObject *py_function(PyObject *self, PyObject *args)
     for (i = 0; i < s->nout; ++i) {
         PyObject *shape = PyTuple_GET_ITEM(outputs, i);
         Py_ssize_t k;
-        if (!PyTuple_Check(shape) || PyTuple_GET_SIZE(shape) < 1 || PyTuple_GET_SIZE(shape) > 2) {
-            PyErr_SetString(PyExc_TypeError, "_function: an output's shape is (rows,) or (rows, cols)");
+        if (!PyTuple_Check(shape) || PyTuple_GET_SIZE(shape) < 1 || PyTuple_GET_SIZE(shape) > 3) {
+            PyErr_SetString(PyExc_TypeError, "_function: an output's shape has 1 to 3 dimensions");
             goto fail;
         }
         s->out_nd[i] = (int)PyTuple_GET_SIZE(shape);

@@ -27,6 +27,7 @@ import numpy as np
 import sympy as sp
 
 from ..placement import exact, placement, rational_rotation, rpy_rotation
+from ..frames import Frame
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import Snapping, snap_angle, snap_axis
 from .xacro import Expansion, XacroError, expand, is_xacro
@@ -82,6 +83,7 @@ class _Reader:
         self.warnings: list[str] = []
         self.locked: list[Locked] = []
         self.values: dict = {}
+        self.frames: dict = {}  # each link reached → (the robot link it rides on, its frame in that link's)
 
     # ---- numbers, snapped by the one rule
     def _angle(self, value: float, what: str) -> float:
@@ -163,9 +165,11 @@ class _Reader:
 
         return warn
 
-    def subtree(self, name: str, skip: set, into: str, moves: bool) -> Body:
+    def subtree(self, name: str, skip: set, into: str, moves: bool, seg: int = -1, at: tuple = IDENTITY) -> Body:
         """Link `name` with everything hanging off it except the links in `skip` (the chain,
-        excluded subtrees), in its frame; locked joints are recorded as merged into `into`."""
+        excluded subtrees), in its frame; locked joints are recorded as merged into `into`, and
+        each link's frame as riding on robot link `seg` (-1: the base) at `at` (name's frame in it)."""
+        self.frames[name] = (seg, at)
         link = self.tree.links[name]
         body = read_body(
             self.source,
@@ -188,7 +192,7 @@ class _Reader:
                 self.locked.append(Locked(joint.name, 0.0, into, "default", moves))
             elif kind != "fixed":
                 raise URDFError(f"{where(self.source, joint)}: unknown joint type {kind!r}")
-            body = body + self.subtree(child, skip, into, moves).moved(T)
+            body = body + self.subtree(child, skip, into, moves, seg, _compose(at, T)).moved(T)
         return body
 
     def _balance(self, name: str):
@@ -460,14 +464,14 @@ def _read_chain(
                 value, why = reader.values[joint.name]
                 reader.locked.append(Locked(joint.name, value, into, why, carrier is not None, on_chain=True))
                 T = _compose(T, _motion(MOVING[joint.attrib["type"]], reader.axis(joint), value))
-            sub = reader.subtree(child, skip, into, carrier is not None)
+            sub = reader.subtree(child, skip, into, carrier is not None, len(out) if carrier else -1, T)
             pending = T
             body = body + sub.moved(T) if carrier else body  # ahead of the first joint: part of the base
             continue
         if carrier:
             out.append(reader.link(*carrier, body))
         carrier, pending = (joint, T), IDENTITY
-        body = reader.subtree(child, skip, child, True)
+        body = reader.subtree(child, skip, child, True, len(out))
     if carrier is None:
         raise URDFError(f"{urdf.source}: the chain from {base!r} to {tip!r} has no moving joint")
     out.append(reader.link(carrier[0], carrier[1], body))
@@ -484,6 +488,7 @@ def _read_chain(
         tuple(out),
         convention="general",
         tool=tool,
+        frame_catalog=_catalog(reader.frames),
         source=f"{'xacro' if xacro else 'URDF'} {text.file} (sha256 {text.sha256[:16]}…)",
     )
     record = UrdfRecord(
@@ -630,6 +635,7 @@ def _read_tree(
         base_joint=base_joint,
         base_body=base_body,
         source=f"{'xacro' if xacro else 'URDF'} {text.file} (sha256 {text.sha256[:16]}…)",
+        frame_catalog=_catalog(frames),
     )
     record = UrdfRecord(
         text.file,
@@ -653,6 +659,13 @@ def _read_tree(
         parents=parents,
     )
     return robot, record
+
+
+def _catalog(frames: dict) -> tuple[Frame, ...]:
+    """The file's links as frames (`Robot.frame_catalog`), in the order they were reached."""
+    return tuple(
+        Frame(name, seg, tuple(tuple(_number(x) for x in row) for row in T)) for name, (seg, T) in frames.items()
+    )
 
 
 def _massless_words(tree: Tree, joints: list) -> str:

@@ -1,0 +1,75 @@
+"""The task-space functions of a model's code: frames, centre of mass, centroidal momentum.
+
+Between derive and program, beside `functions` (the joint space): each function of
+`symdyn.derivation.task_space.OUTPUTS` as a `FunctionSpec` over the task-space derivation's
+named intermediates, its output shaped per state as `TaskSpace.shape` says ((m, 4, 4) poses,
+(m, 6, nv) Jacobians, …); the drifts are the accelerations at a = 0, their definitions
+substituted (as the bias is τ at q̈ = 0).
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from ..derivation.task_space import DRIFTS, OUTPUTS, TaskSpace
+from .functions import FunctionSpec
+
+__all__ = ["TASK_NAMES", "task_names", "task_spec", "task_doc"]
+
+#: Every task-space function, in the order of a model's list (the centroidal ones need mass).
+TASK_NAMES = tuple(OUTPUTS)
+
+_DOCS = {
+    "frame_pose": "World pose of each frame ({m}, 4, 4) (Pinocchio's data.oMf)",
+    "frame_jacobian": "Jacobian of each frame in its own axes, LOCAL ({m}, 6, {nv}), rows [linear; angular]",
+    "frame_jacobian_aligned": "Jacobian of each frame at its origin in world axes, LOCAL_WORLD_ALIGNED ({m}, 6, {nv})",
+    "frame_velocity": "Spatial velocity of each frame in its own axes, LOCAL ({m}, 6): J(q) v",
+    "frame_acceleration": "Classical acceleration of each frame, LOCAL_WORLD_ALIGNED ({m}, 6): "
+    "J_aligned(q) a + dJ/dt v (getFrameClassicalAcceleration)",
+    "frame_drift": "dJ/dt v of each frame, LOCAL_WORLD_ALIGNED ({m}, 6): the classical acceleration at a = 0",
+    "com": "Centre of mass (3,) in the world, every body counted",
+    "com_jacobian": "Jacobian of the centre of mass (3, {nv})",
+    "com_drift": "Acceleration of the centre of mass at a = 0 (3,): dJcom/dt v",
+    "centroidal_map": "Centroidal momentum matrix A_G (6, {nv}) about the centre of mass, world axes, rows "
+    "[linear; angular] (computeCentroidalMap)",
+    "centroidal_drift": "dA_G/dt v (6,): the rate of the centroidal momentum at a = 0 "
+    "(computeCentroidalMomentumTimeVariation at a = 0)",
+}
+
+
+def task_names(ts: TaskSpace) -> tuple[str, ...]:
+    """The task-space functions the derivation gives (no centroidal ones for a massless robot)."""
+    return tuple(name for name in TASK_NAMES if name in ts.outputs)
+
+
+def task_doc(ts: TaskSpace, name: str, params=()) -> str:
+    """A function's docstring: what it returns, for which frames, and what q, v, a hold."""
+    doc = _DOCS[name].format(m=len(ts.frames), nv=len(ts.v)) + "."
+    if name.startswith("frame_"):
+        doc += f" Frames: {', '.join(f.name for f in ts.frames)}."
+    if ts.robot.base_joint is not None:
+        doc += f" q: ({len(ts.q)},), the {ts.robot.base_joint} base's coordinates first; v, a: ({len(ts.v)},), its body-frame velocity first."
+    return doc + (f" p = ({', '.join(map(str, params))})." if params else "")
+
+
+def task_spec(ts: TaskSpace, name: str, params=()) -> FunctionSpec:
+    """The spec of one task-space function; `params` the symbols of a symbolic model (argument p)."""
+    out, _ = OUTPUTS[name]
+    expr = ts.outputs[name]
+    defs = ts.definitions
+    if name in DRIFTS:
+        zero = ts.at_rest()
+        expr = expr.xreplace(zero)
+        defs = tuple((s, sp.sympify(e).xreplace(zero)) for s, e in defs)
+    inputs = ts.inputs(name) + ((("p", tuple(params)),) if params else ())
+    shape = ts.shape(name)
+    return FunctionSpec(
+        name,
+        inputs,
+        ((out, expr),),
+        defs,
+        task_doc(ts, name, params),
+        "task space",
+        (out,) if len(shape) > 1 else (),
+        ((out, shape),),
+    )

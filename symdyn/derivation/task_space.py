@@ -1,0 +1,407 @@
+"""The task space, derived: frame poses, Jacobians, velocities, classical accelerations, the
+centre of mass and the centroidal momentum, as named intermediates.
+
+Part of the derive stage, beside the dynamics.  One outward recursion in world-aligned
+coordinates (Pinocchio's LOCAL_WORLD_ALIGNED) gives every link's pose (R, o), the world
+axis z and offset velocity u of its joint's motion, its angular velocity ω, the velocity
+of its origin, ω̇ and the classical acceleration of its origin; each intermediate is named on
+a `Tape` as it is formed, so a frame's Jacobian column costs what its entries cost (z and
+u + z × (p − o) of the joints it hangs from; exact zeros elsewhere), never a product of
+matrices.  Conventions are Pinocchio's: spatial vectors [linear; angular]; `LOCAL` the
+frame's own axes; the classical acceleration for `frame_acceleration` and the drift J̇·v
+(the same at a = 0); A_G about the centre of mass with world axes; a floating base's
+velocity in its body frame (free-flyer q, v).  The Khalil recursion of τ holds no positions
+and carries gravity in its accelerations, so the task space keeps a recursion of its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..model import Robot
+from ..model.frames import Frame
+from . import floating
+from .kinematics import ancestors, link_frames
+from .symbols import exact, joint_symbols
+from .tape import Tape
+
+__all__ = ["TaskSpace", "task_space", "functions", "shape", "OUTPUTS", "DRIFTS"]
+
+#: Each task-space function: (its output's name, the inputs it takes).
+OUTPUTS = {
+    "frame_pose": ("pose", ("q",)),
+    "frame_jacobian": ("J", ("q",)),
+    "frame_jacobian_aligned": ("J", ("q",)),
+    "frame_velocity": ("velocity", ("q", "v")),
+    "frame_acceleration": ("acceleration", ("q", "v", "a")),
+    "frame_drift": ("drift", ("q", "v")),
+    "com": ("com", ("q",)),
+    "com_jacobian": ("Jcom", ("q",)),
+    "com_drift": ("com_drift", ("q", "v")),
+    "centroidal_map": ("Ag", ("q",)),
+    "centroidal_drift": ("dAg_v", ("q", "v")),
+}
+
+
+@dataclass(frozen=True)
+class TaskSpace:
+    """The task-space quantities of a robot's frames as sympy matrices over named intermediates.
+
+    q (nq), v and a (nv): the symbols (base first, then the joints: q1…, qd1…, qdd1…);
+    frames: the `Frame`s served, in order; definitions: the named intermediates, in order;
+    outputs: function name → matrix (`OUTPUTS`; shapes per `shape`).  The functions at a = 0
+    (drifts) are `outputs` with the accelerations set to zero (`at_rest`)."""
+
+    robot: Robot
+    q: tuple
+    v: tuple
+    a: tuple
+    frames: tuple
+    definitions: tuple
+    outputs: dict
+
+    def shape(self, function: str) -> tuple[int, ...]:
+        """The per-state shape of a function's output (`shape`)."""
+        return shape(function, len(self.frames), len(self.v))
+
+    def inputs(self, function: str) -> tuple:
+        """((argname, symbols), …) of a function."""
+        given = {"q": self.q, "v": self.v, "a": self.a}
+        return tuple((arg, given[arg]) for arg in OUTPUTS[function][1])
+
+    def at_rest(self) -> dict:
+        """The substitution a = 0 (the drifts)."""
+        return {s: sp.S.Zero for s in self.a}
+
+    def full(self, function: str) -> sp.ImmutableMatrix:
+        """A function's output with every intermediate written out (plain sympy; small robots)."""
+        defs = dict(self.definitions)
+        done: dict = {}
+        for s, e in defs.items():
+            done[s] = sp.sympify(e).xreplace(done)
+        out = self.outputs[function].xreplace(done)
+        return out.xreplace(self.at_rest()) if function in DRIFTS else out
+
+
+def shape(function: str, m: int, nv: int) -> tuple[int, ...]:
+    """The per-state shape of a task-space function's output for m frames and nv velocities."""
+    return {
+        "frame_pose": (m, 4, 4),
+        "frame_jacobian": (m, 6, nv),
+        "frame_jacobian_aligned": (m, 6, nv),
+        "frame_velocity": (m, 6),
+        "frame_acceleration": (m, 6),
+        "frame_drift": (m, 6),
+        "com": (3,),
+        "com_jacobian": (3, nv),
+        "com_drift": (3,),
+        "centroidal_map": (6, nv),
+        "centroidal_drift": (6,),
+    }[function]
+
+
+#: The functions taken at a = 0 from the acceleration recursion.
+DRIFTS = ("frame_drift", "com_drift", "centroidal_drift")
+
+#: The functions of the centre of mass and the centroidal momentum (none for a massless robot).
+CENTROIDAL = ("com", "com_jacobian", "com_drift", "centroidal_map", "centroidal_drift")
+
+
+def _total_mass(robot: Robot):
+    bodies = list(robot.links) + ([robot.base_body] if robot.base_joint and robot.base_body is not None else [])
+    return sp.Add(*(exact(link.m) for link in bodies))
+
+
+def functions(robot: Robot) -> tuple[str, ...]:
+    """The task-space functions of `robot`, in `OUTPUTS`' order: every one, less the centroidal
+    ones when the robot carries no mass (its centre of mass is undefined)."""
+    massless = _total_mass(robot) == 0
+    return tuple(name for name in OUTPUTS if not (massless and name in CENTROIDAL))
+
+
+# --------------------------------------------------------------------------- small vector algebra
+
+
+def _cross(a, b) -> list:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _plus(*vs) -> list:
+    return [sp.Add(*(v[k] for v in vs)) for k in range(3)]
+
+
+def _times(R, v) -> list:
+    return [sp.Add(*(R[i][j] * v[j] for j in range(3))) for i in range(3)]
+
+
+def _times_t(R, v) -> list:
+    """Rᵀ·v."""
+    return [sp.Add(*(R[j][i] * v[j] for j in range(3))) for i in range(3)]
+
+
+def _scale(v, s) -> list:
+    return [x * s for x in v]
+
+
+def _rot(tape: Tape, R, label: str) -> list:
+    """A 3×3 rotation (rows of expressions) with its entries named {label}_11 …"""
+    return [[tape.name(R[i][j], f"{label}_{i + 1}{j + 1}") for j in range(3)] for i in range(3)]
+
+
+def _matmul(A, B) -> list:
+    return [[sp.Add(*(A[i][k] * B[k][j] for k in range(3))) for j in range(3)] for i in range(3)]
+
+
+def _rows(M) -> list:
+    return [[M[i, j] for j in range(M.cols)] for i in range(M.rows)]
+
+
+# --------------------------------------------------------------------------- the recursion
+
+
+@dataclass
+class _Body:
+    """A body's world-aligned kinematics: rotation R (rows), origin o, angular velocity w,
+    origin velocity vo, angular acceleration dw, classical origin acceleration ao."""
+
+    R: list
+    o: list
+    w: list
+    vo: list
+    dw: list
+    ao: list
+
+
+@dataclass(frozen=True)
+class _Column:
+    """One velocity's motion: the body it moves (-1: the base), the world axis z and the
+    velocity u of that body's origin o per unit rate."""
+
+    body: int
+    z: list
+    u: list
+    o: list
+
+
+def _base(tape: Tape, robot: Robot) -> tuple[_Body, list[_Column], tuple, tuple, tuple]:
+    """The base body (frame {0}, or the body a base joint moves) and its columns; (q, v, a) of
+    the base joint (empty on a fixed base)."""
+    Rb = [[exact(x) for x in row[:3]] for row in robot.base[:3]]
+    pb = [exact(row[3]) for row in robot.base[:3]]
+    zero = [sp.S.Zero] * 3
+    kind = robot.base_joint
+    if kind is None:
+        return _Body(Rb, pb, zero, zero, zero, zero), [], (), (), ()
+    qb, vb, ab = floating.base_symbols(kind)
+    R = _rot(tape, _matmul(Rb, _rows(floating.base_rotation(kind, qb))), "R0")
+    place = [qb[0], qb[1], qb[2] if kind == "free" else 0]
+    o = tape.vector(_plus(pb, _times(Rb, place)), "o0")
+    lin, ang = floating.spatial(kind, vb)
+    dlin, dang = floating.spatial(kind, ab)
+    w = tape.vector(_times(R, ang), "w0")
+    vo = tape.vector(_times(R, lin), "vo0")
+    dw = tape.vector(_times(R, dang), "dw0")
+    ao = tape.vector(_times(R, _plus(dlin, _cross(ang, lin))), "ao0")
+    columns = []
+    for k, (lin_k, ang_k) in enumerate(floating.columns(kind)):
+        z = [tape.name(e, f"zb{k + 1}_{'xyz'[i]}") for i, e in enumerate(_times(R, ang_k))]
+        u = [tape.name(e, f"ub{k + 1}_{'xyz'[i]}") for i, e in enumerate(_times(R, lin_k))]
+        columns.append(_Column(-1, z, u, o))
+    return _Body(R, o, w, vo, dw, ao), columns, qb, vb, ab
+
+
+def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpace:
+    """Derive the task space of `robot` for `frames` (default `robot.task_frames`).
+
+    The outward pass (world-aligned, per link k on parent p with joint rate q̇ₖ, q̈ₖ):
+    Rₖ = Rₚ·R(qₖ), oₖ = oₚ + Rₚ·p(qₖ), zₖ = Rₖ·S_ω, uₖ = Rₖ·S_v; ωₖ = ωₚ + zₖq̇ₖ,
+    vₖ = vₚ + ωₚ × (oₖ − oₚ) + uₖq̇ₖ, ω̇ₖ = ω̇ₚ + ωₚ × zₖq̇ₖ + zₖq̈ₖ,
+    aₖ = aₚ + ω̇ₚ × (oₖ − oₚ) + ωₚ × (vₖ − vₚ) + ωₖ × uₖq̇ₖ + uₖq̈ₖ.
+    """
+    frames = robot.task_frames if frames is None else tuple(frames)
+    n = robot.n
+    q, qd, qdd = joint_symbols(n)
+    tape = Tape()
+    base, columns, qb, vb, ab = _base(tape, robot)
+    bodies: list[_Body] = []
+    for k, f in enumerate(link_frames(robot, q)):
+        p = base if f.parent < 0 else bodies[f.parent]
+        tag = k + 1
+        R = _rot(tape, _matmul(p.R, _rows(f.R)), f"R{tag}")
+        r = tape.vector(_times(p.R, list(f.p)), f"r{tag}")
+        o = tape.vector(_plus(p.o, r), f"o{tag}")
+        z = tape.vector(_times(R, f.S[:3]), f"z{tag}")
+        u = tape.vector(_times(R, f.S[3:]), f"u{tag}")
+        rel = _plus(_cross(p.w, r), _scale(u, qd[k]))  # vₖ − vₚ
+        w = tape.vector(_plus(p.w, _scale(z, qd[k])), f"w{tag}")
+        vo = tape.vector(_plus(p.vo, rel), f"vo{tag}")
+        dw = tape.vector(_plus(p.dw, _cross(p.w, _scale(z, qd[k])), _scale(z, qdd[k])), f"dw{tag}")
+        ao = _plus(p.ao, _cross(p.dw, r), _cross(p.w, rel), _cross(w, _scale(u, qd[k])), _scale(u, qdd[k]))
+        bodies.append(_Body(R, o, w, vo, tape.vector(dw, f"dw{tag}"), tape.vector(ao, f"ao{tag}")))
+        columns.append(_Column(k, z, u, o))
+    parents = robot.parents
+    moved_by = [set(ancestors(parents, k)) for k in range(n)]  # the joints that move body k
+
+    def moves(column: _Column, body: int) -> bool:
+        return column.body == -1 or (body >= 0 and column.body in moved_by[body])
+
+    outputs = {}
+    outputs.update(_frames(tape, frames, base, bodies, columns, moves))
+    outputs.update(_centroidal(tape, robot, base, bodies, columns, moves))
+    v = tuple(vb) + tuple(qd)
+    return TaskSpace(
+        robot=robot,
+        q=tuple(qb) + tuple(q),
+        v=v,
+        a=tuple(ab) + tuple(qdd),
+        frames=frames,
+        definitions=tuple(tape.defs.items()),
+        outputs=outputs,
+    )
+
+
+def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[_Column], moves) -> dict:
+    """Pose, Jacobians (LOCAL and LOCAL_WORLD_ALIGNED), LOCAL velocity and classical acceleration
+    of each frame, stacked frame by frame."""
+    nv = len(columns)
+    pose, local, aligned, velocity, acceleration = [], [], [], [], []
+    for j, frame in enumerate(frames):
+        tag = f"f{j + 1}"
+        body = base if frame.link < 0 else bodies[frame.link]
+        Rf = [[exact(x) for x in row[:3]] for row in frame.placement[:3]]
+        pf = [exact(row[3]) for row in frame.placement[:3]]
+        R = _rot(tape, _matmul(body.R, Rf), f"R{tag}")
+        r = tape.vector(_times(body.R, pf), f"r{tag}")
+        p = tape.vector(_plus(body.o, r), f"p{tag}")
+        pose += [R[i] + [p[i]] for i in range(3)] + [[0, 0, 0, 1]]
+        cols_aligned, cols_local = [], []
+        for c, column in enumerate(columns):
+            if not moves(column, frame.link):
+                cols_aligned.append([sp.S.Zero] * 6)
+                cols_local.append([sp.S.Zero] * 6)
+                continue
+            arm = [tape.name(e, f"d{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(p, _scale(column.o, -1)))]
+            lin = [tape.name(e, f"J{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(column.u, _cross(column.z, arm)))]
+            cols_aligned.append(lin + list(column.z))
+            cols_local.append(_times_t(R, lin) + _times_t(R, column.z))
+        aligned += [[cols_aligned[c][i] for c in range(nv)] for i in range(6)]
+        local += [[cols_local[c][i] for c in range(nv)] for i in range(6)]
+        v = _plus(body.vo, _cross(body.w, r))
+        velocity.append(_times_t(R, v) + _times_t(R, body.w))
+        a = _plus(body.ao, _cross(body.dw, r), _cross(body.w, _cross(body.w, r)))
+        acceleration.append(a + list(body.dw))
+    m = len(frames)
+    return {
+        "frame_pose": sp.ImmutableMatrix(4 * m, 4, [x for row in pose for x in row]),
+        "frame_jacobian": sp.ImmutableMatrix(6 * m, nv, [x for row in local for x in row]),
+        "frame_jacobian_aligned": sp.ImmutableMatrix(6 * m, nv, [x for row in aligned for x in row]),
+        "frame_velocity": sp.ImmutableMatrix(m, 6, [x for row in velocity for x in row]),
+        "frame_acceleration": sp.ImmutableMatrix(m, 6, [x for row in acceleration for x in row]),
+        "frame_drift": sp.ImmutableMatrix(m, 6, [x for row in acceleration for x in row]),
+    }
+
+
+def _subtrees(tape: Tape, parents, per) -> dict:
+    """Each body's subtree sums (mass, first moment m·d about o₀, inertia about o₀), from the
+    leaves in, keyed by body index; -1: the whole robot (a floating base's body included).
+    Bodies that carry nothing and hold nothing that does are absent."""
+    own = {}
+    for k, m, d, md, Iw, _, _ in per:
+        J = [[Iw[i][j] + m * ((sum(e * e for e in d) if i == j else 0) - d[i] * d[j]) for j in range(3)] for i in range(3)]
+        own[k] = (m, md, J)
+    sums: dict = {}
+
+    def add(a, b):
+        if a is None:
+            return b
+        return (a[0] + b[0], _plus(a[1], b[1]), [[a[2][i][j] + b[2][i][j] for j in range(3)] for i in range(3)])
+
+    def named(k, t):
+        tag = "0" if k < 0 else str(k + 1)
+        J = [[sp.S.Zero] * 3 for _ in range(3)]
+        for i in range(3):
+            for j in range(i, 3):
+                J[i][j] = J[j][i] = tape.name(t[2][i][j], f"Js{tag}_{i + 1}{j + 1}")
+        return (t[0], tape.vector(t[1], f"hs{tag}"), J)
+
+    carried: dict = {}
+    for k in range(len(parents) - 1, -1, -1):
+        t = add(carried.get(k), own[k]) if k in own else carried.get(k)
+        if t is None:
+            continue
+        sums[k] = named(k, t)
+        carried[parents[k]] = add(carried.get(parents[k]), sums[k])
+    whole = add(carried.get(-1), own[-1]) if -1 in own else carried.get(-1)
+    if whole is not None:
+        sums[-1] = named(-1, whole)
+    return sums
+
+
+def _inertia(link) -> tuple:
+    """(m, r, Ic) of a link, exact (the upper triangle of I, mirrored)."""
+    m = exact(link.m)
+    r = [exact(x) for x in link.r]
+    Ic = [[exact(link.I[min(i, j)][max(i, j)]) for j in range(3)] for i in range(3)]
+    return m, r, Ic
+
+
+def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], columns: list[_Column], moves) -> dict:
+    """Centre of mass, its Jacobian and drift, the centroidal map A_G and Ȧ_G·v (about the centre
+    of mass, world axes), every body counted (a floating base's body too), rotors not.  Moments
+    are taken about the base's origin o₀ (well-conditioned far from the world's origin)."""
+    items = list(enumerate(robot.links))
+    if robot.base_joint is not None and robot.base_body is not None:
+        items.append((-1, robot.base_body))
+    nv = len(columns)
+    total = _total_mass(robot)
+    if total == 0:
+        return {}
+    o0 = base.o
+    per = []  # (body index, m, d = c − o₀, m·d, world inertia about the COM, COM classical acceleration)
+    for k, link in items:
+        m, r, Ic = _inertia(link)
+        if m == 0 and all(x == 0 for row in Ic for x in row):
+            continue
+        b = base if k < 0 else bodies[k]
+        tag = "b0" if k < 0 else f"b{k + 1}"
+        rw = tape.vector(_times(b.R, r), f"rc{tag}")
+        d = tape.vector(_plus(b.o, rw, _scale(o0, -1)), f"dc{tag}")
+        RI = _matmul(b.R, Ic)
+        Iw = [[sp.S.Zero] * 3 for _ in range(3)]
+        for i in range(3):
+            for j in range(i, 3):
+                Iw[i][j] = Iw[j][i] = tape.name(sp.Add(*(RI[i][x] * b.R[j][x] for x in range(3))), f"Iw{tag}_{i + 1}{j + 1}")
+        ac = tape.vector(_plus(b.ao, _cross(b.dw, rw), _cross(b.w, _cross(b.w, rw))), f"ac{tag}")
+        per.append((k, m, d, _scale(d, m), Iw, ac, b))
+    first = tape.vector(_plus(*[md for _, _, _, md, _, _, _ in per]), "mc")
+    g = tape.vector(_scale(first, 1 / total), "cg")  # c − o₀
+    com = _plus(o0, g)
+    sums = _subtrees(tape, robot.parents, per)
+    Jcom, Ag = [], []
+    for c, column in enumerate(columns):
+        if column.body >= 0 and column.body not in sums:
+            Jcom.append([sp.S.Zero] * 3)
+            Ag.append([sp.S.Zero] * 6)
+            continue
+        ms, hs, Js = sums[column.body]
+        z = column.z
+        vO = tape.vector(_plus(column.u, _cross(z, _scale(column.o, -1)), _cross(z, o0)), f"vO{c + 1}")  # at o₀
+        P = tape.vector(_plus(_scale(vO, ms), _cross(z, hs)), f"P{c + 1}")
+        L = _plus(_times(Js, z), _cross(hs, vO), _scale(_cross(g, P), -1))
+        Jcom.append(_scale(P, 1 / total))
+        Ag.append(list(P) + L)
+    # Ȧ_G·v = d/dt h_G at a = 0: Σ m a_c and Σ [I ω̇ + ω × I ω + m (c − G) × a_c]
+    force = tape.vector(_plus(*[_scale(x[5], x[1]) for x in per]), "mac")
+    moment = _plus(
+        *[_plus(_times(x[4], x[6].dw), _cross(x[6].w, _times(x[4], x[6].w)), _cross(x[2], _scale(x[5], x[1]))) for x in per]
+    )
+    moment = _plus(moment, _scale(_cross(g, force), -1))
+    return {
+        "com": sp.ImmutableMatrix(com),
+        "com_jacobian": sp.ImmutableMatrix(3, nv, lambda i, c: Jcom[c][i]),
+        "com_drift": sp.ImmutableMatrix(_scale(force, 1 / total)),
+        "centroidal_map": sp.ImmutableMatrix(6, nv, lambda i, c: Ag[c][i]),
+        "centroidal_drift": sp.ImmutableMatrix(list(force) + moment),
+    }

@@ -1,0 +1,97 @@
+"""Named frames on a robot: where the task space is measured (a hand, a foot, a sole, the tool).
+
+Part of the model stage.  A `Frame` rides on one link (or on the base: link -1, the body a
+base joint moves or, on a fixed base, the world's frame {0}) at a constant placement in
+that link's own frame.  A robot knows every frame of the file it was read from (each link
+of the file, moving, locked or merged by a fixed joint; each MJCF body and site:
+`Robot.frame_catalog`) and, always, "tool" (the tool on the last link) and, where no file
+names them, "base" and "link1", "link2", … (the links' own frames).  `Robot.frames` selects
+the frames the generated task-space functions serve, in order; by default the tool of a
+chain, or each leaf link of a tree.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+
+__all__ = ["Frame", "known_frames", "resolve", "default_names"]
+
+IDENTITY = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A frame `name` fixed to link `link` (its index in `robot.links`; -1: the base) at
+    `placement`, a 4×4 homogeneous transform in that link's frame (exact numbers or floats)."""
+
+    name: str
+    link: int
+    placement: tuple = IDENTITY
+
+    def key(self) -> tuple:
+        """What identifies the frame in a fingerprint: name, link, placement."""
+        return (self.name, self.link, self.placement)
+
+
+def _implicit(robot) -> dict[str, Frame]:
+    """The frames every robot has: the tool on the last link, and where no file names its
+    links, "base" (link -1) and link1 … linkn (each link's own frame)."""
+    out: dict[str, Frame] = {}
+    if not robot.frame_catalog:
+        out["base"] = Frame("base", -1)
+        out.update((f"link{k + 1}", Frame(f"link{k + 1}", k)) for k in range(robot.n))
+    out["tool"] = Frame("tool", robot.n - 1, robot.tool)
+    return out
+
+
+def known_frames(robot) -> dict[str, Frame]:
+    """Every frame a user may ask for, by name: the file's (`robot.frame_catalog`), then the
+    implicit ones (`_implicit`; the file's own name wins)."""
+    out = {f.name: f for f in robot.frame_catalog}
+    for name, frame in _implicit(robot).items():
+        out.setdefault(name, frame)
+    return out
+
+
+def default_names(robot) -> tuple[str, ...]:
+    """The frames served when none are chosen: the tool of a chain; each leaf link of a tree
+    (a link no other hangs on), named as the file names its frame (else link<k>)."""
+    if robot.is_chain:
+        return ("tool",)
+    parents = set(robot.parents)
+    leaves = [k for k in range(robot.n) if k not in parents]
+    own = {f.link: f.name for f in reversed(robot.frame_catalog) if f.placement == IDENTITY or _is_identity(f)}
+    return tuple(own.get(k, f"link{k + 1}") for k in leaves)
+
+
+def _is_identity(frame: Frame) -> bool:
+    return all(float(frame.placement[i][j]) == float(i == j) for i in range(4) for j in range(4))
+
+
+def resolve(robot, names) -> tuple[Frame, ...]:
+    """The frames called `names`, in order.
+
+    Raises:
+        ValueError: names that is a bare string or empty; a repeated name; a name the robot
+            does not know (the closest known names are given).
+    """
+    if isinstance(names, str):
+        raise ValueError(f"frames must be a list of frame names, got the string {names!r} (frames=[{names!r}])")
+    names = tuple(names)
+    if not names:
+        raise ValueError(f"frames of robot {robot.name!r}: give at least one frame name")
+    known = known_frames(robot)
+    out = []
+    for name in names:
+        if not isinstance(name, str) or name not in known:
+            close = difflib.get_close_matches(str(name), list(known), n=5, cutoff=0.4)
+            hint = f"; the closest known are {', '.join(close)}" if close else ""
+            raise ValueError(
+                f"robot {robot.name!r} has no frame {name!r}{hint} (robot.frame_names lists all {len(known)})"
+            )
+        out.append(known[name])
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(f"frames of robot {robot.name!r}: {', '.join(map(repr, repeated))} given more than once")
+    return tuple(out)

@@ -1,0 +1,224 @@
+"""The task space, generated: frames, Jacobians, drifts, centre of mass, centroidal momentum.
+
+Every function against Pinocchio (`symdyn.bench.task_space`) at hundreds of random states —
+the shipped arms' tools, the Panda's hand from Pinocchio's own reading of the URDF, random
+trees on fixed, free and planar bases with frames at random placements — and against
+central differences of the generated code itself (dp/dq·δ = J·δ, d/dt(J v) = drift,
+d/dt of the centroidal momentum).  Frames by name, the default frames and the errors.
+"""
+
+import dataclasses
+import importlib.metadata
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from symdyn import models
+from symdyn.codegen.emit import Bundle, numpy as numpy_emit
+from symdyn.codegen.task_functions import task_names, task_spec
+from symdyn.derivation.task_space import task_space
+from symdyn.model import Robot
+from symdyn.model.frames import Frame
+from symdyn.model.random_arms import _rotation
+from symdyn.model.random_robots import random_tree_robot
+
+pin = pytest.importorskip("pinocchio", reason="the task space is checked against Pinocchio (the test extra)")
+peer = pytest.importorskip("symdyn.bench.task_space")
+
+RTOL = 1e-12
+STATES = 200
+
+
+def task_module(robot: Robot) -> dict:
+    """The task-space functions of `robot` alone, through the NumPy emitter (no dynamics derived)."""
+    ts = task_space(robot)
+    programs = tuple(task_spec(ts, name).program() for name in task_names(ts))
+    bundle = Bundle(robot.name, robot.n, "test", robot.fingerprint(), programs, nq=robot.nq, nv=robot.nv)
+    namespace: dict = {}
+    exec(compile(numpy_emit.module_source(bundle), f"<{robot.name} task space>", "exec"), namespace)
+    return {name: namespace[name] for name in task_names(ts)}
+
+
+def states(robot: Robot, count: int, seed: int = 0):
+    """(q, v, a): joints within their limits, a floating base moved along a random twist."""
+    rng = np.random.default_rng(seed)
+    lo, hi = robot.qlim.T
+    q = robot.neutral() + np.zeros((count, 1))
+    q[:, robot.nq - robot.n :] = rng.uniform(lo, hi, (count, robot.n))
+    if robot.base_joint is not None:
+        twist = np.zeros((count, robot.nv))
+        twist[:, : robot.nv - robot.n] = rng.normal(size=(count, robot.nv - robot.n))
+        q = robot.integrate(q, twist)
+    return q, rng.uniform(-2, 2, (count, robot.nv)), rng.uniform(-5, 5, (count, robot.nv))
+
+
+def assert_close(got, want, what: str, rtol: float = RTOL) -> None:
+    got, want = np.asarray(got), np.asarray(want)
+    assert got.shape == want.shape, f"{what}: shape {got.shape}, expected {want.shape}"
+    scale = max(1.0, float(np.abs(want).max()))
+    err = float(np.abs(got - want).max()) / scale
+    assert err <= rtol, f"{what}: relative error {err:.2e} > {rtol:.0e}"
+
+
+def evaluate(functions: dict, q, v, a) -> dict:
+    """Every task-space function at the states (batched)."""
+    args = {"q": (q,), "v": (q, v), "a": (q, v, a)}
+    kind = {
+        "frame_velocity": "v",
+        "frame_acceleration": "a",
+        "frame_drift": "v",
+        "com_drift": "v",
+        "centroidal_drift": "v",
+    }
+    return {name: f(*args[kind.get(name, "q")]) for name, f in functions.items()}
+
+
+def assert_pinocchio(robot: Robot, functions: dict, model, ids, count: int = STATES, seed: int = 0) -> None:
+    q, v, a = states(robot, count, seed)
+    want = peer.evaluate(robot, model, ids, q, v, a)
+    got = evaluate(functions, q, v, a)
+    for name, value in got.items():
+        assert_close(value, want[name], f"{robot.name} {name}")
+
+
+def with_random_frames(robot: Robot, seed: int) -> Robot:
+    """The robot with a frame at a random placement on every link and on the base, all served."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for k in range(-1, robot.n):
+        T = np.eye(4)
+        T[:3, :3] = _rotation(__import__("random").Random(seed * 31 + k))
+        T[:3, 3] = rng.uniform(-0.3, 0.3, 3)
+        frames.append(Frame(f"f{k + 1}", k, tuple(map(tuple, T.tolist()))))
+    robot = dataclasses.replace(robot, frame_catalog=tuple(frames))
+    return robot.with_frames([f.name for f in frames])
+
+
+# --------------------------------------------------------------------------- against Pinocchio
+
+
+@pytest.mark.parametrize("name", ["puma560", "puma560_mdh", "rrp", "ur5", "iiwa14", "panda"])
+def test_the_shipped_arms_tools_equal_pinocchio(name):
+    robot = models.load(name)
+    model, ids = peer.peer_model(robot)
+    assert_pinocchio(robot, task_module(robot), model, ids)
+
+
+@pytest.mark.parametrize("base_joint", [None, "free", "planar"])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_trees_with_frames_anywhere_equal_pinocchio(seed, base_joint):
+    robot = with_random_frames(random_tree_robot(seed, n=4 if seed < 3 else 6, base_joint=base_joint), seed)
+    model, ids = peer.peer_model(robot)
+    assert_pinocchio(robot, task_module(robot), model, ids, count=50, seed=seed)
+
+
+def test_the_pandas_hand_equals_pinocchios_reading_of_the_file():
+    """Frames named in the URDF (the hand fixed to link 8 and the TCP beyond it) are where
+    Pinocchio's own parser puts them."""
+    panda = models.load("panda").with_frames(["panda_hand", "panda_hand_tcp", "panda_link5"])
+    from importlib.resources import files
+
+    path = files("symdyn.model.arms") / "data" / "panda.urdf"
+    model, ids = peer.file_model(panda, str(path))
+    assert_pinocchio(panda, task_module(panda), model, ids)
+
+
+def _solo_file() -> Path:
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("Solo 12's URDF comes from example-robot-data (the test extra)")
+    path = Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots/solo_description/robots/solo12.urdf"))
+    if not path.is_file():
+        pytest.skip(f"example-robot-data has no {path}")
+    return path
+
+
+FEET = ["FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"]
+
+
+def test_solo12s_four_feet_on_a_free_base_equal_pinocchio_through_generated_c():
+    """The issue's case: Solo 12 read from its URDF on a free base, its four feet (links merged
+    by fixed joints) served by the generated C, equal to Pinocchio's own model of the file."""
+    import symdyn
+
+    path = _solo_file()
+    solo = Robot.from_urdf(str(path), tips="all", base_joint="free").with_frames(FEET)
+    model, ids = peer.file_model(solo, path)
+    c = symdyn.load(solo, "c")
+    functions = {name: getattr(c, name) for name in task_names(task_space(solo))}
+    assert_pinocchio(solo, functions, model, ids, count=STATES)
+
+
+# --------------------------------------------------------------------------- exact identities
+
+
+def _central(f, x, dx, h=1e-6):
+    return (f(x + h * dx) - f(x - h * dx)) / (2 * h)
+
+
+@pytest.mark.parametrize("base_joint", [None, "free"])
+def test_central_differences_of_position_velocity_and_momentum(base_joint):
+    """dp/dq·δ = J_aligned·δ (q moved along δ on the manifold), d/dt(J v) = drift,
+    d/dt(A_G v) = A_G a + Ȧ_G v, d/dt c = J_c v: the generated code against itself."""
+    robot = with_random_frames(random_tree_robot(7, n=4, base_joint=base_joint), 7)
+    f = task_module(robot)
+    q, v, a = states(robot, 5, seed=7)
+    h = 1e-6
+    for qi, vi, ai in zip(q, v, a):
+        at = lambda t: robot.integrate(qi, vi * t)  # noqa: E731 (a motion with velocity v, at a = 0)
+        pose = lambda t: f["frame_pose"](at(t))[:, :3, 3]  # noqa: E731
+        J = f["frame_jacobian_aligned"](qi)
+        assert_close(_central(pose, 0.0, 1.0, h), J[:, :3] @ vi, "dp/dt = J v", 1e-7)
+        Jv = lambda t: f["frame_jacobian_aligned"](at(t)) @ vi  # noqa: E731 (v held: the base's v is body-frame)
+        drift = f["frame_drift"](qi, vi)
+        assert_close(_central(Jv, 0.0, 1.0, h), drift, "d/dt (J v) = drift", 1e-6)
+        hg = lambda t: f["centroidal_map"](at(t)) @ vi  # noqa: E731
+        assert_close(_central(hg, 0.0, 1.0, h), f["centroidal_drift"](qi, vi), "d/dt h_G", 1e-6)
+        com = lambda t: f["com"](at(t))  # noqa: E731
+        assert_close(_central(com, 0.0, 1.0, h), f["com_jacobian"](qi) @ vi, "dc/dt", 1e-7)
+        accel = f["frame_acceleration"](qi, vi, ai)
+        assert_close(accel, J @ ai + drift, "classical acceleration = J a + drift")
+
+
+def test_a_frame_on_another_branch_has_zero_columns_and_costs_nothing_there():
+    robot = random_tree_robot(3, n=6)
+    leaves = [k for k in range(robot.n) if k not in robot.parents]
+    robot = robot.with_frames([f"link{leaves[0] + 1}"])
+    J = task_module(robot)["frame_jacobian"](np.zeros(robot.nq))[0]
+    on_path, k = set(), leaves[0]
+    while k >= 0:
+        on_path.add(k)
+        k = robot.parents[k]
+    for j in range(robot.n):
+        if j not in on_path:
+            assert not J[:, j].any(), f"column {j} of a joint the frame does not hang from"
+
+
+# --------------------------------------------------------------------------- frames by name
+
+
+def test_every_link_of_the_file_is_a_frame_and_the_default_is_the_tool():
+    panda = models.load("panda")
+    assert {"panda_link0", "panda_link7", "panda_hand", "panda_hand_tcp", "tool"} <= set(panda.frame_names)
+    assert [f.name for f in panda.task_frames] == ["tool"]
+    puma = models.load("puma560")
+    assert puma.frame_names == ("base", "link1", "link2", "link3", "link4", "link5", "link6", "tool")
+
+
+def test_an_unknown_frame_names_the_closest_known_ones():
+    panda = models.load("panda")
+    with pytest.raises(ValueError, match="no frame 'panda_hnd'.*panda_hand"):
+        panda.with_frames(["panda_hnd"])
+    with pytest.raises(ValueError, match="more than once"):
+        panda.with_frames(["tool", "tool"])
+    with pytest.raises(ValueError, match="list of frame names"):
+        panda.with_frames("tool")
+
+
+def test_chosen_frames_enter_the_fingerprint_and_the_default_does_not():
+    puma = models.load("puma560")
+    assert puma.with_frames(["link3"]).fingerprint() != puma.fingerprint()
+    assert puma.with_frames(["link3"]).fingerprint() != puma.with_frames(["link4"]).fingerprint()
+    assert dataclasses.replace(puma, frames=()).fingerprint() == puma.fingerprint()
