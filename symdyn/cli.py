@@ -97,6 +97,11 @@ def _cmd_print(args: argparse.Namespace) -> int:
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
     if args.constants:
         return _print_constants(dyn, args)
+    if args.frames is not None:  # the task space: each frame's forward kinematics and Jacobian
+        from .presentation.task_space import frames_form
+
+        print(frames_form(dyn, args.format, digits=args.digits, form=args.form))
+        return 0
     terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
     layouts = plan(dyn, terms, args.layout)
     print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits, layouts=layouts))

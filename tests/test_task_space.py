@@ -222,3 +222,34 @@ def test_chosen_frames_enter_the_fingerprint_and_the_default_does_not():
     assert puma.with_frames(["link3"]).fingerprint() != puma.fingerprint()
     assert puma.with_frames(["link3"]).fingerprint() != puma.with_frames(["link4"]).fingerprint()
     assert dataclasses.replace(puma, frames=()).fingerprint() == puma.fingerprint()
+
+
+def test_mjcf_bodies_and_sites_are_where_mujoco_puts_them():
+    """Every body and site of an MJCF arm as a frame: its pose (xpos, xmat; site_xpos, site_xmat)
+    and its Jacobian (mj_jacBody, mj_jacSite: world axes at the origin) equal MuJoCo's own."""
+    mujoco = pytest.importorskip("mujoco", reason="MJCF files are compiled by MuJoCo (the test extra)")
+    path = Path(__file__).parent / "mjcf_fixtures" / "menagerie_arm.xml"
+    robot = Robot.from_mjcf(str(path))
+    names = ["shoulder_link", "forearm_link", "wrist_3_link", "attachment_site"]
+    robot = robot.with_frames(names)
+    f = task_module(robot)
+    from symdyn.model.mjcf.compile import compile_mjcf
+
+    m = compile_mjcf(str(path)).model  # the file's absent meshes left out, as from_mjcf reads it
+    d = mujoco.MjData(m)
+    q, _, _ = states(robot, 20, seed=5)
+    for qi in q:
+        d.qpos[:] = qi
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        pose, J = f["frame_pose"](qi), f["frame_jacobian_aligned"](qi)
+        for k, name in enumerate(names):
+            site = name == "attachment_site"
+            i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE if site else mujoco.mjtObj.mjOBJ_BODY, name)
+            p = d.site_xpos[i] if site else d.xpos[i]
+            R = (d.site_xmat[i] if site else d.xmat[i]).reshape(3, 3)
+            jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+            (mujoco.mj_jacSite if site else mujoco.mj_jacBody)(m, d, jacp, jacr, i)
+            assert_close(pose[k, :3, 3], p, f"{name} position", 1e-9)
+            assert_close(pose[k, :3, :3], R, f"{name} rotation", 1e-9)
+            assert_close(J[k], np.vstack([jacp, jacr]), f"{name} Jacobian", 1e-9)

@@ -512,7 +512,8 @@ def run_cli(args: argparse.Namespace) -> int:
         paths = generate_all(args.out)
     else:
         robot = command_line.from_args(args)
-        out = args.out or (None if args.model in SHIPPED else Path("out") / identifier(robot.name))
+        shipped = args.model in SHIPPED and not args.frames  # other frames: another model than generated/'s
+        out = args.out or (None if shipped else Path("out") / identifier(robot.name))
         paths = generate(robot, args.target, out, casadi_c=args.casadi_c)
     for p in paths:
         print(p)

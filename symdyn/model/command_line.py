@@ -66,6 +66,16 @@ def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> No
         help=f"a shipped model ({', '.join(arms.NAMES)}) or a robot file: URDF (.urdf, or any existing "
         "file) or xacro (.xacro, .urdf.xacro: expanded in-process, no ROS needed)",
     )
+    p.add_argument(
+        "--frames",
+        nargs="*",
+        metavar="FRAME",
+        default=None,
+        help="the frames the task-space functions serve, in order: any link of the file (moving, locked or "
+        "merged by a fixed joint), an MJCF body or site, tool, or for a robot without a file base, link1 … "
+        "(default: the tool of a chain, each leaf link of a tree); `symdyn print --frames` prints their "
+        "forward kinematics and Jacobians",
+    )
     add_urdf_options(p)
 
 
@@ -373,4 +383,6 @@ def from_args(args: argparse.Namespace, *, symbolic: bool = False, massless: boo
     Raises:
         ValueError: as `load`.
     """
-    return load(args.model, symbolic=symbolic, massless=massless, **urdf_options(args))
+    robot = load(args.model, symbolic=symbolic, massless=massless, **urdf_options(args))
+    frames = getattr(args, "frames", None)
+    return robot.with_frames(frames) if frames else robot

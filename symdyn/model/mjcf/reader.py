@@ -29,6 +29,7 @@ from typing import Iterable
 import numpy as np
 import sympy as sp
 
+from ..frames import Frame
 from ..placement import exact, rational_rotation, rpy_rotation
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
@@ -68,6 +69,7 @@ class _Reader:
         self.locked: list[Locked] = []
         self.left_out: list[str] = []
         self.values: dict[int, tuple[float, str]] = {}
+        self.frames: dict[int, tuple[int, tuple]] = {}  # body → (the robot link it rides on, its frame there)
         m = self.m
         self.children: dict[int, list[int]] = {}
         for b in range(1, m.nbody):
@@ -168,9 +170,11 @@ class _Reader:
             tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3)),
         )
 
-    def subtree(self, b: int, skip: set, into: str, moves: bool) -> Body:
+    def subtree(self, b: int, skip: set, into: str, moves: bool, seg: int = -1, at: tuple = IDENTITY) -> Body:
         """Body b with everything hanging off it except the bodies in `skip` (the chain), in b's
-        frame; joints met are locked and recorded as merged into `into`."""
+        frame; joints met are locked and recorded as merged into `into`, and each body's frame as
+        riding on robot link `seg` (-1: the base) at `at` (b's frame in it)."""
+        self.frames[b] = (seg, at)
         body = self.inertial(b)
         for child in self.children.get(b, []):
             if child in skip:
@@ -191,7 +195,7 @@ class _Reader:
                 value, why = self.values[j]
                 self.locked.append(Locked(self.joint(j), value, into, why, moves))
                 T = _compose(T, self.motion(j, value))
-            body = body + self.subtree(child, skip, into, moves).moved(T)
+            body = body + self.subtree(child, skip, into, moves, seg, _compose(at, T)).moved(T)
         return body
 
     # ---- the chain's links
@@ -411,6 +415,7 @@ def from_mjcf(
         reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
         held = set(given) if tip_list == "all" else {j for j in given if int(m.jnt_bodyid[j]) in on_path}
         carriers, base_mass, frames = _walk(reader, base, set(moving), held, base_joint is not None)
+        reader.frames.update(frames)
         if not carriers:
             raise MJCFError(f"{label}: no hinge or slide joint moves below {reader.body(base)!r}")
         tip = tip_list[0] if tip_list != "all" and len(tip_list) == 1 else None
@@ -464,7 +469,7 @@ def from_mjcf(
                     origin, T = T, IDENTITY
                 carrier, body = j, Body.empty()
             into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
-            sub = reader.subtree(b, on_chain, into, carrier is not None)
+            sub = reader.subtree(b, on_chain, into, carrier is not None, len(carriers) if carrier is not None else -1, T)
             if carrier is not None:
                 body = body + sub.moved(T)
             pending = T
@@ -537,6 +542,7 @@ def from_mjcf(
         base_joint=base_joint,
         base_body=floating,
         source=f"MJCF {label} (sha256 {compiled.sha256[:16]}…)",
+        frame_catalog=_catalog(reader),
     )
     record = MjcfRecord(
         file=label,
@@ -741,6 +747,25 @@ def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) 
         frames[b] = (seg, T)
         todo += [(child, seg, T) for child in reversed(reader.children.get(b, []))]
     return [tuple(c) for c in carriers], base_body, frames
+
+
+def _catalog(reader: _Reader) -> tuple[Frame, ...]:
+    """Every body reached and every site on one, as frames (`Robot.frame_catalog`): a body by its
+    name, a site by its own (site:NAME where a body has that name)."""
+    m = reader.m
+    exact_T = lambda T: tuple(tuple(_number(x) for x in row) for row in T)  # noqa: E731
+    out = {reader.body(b): Frame(reader.body(b), seg, exact_T(T)) for b, (seg, T) in reader.frames.items()}
+    for s in range(m.nsite):
+        b = int(m.site_bodyid[s])
+        if b not in reader.frames:
+            continue
+        seg, T = reader.frames[b]
+        R = reader.orientation(m.site_quat[s], f"site {m.site(s).name!r}")
+        placed = tuple(tuple(R[i]) + (exact(float(m.site_pos[s][i])),) for i in range(3)) + ((0, 0, 0, 1),)
+        name = m.site(s).name or f"site#{s}"
+        name = f"site:{name}" if name in out else name
+        out[name] = Frame(name, seg, exact_T(_compose(T, placed)))
+    return tuple(out.values())
 
 
 def _model_name(m) -> str:
