@@ -43,7 +43,7 @@ def _states(n, count, seed=0):
     rng = np.random.default_rng(seed)
     q, qd, qdd = (rng.uniform(-3, 3, (count, n)) for _ in range(3))
     qd[::5, : n // 2] = 0.0  # Coulomb friction at rest: sign(0)
-    return {"q": q, "qd": qd, "qdd": qdd, "tau": qdd * 10}
+    return {"q": q, "qd": qd, "qdd": qdd, "tau": qdd * 10, "v": qd, "a": qdd}  # the task space's v, a
 
 
 def _one_by_one(f, names, args, count):

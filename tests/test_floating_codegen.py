@@ -166,8 +166,10 @@ def test_generate_writes_sizes(tmp_path):
 
 def test_signatures_and_tangent_map():
     """Lazy C signatures take q of nq; the free base's map turns v into the quaternion's rate."""
-    sigs = {s.name: s for s in signatures(3, 10, 9)}
+    sigs = {s.name: s for s in signatures(random_tree_robot(2, n=3, base_joint="free"))}
     assert dict(sigs["C"].outputs)["C"] == (9, 9) and dict(sigs["Y"].outputs)["Y"] == (9, 10 + 14 * 3)
+    assert sigs["frame_jacobian"].inputs == (("q", 10),) and sigs["frame_drift"].inputs == (("q", 10), ("v", 9))
+    assert dict(sigs["centroidal_map"].outputs)["Ag"] == (6, 9)
     assert sigs["tau"].inputs == (("q", 10), ("qd", 9), ("qdd", 9))
     assert dict(sigs["tau_derivatives"].outputs)["dtau_dq"] == (9, 9)
     q = sp.symbols("x y z qx qy qz qw q1", real=True)

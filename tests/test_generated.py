@@ -95,6 +95,17 @@ def test_loaded_model_lists_its_functions():
         "tau_derivatives",
         "fdyn_derivatives",
         "Minv",
+        "frame_pose",
+        "frame_jacobian",
+        "frame_jacobian_aligned",
+        "frame_velocity",
+        "frame_acceleration",
+        "frame_drift",
+        "com",
+        "com_jacobian",
+        "com_drift",
+        "centroidal_map",
+        "centroidal_drift",
     ]
     with pytest.raises(AttributeError, match="'aba'"):
         m.aba

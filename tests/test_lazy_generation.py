@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import symdyn
-from symdyn.codegen.lazy import FUNCTIONS, signatures
+from symdyn.codegen.lazy import signatures
 from symdyn.model.random_arms import ArmOptions, random_arm
 from symdyn.numeric import reference as ref
 
@@ -31,8 +31,8 @@ def test_a_function_is_generated_when_first_called_and_agrees_with_the_reference
     tau = ref.rne(robot, q, qd, qdd)
     np.testing.assert_allclose(model.fdyn(q, qd, tau), qdd, atol=1e-11)  # a batch: its kernel too
     assert sorted(p.name for p in model.folder.glob("*.c")) == sorted(f"{model.name}.{f}.c" for f in ("tau", "fdyn"))
-    assert list(model.functions) == list(FUNCTIONS)
-    for sig in signatures(robot.n):  # every function's shapes are those of the whole file's
+    assert list(model.functions) == [s.name for s in signatures(robot)]
+    for sig in signatures(robot):  # every function's shapes are those of the whole file's
         out = model.functions[sig.name](*(np.zeros(k) for _, k in sig.inputs))
         shapes = [o.shape for o in (out if isinstance(out, tuple) else (out,))]
         assert shapes == [shape for _, shape in sig.outputs], sig.name
@@ -74,9 +74,11 @@ def test_build_generates_and_compiles_every_function_ahead(tmp_path, monkeypatch
     robot = _arm()
     model = symdyn.load(robot, "c")
     model.build(batch=False)
-    assert sorted(p.name for p in model.folder.glob("*.c")) == sorted(f"{model.name}.{f}.c" for f in FUNCTIONS)
+    assert sorted(p.name for p in model.folder.glob("*.c")) == sorted(
+        f"{model.name}.{s.name}.c" for s in signatures(robot)
+    )
     built = set((tmp_path / "c" / "units").glob(f"{model.name}_*.scalar.*.so"))
-    assert sorted(p.name.split(".")[0] for p in built) == sorted(f"{model.name}_{f}" for f in FUNCTIONS)
+    assert sorted(p.name.split(".")[0] for p in built) == sorted(f"{model.name}_{s.name}" for s in signatures(robot))
     run = _second_process(tmp_path, "model.fdyn_derivatives(z, z, z); model.Y(z, z, z)")  # derives nothing
     assert run.returncode == 0, run.stderr
     assert set((tmp_path / "c" / "units").glob(f"{model.name}_*.scalar.*.so")) == built  # compiles nothing

@@ -33,11 +33,18 @@
  *   then N lines: PARENT followed by a version-1 joint line; PARENT 0 is the
  *   root (the floating base, or the universe), PARENT i the i-th joint line
  *   (i < this line's joint); the placement is in the parent joint's frame.
+ * Then, optionally (either version), the task frames:
+ *   frames M
+ *   then M lines: JOINT R00 R01 R02 PX R10 R11 R12 PY R20 R21 R22 PZ, a frame fixed to joint line
+ *   JOINT (0: the root) at that placement in the joint's frame; the task-space algorithms
+ *   (frames_drift, frames_jacobian) serve them in order.
  * STATES: K (a power of two) states, each q (nq), qd, qdd, tau (nv each)
  *   doubles: nq = nv = N on a fixed base (the file harness.c reads, so both
  *   time the same states).  symdyn's q: a planar root's is x y yaw, turned
  *   into Pinocchio's x y cos sin here, before any timing.
  *
+ * With no FUNCTION, every joint-space algorithm; the task-space ones (frames_drift,
+ * frames_jacobian, com_centroidal) run when named.
  * Prints "pinocchio VERSION", then "time NAME NS" per algorithm, then
  * "check NAME v..." with its outputs at state 3 (matrices row-major and made
  * symmetric where Pinocchio fills the upper triangle only; dtau/dq and
@@ -51,6 +58,11 @@
 #include <pinocchio/algorithm/cholesky.hpp>
 #include <pinocchio/algorithm/rnea-derivatives.hpp>
 #include <pinocchio/algorithm/aba-derivatives.hpp>
+#include <pinocchio/algorithm/kinematics.hpp>
+#include <pinocchio/algorithm/jacobian.hpp>
+#include <pinocchio/algorithm/frames.hpp>
+#include <pinocchio/algorithm/center-of-mass.hpp>
+#include <pinocchio/algorithm/centroidal.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -96,6 +108,13 @@ static JointIndex add_joint(Model &model, JointIndex parent, char type, const Ei
         return model.addJoint(parent, JointModelRevoluteUnaligned(axis), placement, name);
     return model.addJoint(parent, JointModelPrismaticUnaligned(axis), placement, name);
 }
+
+static bool is_task_space(const std::string &name)
+{
+    return name.rfind("frames_", 0) == 0 || name == "com_centroidal";
+}
+
+static std::vector<FrameIndex> task_frames;  /* the frames of the arm file's "frames" section */
 
 static Model read_arm(const char *path)
 {
@@ -176,6 +195,35 @@ static Model read_arm(const char *path)
     for (int i = 0; i < n; ++i)
         model.armature[model.idx_vs[index[i + 1]]] = armature[i];
     model.gravity = Motion(Eigen::Vector3d(gx, gy, gz), Eigen::Vector3d::Zero());
+    int m = 0;
+    ++lineno;
+    if (std::getline(in, line) && !line.empty()) {
+        if (!(std::istringstream(line) >> word >> m) || word != "frames" || m < 1)
+            bad(lineno, "expected 'frames M' with M >= 1, or the end of the file");
+        for (int f = 0; f < m; ++f) {
+            ++lineno;
+            std::istringstream s;
+            if (std::getline(in, line))
+                s.str(line);
+            int on = -1;
+            double v[12];
+            s >> on;
+            for (double &x : v)
+                s >> x;
+            if (!s || on < 0 || on > n)
+                bad(lineno, "frame " + std::to_string(f + 1) + ": expected its joint line 0.." + std::to_string(n) +
+                                " and 12 numbers");
+            Eigen::Matrix3d R;
+            Eigen::Vector3d p;
+            for (int r = 0; r < 3; ++r) {
+                R.row(r) << v[4 * r], v[4 * r + 1], v[4 * r + 2];
+                p[r] = v[4 * r + 3];
+            }
+            const JointIndex j = index[on];
+            task_frames.push_back(model.addFrame(
+                Frame("task" + std::to_string(f), j, 0, SE3(R, p), FrameType::OP_FRAME)));
+        }
+    }
     return model;
 }
 
@@ -261,6 +309,27 @@ int main(int argc, char **argv)
         Eigen::MatrixXd dtau_dq = Eigen::MatrixXd::Zero(n, n), dtau_dv = dtau_dq, dtau_da = dtau_dq;
         Eigen::MatrixXd dddq_dq = dtau_dq, dddq_dv = dtau_dq, dddq_dtau = dtau_dq;
         volatile double sink = 0;
+        const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+        std::vector<Data::Matrix6x> frameJ(task_frames.size(), Data::Matrix6x::Zero(6, n));
+        std::vector<Eigen::Matrix<double, 6, 1>> drift(task_frames.size());
+        /* per frame: its pose (16, row-major), Jacobian (6 x nv) and, with_drift, its drift (6) */
+        auto task_output = [&](bool with_drift) {
+            const Eigen::Index per = 16 + 6 * n + (with_drift ? 6 : 0);
+            Eigen::MatrixXd out(1, per * (Eigen::Index)task_frames.size());
+            for (std::size_t f = 0; f < task_frames.size(); ++f) {
+                Eigen::Index at = per * (Eigen::Index)f;
+                const Eigen::Matrix4d T = data.oMf[task_frames[f]].toHomogeneousMatrix();
+                for (int r = 0; r < 4; ++r)
+                    for (int c = 0; c < 4; ++c)
+                        out(0, at++) = T(r, c);
+                for (int r = 0; r < 6; ++r)
+                    for (int c = 0; c < n; ++c)
+                        out(0, at++) = frameJ[f](r, c);
+                for (int r = 0; with_drift && r < 6; ++r)
+                    out(0, at++) = drift[f][r];
+            }
+            return out;
+        };
         auto fdyn = [&](std::size_t k) {  /* forward dynamics by CRBA + Cholesky: M^-1 (tau - nle) */
             crba(model, data, Q[k]);
             nonLinearEffects(model, data, Q[k], V[k]);
@@ -298,15 +367,43 @@ int main(int argc, char **argv)
              [&] { return dddq_dq; }},
             {"computeMinverse", [&](std::size_t k) { computeMinverse(model, data, Q[k]); sink = data.Minv(0, 0); },
              [&] { return symmetric_from_upper(data.Minv); }},
+            /* the task space: what a legged controller asks per step (poses, world-aligned Jacobians
+               and the classical acceleration at a = 0 of its feet) */
+            {"frames_drift", [&](std::size_t k) {
+                 forwardKinematics(model, data, Q[k], V[k], zero);
+                 computeJointJacobians(model, data);
+                 updateFramePlacements(model, data);
+                 for (std::size_t f = 0; f < task_frames.size(); ++f) {
+                     getFrameJacobian(model, data, task_frames[f], LOCAL_WORLD_ALIGNED, frameJ[f]);
+                     drift[f] = getFrameClassicalAcceleration(model, data, task_frames[f], LOCAL_WORLD_ALIGNED).toVector();
+                 }
+                 sink = frameJ[0](0, 0); },
+             [&] { return task_output(true); }},
+            {"frames_jacobian", [&](std::size_t k) {
+                 computeJointJacobians(model, data, Q[k]);
+                 updateFramePlacements(model, data);
+                 for (std::size_t f = 0; f < task_frames.size(); ++f)
+                     getFrameJacobian(model, data, task_frames[f], LOCAL, frameJ[f]);
+                 sink = frameJ[0](0, 0); },
+             [&] { return task_output(false); }},
+            {"com_centroidal", [&](std::size_t k) {
+                 jacobianCenterOfMass(model, data, Q[k]);
+                 computeCentroidalMap(model, data, Q[k]);
+                 sink = data.Ag(0, 0); },
+             [&] { Eigen::MatrixXd out(9, n); out << data.Jcom, data.Ag; return out; }},
         };
         std::vector<std::string> wanted(argv + 5, argv + argc);
+        for (const std::string &w : wanted)
+            if (task_frames.empty() && w.rfind("frames_", 0) == 0)
+                throw std::runtime_error("algorithm '" + w + "' needs the arm file's frames section");
         for (const std::string &w : wanted)
             if (std::none_of(algorithms.begin(), algorithms.end(), [&](const Algorithm &a) { return w == a.name; }))
                 throw std::runtime_error("unknown algorithm '" + w + "'");
         std::printf("pinocchio %s\n", PINOCCHIO_VERSION);
         std::vector<const Algorithm *> run;
         for (const Algorithm &a : algorithms)
-            if (wanted.empty() || std::find(wanted.begin(), wanted.end(), a.name) != wanted.end())
+            if (std::find(wanted.begin(), wanted.end(), a.name) != wanted.end() ||
+                (wanted.empty() && !is_task_space(a.name)))  /* the task space only when named */
                 run.push_back(&a);
         for (const Algorithm *a : run) {
             const double t = time_ns([&](long i) { a->call((std::size_t)i & mask); }, ncalls, reps);

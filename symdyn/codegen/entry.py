@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..derivation import progress
-from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writable
+from ..derivation.cache import build_lock, writable
 from ..model import Robot, arms
 from .emit import Bundle, identifier, is_intact, read_header, write_atomic
 from .shipped import SHIPPED, is_shipped
@@ -460,9 +460,10 @@ def _load(name_or_robot, target: str, options, folder, jit=True) -> GeneratedMod
         found = _provenance(shipped / files(name, target)[0], target)[0]
         if _stale(shipped, found, robot, name) is None:
             return _load_folder(shipped, name, target, robot, options, jit)
-    folder = cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
+    from . import lazy
+
+    folder = lazy.model_folder(robot)
     if target == "c" and not robot.is_symbolic and not (name in SHIPPED and not in_checkout()):
-        from . import lazy
         from .emit.clib import CompileOptions
 
         lib = lazy.load(robot, name, writable(folder), options or CompileOptions())

@@ -18,9 +18,9 @@ from pathlib import Path
 
 from .. import __version__
 from ..derivation import progress, task_space
-from ..derivation.cache import build_lock, write_atomic
+from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writable, write_atomic
 from ..model import Robot
-from .emit import c as c_emit, clib, format_ops, is_intact, read_header
+from .emit import c as c_emit, clib, format_ops, identifier, is_intact, read_header
 
 __all__ = ["load", "signatures"]
 
@@ -160,6 +160,21 @@ class _Units(Mapping):
 
     def __len__(self) -> int:
         return len(self.sources.sigs) * len(clib.KINDS)
+
+
+def model_folder(robot: Robot) -> Path:
+    """The cache folder of a model's generated code: keyed by its name, fingerprint and this symdyn."""
+    name = identifier(robot.name)
+    return cache_dir() / "generated" / f"{name}-{robot.fingerprint()[:16]}-{package_fingerprint()[:12]}"
+
+
+def scalar_units(robot: Robot, functions) -> dict[str, str]:
+    """{function: its scalar C translation unit} of a numeric robot, each function's C generated
+    (or read) in the model's cache folder as the lazy target does: to compile into a program
+    of one's own (a benchmark's harness)."""
+    name = identifier(robot.name)
+    units = _Units(_Sources(robot, name, writable(model_folder(robot))))
+    return {f: units[(f, "scalar")] for f in functions}
 
 
 def load(robot: Robot, name: str, folder: Path, options: clib.CompileOptions) -> clib.CLibrary:

@@ -283,7 +283,9 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
                 cols_local.append([sp.S.Zero] * 6)
                 continue
             arm = [tape.name(e, f"d{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(p, _scale(column.o, -1)))]
-            lin = [tape.name(e, f"J{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(column.u, _cross(column.z, arm)))]
+            lin = [
+                tape.name(e, f"J{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(column.u, _cross(column.z, arm)))
+            ]
             cols_aligned.append(lin + list(column.z))
             cols_local.append(_times_t(R, lin) + _times_t(R, column.z))
         aligned += [[cols_aligned[c][i] for c in range(nv)] for i in range(6)]
@@ -309,7 +311,10 @@ def _subtrees(tape: Tape, parents, per) -> dict:
     Bodies that carry nothing and hold nothing that does are absent."""
     own = {}
     for k, m, d, md, Iw, _, _ in per:
-        J = [[Iw[i][j] + m * ((sum(e * e for e in d) if i == j else 0) - d[i] * d[j]) for j in range(3)] for i in range(3)]
+        J = [
+            [Iw[i][j] + m * ((sum(e * e for e in d) if i == j else 0) - d[i] * d[j]) for j in range(3)]
+            for i in range(3)
+        ]
         own[k] = (m, md, J)
     sums: dict = {}
 
@@ -372,7 +377,9 @@ def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], colu
         Iw = [[sp.S.Zero] * 3 for _ in range(3)]
         for i in range(3):
             for j in range(i, 3):
-                Iw[i][j] = Iw[j][i] = tape.name(sp.Add(*(RI[i][x] * b.R[j][x] for x in range(3))), f"Iw{tag}_{i + 1}{j + 1}")
+                Iw[i][j] = Iw[j][i] = tape.name(
+                    sp.Add(*(RI[i][x] * b.R[j][x] for x in range(3))), f"Iw{tag}_{i + 1}{j + 1}"
+                )
         ac = tape.vector(_plus(b.ao, _cross(b.dw, rw), _cross(b.w, _cross(b.w, rw))), f"ac{tag}")
         per.append((k, m, d, _scale(d, m), Iw, ac, b))
     first = tape.vector(_plus(*[md for _, _, _, md, _, _, _ in per]), "mc")
@@ -395,7 +402,10 @@ def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], colu
     # Ȧ_G·v = d/dt h_G at a = 0: Σ m a_c and Σ [I ω̇ + ω × I ω + m (c − G) × a_c]
     force = tape.vector(_plus(*[_scale(x[5], x[1]) for x in per]), "mac")
     moment = _plus(
-        *[_plus(_times(x[4], x[6].dw), _cross(x[6].w, _times(x[4], x[6].w)), _cross(x[2], _scale(x[5], x[1]))) for x in per]
+        *[
+            _plus(_times(x[4], x[6].dw), _cross(x[6].w, _times(x[4], x[6].w)), _cross(x[2], _scale(x[5], x[1])))
+            for x in per
+        ]
     )
     moment = _plus(moment, _scale(_cross(g, force), -1))
     return {

@@ -463,7 +463,7 @@ class Robot:
         tool of a chain or each leaf link of a tree (`symdyn.model.frames.default_names`)."""
         return frames.resolve(self, self.frames or frames.default_names(self))
 
-    def with_frames(self, names) -> "Robot":
+    def with_frames(self, names: Sequence[str]) -> "Robot":
         """A copy serving the frames `names` (in that order) in its task-space functions.
 
         Raises:

@@ -469,7 +469,9 @@ def from_mjcf(
                     origin, T = T, IDENTITY
                 carrier, body = j, Body.empty()
             into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
-            sub = reader.subtree(b, on_chain, into, carrier is not None, len(carriers) if carrier is not None else -1, T)
+            sub = reader.subtree(
+                b, on_chain, into, carrier is not None, len(carriers) if carrier is not None else -1, T
+            )
             if carrier is not None:
                 body = body + sub.moved(T)
             pending = T

@@ -1,0 +1,300 @@
+"""The task space's speed at the C level, side by side with Pinocchio's C++ in one run.
+
+The cases a legged or manipulation controller calls each step: Solo 12's four feet (pose,
+world-aligned Jacobian and drift of each: Pinocchio's forwardKinematics(q, v, 0) +
+computeJointJacobians + updateFramePlacements + getFrameJacobian and
+getFrameClassicalAcceleration per foot), the Panda's hand (pose + LOCAL Jacobian:
+computeJointJacobians(q) + updateFramePlacements + getFrameJacobian) and Talos' centre of mass
+(com_jacobian + centroidal_map: jacobianCenterOfMass + computeCentroidalMap).  symdyn's side is
+its generated scalar C (the lazy target's translation units, compiled into a small harness
+with the same loop as `harness.c`); Pinocchio's is `pin_peer.cpp` on the same model (its own
+reading of the URDF, written as an arm file with the frames), on the same states, in
+alternating rounds.  Both sides' outputs at one state are compared before any time is believed.
+The batch rows time the generated SIMD kernels on every core over 10⁵ states, per state,
+against Pinocchio's per-call time.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import os
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..derivation.cache import cache_dir, writable, write_atomic
+from ..model import Robot
+from . import pin_peer
+from .compare import CFLAGS, POOL, Row, _compiler, _digest, write_states
+from .task_space import file_model
+
+__all__ = ["CASES", "Case", "bench_case", "robots_folder"]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One comparison: the robot (file under example-robot-data's robots/, or a shipped arm's URDF),
+    how it is read, its frames, symdyn's functions called per step and Pinocchio's algorithm."""
+
+    name: str
+    file: str
+    options: dict
+    frames: tuple
+    functions: tuple
+    algorithm: str
+
+
+CASES = {
+    "solo12": Case(
+        "Solo 12, four feet",
+        "solo_description/robots/solo12.urdf",
+        {"tips": "all", "base_joint": "free"},
+        ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"),
+        ("frame_pose", "frame_jacobian_aligned", "frame_drift"),
+        "frames_drift",
+    ),
+    "panda": Case(
+        "Panda, hand",
+        "",
+        {},
+        ("panda_hand",),
+        ("frame_pose", "frame_jacobian"),
+        "frames_jacobian",
+    ),
+    "talos": Case(
+        "Talos, centre of mass",
+        "talos_data/robots/talos_full_v2.urdf",
+        {"tips": "all", "base_joint": "free", "locked": {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}},
+        (),
+        ("com_jacobian", "centroidal_map"),
+        "com_centroidal",
+    ),
+}
+
+
+def robots_folder() -> Path:
+    """example-robot-data's robots/ folder (its wheel's cmeel.prefix).
+
+    Raises:
+        FileNotFoundError: example-robot-data is not installed (pip install example-robot-data).
+    """
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        raise FileNotFoundError("example-robot-data is not installed: pip install example-robot-data") from None
+    return Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots"))
+
+
+def case_robot(case: Case) -> tuple[Robot, Path]:
+    """(the robot with the case's frames, the URDF it was read from)."""
+    if case.file:
+        path = robots_folder() / case.file
+    else:
+        from importlib.resources import files
+
+        path = Path(str(files("symdyn.model.arms") / "data" / "panda.urdf"))
+    robot = Robot.from_urdf(str(path), **case.options)
+    return (robot.with_frames(case.frames) if case.frames else robot), path
+
+
+def _peer_arm(robot: Robot, path: Path, folder: Path) -> Path:
+    """Pinocchio's model of the file with the robot's frames, as pin_peer.cpp reads it."""
+    model, ids = file_model(robot, path)
+    tree = pin_peer.tree_joints(model)
+    arm = pin_peer.write_arm(
+        folder / f"arm-{os.getpid()}.txt",
+        tree.joints,
+        tree.gravity,
+        parents=tree.parents,
+        root=tree.root,
+        base=tree.base,
+    )
+    first = 1 if tree.root == "none" else 2
+    lines = []
+    for f in ids:
+        frame = model.frames[f]
+        joint = int(frame.parentJoint)
+        line = 0 if joint < first else joint - first + 1
+        numbers = np.ravel(frame.placement.homogeneous[:3])
+        lines.append(f"{line} " + " ".join(repr(float(x) + 0.0) for x in numbers))
+    if lines:
+        arm.write_text(arm.read_text() + f"frames {len(lines)}\n" + "".join(x + "\n" for x in lines))
+    return arm
+
+
+def _harness_source(model: str, robot: Robot, case: Case, sizes: dict) -> str:
+    """A C harness timing one step of the case (its functions called in turn), then printing its
+    outputs at state 3 in pin_peer.cpp's layout (per frame: pose, Jacobian, drift)."""
+    nq, nv, m = robot.nq, robot.nv, len(robot.task_frames)
+    buffers = "".join(f"static double o_{f}[{sizes[f]}];\n" for f in case.functions)
+    args = {"q": "Q", "v": "V", "a": "V"}
+    from ..derivation.task_space import OUTPUTS
+
+    calls = " ".join(f"{model}_{f}({', '.join(args[a] for a in OUTPUTS[f][1])}, o_{f});" for f in case.functions)
+    if case.algorithm == "com_centroidal":
+        check = 'for (i = 0; i < 3 * NV; ++i) printf(" %.17g", o_com_jacobian[i]);\n'
+        check += '    for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_centroidal_map[i]);\n'
+    else:
+        jac = case.functions[1]
+        check = f"for (f = 0; f < {m}; ++f) {{\n"
+        check += '        for (i = 0; i < 16; ++i) printf(" %.17g", o_frame_pose[16 * f + i]);\n'
+        check += f'        for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_{jac}[6 * NV * f + i]);\n'
+        if "frame_drift" in case.functions:
+            check += '        for (i = 0; i < 6; ++i) printf(" %.17g", o_frame_drift[6 * f + i]);\n'
+        check += "    }\n"
+    protos = "".join(
+        f"void {model}_{f}({', '.join('const double *' for _ in OUTPUTS[f][1])}, double *);\n" for f in case.functions
+    )
+    return f"""/* symdyn's side of the task-space comparison (symdyn.bench.task_bench): generated, do not edit. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#define NQ {nq}
+#define NV {nv}
+{protos}{buffers}
+static double now_ns(void) {{ struct timespec t; clock_gettime(CLOCK_MONOTONIC, &t); return 1e9 * t.tv_sec + t.tv_nsec; }}
+static int by_value(const void *a, const void *b) {{ double x = *(const double *)a, y = *(const double *)b; return (x > y) - (x < y); }}
+int main(int argc, char **argv)
+{{
+    enum {{ W = NQ + 3 * NV }};
+    volatile double sink = 0.0;
+    long K, ncalls = atol(argv[2]), i, k, size;
+    int reps = atoi(argv[3]), r, f;
+    double *S, *v = malloc(reps * sizeof *v);
+    FILE *fh = fopen(argv[1], "rb");
+    if (!fh) return 2;
+    fseek(fh, 0, SEEK_END); size = ftell(fh) / (long)sizeof(double); rewind(fh);
+    K = size / W; S = malloc(size * sizeof *S);
+    if (fread(S, sizeof *S, size, fh) != (size_t)size) return 2;
+    fclose(fh);
+#define Q (S + k * W)
+#define V (S + k * W + NQ)
+    for (r = 0; r < reps; ++r) {{
+        double t0 = now_ns();
+        for (i = 0; i < ncalls; ++i) {{ k = i & (K - 1); {calls} sink += o_{case.functions[0]}[0]; }}
+        v[r] = (now_ns() - t0) / (double)ncalls;
+    }}
+    qsort(v, reps, sizeof *v, by_value);
+    printf("time step %.3f\\n", v[reps / 2]);
+    k = 3; {calls}
+    printf("check step");
+    {check}    printf("\\n");
+    (void)f; (void)sink;
+    return 0;
+}}
+"""
+
+
+def _symdyn_harness(robot: Robot, case: Case, log) -> Path:
+    """The harness compiled with the generated scalar C of the case's functions (cached by content)."""
+    from ..codegen import lazy
+    from ..codegen.emit import identifier
+
+    name = identifier(robot.name)
+    sigs = {s.name: s for s in lazy.signatures(robot)}
+    sizes = {f: int(np.prod(sigs[f].outputs[0][1])) for f in case.functions}
+    texts = {f"{f}.c": text for f, text in lazy.scalar_units(robot, case.functions).items()}
+    texts["task_harness.c"] = _harness_source(name, robot, case, sizes)
+    cc = _compiler()
+    key = _digest(cc, *CFLAGS, *(f"{k}\n{v}" for k, v in sorted(texts.items())))
+    folder = writable(cache_dir() / "bench" / f"task-{name}-{key[:16]}")
+    binary = folder / "harness"
+    if binary.exists():
+        return binary
+    for file, text in texts.items():
+        write_atomic(folder / file, text)
+    cmd = [cc, *CFLAGS, *(str(folder / f) for f in texts), "-o", str(folder / "harness.tmp"), "-lm"]
+    log(f"compiling symdyn's task-space harness for {robot.name} ...")
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    if run.returncode != 0:
+        raise RuntimeError(f"compiling the task-space harness failed ({' '.join(cmd)}):\n{run.stderr[-2000:]}")
+    os.replace(folder / "harness.tmp", binary)
+    return binary
+
+
+def _states(robot: Robot, count: int, seed: int = 0):
+    """(q, v, a, τ = 0): joints within their limits, a floating base moved along a random twist."""
+    rng = np.random.default_rng(seed)
+    lo, hi = robot.qlim.T
+    q = robot.neutral() + np.zeros((count, 1))
+    q[:, robot.nq - robot.n :] = rng.uniform(lo, hi, (count, robot.n))
+    if robot.base_joint is not None:
+        twist = np.zeros((count, robot.nv))
+        twist[:, : robot.nv - robot.n] = rng.normal(size=(count, robot.nv - robot.n))
+        q = robot.integrate(q, twist)
+    v = rng.uniform(-2, 2, (count, robot.nv))
+    return q, v, rng.uniform(-5, 5, (count, robot.nv)), np.zeros((count, robot.nv))
+
+
+def _agree(label: str, ours: np.ndarray, peer: np.ndarray, rtol: float = 1e-10) -> float:
+    err = float(np.abs(ours - peer).max() / max(1.0, np.abs(peer).max()))
+    if not ours.shape == peer.shape or not err <= rtol:
+        raise RuntimeError(f"{label}: symdyn's and Pinocchio's outputs differ ({err:.1e} relative): not comparable")
+    return err
+
+
+def _batch_ns(robot: Robot, case: Case, count: int, threads: int | None) -> float:
+    """ns per state of the case's step on `count` states through the generated SIMD kernels on
+    every core (one warm-up call first: the kernels are compiled when first called)."""
+    from ..codegen.entry import load
+
+    c = load(robot, "c")
+    q, v, _, _ = _states(robot, count, seed=1)
+    args = {"q": (q,), "v": (q, v)}
+    from ..derivation.task_space import OUTPUTS
+
+    calls = [(getattr(c, f), args["v" if "v" in OUTPUTS[f][1] else "q"]) for f in case.functions]
+    outs = [f(*a) for f, a in calls]  # compiles the kernels, allocates the outputs
+    best = float("inf")
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for (f, a), out in zip(calls, outs):
+            f(*a, out=out)
+        best = min(best, time.perf_counter() - t0)
+    return 1e9 * best / count
+
+
+def bench_case(key: str, *, calls: int = 20000, reps: int = 7, rounds: int = 3, batch: int = 100_000, log=print):
+    """Rows of one case (`CASES[key]`): per call, symdyn's generated C and Pinocchio's C++ on the
+    same states in alternating rounds; per state over `batch` states on every core."""
+    case = CASES[key]
+    robot, path = case_robot(case)
+    work = writable(cache_dir() / "bench")
+    q, v, a, tau = _states(robot, POOL)
+    states = write_states(work / f"task-states-{os.getpid()}.bin", q, v, a, tau)
+    arm = _peer_arm(robot, path, work)
+    try:
+        ours = _symdyn_harness(robot, case, log)
+        peer = pin_peer.peer_binary(log)
+        symdyn_ns, peer_ns = [], []
+        for r in range(rounds):
+            t, checks = pin_peer.run_peer(peer, arm, states, calls, reps, [case.algorithm])
+            peer_ns.append(t[case.algorithm])
+            run = subprocess.run([str(ours), str(states), str(calls), str(reps)], capture_output=True, text=True)
+            if run.returncode != 0:
+                raise RuntimeError(f"{ours} failed ({run.returncode}): {run.stderr.strip()}")
+            t_ours, ours_checks = pin_peer.read_report(run.stdout)
+            symdyn_ns.append(t_ours["step"])
+            _agree(case.name, ours_checks["step"], checks[case.algorithm])
+            log(f"{case.name}: round {r + 1}/{rounds}: symdyn {symdyn_ns[-1]:.0f} ns, Pinocchio {peer_ns[-1]:.0f} ns")
+    finally:
+        states.unlink(missing_ok=True)
+        arm.unlink(missing_ok=True)
+    title = f"task space, {case.name} ({robot.nv} velocities): {' + '.join(case.functions)}"
+    rows = [Row(title, "per call", tuple(symdyn_ns), f"Pinocchio {case.algorithm}", tuple(peer_ns), target=5)]
+    if batch:
+        per_state = _batch_ns(robot, case, batch, None)
+        rows.append(
+            Row(
+                title,
+                f"batch of {batch:,} states, all cores (per state)",
+                (per_state,),
+                f"Pinocchio {case.algorithm} per call",
+                (float(np.median(peer_ns)),),
+                target=30,
+            )
+        )
+    return rows
