@@ -286,11 +286,26 @@ def bench_case(key: str, *, calls: int = 20000, reps: int = 7, rounds: int = 3, 
     title = f"task space, {case.name} ({robot.nv} velocities): {' + '.join(case.functions)}"
     rows = [Row(title, "per call", tuple(symdyn_ns), f"Pinocchio {case.algorithm}", tuple(peer_ns), target=5)]
     if batch:
+        from .batched import ceilings
+        from ..codegen import lazy
+
         per_state = _batch_ns(robot, case, batch, None)
+        sigs = {s.name: s for s in lazy.signatures(robot)}
+        moved = {  # bytes read and written per state by the case's calls
+            f: 8 * (sum(k for _, k in sigs[f].inputs) + sum(int(np.prod(x)) for _, x in sigs[f].outputs))
+            for f in case.functions
+        }
+        ceil = ceilings(os.cpu_count() or 1)
+        bound = ceil.bound_ns(0, sum(moved.values()))[1]
+        log(
+            f"{case.name}: batch {per_state:.1f} ns per state; memory bound {bound:.1f} ns "
+            f"({sum(moved.values())} B per state at {ceil.bandwidth[1] / 1e9:.1f} GB/s copy bandwidth)"
+        )
         rows.append(
             Row(
                 title,
-                f"batch of {batch:,} states, all cores (per state)",
+                f"batch of {batch:,} states, all cores, per state (memory bound {bound:.0f} ns: "
+                f"{sum(moved.values())} B at {ceil.bandwidth[1] / 1e9:.1f} GB/s)",
                 (per_state,),
                 f"Pinocchio {case.algorithm} per call",
                 (float(np.median(peer_ns)),),

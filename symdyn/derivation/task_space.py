@@ -249,6 +249,10 @@ def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpa
 
     outputs = {}
     outputs.update(_frames(tape, frames, base, bodies, columns, moves))
+    links = link_frames(robot, q)
+    outputs["frame_jacobian"] = sp.ImmutableMatrix.vstack(
+        *(_local_jacobian(tape, frame, j, links, robot.base_joint, len(columns)) for j, frame in enumerate(frames))
+    )
     outputs.update(_centroidal(tape, robot, base, bodies, columns, moves))
     v = tuple(vb) + tuple(qd)
     return TaskSpace(
@@ -266,7 +270,7 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
     """Pose, Jacobians (LOCAL and LOCAL_WORLD_ALIGNED), LOCAL velocity and classical acceleration
     of each frame, stacked frame by frame."""
     nv = len(columns)
-    pose, local, aligned, velocity, acceleration = [], [], [], [], []
+    pose, aligned, velocity, acceleration = [], [], [], []
     for j, frame in enumerate(frames):
         tag = f"f{j + 1}"
         body = base if frame.link < 0 else bodies[frame.link]
@@ -276,20 +280,17 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
         r = tape.vector(_times(body.R, pf), f"r{tag}")
         p = tape.vector(_plus(body.o, r), f"p{tag}")
         pose += [R[i] + [p[i]] for i in range(3)] + [[0, 0, 0, 1]]
-        cols_aligned, cols_local = [], []
+        cols_aligned = []
         for c, column in enumerate(columns):
             if not moves(column, frame.link):
                 cols_aligned.append([sp.S.Zero] * 6)
-                cols_local.append([sp.S.Zero] * 6)
                 continue
             arm = [tape.name(e, f"d{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(p, _scale(column.o, -1)))]
             lin = [
                 tape.name(e, f"J{tag}_{c + 1}{'xyz'[i]}") for i, e in enumerate(_plus(column.u, _cross(column.z, arm)))
             ]
             cols_aligned.append(lin + list(column.z))
-            cols_local.append(_times_t(R, lin) + _times_t(R, column.z))
         aligned += [[cols_aligned[c][i] for c in range(nv)] for i in range(6)]
-        local += [[cols_local[c][i] for c in range(nv)] for i in range(6)]
         v = _plus(body.vo, _cross(body.w, r))
         velocity.append(_times_t(R, v) + _times_t(R, body.w))
         a = _plus(body.ao, _cross(body.dw, r), _cross(body.w, _cross(body.w, r)))
@@ -297,7 +298,6 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
     m = len(frames)
     return {
         "frame_pose": sp.ImmutableMatrix(4 * m, 4, [x for row in pose for x in row]),
-        "frame_jacobian": sp.ImmutableMatrix(6 * m, nv, [x for row in local for x in row]),
         "frame_jacobian_aligned": sp.ImmutableMatrix(6 * m, nv, [x for row in aligned for x in row]),
         "frame_velocity": sp.ImmutableMatrix(m, 6, [x for row in velocity for x in row]),
         "frame_acceleration": sp.ImmutableMatrix(m, 6, [x for row in acceleration for x in row]),
@@ -342,6 +342,39 @@ def _subtrees(tape: Tape, parents, per) -> dict:
     if whole is not None:
         sums[-1] = named(-1, whole)
     return sums
+
+
+def _local_jacobian(tape: Tape, frame: Frame, j: int, links, kind: str | None, nv: int) -> sp.ImmutableMatrix:
+    """A frame's Jacobian in its own axes (LOCAL, 6 × nv), by a pass from the frame down to the
+    base in the frame's coordinates: with ᶠRₖ (link k's axes in the frame's) and dₖ (from link
+    k's origin to the frame's, in the frame's axes), joint k's column is [ᶠRₖS_v + ᶠRₖS_ω × dₖ;
+    ᶠRₖS_ω]; its parent's ᶠRₚ = ᶠRₖ·ᵖRₖᵀ and dₚ = dₖ + ᶠRₚ·ᵖoₖ.  No world pose is needed,
+    and each joint costs a rotation step, a shift and a cross product."""
+    tag = f"l{j + 1}"
+    Rc = [[exact(x) for x in row[:3]] for row in frame.placement[:3]]
+    pc = [exact(row[3]) for row in frame.placement[:3]]
+    R = [[Rc[b][a] for b in range(3)] for a in range(3)]  # ᶠR of the link the frame is on: Rcᵀ
+    d = tape.vector(_times(R, pc), f"d{tag}_{frame.link + 1}")
+    nb = nv - len(links)
+    cols = [[sp.S.Zero] * 6 for _ in range(nv)]
+    k = frame.link
+    while True:
+        if k < 0:
+            if kind is not None:  # the base body's own velocities, in its frame
+                for c, (lin, ang) in enumerate(floating.columns(kind)):
+                    w = _times(R, ang)
+                    cols[c] = _plus(_times(R, lin), _cross(w, d)) + w
+            break
+        S = links[k].S
+        w = _times(R, S[:3])
+        lin = _plus(_times(R, S[3:]), _cross(w, d))
+        cols[nb + k] = [tape.name(e, f"J{tag}_{nb + k + 1}{'xyz'[i]}") for i, e in enumerate(lin)] + w
+        parent = links[k].parent
+        Rt = [[links[k].R[b, a] for b in range(3)] for a in range(3)]
+        R = _rot(tape, _matmul(R, Rt), f"R{tag}_{parent + 1}")
+        d = tape.vector(_plus(d, _times(R, list(links[k].p))), f"d{tag}_{parent + 1}")
+        k = parent
+    return sp.ImmutableMatrix(6, nv, lambda r, c: cols[c][r])
 
 
 def _inertia(link) -> tuple:
