@@ -427,8 +427,15 @@ def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], colu
             continue
         ms, hs, Js = sums[column.body]
         z = column.z
-        vO = tape.vector(_plus(column.u, _cross(z, _scale(column.o, -1)), _cross(z, o0)), f"vO{c + 1}")  # at o₀
-        P = tape.vector(_plus(_scale(vO, ms), _cross(z, hs)), f"P{c + 1}")
+        # the subtree moving at v(x) = u + z × (x − o) about the column's origin o = o₀ + e:
+        # P = Σ m v(c) = ms·u + z × (hs − ms·e); L_G = Js·z + hs × v(o₀) − g × P
+        if column.body < 0:  # the base's velocities act at o₀ itself
+            w, vO = hs, column.u
+        else:
+            e = tape.vector(_plus(column.o, _scale(o0, -1)), f"e{c + 1}")
+            w = tape.vector(_plus(hs, _scale(e, -ms)), f"w{c + 1}")
+            vO = _plus(column.u, _scale(_cross(z, e), -1))
+        P = tape.vector(_plus(_scale(column.u, ms), _cross(z, w)), f"P{c + 1}")
         L = _plus(_times(Js, z), _cross(hs, vO), _scale(_cross(g, P), -1))
         Jcom.append(_scale(P, 1 / total))
         Ag.append(list(P) + L)
