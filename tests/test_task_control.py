@@ -85,3 +85,17 @@ def test_the_panda_study_tracks_its_circle_to_a_micrometre(tmp_path):
     assert (tmp_path / "task_osc_panda.png").is_file()
     largest = float(text.split("largest position error ")[1].split(" mm")[0])
     assert largest < 0.01, text
+
+
+def test_the_panda_reaches_a_pose_around_a_sphere_its_links_clear(tmp_path):
+    """The OCP on the generated CasADi frame_pose: IPOPT converges, the re-simulation (reference
+    dynamics, interval by interval) passes, the end pose is the goal's and every ball clears."""
+    pytest.importorskip("matplotlib", reason="the study draws its figure (the test extra)")
+    from symdyn.apps.studies.task_space import ocp_panda_obstacle
+
+    text = ocp_panda_obstacle(tmp_path, quick=True)
+    assert "Solve_Succeeded" in text and "PASS" in text, text
+    position = float(text.split("end pose of the re-simulation: position ")[1].split(" mm")[0])
+    clear = float(text.split("smallest clearance along the re-simulated nodes ")[1].split(" mm")[0])
+    line = float(text.split("the joint-space line to the IK answer: ")[1].split(" mm")[0])
+    assert position < 5.0 and clear > -1.0 and line < 0, text  # the naive motion would hit the sphere

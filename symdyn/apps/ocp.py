@@ -379,6 +379,9 @@ class Problem:
     #: Indices of v whose τ is held at zero: a free-floating base's velocities (no thruster, no
     #: wheel), or a passive joint.  Default none: every row is driven, a mobile base's too.
     unactuated: tuple = ()
+    #: A task-space goal (`symdyn.apps.ocp_task.TaskGoal`): a frame's end pose instead of qf (which
+    #: then only ends the starting guess) and obstacles that chosen frames clear at every node.
+    task: object = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -605,7 +608,11 @@ def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
     Q, QD = opti.variable(n, N + 1), opti.variable(n, N + 1)
     opti.set_initial(Q, guess[0][::2].T)
     opti.set_initial(QD, guess[1][::2].T)
-    opti.subject_to([Q[:, 0] == q0, QD[:, 0] == qd0, Q[:, N] == qf, QD[:, N] == qdf])
+    opti.subject_to([Q[:, 0] == q0, QD[:, 0] == qd0, QD[:, N] == qdf])
+    if problem.task is None:
+        opti.subject_to(Q[:, N] == qf)
+    else:  # the frame's end pose, and the obstacles cleared at every node
+        problem.task.constrain(opti, Q)
     _bound_states(opti, lim, Q, QD)
     handles = {"Q": Q, "QD": QD, "T": T}
     pose = _multiple_shooting if problem.method == "multiple-shooting" else _collocation
@@ -938,6 +945,8 @@ def verify(
         raise ValueError(f"unknown replay {replay!r}: expected 'open-loop' or 'intervals'")
     _, q, qd = resimulate(robot, solution, substeps=substeps, restart=replay == "intervals")
     _, _, qf, qdf = problem.boundary()
+    if problem.task is not None:  # the goal is a pose: the optimised end reaches it
+        qf = solution.q[-1]
     return Check(
         success=solution.stats["success"],
         status=solution.stats["status"],
