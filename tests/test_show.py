@@ -26,9 +26,19 @@ def test_plot_draws_the_chain_axes_coms_and_ellipsoids_of_a_small_robot():
     fig = _two_link().plot()
     (ax,) = fig.axes
     assert len(ax.lines) == 1  # the chain: base, joints, tool
-    # per link a joint-axis arrow, a centre of mass and an ellipsoid; one arrow for the legend
-    assert len(ax.collections) == 2 * 3 + 1
-    assert [t.get_text() for t in ax.texts] == ["q1", "q2"]
+    # per link a joint-axis arrow, a centre of mass and an ellipsoid; the tool's frame (three
+    # arrows and a marker); one arrow for the legend
+    assert len(ax.collections) == 2 * 3 + 4 + 1
+    assert [t.get_text() for t in ax.texts] == ["q1", "q2", " tool"]
+
+
+def test_the_task_frames_are_marked_where_they_are():
+    robot = Robot.from_urdf(URDF, tip_link="hand", exclude=["camera", "finger"])
+    robot = robot.with_frames(["hand", robot.frame_names[0]])
+    ax = robot.plot().axes[0]
+    texts = {t.get_text().strip(): t.get_position() for t in ax.texts}
+    assert {"hand", robot.frame_names[0]} <= set(texts)
+    assert "task frames (x y z: red green blue)" in {t.get_text() for t in ax.figure.legends[0].get_texts()}
 
 
 def test_the_frames_are_the_forward_kinematics():

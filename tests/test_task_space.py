@@ -253,3 +253,17 @@ def test_mjcf_bodies_and_sites_are_where_mujoco_puts_them():
             assert_close(pose[k, :3, 3], p, f"{name} position", 1e-9)
             assert_close(pose[k, :3, :3], R, f"{name} rotation", 1e-9)
             assert_close(J[k], np.vstack([jacp, jacr]), f"{name} Jacobian", 1e-9)
+
+
+@pytest.mark.parametrize("target", ["numpy", "c", "casadi", "array-api"])
+def test_every_target_serves_the_task_space_as_pinocchio_does(target):
+    """The shipped Puma's generated files (generated/), target by target, against Pinocchio."""
+    from symdyn.codegen.entry import load
+
+    if target == "array-api":
+        pytest.importorskip("array_api_compat", reason="the array-API target needs array-api-compat (the test extra)")
+    robot = models.load("puma560")
+    model, ids = peer.peer_model(robot)
+    f = load("puma560", target)
+    functions = {name: getattr(f, name) for name in task_names(task_space(robot))}
+    assert_pinocchio(robot, functions, model, ids, count=50, seed=11)

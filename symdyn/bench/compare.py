@@ -27,17 +27,14 @@ A peer that is not installed makes no row: the report says what to install
 from __future__ import annotations
 
 import argparse
-import hashlib
 import importlib.util
 import os
 import platform
 import re
 import shutil
-import statistics
 import subprocess
 import sys
 import timeit
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +46,9 @@ from ..model import arms
 from ..numeric import reference as ref
 from . import pin_peer
 from .peers import casadi_rnea_c, toolbox_robot
+from .harness import CFLAGS, POOL, _compiler, _digest, write_states
 from .pin_peer import FD_RTOL, PeerUnavailable, central_jacobian, read_report
+from .rows import OPS_NOTE, OPS_NOTE_ARM, Row, format_table, markdown_table
 
 __all__ = [
     "Row",
@@ -74,67 +73,10 @@ MODEL = "puma560"
 TARGETS = {
     arm: {"rnea": 4, "crba": 4, "aba": 4, "computeCoriolisMatrix": 2, "pin.rnea": 3} for arm in ("panda", "iiwa14")
 }
-POOL = 1024  # states cycled by the C harnesses (a power of two, as pin_bench.cpp)
 HARNESS = Path(__file__).with_name("harness.c")
-CFLAGS = ("-O3", "-march=native")
-
-
-@dataclass
-class Row:
-    """One comparison, under its group's title (`level`): paired samples (one per round or
-    repetition) of ns per call (per state for batches) of symdyn and of the peer, the op count
-    of the symdyn function and the speed-up (peer/symdyn) issue 4 asks for.  A peer that was
-    not measured makes no row (the report says what to install instead)."""
-
-    level: str
-    function: str
-    symdyn: tuple
-    peer: str
-    peer_samples: tuple
-    ops: int | None = None
-    target: float | None = None
-
-    def __post_init__(self) -> None:
-        if not self.symdyn or not self.peer_samples:
-            raise ValueError(f"row {self.function!r} vs {self.peer!r}: both sides need at least one timing")
-
-    @property
-    def symdyn_ns(self) -> float:
-        return statistics.median(self.symdyn)
-
-    @property
-    def peer_ns(self) -> float:
-        return statistics.median(self.peer_samples)
-
-    @property
-    def ratio(self) -> float:
-        """Speed-up: median peer time / median symdyn time."""
-        return self.peer_ns / self.symdyn_ns
-
-    @property
-    def spread(self) -> tuple[float, float] | None:
-        """(lowest, highest) speed-up of the paired samples: how much the machine's noise moves it."""
-        if len(self.peer_samples) < 2:
-            return None
-        ratios = [p / s for s, p in zip(self.symdyn, self.peer_samples)]
-        return min(ratios), max(ratios)
-
-    @property
-    def met(self) -> str:
-        if self.target is None:
-            return ""
-        return "yes" if self.ratio >= self.target else "no"
 
 
 # --------------------------------------------------------------------------- inputs
-
-
-def _digest(*parts: str | bytes) -> str:
-    h = hashlib.sha256()
-    for p in parts:
-        h.update(p.encode() if isinstance(p, str) else p)
-        h.update(b"\0")
-    return h.hexdigest()[:16]
 
 
 def frictionless_sources(robot, shipped: Path | None = None) -> dict[str, Path]:
@@ -171,17 +113,6 @@ def random_states(robot, count: int, seed: int = 0):
     return q, qd, qdd, ref.rne(robot, q, qd, qdd)
 
 
-def write_states(path: Path, q, qd, qdd, tau) -> Path:
-    """The first POOL states as the harness reads them: per state q, q̇, q̈, τ (doubles; on a
-    floating base q has nq entries, the others nv)."""
-    data = np.concatenate([np.asarray(x[:POOL], dtype=np.float64) for x in (q, qd, qdd, tau)], axis=1)
-    if len(data) < 4 or len(data) & (len(data) - 1):
-        raise ValueError(f"the harness needs a power-of-two pool of at least 4 states, got {len(data)}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.ascontiguousarray(data, dtype=np.float64).tofile(path)
-    return path
-
-
 def op_counts(c_path: Path) -> dict[str, int]:
     """Total op count per function from the header comment of a generated .c file."""
     head = Path(c_path).read_text()[:4000]
@@ -202,12 +133,6 @@ def casadi_op_count(robot) -> int:
     f = rnea_function(robot.nofriction(all=True), friction=False)
     free = {ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST, ca.OP_PARAMETER, ca.OP_ASSIGN, ca.OP_NEG}
     return sum(f.instruction_id(k) not in free for k in range(f.n_instructions()))
-
-
-def _compiler() -> str:
-    from ..codegen.emit.clib import compiler
-
-    return compiler()
 
 
 def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> Path:
@@ -532,78 +457,6 @@ def python_level(robot, src: dict, states, args, log, missing: list, name: str =
 
 # --------------------------------------------------------------------------- report
 
-COLUMNS = ("function", "symdyn ns", "peer", "peer ns", "speed-up", "range", "ops", "target", "met")
-RIGHT = {1, 3, 4, 5, 6}
-#: What the ops column counts, printed with every table (a count that does not say what it counts misleads).
-OPS_NOTE = (
-    "ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
-    "after one joint CSE; Newton–Euler on regrouped base parameters, C by Lagrange), without friction "
-    "unless the function says +friction"
-)
-#: The same for an arm beyond six joints' reach of Lagrange, and the CasADi baseline's count beside it.
-OPS_NOTE_ARM = (
-    "ops: the symdyn function's operations in its generated C (mul + add + div + sin/cos/sign calls, "
-    "after one joint CSE; Newton–Euler on regrouped base parameters, C = ∂(C q̇)/∂q̇ / 2 of it, as the "
-    "generated file's header says), without friction; the CasADi baseline's ops: the arithmetic and "
-    "sin/cos instructions of its SX algorithm, negation free"
-)
-
-
-def _cells(row: Row) -> list[str]:
-    spread = row.spread
-    return [
-        row.function,
-        f"{row.symdyn_ns:.1f}",
-        row.peer,
-        f"{row.peer_ns:.1f}",
-        f"{row.ratio:.2f}×",
-        f"{spread[0]:.2f}–{spread[1]:.2f}" if spread else "",
-        "" if row.ops is None else str(row.ops),
-        f"≥ {row.target}×" if row.target else "",
-        row.met,
-    ]
-
-
-def _groups(rows: list[Row]) -> list[tuple[str, list[Row]]]:
-    """Rows grouped by their level (the group's title), in order of first appearance."""
-    groups: dict[str, list[Row]] = {}
-    for row in rows:
-        groups.setdefault(row.level, []).append(row)
-    return list(groups.items())
-
-
-def format_table(rows: list[Row], missing: list[str] = (), note: str = OPS_NOTE) -> str:
-    """Plain-text tables, one per group of rows under its title, the ops legend, then one line
-    per peer that was not measured (what to install)."""
-    out = []
-    for title, group in _groups(rows):
-        cells = [list(COLUMNS)] + [_cells(r) for r in group]
-        widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
-        lines = [
-            "  ".join(c.rjust(w) if i in RIGHT else c.ljust(w) for i, (c, w) in enumerate(zip(line, widths)))
-            for line in cells
-        ]
-        lines.insert(1, "  ".join("-" * w for w in widths))
-        out += ["", title, *(line.rstrip() for line in lines)]
-    out += ["", note, *missing]
-    return "\n".join(out).strip("\n")
-
-
-def markdown_table(rows: list[Row], missing: list[str] = (), note: str = OPS_NOTE) -> str:
-    """The same tables in Markdown: the title of each in bold above it."""
-    out = []
-    for title, group in _groups(rows):
-        out += [
-            "",
-            f"**{title}**",
-            "",
-            "| " + " | ".join(COLUMNS) + " |",
-            "|" + "|".join("---:" if i in RIGHT else "---" for i in range(len(COLUMNS))) + "|",
-        ]
-        out += ["| " + " | ".join(_cells(r)) + " |" for r in group]
-    out += ["", note + ".", *(f"\n{m}" for m in missing)]
-    return "\n".join(out).strip("\n")
-
 
 def machine() -> str:
     """CPU, compiler and peer versions, for the record."""
@@ -671,6 +524,16 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--no-call", action="store_true", help="skip the per-call section (with --batched)")
     p.add_argument(
+        "--task-space",
+        nargs="*",
+        metavar="CASE",
+        default=None,
+        help="the task-space table instead of the per-call section: frame poses, Jacobians and drifts, "
+        "centre of mass and centroidal map against Pinocchio's C++ per call, and the batch per state "
+        "with its memory bound; cases solo12 (four feet), panda (the hand), talos (com + A_G; "
+        "example-robot-data for solo12 and talos); default all",
+    )
+    p.add_argument(
         "--sizes",
         nargs="+",
         type=float,
@@ -722,6 +585,28 @@ def _batched(robots: list, args, log) -> str:
     return batched.markdown_report(results, ceil)
 
 
+def _task_space(args, log) -> str:
+    """The task-space section (`task_bench`): printed; its Markdown returned."""
+    from . import task_bench
+
+    cases = args.task_space or list(task_bench.CASES)
+    unknown = [c for c in cases if c not in task_bench.CASES]
+    if unknown:
+        raise ValueError(f"symdyn bench --task-space: unknown cases {unknown}: expected {list(task_bench.CASES)}")
+    rows: list[Row] = []
+    missing: list[str] = []
+    for case in cases:
+        try:
+            rows += task_bench.bench_case(
+                case, calls=max(1, args.pin_calls // 5), reps=args.reps, rounds=args.rounds, log=log
+            )
+        except (FileNotFoundError, PeerUnavailable) as exc:
+            missing.append(f"{case}: not measured: {exc}")
+    note = "per call: one step of the case's functions (symdyn) against Pinocchio's algorithms (peer), same states"
+    print(format_table(rows, missing, note), flush=True)
+    return markdown_table(rows, missing, note)
+
+
 def main(args=None) -> int:
     """`symdyn bench`: args is an argparse.Namespace from configure_parser, or argv strings."""
     if not isinstance(args, argparse.Namespace):
@@ -739,7 +624,9 @@ def main(args=None) -> int:
         command_line.load(name, **command_line.urdf_options(args)) if command_line.is_urdf(name) else arms.load(name)
         for name in names
     ]
-    for name, robot in zip(names, robots) if not args.no_call else ():
+    if args.task_space is not None:
+        tables.append(_task_space(args, log))
+    for name, robot in zip(names, robots) if not (args.no_call or args.task_space is not None) else ():
         # a URDF file's arm is titled by its path; the peers build it from the same Robot
         # the C harnesses cycle a pool of POOL states; the Python batches take the first --batch of them
         states = random_states(robot.nofriction(all=True), max(args.batch, POOL), args.seed)

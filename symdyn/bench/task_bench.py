@@ -28,7 +28,8 @@ import numpy as np
 from ..derivation.cache import cache_dir, writable, write_atomic
 from ..model import Robot
 from . import pin_peer
-from .compare import CFLAGS, POOL, Row, _compiler, _digest, write_states
+from .harness import CFLAGS, POOL, _compiler, _digest, write_states
+from .rows import Row
 from .task_space import file_model
 
 __all__ = ["CASES", "Case", "bench_case", "robots_folder"]

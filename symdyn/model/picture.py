@@ -3,7 +3,8 @@
 Beside the model, before any derivation: `plot(robot)` (also `robot.plot()`) draws
 the skeleton in 3-D at q = 0 — the chain from base to tip highlighted, each
 joint's axis, each moving link's centre of mass and its inertia as the uniform
-ellipsoid of the same mass and principal moments — and, for a robot read from a
+ellipsoid of the same mass and principal moments, the task frames (`robot.task_frames`) as
+named triads — and, for a robot read from a
 URDF, the whole tree (`robot.urdf.skeleton`): the locked branches merged into the
 links they ride on, the excluded subtrees and the links above the base, each
 marked.  `symdyn show FILE --out robot.png` writes it.  Needs matplotlib (the
@@ -194,6 +195,14 @@ def plot(robot: Any, q: Sequence[float] | None = None, *, ax: Any = None, title:
             xyz = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1) * semi
             xyz = xyz @ (T[:3, :3] @ R).T + c
             ax.plot_wireframe(*np.moveaxis(xyz, -1, 0), color="tab:green", lw=0.3, alpha=0.35)
+    for k, frame in enumerate(robot.task_frames):  # the frames the task-space functions serve
+        T = Ts[frame.link + 1] @ np.array(frame.placement, dtype=float)
+        for axis, color in enumerate(("red", "green", "blue")):
+            ax.quiver(*T[:3, 3], *(T[:3, axis] * reach / 10), color=color, lw=1)
+        ax.scatter(
+            *T[:3, 3], marker="s", color="black", s=12, label="task frames (x y z: red green blue)" if k == 0 else None
+        )
+        ax.text(*T[:3, 3], f" {frame.name}", color="black", fontsize=7)
     ax.quiver(0, 0, 0, 0, 0, 0, color="tab:orange", label="joint axes (dashed: prismatic)")
     mid = (pts.max(axis=0) + pts.min(axis=0)) / 2
     for set_lim, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), mid):
