@@ -594,7 +594,8 @@ class Robot:
 
     # ---- variants
     def subs(self, values: Mapping) -> "Robot":
-        """Substitute values for symbolic parameters; returns a new robot."""
+        """Substitute values for symbolic parameters (the links', the base body's, gravity, base,
+        tool and the file's frames); returns a new robot."""
         by_name = {str(s): s for s in self.free_symbols}  # "a1" names the real Symbol a1
         mapping = {by_name.get(k, sp.Symbol(k)) if isinstance(k, str) else k: sp.sympify(v) for k, v in values.items()}
         unknown = [k for k in mapping if k not in self.free_symbols]
@@ -612,14 +613,22 @@ class Robot:
                 return tuple(sub(e) for e in x)
             return x
 
-        links = tuple(
-            dataclasses.replace(
+        def sub_link(link: Link) -> Link:
+            return dataclasses.replace(
                 link, **{f.name: sub(getattr(link, f.name)) for f in dataclasses.fields(link) if f.name != "joint"}
             )
-            for link in self.links
-        )
+
+        links = tuple(sub_link(link) for link in self.links)
+        body = None if self.base_body is None else sub_link(self.base_body)
+        catalog = tuple(dataclasses.replace(f, placement=sub(f.placement)) for f in self.frame_catalog)
         return dataclasses.replace(
-            self, links=links, gravity=sub(self.gravity), base=sub(self.base), tool=sub(self.tool)
+            self,
+            links=links,
+            gravity=sub(self.gravity),
+            base=sub(self.base),
+            tool=sub(self.tool),
+            base_body=body,
+            frame_catalog=catalog,
         )
 
     def plot(self, q: Sequence[float] | None = None, *, ax: Any = None, title: str | None = None) -> Any:
