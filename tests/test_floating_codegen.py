@@ -74,7 +74,6 @@ def _check(model, robot, q, qd, a, want, label: str) -> None:
     _close(qdd, want["fdyn"], f"{label} fdyn_derivatives' qdd")
     _close(minv, want["Minv"], f"{label} fdyn_derivatives' Minv")
     _close(ddq, -minv @ dq_at(model, q, qd, qdd), f"{label} dqdd_dq = -Minv dtau_dq")
-    _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label)
     pi = np.array([float(v) for v in parameter_values(robot)])
     Y = model.Y(q, qd, a)
     assert Y.shape[-2:] == (robot.nv, 10 + 14 * robot.n)
@@ -91,10 +90,13 @@ def _pin_q(robot, q):
     return np.concatenate([q[..., :2], np.cos(q[..., 2:3]), np.sin(q[..., 2:3]), q[..., 3:]], -1)
 
 
-def _check_pinocchio(robot, q, qd, a, want, dq, dqd, ddq, ddqd, label: str) -> None:
-    """∂τ and ∂q̈ against Pinocchio's (tangent space), the viscous friction's ∂F/∂q̇ added."""
-    pin = pytest.importorskip("pinocchio")
+def _check_pinocchio(pin, model_, robot, q, qd, a, want, label: str) -> None:
+    """∂τ and ∂q̈ of the generated `model_` against Pinocchio's (tangent space), the viscous
+    friction's ∂F/∂q̇ added."""
     from symdyn.bench.peers import pinocchio_model
+
+    _, dq, dqd = model_.tau_derivatives(q, qd, a)
+    _, ddq, ddqd, _ = model_.fdyn_derivatives(q, qd, want["tau"])
 
     model = pinocchio_model(robot)
     data = model.createData()
@@ -184,3 +186,16 @@ def test_signatures_and_tangent_map():
     _close(Tn @ v, coordinate_rates(robot, qn, v), "tangent map vs coordinate_rates")
     with pytest.raises(ValueError, match="unknown base joint"):
         tangent_map(q, 7, "spherical")
+
+
+@pytest.mark.parametrize("target", ["numpy", "c", "casadi"])
+def test_derivatives_equal_pinocchios(case, target):
+    """∂τ/∂(q, v) and ∂q̈/∂(q, v) of each target against computeRNEADerivatives and
+    computeABADerivatives: skipped before any check when Pinocchio is absent."""
+    pin = pytest.importorskip("pinocchio", reason="the derivatives are checked against Pinocchio (the test extra)")
+    robot, q, qd, a, want = case
+    if target == "numpy" and robot.base_joint == "free":
+        pytest.skip("the free base's programs are checked through C and CasADi (test_numpy takes the planar one)")
+    model = symdyn.load(robot, target)
+    model = _EachState(model) if target == "c" and robot.base_joint != "free" else model
+    _check_pinocchio(pin, model, robot, q, qd, a, want, target)

@@ -10,6 +10,7 @@ written as plain URDF by hand) and arm_parts (its macros, in a folder named
 """
 
 import hashlib
+import importlib.util
 import shlex
 import sys
 import warnings
@@ -21,6 +22,12 @@ import pytest
 from symdyn import cli, reference
 from symdyn.model import Robot, URDFError, URDFWarning, command_line
 from symdyn.model.urdf.xacro import PackageNotFound, Packages, XacroError
+
+#: Expanding needs ROS's xacro package (the test extra): without it every test here skips, saying so.
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("xacro") is None,
+    reason="xacro files are expanded by the xacro package (the test extra): pip install 'symdyn[xacro]'",
+)
 
 FIXTURES = Path(__file__).parent / "xacro_fixtures"
 XACRO = FIXTURES / "arm_description" / "urdf" / "arm.urdf.xacro"
