@@ -14,11 +14,10 @@ from ..derivation import engine, progress
 from ..derivation.dynamics import Dynamics
 from ..model import Robot
 from ..derivation.program import Program, dag_size
-from ..derivation.task_space import functions, task_space
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
-from .task_functions import task_spec
+from .task_functions import TaskPrograms
 
 __all__ = ["programs", "Programs", "derivations", "DERIVED"]
 
@@ -103,10 +102,8 @@ class Programs:
         self.base_joint = self.dyns[0].robot.base_joint
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
         self.regressor = regressor
-        self.robot = self.dyns[0].robot
-        self.task = functions(self.robot)
-        self.names = (*NAMES, *(("Y",) if self.regressor is not None else ()), *DERIVED, *self.task)
-        self._task_space = None
+        self.task = TaskPrograms(self.dyns[0].robot, self.dyns[0].params)
+        self.names = (*NAMES, *(("Y",) if self.regressor is not None else ()), *DERIVED, *self.task.names)
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
         self._built: dict[str, Program] = {}
         self._specs: dict[str, FunctionSpec] = {}
@@ -130,15 +127,9 @@ class Programs:
                 self._built[name] = self._build(name)
         return self._built[name]
 
-    def task_space(self):
-        """The task-space derivation of the robot's frames (`symdyn.derivation.task_space`), made once."""
-        if self._task_space is None:
-            self._task_space = task_space(self.robot)
-        return self._task_space
-
     def _build(self, name: str) -> Program:
-        if name in self.task:
-            return task_spec(self.task_space(), name, self.dyns[0].params).program()
+        if name in self.task.names:
+            return self.task.program(name)
         if name in ("tau", "M", "C", "Cqd", "G", "F"):
             return self.chosen(name)[1]
         if name == "fdyn":

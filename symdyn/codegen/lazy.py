@@ -21,6 +21,7 @@ from ..derivation import progress, task_space
 from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writable, write_atomic
 from ..model import Robot
 from .emit import c as c_emit, clib, format_ops, identifier, is_intact, read_header
+from .task_functions import TaskPrograms
 
 __all__ = ["load", "signatures"]
 
@@ -66,6 +67,7 @@ class _Sources:
     def __init__(self, robot: Robot, name: str, folder: Path) -> None:
         self.robot, self.name, self.folder = robot, name, folder
         self.sigs = {s.name: s for s in signatures(robot)}
+        self.task = TaskPrograms(robot)
         self._programs = None
         self._lock = threading.RLock()
 
@@ -122,7 +124,10 @@ class _Sources:
 
     def _build(self, function: str) -> str:
         try:
-            program = self.programs().program(function)
+            if function in self.task.names:  # the task space needs no joint-space derivation
+                program = self.task.program(function)
+            else:
+                program = self.programs().program(function)
         except ValueError as exc:
             raise ValueError(f"cannot generate {function} for {self.robot.name!r}: {exc}") from None
         if c_emit.signature(program) != self.sigs[function]:

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import sympy as sp
 
-from ..derivation.task_space import DRIFTS, OUTPUTS, TaskSpace
+from ..derivation.program import Program
+from ..derivation.task_space import DRIFTS, OUTPUTS, TaskSpace, functions, task_space
+from ..model import Robot
 from .functions import FunctionSpec
 
-__all__ = ["TASK_NAMES", "task_names", "task_spec", "task_doc"]
+__all__ = ["TASK_NAMES", "task_names", "task_spec", "task_doc", "TaskPrograms"]
 
 #: Every task-space function, in the order of a model's list (the centroidal ones need mass).
 TASK_NAMES = tuple(OUTPUTS)
@@ -73,3 +75,25 @@ def task_spec(ts: TaskSpace, name: str, params=()) -> FunctionSpec:
         (out,) if len(shape) > 1 else (),
         ((out, shape),),
     )
+
+
+class TaskPrograms:
+    """The task-space functions' programs of one robot, each built when first asked for from one
+    task-space derivation (made once): no joint-space derivation is needed for them.
+    `params`: a symbolic model's parameters (argument p)."""
+
+    def __init__(self, robot: Robot, params=()) -> None:
+        self.robot, self.params = robot, tuple(params)
+        self.names = functions(robot)
+        self._derived: TaskSpace | None = None
+        self._built: dict[str, Program] = {}
+
+    def derivation(self) -> TaskSpace:
+        if self._derived is None:
+            self._derived = task_space(self.robot)
+        return self._derived
+
+    def program(self, name: str) -> Program:
+        if name not in self._built:
+            self._built[name] = task_spec(self.derivation(), name, self.params).program()
+        return self._built[name]
