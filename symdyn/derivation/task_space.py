@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from ..model import Robot
+from ..model import Link, Robot
 from ..model.frames import Frame
 from . import floating
 from .kinematics import ancestors, link_frames
@@ -253,7 +253,7 @@ def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpa
     outputs["frame_jacobian"] = sp.ImmutableMatrix.vstack(
         *(_local_jacobian(tape, frame, j, links, robot.base_joint, len(columns)) for j, frame in enumerate(frames))
     )
-    outputs.update(_centroidal(tape, robot, base, bodies, columns, moves))
+    outputs.update(_centroidal(tape, robot, base, bodies, columns))
     v = tuple(vb) + tuple(qd)
     return TaskSpace(
         robot=robot,
@@ -305,45 +305,6 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
     }
 
 
-def _subtrees(tape: Tape, parents, per) -> dict:
-    """Each body's subtree sums (mass, first moment m·d about o₀, inertia about o₀), from the
-    leaves in, keyed by body index; -1: the whole robot (a floating base's body included).
-    Bodies that carry nothing and hold nothing that does are absent."""
-    own = {}
-    for k, m, d, md, Iw, _, _ in per:
-        J = [
-            [Iw[i][j] + m * ((sum(e * e for e in d) if i == j else 0) - d[i] * d[j]) for j in range(3)]
-            for i in range(3)
-        ]
-        own[k] = (m, md, J)
-    sums: dict = {}
-
-    def add(a, b):
-        if a is None:
-            return b
-        return (a[0] + b[0], _plus(a[1], b[1]), [[a[2][i][j] + b[2][i][j] for j in range(3)] for i in range(3)])
-
-    def named(k, t):
-        tag = "0" if k < 0 else str(k + 1)
-        J = [[sp.S.Zero] * 3 for _ in range(3)]
-        for i in range(3):
-            for j in range(i, 3):
-                J[i][j] = J[j][i] = tape.name(t[2][i][j], f"Js{tag}_{i + 1}{j + 1}")
-        return (t[0], tape.vector(t[1], f"hs{tag}"), J)
-
-    carried: dict = {}
-    for k in range(len(parents) - 1, -1, -1):
-        t = add(carried.get(k), own[k]) if k in own else carried.get(k)
-        if t is None:
-            continue
-        sums[k] = named(k, t)
-        carried[parents[k]] = add(carried.get(parents[k]), sums[k])
-    whole = add(carried.get(-1), own[-1]) if -1 in own else carried.get(-1)
-    if whole is not None:
-        sums[-1] = named(-1, whole)
-    return sums
-
-
 def _local_jacobian(tape: Tape, frame: Frame, j: int, links, kind: str | None, nv: int) -> sp.ImmutableMatrix:
     """A frame's Jacobian in its own axes (LOCAL, 6 × nv), by a pass from the frame down to the
     base in the frame's coordinates: with ᶠRₖ (link k's axes in the frame's) and dₖ (from link
@@ -377,6 +338,85 @@ def _local_jacobian(tape: Tape, frame: Frame, j: int, links, kind: str | None, n
     return sp.ImmutableMatrix(6, nv, lambda r, c: cols[c][r])
 
 
+def _composites(tape: Tape, robot: Robot) -> tuple[list, tuple]:
+    """Each link's subtree — mass, first moment and inertia about the link's origin, in the link's
+    own frame — accumulated from the leaves in (Khalil's composite links: a child's
+    R·J·Rᵀ + M(|P|²1 − PPᵀ) + 2(P·S)1 − S·Pᵀ − P·Sᵀ with S = R·H, its first moment R·H + M·P),
+    and the whole robot's in the base's frame (a floating base's body included)."""
+    links = link_frames(robot, joint_symbols(robot.n)[0])
+
+    def own(link) -> list:
+        m, r, Ic = _inertia(link)
+        rr = sum(x * x for x in r)
+        J = [[Ic[i][j] + m * ((rr if i == j else 0) - r[i] * r[j]) for j in range(3)] for i in range(3)]
+        return [m, [m * x for x in r], J]
+
+    acc: dict = {k: own(link) for k, link in enumerate(robot.links)}
+    acc[-1] = own(robot.base_body) if robot.base_joint is not None and robot.base_body is not None else own(Link())
+    out: list = [None] * robot.n
+    for k in range(robot.n - 1, -1, -1):
+        m, H, J = acc.pop(k)
+        tag = f"{k + 1}"
+        H = tape.vector(H, f"Hc{tag}")
+        Jn = [[sp.S.Zero] * 3 for _ in range(3)]
+        for i in range(3):
+            for j in range(i, 3):
+                Jn[i][j] = Jn[j][i] = tape.name(J[i][j], f"Jc{tag}_{i + 1}{j + 1}")
+        out[k] = (m, H, Jn)
+        R, P = _rows(links[k].R), list(links[k].p)
+        S = _times(R, H)
+        RJ = _matmul(R, Jn)
+        PS, PP = sum(a * b for a, b in zip(P, S)), sum(a * a for a in P)
+        parent = acc[links[k].parent]
+        parent[0] = parent[0] + m
+        parent[1] = _plus(parent[1], S, _scale(P, m))
+        for i in range(3):
+            for j in range(i, 3):
+                shift = (
+                    m * ((PP if i == j else 0) - P[i] * P[j]) + (2 * PS if i == j else 0) - S[i] * P[j] - P[i] * S[j]
+                )
+                value = parent[2][i][j] + sp.Add(*(RJ[i][x] * R[j][x] for x in range(3))) + shift
+                parent[2][i][j] = parent[2][j][i] = value
+    m, H, J = acc[-1]
+    return out, (m, tape.vector(H, "Hc0"), J)
+
+
+def _momentum(composite, lin, ang) -> tuple[list, list]:
+    """(force, moment about the frame's origin) of a composite (mass, first moment, inertia about
+    the origin) moving with the twist (lin, ang) of that frame: f = m·v + ω × H, n = H × v + J·ω."""
+    m, H, J = composite
+    return _plus(_scale(lin, m), _cross(ang, H)), _plus(_cross(H, lin), _times(J, ang))
+
+
+def _columns(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], columns: list[_Column], total) -> tuple:
+    """The centre of mass G (the whole robot's first moment over its mass) and the columns of its
+    Jacobian and of A_G, from the composites: a joint moves
+    its link's subtree with the joint's twist; the momentum in the link's frame, turned into the
+    world's axes, is P (and M·J_c = P) and L about the link's origin, moved to the centre of mass
+    G: L_G = L + (o − G) × P.  The base's columns move the whole robot."""
+    links = link_frames(robot, joint_symbols(robot.n)[0])
+    subtrees, whole = _composites(tape, robot)
+    G = tape.vector(_plus(base.o, _scale(_times(base.R, whole[1]), 1 / total)), "G")
+    nb = len(columns) - robot.n
+    Jcom, Ag = [], []
+    for c, column in enumerate(columns):
+        if c < nb:
+            lin, ang = floating.columns(robot.base_joint)[c]
+            f, n = _momentum(whole, lin, ang)
+            R, o = base.R, base.o
+        else:
+            k = c - nb
+            S = links[k].S
+            f, n = _momentum(subtrees[k], S[3:], S[:3])
+            R, o = bodies[k].R, bodies[k].o
+        P = tape.vector(_times(R, f), f"P{c + 1}")
+        arm = tape.vector(_plus(o, _scale(G, -1)), f"oG{c + 1}")
+        L = _plus(_times(R, n), _cross(arm, P))
+        Jcom.append(_scale(P, 1 / total))
+        Ag.append(list(P) + L)
+    return G, Jcom, Ag
+
+
 def _inertia(link) -> tuple:
     """(m, r, Ic) of a link, exact (the upper triangle of I, mirrored)."""
     m = exact(link.m)
@@ -385,7 +425,7 @@ def _inertia(link) -> tuple:
     return m, r, Ic
 
 
-def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], columns: list[_Column], moves) -> dict:
+def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], columns: list[_Column]) -> dict:
     """Centre of mass, its Jacobian and drift, the centroidal map A_G and Ȧ_G·v (about the centre
     of mass, world axes), every body counted (a floating base's body too), rotors not.  Moments
     are taken about the base's origin o₀ (well-conditioned far from the world's origin)."""
@@ -397,7 +437,7 @@ def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], colu
     if total == 0:
         return {}
     o0 = base.o
-    per = []  # (body index, m, d = c − o₀, m·d, world inertia about the COM, COM classical acceleration)
+    per = []  # (body index, m, d = c − o₀, world inertia about the COM, COM classical acceleration, its body)
     for k, link in items:
         m, r, Ic = _inertia(link)
         if m == 0 and all(x == 0 for row in Ic for x in row):
@@ -414,38 +454,13 @@ def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], colu
                     sp.Add(*(RI[i][x] * b.R[j][x] for x in range(3))), f"Iw{tag}_{i + 1}{j + 1}"
                 )
         ac = tape.vector(_plus(b.ao, _cross(b.dw, rw), _cross(b.w, _cross(b.w, rw))), f"ac{tag}")
-        per.append((k, m, d, _scale(d, m), Iw, ac, b))
-    first = tape.vector(_plus(*[md for _, _, _, md, _, _, _ in per]), "mc")
-    g = tape.vector(_scale(first, 1 / total), "cg")  # c − o₀
-    com = _plus(o0, g)
-    sums = _subtrees(tape, robot.parents, per)
-    Jcom, Ag = [], []
-    for c, column in enumerate(columns):
-        if column.body >= 0 and column.body not in sums:
-            Jcom.append([sp.S.Zero] * 3)
-            Ag.append([sp.S.Zero] * 6)
-            continue
-        ms, hs, Js = sums[column.body]
-        z = column.z
-        # the subtree moving at v(x) = u + z × (x − o) about the column's origin o = o₀ + e:
-        # P = Σ m v(c) = ms·u + z × (hs − ms·e); L_G = Js·z + hs × v(o₀) − g × P
-        if column.body < 0:  # the base's velocities act at o₀ itself
-            w, vO = hs, column.u
-        else:
-            e = tape.vector(_plus(column.o, _scale(o0, -1)), f"e{c + 1}")
-            w = tape.vector(_plus(hs, _scale(e, -ms)), f"w{c + 1}")
-            vO = _plus(column.u, _scale(_cross(z, e), -1))
-        P = tape.vector(_plus(_scale(column.u, ms), _cross(z, w)), f"P{c + 1}")
-        L = _plus(_times(Js, z), _cross(hs, vO), _scale(_cross(g, P), -1))
-        Jcom.append(_scale(P, 1 / total))
-        Ag.append(list(P) + L)
+        per.append((k, m, d, Iw, ac, b))
+    com, Jcom, Ag = _columns(tape, robot, base, bodies, columns, total)
+    g = tape.vector(_plus(com, _scale(o0, -1)), "cg")  # G − o₀
     # Ȧ_G·v = d/dt h_G at a = 0: Σ m a_c and Σ [I ω̇ + ω × I ω + m (c − G) × a_c]
-    force = tape.vector(_plus(*[_scale(x[5], x[1]) for x in per]), "mac")
+    force = tape.vector(_plus(*[_scale(ac, m) for _, m, _, _, ac, _ in per]), "mac")
     moment = _plus(
-        *[
-            _plus(_times(x[4], x[6].dw), _cross(x[6].w, _times(x[4], x[6].w)), _cross(x[2], _scale(x[5], x[1])))
-            for x in per
-        ]
+        *[_plus(_times(Iw, b.dw), _cross(b.w, _times(Iw, b.w)), _cross(d, _scale(ac, m))) for _, m, d, Iw, ac, b in per]
     )
     moment = _plus(moment, _scale(_cross(g, force), -1))
     return {
