@@ -5,6 +5,7 @@ also `Robot.from_urdf` and `robot.to_urdf`); MJCF input (`mjcf`, also `Robot.fro
 from .placement import placement
 from .robot import CONVENTIONS, IDENTITY, JOINT_TYPES, Link, Robot, exact_cos_sin, rotx, roty, rotz, transl
 from .mjcf import MJCFError, MJCFWarning, from_mjcf  # noqa: F401 (the errors: symdyn.model.mjcf's names)
+from .mjcf.state import from_mujoco_state, to_mujoco_state
 from .urdf import URDFError, URDFWarning, from_urdf, to_urdf
 
 #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: defined in `urdf`, which builds on `robot`.
@@ -13,6 +14,10 @@ Robot.from_urdf = staticmethod(from_urdf)
 Robot.from_mjcf = staticmethod(from_mjcf)
 #: `robot.to_urdf(path=None, *, source=…)`: the URDF text with the robot's inertials (`urdf.writer`).
 Robot.to_urdf = to_urdf
+#: `robot.from_mujoco_state(qpos, qvel[, qacc])` and `robot.to_mujoco_state(q, v[, a])`: MuJoCo's
+#: states and symdyn's (Pinocchio's) for a robot read by `from_mjcf` (`mjcf.state`).
+Robot.from_mujoco_state = from_mujoco_state
+Robot.to_mujoco_state = to_mujoco_state
 
 __all__ = [
     "Link",

@@ -365,6 +365,10 @@ class Robot:
     #: `Robot.from_mjcf(path, *, base_body=…, tip_body=…, locked=…, exclude=…, snap=…, name=…)`: the arm of
     #: an MJCF file compiled by MuJoCo (`symdyn.model.mjcf.from_mjcf`, attached by `symdyn.model`).
     from_mjcf: ClassVar[Callable[..., "Robot"]]
+    #: `robot.from_mujoco_state(qpos, qvel, qacc=None)` → (q, v[, a]) and `robot.to_mujoco_state(q, v, a=None)`
+    #: → (qpos, qvel[, qacc]): MuJoCo's states and symdyn's (`symdyn.model.mjcf.state`, attached by `symdyn.model`).
+    from_mujoco_state: ClassVar[Callable[..., tuple]]
+    to_mujoco_state: ClassVar[Callable[..., tuple]]
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen)

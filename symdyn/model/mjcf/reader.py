@@ -345,7 +345,10 @@ def from_mjcf(
     (`robot.base_body`, Pinocchio's conventions for q and v).  With tips or base_joint, a
     `<freejoint/>` (a free joint) on the world's only child body makes that body the
     floating base (base_joint "free"; MuJoCo's own q order, [x y z qw qx qy qz], and
-    velocity, [world linear, body angular], are not Pinocchio's: states are not converted).
+    velocity, [world linear, body angular], are not Pinocchio's: `robot.from_mujoco_state` and
+    `robot.to_mujoco_state` convert them, `symdyn.model.mjcf.state`).  A file whose root body has
+    a `<freejoint/>` is read so without tips or base_joint too (the chain to tip_body, or the
+    only leaf, on that free base).
 
     Raises:
         MJCFError: (a `ValueError`) `mujoco` is not installed; a file MuJoCo cannot read or
@@ -390,7 +393,8 @@ def from_mjcf(
         return b
 
     base = body_id(base_body, "base_body") if base_body else 0
-    tree = tips is not None or base_joint is not None
+    # a <freejoint/> on the world's only body makes it the floating base, whatever else is asked
+    tree = tips is not None or base_joint is not None or (base == 0 and _free_root(reader))
     if tree:
         base, free_joint = _floating_base(reader, base, base_joint, label)
         base_joint = "free" if free_joint is not None and base_joint is None else base_joint
@@ -570,6 +574,7 @@ def from_mjcf(
         gravity=gravity,
         warnings=tuple(notes),
         fingerprint=robot.fingerprint(),
+        **_addresses(reader, [c[0] for c in carriers], free_joint),
         **{
             key: tuple(reader.joint(c[0]) for c, link in zip(carriers, links) if read_from(link))
             for key, read_from in (
@@ -670,6 +675,31 @@ def _floating_base(reader: _Reader, base: int, base_joint: str | None, label: st
             "them with base_body=…"
         )
     return base, None
+
+
+def _free_root(reader: _Reader) -> bool:
+    """Whether the world's only child body floats on a free joint (MJCF's `<freejoint/>`)."""
+    roots = reader.children.get(0, [])
+    return len(roots) == 1 and any(reader.joint_type(j) == "free" for j in reader.joints_of(roots[0]))
+
+
+def _addresses(reader: _Reader, moving: list[int], free: int | None) -> dict:
+    """The record's MuJoCo addresses (`MjcfRecord.qpos_address` …): where each moving joint and the
+    free joint sit in qpos and qvel, and the file's qpos with the locked joints at their values."""
+    m, mj = reader.m, reader.mj
+    qpos = np.array(m.qpos0, dtype=float)
+    for lock in reader.locked:
+        j = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, lock.joint)
+        if j >= 0 and reader.joint_type(j) in _KIND:
+            qpos[m.jnt_qposadr[j]] = lock.value
+    return {
+        "qpos_address": tuple(int(m.jnt_qposadr[j]) for j in moving),
+        "qvel_address": tuple(int(m.jnt_dofadr[j]) for j in moving),
+        "free_address": (int(m.jnt_qposadr[free]), int(m.jnt_dofadr[free])) if free is not None else (-1, -1),
+        "file_nq": int(m.nq),
+        "file_nv": int(m.nv),
+        "qpos_locked": tuple(float(x) for x in qpos),
+    }
 
 
 def _tip_bodies(reader: _Reader, base: int, tips, tip_body: str | None, body_id, label: str):

@@ -65,6 +65,15 @@ class MjcfRecord(FileRecord):
     free_joint: str = ""
     #: Each moving joint's parent (an index into `joints`, -1: the base), as `robot.parents`.
     parents: tuple = ()
+    #: Where MuJoCo keeps each moving joint's coordinate and velocity (qpos, qvel addresses), the
+    #: free joint's first ones (-1: none), the file's nq and nv, and its qpos with every locked
+    #: joint at its value (`symdyn.model.mjcf.state`: MuJoCo's states and symdyn's).
+    qpos_address: tuple = ()
+    qvel_address: tuple = ()
+    free_address: tuple = (-1, -1)
+    file_nq: int = 0
+    file_nv: int = 0
+    qpos_locked: tuple = ()
 
     def command_args(self) -> str:
         """The `symdyn generate`/`print` arguments that read the same robot from the same file."""
@@ -116,7 +125,8 @@ class MjcfRecord(FileRecord):
         if self.base_joint:
             by = f", the file's free joint {self.free_joint}" if self.free_joint else ""
             out.append(
-                f"base joint: {self.base_joint}{by} (Pinocchio's q and v, not MuJoCo's: states are not converted); "
+                f"base joint: {self.base_joint}{by} (Pinocchio's q and v, not MuJoCo's: robot.from_mujoco_state "
+                "and to_mujoco_state convert them); "
                 f"the floating body is {self.base_body} with everything welded or locked to it"
             )
         out += self.friction_report()
