@@ -130,10 +130,20 @@ def _cmd_print(args: argparse.Namespace) -> int:
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
-    """Draw a model as read (`symdyn.model.picture`) into --out, and say what it shows."""
-    from .model import command_line
+    """Draw a model as read (`symdyn.model.picture`) into --out, and say what it shows; a file
+    whose moving bodies have impossible inertias is drawn with them repaired, with the warning."""
+    from .model import URDFError, command_line
 
-    robot = command_line.from_args(args, massless=True)  # a file without mass is still worth a look
+    try:
+        robot = command_line.from_args(args, massless=True)  # a file without mass is still worth a look
+    except URDFError as exc:  # impossible inertias: drawn as the nearest physical ones, said so
+        if "no physical body" not in str(exc) and "impossible" not in str(exc):
+            raise
+        print(
+            f"symdyn: warning: {exc}\nsymdyn: drawn with those inertias repaired (--balance-inertia)", file=sys.stderr
+        )
+        args.balance_inertia = True
+        robot = command_line.from_args(args, massless=True)
     fig = robot.plot()
     out = Path(args.picture)
     if out.suffix.lower() not in (".png", ".pdf", ".svg"):

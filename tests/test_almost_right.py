@@ -244,3 +244,29 @@ def test_no_warning_for_a_sound_file(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         Robot.from_urdf(_file(tmp_path, _arm(l1=_inertial(), l2=_inertial())))
+
+
+def test_every_impossible_inertia_is_named_in_one_error(tmp_path):
+    """A file with several impossible inertias on moving bodies (ANYmal C has five) is refused once,
+    naming each with its way out, so that a user fixes them all in one pass."""
+    path = _file(tmp_path, _arm(l1=_inertial(0.5, BAD), l2=_inertial(0.5, BAD), sensor=_inertial(0.2, BAD)))
+    with pytest.raises(URDFError) as caught:
+        Robot.from_urdf(path, tip_link="l2")
+    message = str(caught.value)
+    assert "3 bodies that move are no physical body" in message
+    for link in ("l1", "l2", "sensor"):
+        assert f"link '{link}'" in message
+    assert message.count("inertia='balance'") == 3
+    with pytest.raises(URDFError) as caught:
+        load(str(path), tip="l2")
+    assert str(caught.value).count("--balance-inertia") == 3
+
+
+def test_show_draws_a_file_with_impossible_inertias_and_says_so(tmp_path, capsys):
+    pytest.importorskip("matplotlib", reason="pictures need matplotlib (the plot extra)")
+    path = _file(tmp_path, _arm(l1=_inertial(0.5, BAD), l2=_inertial(0.5, BAD)))
+    out = tmp_path / "arm.png"
+    assert main(["show", str(path), "--out", str(out)]) == 0
+    assert out.is_file()
+    err = capsys.readouterr().err
+    assert "2 bodies that move are no physical body" in err and "drawn with those inertias repaired" in err

@@ -84,6 +84,7 @@ class _Reader:
         self.locked: list[Locked] = []
         self.values: dict = {}
         self.frames: dict = {}  # each link reached → (the robot link it rides on, its frame in that link's)
+        self.refusals: list[tuple[str, str]] = []  # (message, its command-line words): raised together
 
     # ---- numbers, snapped by the one rule
     def _angle(self, value: float, what: str) -> float:
@@ -156,7 +157,13 @@ class _Reader:
                     message + say + f"--exclude {name}{also_cli}" + (f", or {fix[1]}" if repairable else ""),
                 )
 
-            return refuse
+            def collect(message: str) -> None:  # every defect of the file named in one error
+                try:
+                    refuse(message)
+                except URDFError as exc:
+                    self.refusals.append((str(exc), exc.command_line))
+
+            return collect
 
         def warn(message: str) -> None:  # issued by from_urdf, to its caller
             self.warnings.append(
@@ -205,6 +212,18 @@ class _Reader:
             return J
 
         return balance
+
+    def raise_refusals(self) -> None:
+        """One URDFError naming every body the file makes impossible (each with its ways out),
+        so that a user fixes them all at once; nothing when there is none."""
+        if len(self.refusals) == 1:
+            raise URDFError(*self.refusals[0])
+        if self.refusals:
+            head = f"{self.file}: {len(self.refusals)} bodies that move are no physical body; each with its way out:"
+            raise URDFError(
+                "\n  ".join([head, *(m for m, _ in self.refusals)]),
+                "\n  ".join([head, *(c for _, c in self.refusals)]),
+            )
 
     # ---- the chain's links
     def link(self, joint: Element, origin: tuple, body: Body) -> Link:
@@ -472,6 +491,7 @@ def _read_chain(
             out.append(reader.link(*carrier, body))
         carrier, pending = (joint, T), IDENTITY
         body = reader.subtree(child, skip, child, True, len(out))
+    reader.raise_refusals()
     if carrier is None:
         raise URDFError(f"{urdf.source}: the chain from {base!r} to {tip!r} has no moving joint")
     out.append(reader.link(carrier[0], carrier[1], body))
@@ -591,6 +611,7 @@ def _read_tree(
     base_segment, segments, frames = branches.walk(
         reader, tree, base, moving, out_of, would_move, base_moves=base_joint is not None
     )
+    reader.raise_refusals()
     if not segments:
         where_to = "to the tips" if tip_list != "all" else "below it"
         raise URDFError(f"{source}: no joint moves from {base!r} {where_to}: every one is fixed, locked or excluded")
