@@ -204,3 +204,15 @@ def test_cli_errors_name_the_flags(tmp_path, capsys):
         command_line.load(str(bad), xacro_arg=["arm_type:=long"])
     with pytest.raises(ValueError, match="--xacro-arg and --package-path apply to a xacro file"):
         command_line.load(str(PLAIN), package_path=[str(FIXTURES)])
+
+
+def test_a_relative_package_path_is_taken_from_the_working_folder_once(tmp_path, monkeypatch, arm):
+    """--package-path ws/src (relative): $(find pkg) names the package's absolute folder, so the
+    includes are not joined to the including file's folder a second time."""
+    copy = tmp_path / "elsewhere" / "arm.urdf.xacro"
+    copy.parent.mkdir()
+    copy.write_text(XACRO.read_text())
+    monkeypatch.chdir(FIXTURES.parent)
+    robot = Robot.from_urdf(copy, xacro_args=LONG, package_paths=[FIXTURES.name])
+    assert robot.fingerprint() == arm.fingerprint()
+    assert command_line.load(str(copy), xacro_arg=["arm_type:=long"], package_path=[FIXTURES.name]).n == robot.n

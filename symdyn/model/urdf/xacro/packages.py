@@ -74,10 +74,13 @@ class Packages:
     """
 
     def __init__(self, package_paths: Iterable[str | os.PathLike[str]] = (), start: Path | None = None):
-        self.paths = tuple(Path(p) for p in package_paths)
-        for path in self.paths:
+        given = tuple(Path(p) for p in package_paths)
+        for path in given:
             if not path.is_dir():
                 raise URDFError(f"package path {str(path)!r} is not a folder")
+        # absolute, from the working folder: a relative folder found by $(find pkg) would be read
+        # again relative to the including file's folder (ws/src/pkg/urdf/ws/src/…)
+        self.paths = tuple(path.resolve() for path in given)
         self.start = start.resolve() if start is not None else Path.cwd()
         self.found: dict[str, Path] = {}
 
