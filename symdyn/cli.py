@@ -155,6 +155,17 @@ def _cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_expand(args: argparse.Namespace) -> int:
+    """`symdyn expand FILE.xacro`: the expanded URDF on stdout."""
+    from .model import command_line, expand_xacro
+
+    text = expand_xacro(
+        args.file, xacro_args=command_line.parse_xacro_args(args.xacro_arg), package_paths=args.package_path
+    )
+    sys.stdout.write(text if text.endswith("\n") else text + "\n")
+    return 0
+
+
 def _print_constants(dyn, args: argparse.Namespace) -> int:
     """The named-constant form, then its term and op counts beside the generated code's."""
     from .codegen.entry import bundle
@@ -300,6 +311,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--dpi", type=int, default=120, help="resolution of a .png (default 120)")
     p.set_defaults(func=_cmd_show)
+
+    p = sub.add_parser("expand", help="print the URDF a xacro file expands to (what symdyn reads), for other tools")
+    p.add_argument("file", metavar="FILE", help="a .xacro file")
+    p.add_argument(
+        "--xacro-arg", metavar="NAME:=VALUE", action="append", default=[], help="a xacro argument; repeatable"
+    )
+    p.add_argument(
+        "--package-path", metavar="DIR", action="append", default=[], help="a folder holding ROS packages; repeatable"
+    )
+    p.set_defaults(func=_cmd_expand)
 
     from .identify import command as identify_command
 

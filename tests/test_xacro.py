@@ -216,3 +216,17 @@ def test_a_relative_package_path_is_taken_from_the_working_folder_once(tmp_path,
     robot = Robot.from_urdf(copy, xacro_args=LONG, package_paths=[FIXTURES.name])
     assert robot.fingerprint() == arm.fingerprint()
     assert command_line.load(str(copy), xacro_arg=["arm_type:=long"], package_path=[FIXTURES.name]).n == robot.n
+
+
+def test_symdyn_expand_prints_the_urdf_symdyn_reads(tmp_path, capsys, arm):
+    """`symdyn expand FILE.xacro --xacro-arg k:=v > robot.urdf`: other tools get what symdyn read."""
+    from symdyn.model import expand_xacro
+
+    assert cli.main(["expand", str(XACRO), "--xacro-arg", "arm_type:=long"]) == 0
+    text = capsys.readouterr().out
+    assert text.rstrip("\n") == expand_xacro(XACRO, xacro_args=LONG).rstrip("\n") and "xacro:" not in text
+    out = tmp_path / "robot.urdf"
+    out.write_text(text)
+    assert Robot.from_urdf(out).fingerprint() == arm.fingerprint()
+    with pytest.raises(XacroError, match="is not a xacro file"):
+        expand_xacro(PLAIN)

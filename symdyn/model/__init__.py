@@ -7,6 +7,7 @@ from .robot import CONVENTIONS, IDENTITY, JOINT_TYPES, Link, Robot, exact_cos_si
 from .mjcf import MJCFError, MJCFWarning, from_mjcf  # noqa: F401 (the errors: symdyn.model.mjcf's names)
 from .mjcf.state import from_mujoco_state, to_mujoco_state
 from .urdf import URDFError, URDFWarning, from_urdf, to_urdf
+from .urdf.xacro import expand_xacro
 
 #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: defined in `urdf`, which builds on `robot`.
 Robot.from_urdf = staticmethod(from_urdf)
@@ -36,4 +37,5 @@ __all__ = [
     "URDFError",
     "URDFWarning",
     "from_mjcf",
+    "expand_xacro",
 ]
