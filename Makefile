@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-torch generate bench docs docs-check release-check clean
+.PHONY: run test test-all test-torch generate bench docs docs-check release-check clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,11 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal
+
+# Everything but the torch tests: the main suite and the cases marked slow (real robots from
+# example-robot-data, optimal control around obstacles, the cases cut for time before).
+test-all: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m 'not torch'
 
 # PyTorch's default wheel is large (~0.5 GB, with its CUDA libraries ~5 GB, 77 s to install here):
 # its tests have their own target, run after the main suite.  A CPU-only machine can install

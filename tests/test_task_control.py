@@ -87,6 +87,7 @@ def test_the_panda_study_tracks_its_circle_to_a_micrometre(tmp_path):
     assert largest < 0.01, text
 
 
+@pytest.mark.slow
 def test_the_panda_reaches_a_pose_around_a_sphere_its_links_clear(tmp_path):
     """The OCP on the generated CasADi frame_pose: IPOPT converges, the re-simulation (reference
     dynamics, interval by interval) passes, the end pose is the goal's and every ball clears."""

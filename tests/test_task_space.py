@@ -138,6 +138,7 @@ def _solo_file() -> Path:
 FEET = ["FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"]
 
 
+@pytest.mark.slow
 def test_solo12s_four_feet_on_a_free_base_equal_pinocchio_through_generated_c():
     """The issue's case: Solo 12 read from its URDF on a free base, its four feet (links merged
     by fixed joints) served by the generated C, equal to Pinocchio's own model of the file."""
