@@ -14,9 +14,13 @@ addresses: `MjcfRecord.qpos_address` …).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:  # the robot module attaches these functions to Robot: no import at run time
+    from ..robot import Robot
 
 __all__ = ["from_mujoco_state", "to_mujoco_state", "to_mujoco_force"]
 
@@ -51,7 +55,7 @@ def _rotation(quat_xyzw: np.ndarray) -> np.ndarray:
     return quaternion_matrix(quat_xyzw / np.linalg.norm(quat_xyzw, axis=-1, keepdims=True))
 
 
-def from_mujoco_state(robot, qpos, qvel, qacc=None) -> tuple:
+def from_mujoco_state(robot: "Robot", qpos: ArrayLike, qvel: ArrayLike, qacc: ArrayLike | None = None) -> tuple:
     """(q, v) — or (q, v, a) with `qacc` — in symdyn's (Pinocchio's) coordinates from MuJoCo's
     qpos (..., nq of the file), qvel and qacc (..., nv of the file).
 
@@ -79,7 +83,7 @@ def from_mujoco_state(robot, qpos, qvel, qacc=None) -> tuple:
     return q, v, np.concatenate([dlin, a[..., d + 3 : d + 6], joints_a], -1)
 
 
-def to_mujoco_state(robot, q, v, a=None) -> tuple:
+def to_mujoco_state(robot: "Robot", q: ArrayLike, v: ArrayLike, a: ArrayLike | None = None) -> tuple:
     """(qpos, qvel) — or (qpos, qvel, qacc) with `a` — of the file's MuJoCo model from symdyn's
     q (..., nq), v and a (..., nv): the joints symdyn does not move at their locked values (qpos)
     and at rest (qvel, qacc).
@@ -117,7 +121,7 @@ def to_mujoco_state(robot, q, v, a=None) -> tuple:
     return (qpos, qvel) if a is None else (qpos, qvel, qacc)
 
 
-def to_mujoco_force(robot, q, tau) -> np.ndarray:
+def to_mujoco_force(robot: "Robot", q: ArrayLike, tau: ArrayLike) -> np.ndarray:
     """MuJoCo's generalized force (qfrc, ..., nv of the file) of symdyn's τ (..., nv) at q: a free
     base's force turned into the world's axes (its moment stays in the body's), the joints
     symdyn does not move at zero.
