@@ -69,3 +69,24 @@ def test_conversions_refuse_what_they_cannot_convert(legs):
 
     with pytest.raises(ValueError, match="not read by Robot.from_mjcf"):
         models.load("puma560").from_mujoco_state(np.zeros(6), np.zeros(6))
+
+
+def test_equality_constraints_are_named_and_those_gone_with_an_excluded_body_are_listed(tmp_path):
+    """MuJoCo's equality constraints are not modelled: the warning names each by its type and the
+    objects it joins (not by its index), and those that vanished with an excluded body too."""
+    from symdyn.model import MJCFWarning
+
+    xml = FILE.read_text().replace(
+        "</worldbody>",
+        "</worldbody><equality><connect body1='left_shin' body2='right_shin' anchor='0 0 0'/>"
+        "<joint name='hips' joint1='left_hip' joint2='right_hip'/>"
+        "<weld body1='head' body2='left'/></equality>",
+    )
+    path = tmp_path / "legs.xml"
+    path.write_text(xml)
+    with pytest.warns(MJCFWarning) as caught:
+        Robot.from_mjcf(str(path), tips="all", exclude=["head"])
+    said = " ".join(str(w.message) for w in caught)
+    assert "connect 'left_shin'–'right_shin'" in said
+    assert "joint 'hips' ('left_hip'–'right_hip')" in said
+    assert "gone with the excluded bodies: weld 'head'–'left'" in said

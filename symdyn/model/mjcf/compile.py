@@ -29,13 +29,23 @@ class MJCFWarning(UserWarning):
 
 @dataclass(frozen=True)
 class Compiled:
-    """The compiled model, the spec it came from, the file's name and sha256, and the files left out."""
+    """The compiled model, the spec it came from, the file's name and sha256, the files left out,
+    and the equality constraints that vanished with the excluded bodies (`describe_equality`)."""
 
     model: object  # mujoco.MjModel
     spec: object  # mujoco.MjSpec
     file: str
     sha256: str
     stripped: tuple
+    vanished: tuple = ()
+
+
+def describe_equality(kind, name: str, first: str, second: str) -> str:
+    """An equality constraint as a person names it: "connect 'hand'–'handle'", "joint 'couple'
+    ('j1'–'j2')" (MuJoCo's type without its prefix, the name where the file gives one)."""
+    label = str(getattr(kind, "name", kind)).removeprefix("mjEQ_").lower()
+    objects = "–".join(repr(x) for x in (first, second) if x)
+    return f"{label} {name!r} ({objects})" if name else f"{label} {objects}"
 
 
 def mujoco_module():
@@ -182,11 +192,15 @@ def compile_mjcf(
     except ValueError as exc:
         raise MJCFError(f"{label}: MuJoCo cannot read it: {str(exc).strip()}") from None
     _check_excluded(spec, label, exclude, base, tip)
+    equalities = lambda: [describe_equality(e.type, e.name, e.name1, e.name2) for e in spec.equalities]  # noqa: E731
+    before = equalities()
     for name in exclude:
         spec.delete(spec.body(name))
+    after = equalities()
+    vanished = tuple(e for e in before if e not in after)
     stripped = _strip_absent_files(mujoco, spec, label)
     try:
         model = spec.compile()
     except ValueError as exc:
         raise MJCFError(f"{label}: MuJoCo cannot compile it: {str(exc).strip()}") from None
-    return Compiled(model, spec, label, hashlib.sha256(data).hexdigest(), stripped)
+    return Compiled(model, spec, label, hashlib.sha256(data).hexdigest(), stripped, vanished)

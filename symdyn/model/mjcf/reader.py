@@ -36,7 +36,7 @@ from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
 from ..urdf.bodies import Body
 from ..urdf.reader import _compose, _motion, _number
 from ..urdf.record import Locked, Snap
-from .compile import MJCFError, MJCFWarning, compile_mjcf, mujoco_module
+from .compile import MJCFError, MJCFWarning, compile_mjcf, describe_equality, mujoco_module
 from .record import MjcfRecord
 
 __all__ = ["from_mjcf"]
@@ -70,6 +70,7 @@ class _Reader:
         self.left_out: list[str] = []
         self.values: dict[int, tuple[float, str]] = {}
         self.frames: dict[int, tuple[int, tuple]] = {}  # body → (the robot link it rides on, its frame there)
+        self.vanished = compiled.vanished  # equality constraints gone with the excluded bodies
         m = self.m
         self.children: dict[int, list[int]] = {}
         for b in range(1, m.nbody):
@@ -309,7 +310,23 @@ def _unmodelled(reader: _Reader, chain_joints: list[int], moving_bodies: set[int
         if m.body_gravcomp[b] != 0:
             out.append(f"body {reader.body(b)!r} has gravcomp {float(m.body_gravcomp[b])!r}: not modelled")
     if m.neq:
-        out.append(f"{m.neq} equality constraint(s) not modelled: {[m.equality(e).name or e for e in range(m.neq)]}")
+        names = [
+            describe_equality(
+                reader.mj.mjtEq(int(m.eq_type[e])),
+                m.equality(e).name,
+                *(
+                    _object_name(
+                        reader, int(m.eq_objtype[e]) if hasattr(m, "eq_objtype") else None, int(i), int(m.eq_type[e])
+                    )
+                    for i in (m.eq_obj1id[e], m.eq_obj2id[e])
+                ),
+            )
+            for e in range(m.neq)
+        ]
+        out.append(f"{m.neq} equality constraint(s) not modelled: {', '.join(names)}")
+    vanished = getattr(reader, "vanished", ())
+    if vanished:
+        out.append(f"equality constraint(s) gone with the excluded bodies: {', '.join(vanished)}")
     if m.opt.density or m.opt.viscosity:
         out.append("fluid forces (<option density viscosity>) not modelled")
     return out
@@ -675,6 +692,17 @@ def _floating_base(reader: _Reader, base: int, base_joint: str | None, label: st
             "them with base_body=…"
         )
     return base, None
+
+
+def _object_name(reader: _Reader, objtype: int | None, i: int, eqtype: int) -> str:
+    """The name of an equality constraint's object i (a body, joint, tendon, site …; '' for none)."""
+    if i < 0:
+        return ""
+    mj, m = reader.mj, reader.m
+    if not objtype:  # not recorded (older MuJoCo, joint and tendon equalities): the constraint's type says it
+        kinds = {0: "BODY", 1: "BODY", 2: "JOINT", 3: "TENDON", 4: "FLEX"}
+        objtype = int(getattr(mj.mjtObj, f"mjOBJ_{kinds.get(eqtype, 'BODY')}"))
+    return mj.mj_id2name(m, objtype, i) or f"#{i}"
 
 
 def _free_root(reader: _Reader) -> bool:
