@@ -25,6 +25,15 @@ def _private_cache(tmp_path_factory):
         os.environ["SYMDYN_CACHE_DIR"] = old
 
 
+def tiered(values, main: int) -> list:
+    """Parameters of which the first `main` run in the main suite (`make test`) and the rest are
+    marked slow (`make test-all`): cases held back for the suite's time, never deleted."""
+    return [
+        v if i < main else pytest.param(*(v if isinstance(v, tuple) else (v,)), marks=pytest.mark.slow)
+        for i, v in enumerate(values)
+    ]
+
+
 @pytest.fixture(scope="session")
 def puma():
     return models.load("puma560")

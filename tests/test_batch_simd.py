@@ -22,6 +22,7 @@ from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit import c as c_emit
 from symdyn.codegen.emit import clib
 from symdyn.model.random_arms import random_arm
+from tests.conftest import tiered
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
 
@@ -32,7 +33,7 @@ RTOL = 1e-14
 
 #: The Panda's and the iiwa's batched C runs through test_real_arms' target stage (200 states against the
 #: reference); here the general-joint UR5 stands for them (its library compiles in half the Panda's time).
-@pytest.fixture(scope="module", params=["puma560", "ur5", "random"])
+@pytest.fixture(scope="module", params=tiered(["puma560", "ur5", "random"], 1))  # ur5, random: make test-all
 def model(request):
     if request.param == "random":
         return codegen.load(random_arm(3, n=4), "c")

@@ -9,6 +9,7 @@ from symdyn.codegen.choice import Programs, derivations
 from symdyn.derivation import engine
 from symdyn.model import arms
 from symdyn.model.random_arms import ArmOptions, random_arm
+from tests.conftest import tiered
 
 x0, x1, q1, q2, qd1 = sp.symbols("x0 x1 q1 q2 qd1", real=True)
 SYMS = [x0, x1, q1, q2, qd1]
@@ -57,7 +58,7 @@ def _substituted(replacements, reduced):
     return [e.xreplace(values) for e in reduced]
 
 
-@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("seed", tiered(range(20), 10))
 def test_symengine_cse_gives_back_the_same_expressions(seed, monkeypatch):
     rng = random.Random(seed)
     exprs = [_random_expr(rng) for _ in range(6)]
@@ -70,7 +71,7 @@ def test_symengine_cse_gives_back_the_same_expressions(seed, monkeypatch):
         assert _same(got, want), (got, want)
 
 
-@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("seed", tiered(range(20), 10))
 def test_symengine_partials_equal_sympys_with_sign_held(seed):
     """(|·| left out: SymEngine leaves its derivative unevaluated, and sympy takes over.)"""
     rng = random.Random(100 + seed)
@@ -108,7 +109,7 @@ def test_shipped_models_keep_sympy_and_others_get_symengine():
     assert Programs(*derivations(robot)).engine == "symengine"
 
 
-@pytest.mark.parametrize("seed", range(15))
+@pytest.mark.parametrize("seed", tiered(range(30), 15))
 def test_fast_renaming_builds_what_xreplace_builds(seed):
     """`program._renamer` (sums and products re-sorted, not re-evaluated) gives sympy's own
     canonical expression, term order and all: what emitters print and splices compare."""
@@ -126,7 +127,7 @@ def test_fast_renaming_builds_what_xreplace_builds(seed):
         assert got == want and got.args == want.args and hash(got) == hash(want), (got, want)
 
 
-@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("seed", tiered(range(20), 10))
 def test_sums_and_products_come_back_as_sympy_would_build_them(seed, monkeypatch):
     """`engine.canonical` sorts SymEngine's collected terms instead of re-evaluating them: the
     result is sympy's own expression, argument order and all (or sympy builds it)."""

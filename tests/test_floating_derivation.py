@@ -23,6 +23,7 @@ import symdyn.reference as ref
 from symdyn.derivation.entry import derive
 from symdyn.derivation.exact import compile_exact, rational_angle
 from symdyn.model.random_robots import random_tree_robot
+from tests.conftest import tiered
 
 BASES = ("free", "planar")
 TERMS = ("tau", "M", "G", "Cqd")
@@ -55,7 +56,7 @@ def _evaluate(dyn, q: dict, trig: dict, v, a) -> dict:
 
 
 @pytest.mark.parametrize("base", BASES)
-@pytest.mark.parametrize("seed", range(2))
+@pytest.mark.parametrize("seed", tiered(range(3), 2))
 def test_floating_newton_euler_equals_the_reference(seed, base):
     robot = _robot(seed, base)
     dyn = derive(robot, cache=False)

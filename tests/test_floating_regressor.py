@@ -167,6 +167,8 @@ def _revolute(robot) -> list[bool]:
         ("planar", 3, 4, 32),
         ("planar", 11, 3, 25),
         ("planar", "puma", 6, 47),
+        pytest.param("free", 6, 5, 50, marks=pytest.mark.slow),
+        pytest.param("planar", 6, 5, 43, marks=pytest.mark.slow),
     ],
 )
 def test_base_parameters_of_floating_trees_are_exact(base, seed, n, count):
