@@ -36,7 +36,7 @@ def test_a_file_warning_is_one_symdyn_line_without_python_source(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     lines = done.stderr.splitlines()
-    assert "symdyn: warning: coupled.xml: 1 equality constraint(s) not modelled: [0]" in lines
+    assert "symdyn: warning: coupled.xml: 1 equality constraint(s) not modelled: joint 'j1'–'j2'" in lines
     assert "MJCFWarning" not in done.stderr and ".py:" not in done.stderr and "Robot.from_mjcf" not in done.stderr
 
 

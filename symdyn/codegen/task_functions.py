@@ -12,9 +12,11 @@ from __future__ import annotations
 import sympy as sp
 
 from ..derivation.program import Program
-from ..derivation.task_space import DRIFTS, OUTPUTS, TaskSpace, functions, task_space
+from ..derivation import engine
+from ..derivation.task_space import DRIFTS, OUTPUTS, TaskSpace, derive_task_space, functions
 from ..model import Robot
 from .functions import FunctionSpec
+from .shipped import is_shipped
 
 __all__ = ["TASK_NAMES", "task_names", "task_spec", "task_doc", "TaskPrograms"]
 
@@ -90,10 +92,13 @@ class TaskPrograms:
 
     def derivation(self) -> TaskSpace:
         if self._derived is None:
-            self._derived = task_space(self.robot)
+            self._derived = derive_task_space(self.robot)
         return self._derived
 
     def program(self, name: str) -> Program:
+        """A function's program, its CSE by the engine of the model's code (`choice`: sympy for
+        the shipped models, pinned byte for byte in generated/, SymEngine for any other)."""
         if name not in self._built:
-            self._built[name] = task_spec(self.derivation(), name, self.params).program()
+            with engine.use("sympy" if is_shipped(self.robot) else "symengine"):
+                self._built[name] = task_spec(self.derivation(), name, self.params).program()
         return self._built[name]

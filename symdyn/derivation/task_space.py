@@ -16,6 +16,7 @@ and carries gravity in its accelerations, so the task space keeps a recursion of
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import sympy as sp
@@ -27,7 +28,7 @@ from .kinematics import ancestors, link_frames
 from .symbols import exact, joint_symbols
 from .tape import Tape
 
-__all__ = ["TaskSpace", "task_space", "functions", "shape", "OUTPUTS", "DRIFTS"]
+__all__ = ["TaskSpace", "task_space", "derive_task_space", "functions", "shape", "OUTPUTS", "DRIFTS"]
 
 #: Each task-space function: (its output's name, the inputs it takes).
 OUTPUTS = {
@@ -264,6 +265,20 @@ def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpa
         definitions=tuple(tape.defs.items()),
         outputs=outputs,
     )
+
+
+def derive_task_space(robot: Robot, *, cache: bool = True) -> TaskSpace:
+    """`task_space(robot)` for its task frames, read from the disk cache when the same robot and
+    frames were derived before by this symdyn (`derivation.cache`: keyed by the fingerprint, the
+    frames' names, the version and the derivation code)."""
+    from .. import __version__
+    from .cache import cached, key
+    from .entry import code_fingerprint
+
+    names = ",".join(f.name for f in robot.task_frames)
+    entry = key(robot.fingerprint(), "task-space", names, __version__, code_fingerprint())
+    derived, _ = cached("task-space", entry, lambda: task_space(robot), use_cache=cache)
+    return dataclasses.replace(derived, robot=robot)
 
 
 def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[_Column], moves) -> dict:
