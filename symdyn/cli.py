@@ -95,13 +95,16 @@ def _cmd_print(args: argparse.Namespace) -> int:
     if not 1 <= args.digits <= 17:
         raise ValueError(f"--digits must be between 1 and 17, got {args.digits}")
     dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
+    if args.frames is not None:  # the task space: each frame's forward kinematics and Jacobian
+        from .presentation.task_space import frames_constant_form, frames_form
+
+        if args.constants:
+            print(frames_constant_form(dyn, args.format, digits=args.digits))
+        else:
+            print(frames_form(dyn, args.format, digits=args.digits, form=args.form))
+        return 0
     if args.constants:
         return _print_constants(dyn, args)
-    if args.frames is not None:  # the task space: each frame's forward kinematics and Jacobian
-        from .presentation.task_space import frames_form
-
-        print(frames_form(dyn, args.format, digits=args.digits, form=args.form))
-        return 0
     terms = ("M", "C", "G", "F", "tau") if args.term == "all" else (args.term,)
     layouts = plan(dyn, terms, args.layout)
     print(closed_form(dyn, terms, args.format, args.prune, args.form, digits=args.digits, layouts=layouts))

@@ -268,3 +268,47 @@ def test_every_target_serves_the_task_space_as_pinocchio_does(target):
     f = load("puma560", target)
     functions = {name: getattr(f, name) for name in task_names(task_space(robot))}
     assert_pinocchio(robot, functions, model, ids, count=50, seed=11)
+
+
+# --------------------------------------------------------------------------- printed
+
+
+def test_print_frames_gives_the_two_link_arms_forward_kinematics_as_a_textbook(capsys):
+    from symdyn.cli import main
+
+    assert main(["print", "twolink", "--frames"]) == 0
+    out = capsys.readouterr().out
+    assert "x = a1*cos(q1) + a2*cos(q1 + q2)" in out and "z = a1*sin(q1) + a2*sin(q1 + q2)" in out
+    assert "J1_1 = -a1*sin(q1) - a2*sin(q1 + q2)" in out and "J1_2 = -a2*sin(q1 + q2)" in out
+
+
+def test_the_pumas_tool_pose_in_named_constants_is_its_forward_kinematics(capsys):
+    """Every printed element (DH lengths a2, a3, d3, d4 and abbreviations C1, S23, …) evaluated
+    at random q equals the reference's forward kinematics."""
+    import sympy as sp
+
+    from symdyn import reference
+    from symdyn.cli import main
+
+    assert main(["print", "puma560", "--frames", "--constants"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "x = C1*C2*a2 + C1*C23*a3 - C1*S23*d4 + S1*d3" in lines
+    where = dict(item.split(" = ") for item in lines[-2].lstrip("# where").split(", "))
+    values = {sp.Symbol(k, real=True): float(v.split()[0]) for k, v in where.items()}
+    abbr = dict(item.split(" = ") for item in lines[-1].lstrip("# ").split(", "))
+    q = sp.symbols("q1:7", real=True)
+    table = {sp.Symbol(k, real=True): sp.sympify(v, locals=dict(zip(map(str, q), q))) for k, v in abbr.items()}
+    elements = dict(line.split(" = ", 1) for line in lines if " = " in line and not line.startswith("#"))
+    puma = models.load("puma560")
+    for qn in np.random.default_rng(3).uniform(-2, 2, (5, 6)):
+        T = reference.fkine(puma, qn)
+        at = {**values, **{s: float(e.subs(dict(zip(q, qn)))) for s, e in table.items()}}
+        names = {
+            "x": (0, 3),
+            "y": (1, 3),
+            "z": (2, 3),
+            **{f"R{r + 1}{c + 1}": (r, c) for r in range(3) for c in range(3)},
+        }
+        for name, (r, c) in names.items():
+            got = float(sp.sympify(elements[name], locals={str(s): s for s in at}).subs(at))
+            assert abs(got - T[r, c]) < 1e-12, (name, got, T[r, c])

@@ -206,7 +206,7 @@ def _power(unit: str, e: int) -> str:
 # --------------------------------------------------------------------------- the form
 
 
-def _abbreviation(atom: sp.Expr) -> sp.Symbol:
+def abbreviation(atom: sp.Expr) -> sp.Symbol:
     """cos(q2 + q3) → C23, sin(q4) → S4 (indices joined by commas from joint 10 on)."""
     joints = [int(s.name[1:]) for s in sorted(atom.args[0].free_symbols, key=lambda s: int(s.name[1:]))]
     sep = "," if max(joints) >= 10 else ""
@@ -279,8 +279,8 @@ def constant_form(dyn: Dynamics) -> ConstantForm:
             if factor is None:
                 continue
             for atom in mono.atoms(sp.sin, sp.cos):
-                abbreviations.setdefault(_abbreviation(atom), atom)
-            abbr = mono.xreplace({a: _abbreviation(a) for a in mono.atoms(sp.sin, sp.cos)})
+                abbreviations.setdefault(abbreviation(atom), atom)
+            abbr = mono.xreplace({a: abbreviation(a) for a in mono.atoms(sp.sin, sp.cos)})
             terms.append((constants.index(const), sp.default_sort_key(abbr), factor * const.symbol * abbr))
         elements.append((name, kind, tuple(t for *_, t in sorted(terms, key=lambda t: t[:2]))))
     elements += _friction(dyn, constants)

@@ -9,12 +9,17 @@ out (`TaskSpace.full`), tidied in the book form of the dynamics they come with
 
 from __future__ import annotations
 
+import dataclasses
+
+import sympy as sp
+
 from ..derivation.dynamics import Dynamics
 from ..derivation.simplify import tidy
 from ..derivation.task_space import task_space
-from .printing import _display, render
+from .constants import abbreviation
+from .printing import _display, number, render
 
-__all__ = ["frame_elements", "frames_form"]
+__all__ = ["frame_elements", "frames_form", "frames_constant_form"]
 
 
 def frame_elements(dyn: Dynamics, form: str = "book") -> list[tuple[str, list]]:
@@ -52,3 +57,64 @@ def frames_form(dyn: Dynamics, fmt: str = "text", *, digits: int = 5, form: str 
         )
         blocks.append(head + "\n" + render(items, fmt, digits=digits, document=False))
     return "\n\n".join(blocks)
+
+
+def _named_lengths(robot) -> tuple:
+    """The robot with its non-zero DH lengths a_i, d_i as symbols a1, d3, … (numbers elsewhere),
+    and {symbol: value}."""
+    values: dict = {}
+    links = []
+    for i, link in enumerate(robot.links, start=1):
+        fields = {}
+        for name in ("a", "d"):
+            value = getattr(link, name)
+            if name == "d" and not link.is_revolute:
+                continue  # a prismatic joint's d is its coordinate
+            if isinstance(value, (int, float)) and value != 0:
+                sym = sp.Symbol(f"{name}{i}", real=True)
+                values[sym] = value
+                fields[name] = sym
+        links.append(dataclasses.replace(link, **fields))
+    return dataclasses.replace(robot, links=tuple(links)), values
+
+
+def frames_constant_form(dyn: Dynamics, fmt: str = "text", *, digits: int = 5) -> str:
+    """Each task frame's origin and rotation in named constants — the DH lengths a_i, d_i with
+    their values — and trig abbreviations (C1 = cos q1, S23 = sin(q2 + q3)), as Paul's and
+    Craig's tables print a DH arm's forward kinematics.
+
+    Raises:
+        ValueError: a robot that is not in DH form (its lengths are a general joint's origins).
+    """
+    robot = dyn.robot
+    if robot.convention == "general":
+        raise ValueError(
+            f"named constants of {robot.name!r}'s frames: they name DH lengths (a_i, d_i), and its joints are "
+            "placed by general origins; print its frames without --constants"
+        )
+    named, values = _named_lengths(robot)
+    ts = task_space(named)
+    pose = ts.full("frame_pose")
+    abbreviations: dict = {}
+    comment = "%" if fmt == "latex" else "#"
+    blocks = []
+    for j, frame in enumerate(ts.frames):
+        items = []
+        names = [("x", 0, 3), ("y", 1, 3), ("z", 2, 3)] + [
+            (f"R{r + 1}{c + 1}", r, c) for r in range(3) for c in range(3)
+        ]
+        for label, r, c in names:
+            expr = tidy(pose[4 * j + r, c], dyn, "book")
+            atoms = expr.atoms(sp.sin, sp.cos)
+            for atom in atoms:
+                abbreviations.setdefault(abbreviation(atom), atom)
+            items.append((label, sp.collect(expr.xreplace({a: abbreviation(a) for a in atoms}), list(values))))
+        on = "the base" if frame.link < 0 else f"link {frame.link + 1}"
+        blocks.append(
+            f"{comment} frame {frame.name!r} on {on}: origin and rotation in the world\n"
+            + render(items, fmt, digits=digits, document=False)
+        )
+    where = ", ".join(f"{s} = {number(float(v), digits)} m" for s, v in values.items())
+    order = sorted(abbreviations, key=lambda s: (s.name[0] == "S", len(s.name), s.name))
+    abbr = ", ".join(f"{s} = {abbreviations[s]}" for s in order)
+    return "\n\n".join(blocks) + f"\n{comment} where {where}\n{comment} {abbr}"
