@@ -22,6 +22,7 @@ from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit import c as c_emit
 from symdyn.codegen.emit import clib
 from symdyn.model.random_arms import random_arm
+from symdyn.codegen.task_functions import TASK_NAMES
 from tests.conftest import tiered
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
@@ -53,8 +54,12 @@ def _one_by_one(f, names, args, count):
     return [np.array([o[j] for o in outs]) for j in range(len(outs[0]))] if outs else None
 
 
-def test_every_kernel_equals_the_scalar_function_state_by_state(model):
-    lib_sigs = {name: getattr(model, name) for name in model.functions}
+@pytest.mark.parametrize("space", tiered(["joint", "task"], 1))  # the task space's kernels: make test-all
+def test_every_kernel_equals_the_scalar_function_state_by_state(model, space):
+    """(The task space's kernels are also checked against Pinocchio in the main suite:
+    test_task_space's every-target test calls the C target on a batch.)"""
+    task = set(TASK_NAMES)
+    lib_sigs = {name: getattr(model, name) for name in model.functions if (name in task) == (space == "task")}
     args = _states(model.n, max(SIZES), seed=1)
     for name, f in lib_sigs.items():
         names = (
