@@ -18,7 +18,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..derivation import progress, task_space
-from ..derivation.cache import build_lock, cache_dir, package_fingerprint, writable, write_atomic
+from ..derivation.cache import build_lock, cache_dir, fork_safe, package_fingerprint, writable, write_atomic
 from ..model import Robot
 from .emit import c as c_emit, clib, format_ops, identifier, is_intact, read_header
 from .task_functions import TaskPrograms
@@ -69,30 +69,39 @@ class _Sources:
         self.sigs = {s.name: s for s in signatures(robot)}
         self.task = TaskPrograms(robot)
         self._programs = None
+        self._failure: BaseException | None = None  # the derivation's error, for every call that needs it
         self._lock = threading.RLock()
+        fork_safe(self, "_lock")  # a forked child gets a lock of its own
 
     def programs(self):
-        """The model's `choice.Programs`, its derivations made (or read from their cache) once."""
+        """The model's `choice.Programs`, its derivations made (or read from their cache) once; a
+        derivation that failed (on the prefetch thread too) raises its error again, unchanged."""
         with self._lock:
+            if self._failure is not None:
+                raise self._failure
             if self._programs is None:
                 from ..derivation.regressor import regressor
                 from .choice import Programs, derivations
 
-                dyns, origins = derivations(self.robot)
+                try:
+                    dyns, origins = derivations(self.robot)
+                except Exception as exc:
+                    self._failure = exc
+                    raise
                 self._programs = Programs(dyns, lambda: regressor(self.robot), origins)
             return self._programs
 
     def prefetch(self) -> None:
         """Start the derivations on a thread of their own when τ's C file is not in the cache:
         they run while the binding compiles (a cold machine's first model: 0.3 s) instead of
-        after it.  A failure is left for the first call to meet and report."""
+        after it.  A failure is kept (`programs`) and raised by the first call that needs it."""
         if self._current(self.folder / f"{self.name}.tau.c") is not None:
             return  # a second process: the files are there, nothing to derive
 
         def derive() -> None:
             try:
                 self.programs()
-            except Exception:  # noqa: BLE001 - the first call derives again and raises it
+            except Exception:  # noqa: BLE001 - kept by programs(), raised by the first call needing it
                 pass
 
         threading.Thread(target=derive, name=f"symdyn-derive-{self.name}", daemon=True).start()

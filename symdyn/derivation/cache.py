@@ -20,6 +20,8 @@ import pickle
 import shutil
 import sys
 import tempfile
+import threading
+import weakref
 from pathlib import Path
 from typing import Any, Callable
 
@@ -161,11 +163,15 @@ def build_lock(path: Path):
         yield
         return
     with handle:
+        _HELD.add(handle)
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX)
-        except OSError:
-            pass
-        yield
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX)
+            except OSError:
+                pass
+            yield
+        finally:
+            _HELD.discard(handle)
 
 
 def cached(kind: str, entry_key: str, build: Callable[[], Any], *, use_cache: bool = True) -> tuple[Any, bool]:
@@ -189,3 +195,34 @@ def cached(kind: str, entry_key: str, build: Callable[[], Any], *, use_cache: bo
         except OSError as exc:
             warn_unwritable(exc)
     return value, False
+
+
+#: (object, attribute) pairs whose thread lock a forked child replaces (`fork_safe`).
+_FORK_SAFE: "weakref.WeakKeyDictionary[object, str]" = weakref.WeakKeyDictionary()
+
+
+def fork_safe(obj: object, attribute: str) -> None:
+    """Give `obj.<attribute>` (a `threading.RLock`) a fresh lock in every forked child: the
+    parent's may be held, at the fork, by one of its threads that the child does not have (a
+    background derivation, a compile), and would then be held forever."""
+    _FORK_SAFE[obj] = attribute
+
+
+#: The lock files this process holds now (`build_lock`): a forked child closes its copies, else
+#: the lock (shared by parent and child through the inherited descriptor) outlives the parent's
+#: release and the child waits on itself forever.
+_HELD: set = set()
+
+
+def _fresh_locks_in_child() -> None:
+    for obj, attribute in list(_FORK_SAFE.items()):
+        setattr(obj, attribute, threading.RLock())
+    for handle in list(_HELD):
+        try:
+            handle.close()
+        except OSError:
+            pass
+    _HELD.clear()
+
+
+os.register_at_fork(after_in_child=_fresh_locks_in_child)

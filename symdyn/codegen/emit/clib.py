@@ -55,7 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from ...derivation import progress
-from ...derivation.cache import build_lock, cache_dir, writable
+from ...derivation.cache import build_lock, cache_dir, fork_safe, writable
 from .. import contract
 from . import write_atomic
 from .c import Signature, read_signatures
@@ -1008,6 +1008,7 @@ class _Units:
         self.model, self.texts, self.flags, self.whole = model, units, tuple(flags), whole
         self.host = platform.node() if "-march=native" in self.flags else ""
         self.lock = threading.RLock()  # one thread builds; the others wait, then find it loaded
+        fork_safe(self, "lock")  # a forked child gets a lock of its own
         self.loaded: dict[tuple[str, str], tuple[ctypes.CDLL, int]] = {}
         self._units: dict[tuple[str, str], _Unit] = {}
         self._folder: Path | None = None
