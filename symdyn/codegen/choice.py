@@ -17,6 +17,7 @@ from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
+from .contact_functions import contact_names, contact_specs
 from .task_functions import TaskPrograms
 
 __all__ = ["programs", "Programs", "derivations", "DERIVED"]
@@ -103,7 +104,14 @@ class Programs:
         self.cands = [candidates(d, o) for d, o in zip(dyns, origins or [None] * len(dyns))]
         self.regressor = regressor
         self.task = TaskPrograms(self.dyns[0].robot, self.dyns[0].params)
-        self.names = (*NAMES, *(("Y",) if self.regressor is not None else ()), *DERIVED, *self.task.names)
+        self.contacts = contact_names(self.dyns[0].robot)
+        self.names = (
+            *NAMES,
+            *(("Y",) if self.regressor is not None else ()),
+            *DERIVED,
+            *self.task.names,
+            *self.contacts,
+        )
         self._chosen: dict[str, tuple[FunctionSpec, Program]] = {}
         self._built: dict[str, Program] = {}
         self._specs: dict[str, FunctionSpec] = {}
@@ -130,6 +138,11 @@ class Programs:
     def _build(self, name: str) -> Program:
         if name in self.task.names:
             return self.task.program(name)
+        if name in self.contacts:
+            if "contacts" not in self._specs:
+                M, bias = self.chosen("M")[0], self.chosen("bias")[0]
+                self._specs["contacts"] = contact_specs(self.dyns[0].robot, M, bias, tree=self.tree)
+            return self._specs["contacts"][name].program()
         if name in ("tau", "M", "C", "Cqd", "G", "F"):
             return self.chosen(name)[1]
         if name == "fdyn":

@@ -21,6 +21,7 @@ from ..derivation import progress, task_space
 from ..derivation.cache import build_lock, cache_dir, fork_safe, package_fingerprint, writable, write_atomic
 from ..model import Robot
 from .emit import c as c_emit, clib, format_ops, identifier, is_intact, read_header
+from .contact_functions import contact_names, contact_signatures
 from .task_functions import TaskPrograms
 
 __all__ = ["load", "signatures"]
@@ -56,7 +57,8 @@ def signatures(robot: Robot) -> list[c_emit.Signature]:
     for name in task_space.functions(robot):
         out, args = task_space.OUTPUTS[name]
         table[name] = (tuple((a, sizes[a]) for a in args), ((out, task_space.shape(name, frames, nv)),))
-    return [c_emit.Signature(f, *table[f]) for f in (*FUNCTIONS, *task_space.functions(robot))]
+    table.update(contact_signatures(robot) if robot.contacts else {})
+    return [c_emit.Signature(f, *table[f]) for f in (*FUNCTIONS, *task_space.functions(robot), *contact_names(robot))]
 
 
 class _Sources:

@@ -285,7 +285,7 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
     """Pose, Jacobians (LOCAL and LOCAL_WORLD_ALIGNED), LOCAL velocity and classical acceleration
     of each frame, stacked frame by frame."""
     nv = len(columns)
-    pose, aligned, velocity, acceleration = [], [], [], []
+    pose, aligned, velocity, acceleration, world = [], [], [], [], []
     for j, frame in enumerate(frames):
         tag = f"f{j + 1}"
         body = base if frame.link < 0 else bodies[frame.link]
@@ -308,6 +308,7 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
         aligned += [[cols_aligned[c][i] for c in range(nv)] for i in range(6)]
         v = _plus(body.vo, _cross(body.w, r))
         velocity.append(_times_t(R, v) + _times_t(R, body.w))
+        world.append(v + list(body.w))
         a = _plus(body.ao, _cross(body.dw, r), _cross(body.w, _cross(body.w, r)))
         acceleration.append(a + list(body.dw))
     m = len(frames)
@@ -317,6 +318,9 @@ def _frames(tape: Tape, frames, base: _Body, bodies: list[_Body], columns: list[
         "frame_velocity": sp.ImmutableMatrix(m, 6, [x for row in velocity for x in row]),
         "frame_acceleration": sp.ImmutableMatrix(m, 6, [x for row in acceleration for x in row]),
         "frame_drift": sp.ImmutableMatrix(m, 6, [x for row in acceleration for x in row]),
+        # not a function of its own: each frame's origin velocity and angular velocity in the
+        # world's axes, for a surface contact's spatial drift (`derivation.contacts`)
+        "frame_velocity_world": sp.ImmutableMatrix(m, 6, [x for row in world for x in row]),
     }
 
 

@@ -15,7 +15,10 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass
 
-__all__ = ["Frame", "known_frames", "resolve", "default_names"]
+__all__ = ["Frame", "known_frames", "resolve", "default_names", "contact_set", "CONTACT_KINDS"]
+
+#: The kinds of contact (`Robot.with_contacts`) and the rows each constrains.
+CONTACT_KINDS = {"point": 3, "surface": 6}
 
 IDENTITY = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
 
@@ -95,3 +98,25 @@ def resolve(robot, names) -> tuple[Frame, ...]:
     if repeated:
         raise ValueError(f"frames of robot {robot.name!r}: {', '.join(map(repr, repeated))} given more than once")
     return tuple(out)
+
+
+def contact_set(robot, contacts) -> tuple:
+    """((frame name, kind), …) checked: known frames, each once, kinds of `CONTACT_KINDS`.
+
+    Raises:
+        ValueError: contacts not pairs, an unknown frame (closest named), a kind that is
+            neither "point" nor "surface", a frame given twice.
+    """
+    try:
+        pairs = tuple((str(name), kind) for name, kind in contacts)
+    except (TypeError, ValueError):
+        raise ValueError(f"contacts must be {{frame: 'point' or 'surface'}}, got {contacts!r}") from None
+    for name, kind in pairs:
+        if kind not in CONTACT_KINDS:
+            raise ValueError(
+                f"contact {name!r} of robot {robot.name!r}: kind {kind!r} is neither 'point' (3 rows: the "
+                "origin's linear acceleration) nor 'surface' (6 rows: the frame's spatial acceleration)"
+            )
+    if pairs:
+        resolve(robot, [name for name, _ in pairs])  # known, each once
+    return pairs

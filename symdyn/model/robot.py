@@ -356,6 +356,9 @@ class Robot:
     #: Every frame of the file the robot was read from (`symdyn.model.frames.Frame`: each link of
     #: the file, moving, locked or merged; each MJCF body and site); empty for a robot built here.
     frame_catalog: tuple = field(default=(), compare=False, hash=False)
+    #: The contact set of the contact functions: ((frame name, "point" or "surface"), …) in order
+    #: (`with_contacts`); empty: none.
+    contacts: tuple = ()
     #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: the
     #: arm of a URDF file (`symdyn.model.urdf.from_urdf`, attached by `symdyn.model`, which builds on this module).
     from_urdf: ClassVar[Callable[..., "Robot"]]
@@ -408,6 +411,7 @@ class Robot:
         set_("frames", tuple(self.frames))
         if self.frames:
             frames.resolve(self, self.frames)  # every name known, none twice
+        set_("contacts", frames.contact_set(self, self.contacts))
 
     def __str__(self) -> str:
         """A summary a person reads: joints, convention, source and, for a robot read from a
@@ -476,6 +480,18 @@ class Robot:
         """
         frames.resolve(self, names)
         return dataclasses.replace(self, frames=tuple(names))
+
+    def with_contacts(self, contacts: Mapping[str, str]) -> "Robot":
+        """A copy whose contact functions (`contact_fdyn`, `contact_impulse`) hold the frames of
+        `contacts` — {frame name: "point" (its origin's linear acceleration: 3 rows) or "surface"
+        (its whole spatial acceleration: 6 rows)} in the order given; forces in the world's axes at
+        the frame (LOCAL_WORLD_ALIGNED).  Each contact set is a model of its own.
+
+        Raises:
+            ValueError: an unknown frame (the closest known are named), a kind that is neither
+                "point" nor "surface", or no contact.
+        """
+        return dataclasses.replace(self, contacts=tuple(dict(contacts).items()))
 
     def require_chain(self, what: str) -> None:
         """Refuse a tree or a floating base where `what` reads chains only.
@@ -579,6 +595,9 @@ class Robot:
         # chosen frames enter the generated code: their names and placements count (none chosen:
         # the default frames follow from the fields here, and the fingerprint is what it was)
         chosen = (tuple(f.key() for f in self.task_frames),) if self.frames else ()
+        if self.contacts:  # a contact set enters the generated code too
+            placed = frames.resolve(self, [name for name, _ in self.contacts])
+            chosen += (tuple((f.key(), kind) for f, (_, kind) in zip(placed, self.contacts)),)
         if self.base_joint is None:  # a fixed base: the fingerprint is what it always was
             return (self.convention, self.gravity, self.base, self.tool, links) + chosen
         body = self.base_body._params() if self.base_body is not None else None
@@ -688,16 +707,16 @@ class Robot:
         inertia are re-expressed through Tx(a_j)·Rx(α_j); the last link's
         Tx(a_n)·Rx(α_n) moves into the tool.
 
-        The link frames move, so the file's frames (`frame_catalog`) and the chosen `frames` do
-        not carry over: the result serves its tool (choose its frames anew).
+        The link frames move, so the file's frames (`frame_catalog`), the chosen `frames` and the
+        contact set do not carry over: the result serves its tool (choose its frames anew).
 
         Raises:
             NotImplementedError: a standard-DH tree (`symdyn.derivation.kinematics.along_z` converts those).
         """
         if self.convention == "modified":
             return self
-        if self.frames or self.frame_catalog:
-            return dataclasses.replace(self, frames=(), frame_catalog=()).to_modified()
+        if self.frames or self.frame_catalog or self.contacts:
+            return dataclasses.replace(self, frames=(), frame_catalog=(), contacts=()).to_modified()
         if self.convention == "standard" and any(link.parent is not None for link in self.links):
             raise NotImplementedError(
                 f"robot {self.name!r} is a standard-DH tree: to_modified converts chains (a floating base "

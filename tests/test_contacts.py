@@ -1,0 +1,131 @@
+"""Contact dynamics, generated (issue 43, first slice): `robot.with_contacts({frame: "point" |
+"surface"})` and `contact_fdyn(q, v, tau)` → (a, force), `contact_impulse(q, v_before)` →
+(v_after, impulse), equal to Pinocchio's constraintDynamics and impulseDynamics
+(RigidConstraintModel, CONTACT_3D / CONTACT_6D, LOCAL_WORLD_ALIGNED), and the constraints held:
+a point contact's classical acceleration and a surface's spatial acceleration are zero after
+contact_fdyn, their velocities zero after contact_impulse."""
+
+import numpy as np
+import pytest
+
+from symdyn.codegen.entry import load
+from symdyn.model import arms
+from symdyn.model.random_robots import random_tree_robot
+from tests.test_task_space import states, with_random_frames
+
+pin = pytest.importorskip("pinocchio", reason="contact dynamics are checked against Pinocchio (the test extra)")
+peer = pytest.importorskip("symdyn.bench.task_space")
+RTOL = 1e-10
+
+
+def _relative(got, want) -> float:
+    return float(np.abs(np.asarray(got) - want).max() / max(1.0, np.abs(want).max()))
+
+
+def pinocchio_contacts(robot, q, v, tau):
+    """Pinocchio's (a, λ, v⁺, Λ) at one state with the robot's contact set as rigid constraints."""
+    from symdyn.bench.reduced import pin_configuration
+
+    names = [name for name, _ in robot.contacts]
+    model, ids = peer.peer_model(robot.with_frames(names))
+    data = model.createData()
+    models, datas = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
+    for k, (_, kind) in enumerate(robot.contacts):
+        frame = model.frames[ids[k]]
+        contact = pin.ContactType.CONTACT_3D if kind == "point" else pin.ContactType.CONTACT_6D
+        cm = pin.RigidConstraintModel(
+            contact, model, frame.parentJoint, frame.placement, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        )
+        models.append(cm)
+        datas.append(cm.createData())
+    pin.initConstraintDynamics(model, data, models, datas)
+    prox = pin.ProximalSettings(1e-14, 0.0, 1)
+    x = pin_configuration(model, np.atleast_2d(q))[0]
+    a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
+    force = data.lambda_c.copy()
+    v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
+    return a, force, v_after, data.impulse_c.copy()
+
+
+@pytest.fixture(scope="module")
+def legged():
+    """A random tree on a free base, a point contact on one branch and a surface on another."""
+    robot = with_random_frames(random_tree_robot(3, n=5, base_joint="free"), 3).nofriction(all=True)
+    robot = robot.with_frames(["f4", "f5"]).with_contacts({"f4": "point", "f5": "surface"})
+    return robot, load(robot, "numpy")
+
+
+def test_contact_dynamics_and_impulses_equal_pinocchios(legged):
+    robot, f = legged
+    q, v, _ = states(robot, 30, seed=2)
+    tau = np.random.default_rng(2).uniform(-5, 5, (30, robot.nv))
+    got_a, got_f = f.contact_fdyn(q, v, tau)  # a batch
+    got_v, got_i = f.contact_impulse(q, v)
+    assert got_f.shape == (30, 9) and got_i.shape == (30, 9)
+    for i in range(30):
+        a, force, v_after, impulse = pinocchio_contacts(robot, q[i], v[i], tau[i])
+        assert _relative(got_a[i], a) < RTOL and _relative(got_f[i], force) < RTOL
+        assert _relative(got_v[i], v_after) < RTOL and _relative(got_i[i], impulse) < RTOL
+
+
+def test_the_contacts_hold_after_the_solve(legged):
+    """The point's classical acceleration and the surface's spatial acceleration vanish after
+    contact_fdyn; both frames' velocities after contact_impulse (the generated task space)."""
+    robot, f = legged
+    q, v, _ = states(robot, 10, seed=5)
+    tau = np.random.default_rng(5).uniform(-5, 5, (10, robot.nv))
+    a, _ = f.contact_fdyn(q, v, tau)
+    acc = f.frame_acceleration(q, v, a)
+    vw = f.frame_velocity(q, v)  # LOCAL: the surface's ω × v in its own axes, turned below
+    pose = f.frame_pose(q)
+    lin = np.einsum("nij,nj->ni", pose[:, 1, :3, :3], vw[:, 1, :3])
+    ang = np.einsum("nij,nj->ni", pose[:, 1, :3, :3], vw[:, 1, 3:])
+    scale = max(1.0, np.abs(a).max())
+    assert np.abs(acc[:, 0, :3]).max() < 1e-9 * scale  # point: classical acceleration of its origin
+    assert np.abs(acc[:, 1, :3] - np.cross(ang, lin)).max() < 1e-9 * scale  # surface: spatial = 0
+    assert np.abs(acc[:, 1, 3:]).max() < 1e-9 * scale
+    v_after, _ = f.contact_impulse(q, v)
+    after = f.frame_velocity(q, v_after)
+    assert np.abs(after[:, 0, :3]).max() < 1e-10 and np.abs(after[:, 1]).max() < 1e-10
+
+
+def test_a_fixed_arm_with_its_hand_on_a_surface():
+    robot = arms.load("panda").nofriction(all=True).with_contacts({"panda_hand": "surface"})
+    f = load(robot, "numpy")
+    q, v, _ = states(robot, 5, seed=7)
+    tau = np.random.default_rng(7).uniform(-10, 10, (5, robot.nv))
+    for i in range(5):
+        a, force, v_after, impulse = pinocchio_contacts(robot, q[i], v[i], tau[i])
+        got_a, got_f = f.contact_fdyn(q[i], v[i], tau[i])
+        assert _relative(got_a, a) < RTOL and _relative(got_f, force) < RTOL
+        got_v, got_i = f.contact_impulse(q[i], v[i])
+        assert _relative(got_v, v_after) < RTOL and _relative(got_i, impulse) < RTOL
+
+
+def test_contact_sets_are_refused_by_name():
+    robot = random_tree_robot(3, n=3, base_joint="free")
+    with pytest.raises(ValueError, match="no frame 'lnk2'.*link2"):
+        robot.with_contacts({"lnk2": "point"})
+    with pytest.raises(ValueError, match="kind 'line' is neither 'point'"):
+        robot.with_contacts({"link2": "line"})
+    assert robot.with_contacts({"link2": "point"}).fingerprint() != robot.fingerprint()
+
+
+@pytest.mark.slow
+def test_solo12_on_four_feet_through_generated_c():
+    """Solo 12 read from its URDF, its four feet point contacts, through the generated C, against
+    Pinocchio's constraint dynamics on the same model (example-robot-data)."""
+    from tests.test_task_space import FEET, _solo_file
+    from symdyn.model import Robot
+
+    robot = Robot.from_urdf(str(_solo_file()), tips="all", base_joint="free").nofriction(all=True)
+    robot = robot.with_contacts({foot: "point" for foot in FEET})
+    f = load(robot, "c")
+    q, v, _ = states(robot, 20, seed=9)
+    tau = np.random.default_rng(9).uniform(-2, 2, (20, robot.nv))
+    for i in range(20):
+        a, force, v_after, impulse = pinocchio_contacts(robot, q[i], v[i], tau[i])
+        got_a, got_f = f.contact_fdyn(q[i], v[i], tau[i])
+        assert _relative(got_a, a) < RTOL and _relative(got_f, force) < RTOL
+        got_v, got_i = f.contact_impulse(q[i], v[i])
+        assert _relative(got_v, v_after) < RTOL and _relative(got_i, impulse) < RTOL
