@@ -46,7 +46,7 @@ from ..model import arms
 from ..numeric import reference as ref
 from . import pin_peer
 from .peers import casadi_rnea_c, toolbox_robot
-from .harness import CFLAGS, POOL, _compiler, _digest, write_states
+from .harness import POOL, _digest, cached_program, write_states
 from .pin_peer import FD_RTOL, PeerUnavailable, central_jacobian, read_report
 from .rows import OPS_NOTE, OPS_NOTE_ARM, Row, format_table, markdown_table
 
@@ -145,20 +145,10 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
     floating = [
         f"-D{k}={m[1]}" for k in ("NQ", "NV") if (m := re.search(rf"#define {model.upper()}_{k} (\d+)", h_text))
     ]
-    cc = _compiler()
     sources = {HARNESS.name: HARNESS.read_text(), c_path.name: c_path.read_text(), h_path.name: h_text}
     if casadi_c is not None:
         sources.update({p.name: p.read_text() for p in (casadi_c, casadi_c.with_suffix(".h"))})
-    key = _digest(cc, *CFLAGS, platform.node(), *(f"{k}\n{v}" for k, v in sorted(sources.items())))
-    folder = writable(cache_dir() / "bench" / f"harness-{model}-{key}")
-    binary = folder / "harness"
-    if binary.exists():
-        return binary
-    for name, text in sources.items():
-        write_atomic(folder / name, text)
-    cmd = [
-        cc,
-        *CFLAGS,
+    flags = [
         f"-DMODEL={model}",
         f"-DNDOF={ndof[1]}",
         f'-DMODEL_HEADER="{h_path.name}"',
@@ -166,17 +156,11 @@ def build_harness(c_path: Path, h_path: Path, casadi_c: Path | None = None) -> P
         *([] if f"{model}_C(" in h_text else ["-DWITHOUT_C"]),
         *(["-DWITH_CASADI"] if casadi_c is not None else []),
         *(["-DWITH_DERIVATIVES"] if f"{model}_tau_derivatives(" in h_text else []),
-        f"-I{folder}",
-        *(str(folder / n) for n in sources if n.endswith(".c")),
-        "-o",
-        str(folder / "harness.tmp"),
-        "-lm",
     ]
-    run = subprocess.run(cmd, capture_output=True, text=True)
-    if run.returncode != 0:
-        raise RuntimeError(f"compiling the C harness failed ({' '.join(cmd)}):\n{run.stderr[-2000:]}")
-    os.replace(folder / "harness.tmp", binary)
-    return binary
+    try:
+        return cached_program(f"harness-{model}", sources, tuple(flags))
+    except RuntimeError as exc:
+        raise RuntimeError(str(exc).replace(f"compiling harness-{model}", "compiling the C harness", 1)) from None
 
 
 def run_harness(binary: Path, states: Path, ncalls: int, reps: int, functions=()) -> tuple[dict, dict]:

@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..derivation.cache import cache_dir, writable, write_atomic
+from ..derivation.cache import cache_dir, writable
 from ..model import Robot
 from . import pin_peer
-from .harness import CFLAGS, POOL, _compiler, _digest, write_states
+from .harness import POOL, cached_program, write_states
 from .rows import Row
 from .task_space import file_model
 
@@ -199,21 +199,7 @@ def _symdyn_harness(robot: Robot, case: Case, log) -> Path:
     sizes = {f: int(np.prod(sigs[f].outputs[0][1])) for f in case.functions}
     texts = {f"{f}.c": text for f, text in lazy.scalar_units(robot, case.functions).items()}
     texts["task_harness.c"] = _harness_source(name, robot, case, sizes)
-    cc = _compiler()
-    key = _digest(cc, *CFLAGS, *(f"{k}\n{v}" for k, v in sorted(texts.items())))
-    folder = writable(cache_dir() / "bench" / f"task-{name}-{key[:16]}")
-    binary = folder / "harness"
-    if binary.exists():
-        return binary
-    for file, text in texts.items():
-        write_atomic(folder / file, text)
-    cmd = [cc, *CFLAGS, *(str(folder / f) for f in texts), "-o", str(folder / "harness.tmp"), "-lm"]
-    log(f"compiling symdyn's task-space harness for {robot.name} ...")
-    run = subprocess.run(cmd, capture_output=True, text=True)
-    if run.returncode != 0:
-        raise RuntimeError(f"compiling the task-space harness failed ({' '.join(cmd)}):\n{run.stderr[-2000:]}")
-    os.replace(folder / "harness.tmp", binary)
-    return binary
+    return cached_program(f"task-{name}", texts, log=log)
 
 
 def _states(robot: Robot, count: int, seed: int = 0):
