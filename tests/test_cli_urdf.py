@@ -135,3 +135,19 @@ def test_bench_takes_a_urdf_file(capsys):
     ]
     assert cli.main(argv) == 0
     assert "branches, frictionless" in capsys.readouterr().out
+
+
+def test_bench_takes_a_whole_robot_from_the_command_line(capsys, monkeypatch):
+    """`symdyn bench --model FILE --tips all --base-joint free` (it crashed: q of nq columns expected,
+    a chain's n given): a whole robot gets the whole-robot section; without the C++ peer it says so."""
+    from symdyn.bench import pin_peer
+
+    def unavailable(log=None):
+        raise pin_peer.PeerUnavailable("no headers here (a test)")
+
+    monkeypatch.setattr(pin_peer, "peer_binary", unavailable)
+    argv = ["bench", "--model", str(URDF), "--tips", "all", "--base-joint", "free", "--exclude", "finger"]
+    argv += ["--exclude", "camera", "--reps", "1", "--rounds", "1"]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "Pinocchio C++ not measured: no headers here (a test)" in out
