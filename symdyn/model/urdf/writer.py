@@ -342,16 +342,37 @@ def _fresh(robot: Robot) -> str:
             stacklevel=3,
         )
     model = robot.to_modified() if robot.convention == "standard" else robot
+    width = len(str(model.n))  # joint1 … joint9, joint01 … joint12: siblings read back in this order
     lines = [
         '<?xml version="1.0"?>',
         f'<robot name="{robot.name}">',
         f"  <!-- written by symdyn from the {robot.convention} model {robot.name!r}; "
         f"fingerprint {robot.fingerprint()} -->",
-        '  <link name="base_link"/>',
     ]
-    previous, base = "base_link", _matrix(model.base)
+    base = _matrix(model.base)
+    if model.base_joint is not None:  # the file's own floating joint carries base_link (its body's inertial)
+        kind = "floating" if model.base_joint == "free" else "planar"
+        body = model.base_body
+        lines += [
+            '  <link name="world"/>',
+            f'  <joint name="root_joint" type="{kind}">',
+            '    <parent link="world"/>',
+            '    <child link="base_link"/>',
+            f"    {_origin_xml(base)}",
+            *(['    <axis xyz="0 0 1"/>'] if kind == "planar" else []),
+            "  </joint>",
+            '  <link name="base_link">',
+            *([_inertial_xml(body.m, body.r, body.I, "    ")] if body is not None else []),
+            "  </link>",
+        ]
+        base = np.eye(4)
+    else:
+        lines.append('  <link name="base_link"/>')
+    names = [f"link{j + 1:0{width}d}" for j in range(model.n)]
     for j, link in enumerate(model.links):
-        name = f"link{j + 1}"
+        name = names[j]
+        parent = model.parents[j]
+        previous = "base_link" if parent < 0 else names[parent]
         if model.convention == "general":
             T = _matrix(link.origin or IDENTITY)
             axis = np.array([float(a) for a in link.axis])
@@ -372,7 +393,7 @@ def _fresh(robot: Robot) -> str:
                 T = T @ _trans(0, 0, link.d) @ _rot("z", link.offset)
             else:
                 T = T @ _rot("z", link.theta) @ _trans(0, 0, link.offset)
-        if j == 0:
+        if parent < 0:
             T = base @ T
         damping, friction, lost = _friction(link)
         kind = "prismatic" if not link.is_revolute else ("revolute" if link.qlim is not None else "continuous")
@@ -383,11 +404,12 @@ def _fresh(robot: Robot) -> str:
                 f'\n    <limit {bounds}effort="{_f(link.effort_limit or 0)}" '
                 f'velocity="{_f(link.velocity_limit or 0)}"/>'
             )
+        joint = link.name or f"joint{j + 1:0{width}d}"
         if lost:
             lines.append(f"  <!-- symdyn: not expressible in URDF: {'; '.join(lost)} -->")
-            _warn_lost(f"joint{j + 1}", lost)
+            _warn_lost(joint, lost)
         lines += [
-            f'  <joint name="joint{j + 1}" type="{kind}">',
+            f'  <joint name="{joint}" type="{kind}">',
             f'    <parent link="{previous}"/>',
             f'    <child link="{name}"/>',
             f"    {_origin_xml(T)}",
@@ -398,12 +420,11 @@ def _fresh(robot: Robot) -> str:
             _inertial_xml(link.m, link.r, link.I, "    "),
             "  </link>",
         ]
-        previous = name
     tool = _matrix(model.tool)
     if not np.array_equal(tool, np.eye(4)):
         lines += [
             '  <joint name="tool_joint" type="fixed">',
-            f'    <parent link="{previous}"/>',
+            f'    <parent link="{names[-1]}"/>',
             '    <child link="tool"/>',
             f"    {_origin_xml(tool)}",
             "  </joint>",
@@ -440,7 +461,7 @@ def to_urdf(
     if robot.urdf is not None and getattr(robot.urdf, "is_xacro", False):
         warnings.warn(  # its links live in macros: there is no URDF text to splice into
             f"the robot {robot.name!r} was read from the xacro file {robot.urdf.file!r}: "
-            "writing a fresh URDF of the chain alone",
+            "writing a fresh URDF of the model (its tree, its floating body) instead",
             URDFWarning,
             stacklevel=2,
         )
@@ -449,7 +470,7 @@ def to_urdf(
         if original is None:
             warnings.warn(
                 f"the URDF robot {robot.name!r} was read from {robot.urdf.file!r}, which is not at hand "
-                "(pass source=…): writing a fresh URDF of the chain alone",
+                "(pass source=…): writing a fresh URDF of the model (its tree, its floating body) instead",
                 URDFWarning,
                 stacklevel=2,
             )
