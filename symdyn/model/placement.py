@@ -25,6 +25,9 @@ __all__ = [
     "axis_rotation",
     "exact_rotation",
     "rational_rotation",
+    "compose",
+    "joint_motion",
+    "link_number",
 ]
 
 
@@ -200,3 +203,42 @@ def exact_rotation(R: Sequence) -> list:
         if sp.Matrix(E) * sp.Matrix(E).T == sp.eye(3):
             return E
     return rational_rotation(R)
+
+
+# --------------------------------------------------------------------------- what the file readers share
+
+_IDENTITY = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+
+
+def compose(A: tuple, B: tuple) -> tuple:
+    """A·B of two 4×4 transforms given as rows (exact numbers stay exact)."""
+    return tuple(tuple(sum(A[i][k] * B[k][j] for k in range(4)) for j in range(4)) for i in range(4))
+
+
+def link_number(x: sp.Expr):
+    """A value for a `Link` read from a file: an int, or a float when its decimal is the exact
+    value (as a derivation reads it back), else the exact Rational."""
+    x = sp.sympify(x)  # the identity's entries are plain ints
+    if x.is_Integer:
+        return int(x)
+    return float(x) if exact(float(x)) == x else x
+
+
+def joint_motion(kind: str, axis: tuple, value: float) -> tuple:
+    """The 4×4 transform of a revolute or prismatic joint along its unit `axis` at `value`
+    (exact numbers: ±x, ±y, ±z turn exactly, any other axis by the nearest rational rotation)."""
+    if value == 0:
+        return _IDENTITY
+    if kind == "prismatic":
+        p = [exact(a) * exact(value) for a in axis]
+        return tuple(tuple(int(i == j) for j in range(3)) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
+    unit = [k for k in range(3) if axis[k] != 0]
+    if len(unit) == 1:  # ±x, ±y, ±z: an exact rotation by the signed angle
+        rpy = [0, 0, 0]
+        rpy[unit[0]] = float(value) * float(np.sign(axis[unit[0]]))
+        R = rpy_rotation(rpy)
+    else:  # Rodrigues, then the nearest exactly orthogonal rational rotation
+        u = np.array([float(a) for a in axis])
+        K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+        R = rational_rotation(np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K)
+    return tuple(tuple(R[i]) + (sp.S.Zero,) for i in range(3)) + ((0, 0, 0, 1),)

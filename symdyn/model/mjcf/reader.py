@@ -30,11 +30,10 @@ import numpy as np
 import sympy as sp
 
 from ..frames import Frame
-from ..placement import exact, rational_rotation, rpy_rotation
+from ..placement import compose, exact, joint_motion, link_number, rational_rotation, rpy_rotation
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
 from ..urdf.bodies import Body
-from ..urdf.reader import _compose, _motion, _number
 from ..urdf.record import Locked, Snap
 from .compile import MJCFError, MJCFWarning, compile_mjcf, describe_equality, mujoco_module
 from .record import MjcfRecord
@@ -152,11 +151,11 @@ class _Reader:
     def motion(self, j: int, value: float) -> tuple:
         """Body frame before joint j → after it, the joint at `value` (moved by value − qpos0)."""
         kind = _KIND[self.joint_type(j)]
-        moved = _motion(kind, self.axis(j), value - float(self.m.qpos0[self.m.jnt_qposadr[j]]))
+        moved = joint_motion(kind, self.axis(j), value - float(self.m.qpos0[self.m.jnt_qposadr[j]]))
         if kind == "prismatic" or moved is IDENTITY:
             return moved
         p = self.m.jnt_pos[j]
-        return _compose(_compose(_translation(p), moved), _translation(-p))
+        return compose(compose(_translation(p), moved), _translation(-p))
 
     # ---- bodies
     def inertial(self, b: int) -> Body:
@@ -195,8 +194,8 @@ class _Reader:
             for j in self.joints_of(child):
                 value, why = self.values[j]
                 self.locked.append(Locked(self.joint(j), value, into, why, moves))
-                T = _compose(T, self.motion(j, value))
-            body = body + self.subtree(child, skip, into, moves, seg, _compose(at, T)).moved(T)
+                T = compose(T, self.motion(j, value))
+            body = body + self.subtree(child, skip, into, moves, seg, compose(at, T)).moved(T)
         return body
 
     # ---- the chain's links
@@ -208,13 +207,13 @@ class _Reader:
         try:
             return Link(
                 joint=_KIND[self.joint_type(j)],
-                origin=tuple(tuple(_number(x) for x in row) for row in origin),
+                origin=tuple(tuple(link_number(x) for x in row) for row in origin),
                 axis=self.axis(j),
                 offset=-float(m.qpos0[m.jnt_qposadr[j]]) + 0.0,
                 qlim=qlim,
-                m=_number(body.m),
-                r=tuple(_number(x) for x in body.r),
-                I=tuple(tuple(_number(x) for x in row) for row in body.I),
+                m=link_number(body.m),
+                r=tuple(link_number(x) for x in body.r),
+                I=tuple(tuple(link_number(x) for x in row) for row in body.I),
                 Jm=float(m.dof_armature[dof]),
                 B=float(m.dof_damping[dof]),
                 Tc=(friction, -friction + 0.0),
@@ -474,18 +473,18 @@ def from_mjcf(
         pending, carrier, origin, body = IDENTITY, None, IDENTITY, Body.empty()
         carriers: list[tuple[int, tuple, Body]] = []
         for b in chain:
-            T = _compose(pending, reader.placement(b))  # body b's frame, from the carrier's link frame (or the base)
+            T = compose(pending, reader.placement(b))  # body b's frame, from the carrier's link frame (or the base)
             for j in reader.joints_of(b):
                 if j in given:
                     value, why = reader.values[j]
                     into = reader.body(int(m.jnt_bodyid[carrier])) if carrier is not None else reader.body(base)
                     reader.locked.append(Locked(reader.joint(j), value, into, why, carrier is not None, on_chain=True))
-                    T = _compose(T, reader.motion(j, value))
+                    T = compose(T, reader.motion(j, value))
                     continue
                 if carrier is not None:
                     carriers.append((carrier, origin, body))
                 if reader.joint_type(j) == "hinge":  # the link frame at the anchor; back to the body frame after
-                    origin, T = _compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+                    origin, T = compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
                 else:
                     origin, T = T, IDENTITY
                 carrier, body = j, Body.empty()
@@ -539,7 +538,7 @@ def from_mjcf(
     base_T, above = IDENTITY, []
     b = base
     while b != 0:
-        base_T = _compose(reader.placement(b), base_T)
+        base_T = compose(reader.placement(b), base_T)
         above += [reader.joint(j) for j in reader.joints_of(b)]
         b = int(m.body_parentid[b])
     if free_joint is not None:  # q places the free body in the world: its joint sits at the origin
@@ -549,9 +548,9 @@ def from_mjcf(
     floating = None
     if base_joint is not None:
         floating = Link(
-            m=_number(base_mass.m),
-            r=tuple(_number(x) for x in base_mass.r),
-            I=tuple(tuple(_number(x) for x in row) for row in base_mass.I),
+            m=link_number(base_mass.m),
+            r=tuple(link_number(x) for x in base_mass.r),
+            I=tuple(tuple(link_number(x) for x in row) for row in base_mass.I),
             name=reader.body(base),
         )
 
@@ -560,8 +559,8 @@ def from_mjcf(
         tuple(links),
         convention="general",
         gravity=g,
-        base=tuple(tuple(_number(x) for x in row) for row in base_T),
-        tool=tuple(tuple(_number(x) for x in row) for row in pending),
+        base=tuple(tuple(link_number(x) for x in row) for row in base_T),
+        tool=tuple(tuple(link_number(x) for x in row) for row in pending),
         base_joint=base_joint,
         base_body=floating,
         source=f"MJCF {label} (sha256 {compiled.sha256[:16]}…)",
@@ -776,7 +775,7 @@ def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) 
         moves = seg >= 0 or base_moves
         into = reader.body(int(m.jnt_bodyid[carriers[seg][0]])) if seg >= 0 else reader.body(base)
         if b != base:
-            T = _compose(T, reader.placement(b))
+            T = compose(T, reader.placement(b))
             free = [j for j in reader.joints_of(b) if reader.joint_type(j) in ("ball", "free")]
             if free:
                 what = f"{reader.joint_type(free[0])} joint {reader.joint(free[0])!r} on body {reader.body(b)!r}"
@@ -790,7 +789,7 @@ def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) 
             for j in reader.joints_of(b):
                 if j in moving:
                     if reader.joint_type(j) == "hinge":  # the link frame at the anchor
-                        origin, T = _compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+                        origin, T = compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
                     else:
                         origin, T = T, IDENTITY
                     carriers.append([j, origin, Body.empty(), seg])
@@ -798,7 +797,7 @@ def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) 
                     continue
                 value, why = reader.values[j]
                 reader.locked.append(Locked(reader.joint(j), value, into, why, moves, on_chain=j in held))
-                T = _compose(T, reader.motion(j, value))
+                T = compose(T, reader.motion(j, value))
         body = reader.inertial(b).moved(T)
         if seg >= 0:
             carriers[seg][2] = carriers[seg][2] + body
@@ -813,7 +812,7 @@ def _catalog(reader: _Reader) -> tuple[Frame, ...]:
     """Every body reached and every site on one, as frames (`Robot.frame_catalog`): a body by its
     name, a site by its own (site:NAME where a body has that name)."""
     m = reader.m
-    exact_T = lambda T: tuple(tuple(_number(x) for x in row) for row in T)  # noqa: E731
+    exact_T = lambda T: tuple(tuple(link_number(x) for x in row) for row in T)  # noqa: E731
     out = {reader.body(b): Frame(reader.body(b), seg, exact_T(T)) for b, (seg, T) in reader.frames.items()}
     for s in range(m.nsite):
         b = int(m.site_bodyid[s])
@@ -824,7 +823,7 @@ def _catalog(reader: _Reader) -> tuple[Frame, ...]:
         placed = tuple(tuple(R[i]) + (exact(float(m.site_pos[s][i])),) for i in range(3)) + ((0, 0, 0, 1),)
         name = m.site(s).name or f"site#{s}"
         name = f"site:{name}" if name in out else name
-        out[name] = Frame(name, seg, exact_T(_compose(T, placed)))
+        out[name] = Frame(name, seg, exact_T(compose(T, placed)))
     return tuple(out.values())
 
 

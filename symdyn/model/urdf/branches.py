@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from ..placement import compose
 from ..robot import IDENTITY, Link
 from .bodies import Body, read_body
 from .record import Locked
@@ -36,10 +37,6 @@ class Segment:
     parent: int
     origin: tuple
     body: Body = field(default_factory=Body.empty)
-
-
-def _compose(A: tuple, B: tuple) -> tuple:
-    return tuple(tuple(sum(A[i][k] * B[k][j] for k in range(4)) for j in range(4)) for i in range(4))
 
 
 def ordered(tree: Tree, link: str) -> list:
@@ -183,14 +180,14 @@ def walk(reader, tree: Tree, base: str, moving: set, excluded: set, held: set, b
                 continue
             joint = tree.joints[child]
             kind = joint.attrib.get("type")
-            To = _compose(T, reader.origin(joint, f"joint {joint.name!r} origin"))
+            To = compose(T, reader.origin(joint, f"joint {joint.name!r} origin"))
             if joint.name in moving:
                 pushed.append((child, seg, To, joint))
                 continue
             if kind in MOVING:
                 value, why = reader.values[joint.name]
                 reader.locked.append(Locked(joint.name, value, here.head, why, moves, on_chain=joint.name in held))
-                To = _compose(To, reader.motion(joint, value))
+                To = compose(To, reader.motion(joint, value))
             elif kind in MULTI:
                 reader.locked.append(Locked(joint.name, 0.0, here.head, "default", moves))
             elif kind != "fixed":

@@ -24,9 +24,8 @@ from pathlib import Path
 from typing import Iterable, Mapping
 
 import numpy as np
-import sympy as sp
 
-from ..placement import exact, placement, rational_rotation, rpy_rotation
+from ..placement import compose, joint_motion, link_number, placement, rpy_rotation
 from ..frames import Frame
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import Snapping, snap_angle, snap_axis
@@ -38,38 +37,6 @@ from .tree import MOVING, MULTI, Tree
 from .xml import Element, Text, URDFError, URDFWarning, numbers, parse, read, where
 
 __all__ = ["from_urdf"]
-
-
-def _compose(A: tuple, B: tuple) -> tuple:
-    return tuple(tuple(sum(A[i][k] * B[k][j] for k in range(4)) for j in range(4)) for i in range(4))
-
-
-def _number(x: sp.Expr):
-    """A value for the Link: an int, or a float when its decimal is the exact value
-    (as a derivation reads it back), else the exact Rational."""
-    x = sp.sympify(x)  # the identity's entries are plain ints
-    if x.is_Integer:
-        return int(x)
-    return float(x) if exact(float(x)) == x else x
-
-
-def _motion(kind: str, axis: tuple, value: float) -> tuple:
-    """The 4×4 transform of a joint along its unit `axis` at `value` (exact numbers)."""
-    if value == 0:
-        return IDENTITY
-    if kind == "prismatic":
-        p = [exact(a) * exact(value) for a in axis]
-        return tuple(tuple(int(i == j) for j in range(3)) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
-    unit = [k for k in range(3) if axis[k] != 0]
-    if len(unit) == 1:  # ±x, ±y, ±z: an exact rotation by the signed angle
-        rpy = [0, 0, 0]
-        rpy[unit[0]] = float(value) * float(np.sign(axis[unit[0]]))
-        R = rpy_rotation(rpy)
-    else:  # Rodrigues, then the nearest exactly orthogonal rational rotation
-        u = np.array([float(a) for a in axis])
-        K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-        R = rational_rotation(np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K)
-    return tuple(tuple(R[i]) + (sp.S.Zero,) for i in range(3)) + ((0, 0, 0, 1),)
 
 
 class _Reader:
@@ -128,7 +95,7 @@ class _Reader:
 
     def motion(self, joint: Element, value: float) -> tuple:
         """The exact transform of a revolute, continuous or prismatic `joint` held at `value`."""
-        return _motion(MOVING[joint.attrib["type"]], self.axis(joint), value)
+        return joint_motion(MOVING[joint.attrib["type"]], self.axis(joint), value)
 
     # ---- bodies
     def _branch(self, name: str) -> str:
@@ -194,12 +161,12 @@ class _Reader:
             if kind in MOVING:
                 value, why = self.values[joint.name]
                 self.locked.append(Locked(joint.name, value, into, why, moves))
-                T = _compose(T, _motion(MOVING[kind], self.axis(joint), value))
+                T = compose(T, joint_motion(MOVING[kind], self.axis(joint), value))
             elif kind in MULTI:
                 self.locked.append(Locked(joint.name, 0.0, into, "default", moves))
             elif kind != "fixed":
                 raise URDFError(f"{where(self.source, joint)}: unknown joint type {kind!r}")
-            body = body + self.subtree(child, skip, into, moves, seg, _compose(at, T)).moved(T)
+            body = body + self.subtree(child, skip, into, moves, seg, compose(at, T)).moved(T)
         return body
 
     def _balance(self, name: str):
@@ -237,12 +204,12 @@ class _Reader:
         try:
             return Link(
                 joint=kind,
-                origin=tuple(tuple(_number(x) for x in row) for row in origin),
+                origin=tuple(tuple(link_number(x) for x in row) for row in origin),
                 axis=self.axis(joint),
                 qlim=qlim,
-                m=_number(body.m),
-                r=tuple(_number(x) for x in body.r),
-                I=tuple(tuple(_number(x) for x in row) for row in body.I),
+                m=link_number(body.m),
+                r=tuple(link_number(x) for x in body.r),
+                I=tuple(tuple(link_number(x) for x in row) for row in body.I),
                 B=damping,
                 Tc=(friction, -friction),
                 effort_limit=effort or None,
@@ -477,12 +444,12 @@ def _read_chain(
     for joint in path:  # pending: from the moving body's frame (or the base) to the joint reached
         child = joint.find("child").attrib["link"]
         into = carrier[0].find("child").attrib["link"] if carrier else base
-        T = _compose(pending, reader.origin(joint, f"joint {joint.name!r} origin"))
+        T = compose(pending, reader.origin(joint, f"joint {joint.name!r} origin"))
         if joint.name not in moving:  # fixed, or a chain joint locked at a value
             if joint.attrib.get("type") in MOVING:
                 value, why = reader.values[joint.name]
                 reader.locked.append(Locked(joint.name, value, into, why, carrier is not None, on_chain=True))
-                T = _compose(T, _motion(MOVING[joint.attrib["type"]], reader.axis(joint), value))
+                T = compose(T, joint_motion(MOVING[joint.attrib["type"]], reader.axis(joint), value))
             sub = reader.subtree(child, skip, into, carrier is not None, len(out) if carrier else -1, T)
             pending = T
             body = body + sub.moved(T) if carrier else body  # ahead of the first joint: part of the base
@@ -502,7 +469,7 @@ def _read_chain(
             f"{urdf.source}: {empty}; `symdyn print` and `symdyn show` read it nonetheless",
         )
     reader.warnings += [empty] if empty else []
-    tool = tuple(tuple(_number(x) for x in row) for row in pending)
+    tool = tuple(tuple(link_number(x) for x in row) for row in pending)
     robot = Robot(
         name or _file_name(text) or tree.robot.name or "urdf",
         tuple(out),
@@ -642,17 +609,17 @@ def _read_tree(
     base_body = None
     if base_joint is not None:
         base_body = Link(
-            m=_number(body.m),
-            r=tuple(_number(x) for x in body.r),
-            I=tuple(tuple(_number(x) for x in row) for row in body.I),
+            m=link_number(body.m),
+            r=tuple(link_number(x) for x in body.r),
+            I=tuple(tuple(link_number(x) for x in row) for row in body.I),
             name=base,
         )
     robot = Robot(
         name or _file_name(text) or tree.robot.name or "urdf",
         tuple(links),
         convention="general",
-        base=tuple(tuple(_number(x) for x in row) for row in base_T),
-        tool=tuple(tuple(_number(x) for x in row) for row in tool),
+        base=tuple(tuple(link_number(x) for x in row) for row in base_T),
+        tool=tuple(tuple(link_number(x) for x in row) for row in tool),
         base_joint=base_joint,
         base_body=base_body,
         source=f"{'xacro' if xacro else 'URDF'} {text.file} (sha256 {text.sha256[:16]}…)",
@@ -685,7 +652,7 @@ def _read_tree(
 def _catalog(frames: dict) -> tuple[Frame, ...]:
     """The file's links as frames (`Robot.frame_catalog`), in the order they were reached."""
     return tuple(
-        Frame(name, seg, tuple(tuple(_number(x) for x in row) for row in T)) for name, (seg, T) in frames.items()
+        Frame(name, seg, tuple(tuple(link_number(x) for x in row) for row in T)) for name, (seg, T) in frames.items()
     )
 
 
