@@ -102,13 +102,6 @@ class Dynamics:
         out = [(a, getattr(self, a)) for a in args]
         return out + [("p", self.params)] if self.params else out
 
-    def op_count(self, term: str, stage: str = "cse") -> dict:
-        """Operations of a term after CSE ({"mul", "add", …}); see `symdyn.derivation.simplify.op_counts`
-        for every stage (raw, cse, folded, pruned)."""
-        from .simplify import op_counts
-
-        return op_counts(self, term, stages=(stage,))[stage]
-
     @property
     def Cqd(self) -> sp.ImmutableMatrix:
         """The Coriolis/centripetal vector C(q, q̇)·q̇ (named apart from C)."""

@@ -24,7 +24,7 @@ from . import trigpoly
 from .kinematics import along_z
 from .program import OpCounter, lower, make_program
 
-if TYPE_CHECKING:  # annotations only: Dynamics.op_count calls into this module
+if TYPE_CHECKING:  # annotations only: the dynamics module imports nothing of this one
     from .dynamics import Dynamics
 
 
