@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from .rotations import quaternion_matrix
+
 __all__ = ["integrate", "difference", "normalize", "base_pose", "coordinate_rates", "QUATERNION_TOLERANCE"]
 
 #: Largest |‖quaternion‖ − 1| accepted (and then normalised); a larger one is refused.
@@ -52,16 +54,6 @@ def _skew(w: np.ndarray) -> np.ndarray:
     S = np.zeros(w.shape[:-1] + (3, 3))
     S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
     return S - np.swapaxes(S, -1, -2)
-
-
-def quaternion_matrix(quat: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of unit quaternions (..., 4) in (x, y, z, w) order."""
-    x, y, z, w = (quat[..., k] for k in range(4))
-    R = np.empty(quat.shape[:-1] + (3, 3))
-    R[..., 0, 0], R[..., 0, 1], R[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
-    R[..., 1, 0], R[..., 1, 1], R[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
-    return R
 
 
 def _quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:

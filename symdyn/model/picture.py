@@ -18,6 +18,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .base_joint import base_pose
+
 __all__ = ["plot", "frames", "ellipsoid_axes"]
 
 #: Colours and labels of a URDF bone's role (`symdyn.model.urdf.Bone.role`).
@@ -59,14 +61,9 @@ def _general(link, q: float) -> np.ndarray:
 def _base_pose(robot: Any, q: np.ndarray) -> np.ndarray:
     """The floating base's placement of q's first coordinates (free: x y z qx qy qz qw; planar: x y yaw)."""
     T = np.eye(4)
-    if robot.base_joint == "free":
-        x, y, z, w = q[3:7] / (np.linalg.norm(q[3:7]) or 1.0)
-        T[:3, :3] = [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-        T[:3, 3] = q[:3]
+    if robot.base_joint == "free":  # the quaternion checked as everywhere (base_joint: a norm off 1 is an error)
+        R, p = base_pose("free", np.asarray(q, dtype=float))
+        T[:3, :3], T[:3, 3] = R, p
     elif robot.base_joint == "planar":
         c, s = math.cos(q[2]), math.sin(q[2])
         T[:2, :2] = [[c, -s], [s, c]]

@@ -27,6 +27,7 @@ import numpy as np
 import sympy as sp
 
 from .placement import placement
+from .rotations import quaternion_matrix
 from .robot import IDENTITY, Link, Robot
 
 __all__ = ["random_arm", "degenerate_arm", "robot_code", "ArmOptions"]
@@ -54,14 +55,7 @@ def _rotation(rng: random.Random) -> np.ndarray:
     """A uniformly random rotation matrix (from a random unit quaternion)."""
     w, x, y, z = (rng.gauss(0, 1) for _ in range(4))
     s = math.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / s, x / s, y / s, z / s
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    return quaternion_matrix((w / s, x / s, y / s, z / s), order="wxyz")
 
 
 def _transform(R: np.ndarray, p) -> tuple:

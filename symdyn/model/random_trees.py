@@ -18,6 +18,8 @@ import random
 
 import numpy as np
 
+from .rotations import quaternion_matrix
+
 from .random_arms import ArmOptions, random_arm
 
 __all__ = ["RandomTree", "random_tree"]
@@ -69,14 +71,7 @@ def _random_inertia(rng: random.Random, m: float) -> np.ndarray:
     moments = np.array([a, b, rng.uniform(abs(a - b), a + b)]) * m * 0.01  # triangle inequality holds
     w, x, y, z = (rng.gauss(0, 1) for _ in range(4))
     q = np.array([w, x, y, z]) / math.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = q
-    R = np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    R = quaternion_matrix(q, order="wxyz")
     return R @ np.diag(moments) @ R.T
 
 

@@ -30,6 +30,7 @@ import numpy as np
 import sympy as sp
 
 from ..frames import Frame
+from ..rotations import quaternion_matrix
 from ..placement import compose, exact, joint_motion, link_number, rational_rotation, rpy_rotation
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
@@ -45,17 +46,6 @@ _KIND = {"hinge": "revolute", "slide": "prismatic"}
 
 def _translation(p) -> tuple:
     return tuple(tuple(int(i == j) for j in range(3)) + (exact(p[i]),) for i in range(3)) + ((0, 0, 0, 1),)
-
-
-def _quat_matrix(q) -> np.ndarray:
-    w, x, y, z = (float(v) for v in q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 class _Reader:
@@ -107,7 +97,7 @@ class _Reader:
         """The exact rotation of a compiled unit quaternion: a signed permutation when every entry
         is within the snapping tolerance of 0 or ±1; else roll, pitch, yaw (URDF's order), each
         snapped by the rule; else (snap=False, or a pitch of ±π/2) the nearest rational rotation."""
-        R = _quat_matrix(quat)
+        R = quaternion_matrix(quat, order="wxyz")
         near = np.round(R)
         change = float(np.abs(R - near).max())
         if change <= ANGLE_TOLERANCE and abs(np.linalg.det(near) - 1) < 0.5 and (self.snap or change == 0):
@@ -161,7 +151,7 @@ class _Reader:
     def inertial(self, b: int) -> Body:
         """Body b's own mass, COM and inertia about the COM in its frame, as MuJoCo compiled them."""
         m = self.m
-        R = _quat_matrix(m.body_iquat[b])
+        R = quaternion_matrix(m.body_iquat[b], order="wxyz")
         I = R @ np.diag(m.body_inertia[b]) @ R.T
         upper = {(i, j): exact(float(I[i, j])) for i in range(3) for j in range(i, 3)}
         return Body(

@@ -50,7 +50,9 @@ def _array(x: Any, size: int, name: str) -> np.ndarray:
 
 
 def _rotation(quat_xyzw: np.ndarray) -> np.ndarray:
-    from ..base_joint import quaternion_matrix
+    """The rotation of a quaternion taken as MuJoCo takes its qpos: normalised first (MuJoCo
+    normalises its free joints' quaternions itself; `from_mujoco_state` returns them normalised)."""
+    from ..rotations import quaternion_matrix
 
     return quaternion_matrix(quat_xyzw / np.linalg.norm(quat_xyzw, axis=-1, keepdims=True))
 
@@ -72,6 +74,7 @@ def from_mujoco_state(robot: "Robot", qpos: ArrayLike, qvel: ArrayLike, qacc: Ar
         return (joints_q, joints_v) if a is None else (joints_q, joints_v, joints_a)
     i, d = rec.free_address
     quat = np.concatenate([qpos[..., i + 4 : i + 7], qpos[..., i + 3 : i + 4]], -1)  # w last
+    quat = quat / np.linalg.norm(quat, axis=-1, keepdims=True)  # as MuJoCo reads it: normalised
     R = _rotation(quat)
     w = qvel[..., d + 3 : d + 6]
     lin = np.einsum("...ji,...j->...i", R, qvel[..., d : d + 3])  # Rᵀ v_world

@@ -1,0 +1,34 @@
+"""Rotations from quaternions, in one place: the one formula every reader, the floating base,
+the pictures and the random models use.
+
+Part of the model stage.  A quaternion is (x, y, z, w) — Pinocchio's and symdyn's order, w last
+— unless `order="wxyz"` says MuJoCo's (w first).  `quaternion_matrix` takes unit quaternions as
+they are (it normalises nothing: a caller that accepts other norms says so and divides first).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["quaternion_matrix"]
+
+
+def quaternion_matrix(quat, order: str = "xyzw") -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of unit quaternions (..., 4) given in `order` ("xyzw": w last,
+    as symdyn's and Pinocchio's q; "wxyz": w first, as MuJoCo's qpos and body_quat).
+
+    Raises:
+        ValueError: an order that is neither "xyzw" nor "wxyz".
+    """
+    quat = np.asarray(quat, dtype=float)
+    if order == "xyzw":
+        x, y, z, w = (quat[..., k] for k in range(4))
+    elif order == "wxyz":
+        w, x, y, z = (quat[..., k] for k in range(4))
+    else:
+        raise ValueError(f"quaternion order {order!r}: expected 'xyzw' (w last) or 'wxyz' (w first)")
+    R = np.empty(quat.shape[:-1] + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
+    R[..., 1, 0], R[..., 1, 1], R[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
+    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    return R
