@@ -244,6 +244,11 @@ def write_arm(path: str | Path, joints: list[PeerJoint], gravity, *, parents=Non
     return path
 
 
+def write_tree(path: str | Path, tree: PeerTree) -> Path:
+    """Write the arm file of a `tree_joints` tree (version 2: root, parents, base body)."""
+    return write_arm(path, tree.joints, tree.gravity, parents=tree.parents, root=tree.root, base=tree.base)
+
+
 # --------------------------------------------------------------------------- build
 
 

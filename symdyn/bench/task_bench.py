@@ -105,14 +105,7 @@ def _peer_arm(robot: Robot, path: Path, folder: Path) -> Path:
     """Pinocchio's model of the file with the robot's frames, as pin_peer.cpp reads it."""
     model, ids = file_model(robot, path)
     tree = pin_peer.tree_joints(model)
-    arm = pin_peer.write_arm(
-        folder / f"arm-{os.getpid()}.txt",
-        tree.joints,
-        tree.gravity,
-        parents=tree.parents,
-        root=tree.root,
-        base=tree.base,
-    )
+    arm = pin_peer.write_tree(folder / f"arm-{os.getpid()}.txt", tree)
     first = 1 if tree.root == "none" else 2
     lines = []
     for f in ids:

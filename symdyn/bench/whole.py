@@ -73,14 +73,7 @@ def compare_robot(robot: Robot, *, calls: int, reps: int, rounds: int, seed: int
     states = floating_states(bare, POOL, seed=seed)
     q, v, a, _ = states
     states_file = write_states(work / f"states-whole-{os.getpid()}.bin", *states)
-    arm = pin_peer.write_arm(
-        work / f"arm-whole-{os.getpid()}.txt",
-        tree.joints,
-        tree.gravity,
-        parents=tree.parents,
-        root=tree.root,
-        base=tree.base,
-    )
+    arm = pin_peer.write_tree(work / f"arm-whole-{os.getpid()}.txt", tree)
     ours_fns = sorted({p[0] for p in PAIRS})
     peer_algos = [p[1] for p in PAIRS]
     ours, theirs = [], []
