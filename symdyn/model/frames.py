@@ -64,7 +64,7 @@ def default_names(robot) -> tuple[str, ...]:
         return ("tool",)
     parents = set(robot.parents)
     leaves = [k for k in range(robot.n) if k not in parents]
-    own = {f.link: f.name for f in reversed(robot.frame_catalog) if f.placement == IDENTITY or _is_identity(f)}
+    own = {f.link: f.name for f in reversed(robot.frame_catalog) if _is_identity(f)}
     return tuple(own.get(k, f"link{k + 1}") for k in leaves)
 
 
