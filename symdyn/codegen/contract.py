@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-__all__ = ["MAXDIMS", "argument", "leading", "arguments", "source"]
+__all__ = ["MAXDIMS", "argument", "leading", "given", "arguments", "source"]
 
 #: NumPy's limit on the dimensions of an array (32 before NumPy 2).
 MAXDIMS = 64
@@ -60,13 +60,9 @@ def leading(function, names, arrays):
     return shape
 
 
-def arguments(function: str, inputs, args: tuple, kwargs: dict, lead: int):
-    """One call's arguments, given by position or name (TypeErrors as Python's
-    own), checked and broadcast: (C-contiguous float arrays of shape
-    leading + (size,), one per input, leading).
-
-    inputs: ((name, size), …) in order; lead: the most leading dimensions allowed.
-    """
+def given(function: str, inputs, args: tuple, kwargs: dict) -> dict:
+    """{input name: value} of one call, given by position or name; a missing, extra, repeated or
+    unknown argument is a TypeError as Python's own.  inputs: ((name, size), …) in order."""
     names = [a for a, _ in inputs]
     if len(args) > len(inputs):
         plural = "s" if len(inputs) != 1 else ""
@@ -74,23 +70,34 @@ def arguments(function: str, inputs, args: tuple, kwargs: dict, lead: int):
             f"{function}() takes {len(inputs)} positional argument{plural} but {len(args)} were "
             f"given ({', '.join(names)})"
         )
-    given = dict(zip(names, args))
+    values = dict(zip(names, args))
     for key, value in kwargs.items():
         if key not in names:
             raise TypeError(
                 f"{function}() got an unexpected keyword argument {key!r} (its arguments are {', '.join(names)})"
             )
-        if key in given:
+        if key in values:
             raise TypeError(f"{function}() got multiple values for argument {key!r}")
-        given[key] = value
-    missing = [a for a in names if a not in given]
+        values[key] = value
+    missing = [a for a in names if a not in values]
     if missing:
         plural = "s" if len(missing) != 1 else ""
         raise TypeError(
             f"{function}() missing {len(missing)} required positional argument{plural}: "
             + " and ".join(map(repr, missing))
         )
-    arrays = [argument(given[a], size, a, lead, function) for a, size in inputs]
+    return values
+
+
+def arguments(function: str, inputs, args: tuple, kwargs: dict, lead: int):
+    """One call's arguments (`given`), checked and broadcast: (C-contiguous float arrays of shape
+    leading + (size,), one per input, leading).
+
+    inputs: ((name, size), …) in order; lead: the most leading dimensions allowed.
+    """
+    names = [a for a, _ in inputs]
+    values = given(function, inputs, args, kwargs)
+    arrays = [argument(values[a], size, a, lead, function) for a, size in inputs]
     shape = leading(function, names, arrays)
     return tuple(
         np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]) if x.shape[:-1] != shape else x) for x in arrays

@@ -44,7 +44,10 @@ __all__ = [
     "configure_parser",
 ]
 
-TARGETS = ("numpy", "c", "casadi", "array-api")
+TARGETS = ("numpy", "c", "casadi", "array-api", "cuda")
+#: What `--target all` writes and generated/ holds: the CUDA target is written when asked for (its
+#: arithmetic is the C target's, tested as C++ by tests/test_cuda.py).
+ALL = ("numpy", "c", "casadi", "array-api")
 #: What `load` takes: the targets, and the array-API module's functions on JAX or PyTorch arrays.
 LOADS = (*TARGETS, "jax", "torch")
 #: The target whose files a loadable name reads.
@@ -64,7 +67,7 @@ def _robot(name_or_robot) -> Robot:
 
 def _targets(target: str) -> tuple[str, ...]:
     if target == "all":
-        return TARGETS
+        return ALL
     if target not in TARGETS:
         raise ValueError(f"unknown target {target!r}: expected one of {', '.join(TARGETS)} or 'all'")
     return (target,)
@@ -77,6 +80,7 @@ def files(name: str, target: str) -> tuple[str, ...]:
         "c": (f"{name}.c", f"{name}.h"),
         "casadi": (f"{name}.casadi",),
         "array-api": (f"{name}_xp.py",),
+        "cuda": (f"{name}.cu", f"{name}_cuda.h"),
     }[_WRITTEN.get(target, target)]
 
 
@@ -149,10 +153,10 @@ def in_checkout() -> bool:
 
 def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False) -> list[Path]:
     """Write the model code of `robot` (a Robot or a model's name) for
-    `target` ("numpy", "c", "casadi", "array-api" or "all") into `out_dir` (default, for
+    `target` ("numpy", "c", "casadi", "array-api", "cuda" or "all": all but "cuda") into `out_dir` (default, for
     the shipped models only: generated/<name>); `casadi_c` also writes
     CasADi's own C code.  Returns the paths written."""
-    from .emit import array_api as xp_emit, c as c_emit, casadi as ca_emit, numpy as np_emit
+    from .emit import array_api as xp_emit, c as c_emit, casadi as ca_emit, cuda as cu_emit, numpy as np_emit
 
     robot = _robot(robot)
     targets = _targets(target)
@@ -181,6 +185,9 @@ def generate(robot, target: str = "all", out_dir=None, *, casadi_c: bool = False
             elif t == "c":
                 written.append(write_atomic(folder / f"{b.name}.h", c_emit.h_source(b)))
                 written.append(write_atomic(folder / f"{b.name}.c", c_emit.c_source(b)))
+            elif t == "cuda":
+                written.append(write_atomic(folder / f"{b.name}{cu_emit.HEADER_SUFFIX}", cu_emit.h_source(b)))
+                written.append(write_atomic(folder / f"{b.name}.cu", cu_emit.cu_source(b)))
             else:
                 written.append(ca_emit.serialize(b, folder / f"{b.name}.casadi"))
                 if casadi_c:
@@ -375,6 +382,13 @@ def _load_folder(folder: Path, name: str, target: str, robot: Robot, options, ji
         ):
             lib = load_library(paths[0], paths[1], options or CompileOptions())
         return _sized(GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, lib.functions, lib), robot)
+    if target == "cuda":
+        from .emit import cudalib
+
+        cupy, arch = cudalib.device()
+        with progress.reported(f"symdyn: compiling {name}'s CUDA code for sm_{arch} (once; cached)"):
+            funcs = cudalib.load(writable(folder), name, cupy, arch)
+        return _sized(GeneratedModel(name, robot.n, target, robot.fingerprint(), folder, funcs), robot)
     from .emit.casadi import deserialize
 
     funcs = {f.name(): f for f in deserialize(paths[0])[1]}
@@ -408,10 +422,17 @@ def load(name_or_robot, target: str = "c", *, options=None, folder=None, compile
     CasADi's SX.  "array-api": the functions of `<name>_xp.py`, on the arrays of any
     library that follows the array API standard; "jax" and "torch": the same on JAX
     arrays (each function `jax.jit`-compiled unless `jit=False`) or PyTorch tensors
-    (needs array-api-compat), other arguments converted to them (docs/functions.md).
+    (needs array-api-compat), other arguments converted to them (docs/functions.md).  "cuda":
+    the kernels of `<name>.cu` on CuPy arrays, PyTorch CUDA tensors or JAX GPU arrays (NumPy
+    arrays copied to the GPU and back), compiled once for this GPU (docs/cuda.md); without CuPy
+    or a GPU a RuntimeError that says which is missing, before anything is generated.
     """
     if target not in LOADS:
         raise ValueError(f"unknown target {target!r}: load() takes one of {', '.join(LOADS)}")
+    if target == "cuda":
+        from .emit import cudalib
+
+        cudalib.device()
     if jit is not None and target != "jax":
         raise ValueError(f"jit= is an option of the JAX target, not of {target!r}")
     if compiled is not False and target != "casadi":

@@ -523,9 +523,10 @@ def _used(item) -> set:
     return (b if x is None else x).free_symbols
 
 
-def _parts(model: str, p: Program, sig: Signature) -> tuple[str, list[str]]:
+def _parts(model: str, p: Program, sig: Signature, qualifier: str = "") -> tuple[str, list[str]]:
     """A large program's single-state body as parts: (the part functions' source, the body's
-    statements that call them and write the outputs)."""
+    statements that call them and write the outputs); `qualifier` precedes each part (CUDA's
+    `SYMDYN_HD`)."""
     items = list(_paired(p.assignments))
     blocks = [items[i : i + PART_SIZE] for i in range(0, len(items), PART_SIZE)]
     inputs = {s for _, syms in p.inputs for s in syms}
@@ -559,7 +560,7 @@ def _parts(model: str, p: Program, sig: Signature) -> tuple[str, list[str]]:
         body += loop + statements
         body += [f"    w_[{slot[sym]}] = {sym.name};" for item in block for sym in _defined(item) if sym in slot]
         name = f"{model}_{p.name}_part{k + 1}"
-        source.append(f"static SYMDYN_NOINLINE void {name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
+        source.append(f"{qualifier}static SYMDYN_NOINLINE void {name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
         calls.append(f"    {name}({', '.join([a for a, _ in p.inputs] + ['w_'])});")
     used = set().union(*(mat.free_symbols for _, mat in p.outputs))
     body = [f"    double w_[{max(1, len(slot))}];", *calls]
@@ -586,25 +587,30 @@ def _output_lines(p: Program) -> list[str]:
     return [line for o, mat in p.outputs for line in _stores(o, mat)]
 
 
-def _stores(out: str, mat) -> list[str]:
-    """The statements that write one output."""
+def _stores(out: str, mat, device: bool = False) -> list[str]:
+    """The statements that write one output (on a device, where no memset is declared, its
+    zeros by a loop)."""
     zeros = sum(1 for e in mat if e == 0)
     if zeros < MEMSET_MIN or 4 * zeros < len(mat):
         return [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
-    lines = [f"    memset({out}, 0, sizeof(double) * {len(mat)});  /* its {zeros} exact zeros */"]
+    if device:
+        lines = [f"    for (int z_ = 0; z_ < {len(mat)}; ++z_)  /* its {zeros} exact zeros */", f"        {out}[z_] = 0.0;"]
+    else:
+        lines = [f"    memset({out}, 0, sizeof(double) * {len(mat)});  /* its {zeros} exact zeros */"]
     return lines + [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat) if e != 0]
 
 
-def function_source(model: str, p: Program, split_above: int | None = None) -> str:
-    """The single-state and batched C functions of one program (one of more than
-    `split_above` assignments, default SPLIT_ABOVE, calls its parts)."""
+def single_source(model: str, p: Program, split_above: int | None = None, qualifier: str = "") -> str:
+    """The single-state C function of one program (one of more than `split_above` assignments,
+    default SPLIT_ABOVE, calls its parts), each function preceded by `qualifier` (the CUDA
+    target's `SYMDYN_HD `, whose device code has no memset)."""
     split_above = SPLIT_ABOVE if split_above is None else split_above
     sig = signature(p)
-    single, batch = _prototypes(model, sig)
+    single, _ = _prototypes(model, sig)
     used = p.used_inputs()
     parts = ""
     if len(p.assignments) > split_above:
-        parts, body = _parts(model, p, sig)
+        parts, body = _parts(model, p, sig, qualifier)
     else:
         body = []
         program = _assignments(p.assignments, p.inputs) + _output_lines(p)
@@ -614,11 +620,19 @@ def function_source(model: str, p: Program, split_above: int | None = None) -> s
             body += read or [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"]
         body += _assignments(p.assignments, p.inputs)
     for o, mat in p.outputs:
-        body += _stores(o, mat)
+        body += _stores(o, mat, device=bool(qualifier))
     doc = f"/* {p.doc} */\n" if p.doc else ""
+    return parts + f"{doc}{qualifier}{single}\n{{\n" + "\n".join(body) + "\n}\n"
+
+
+def function_source(model: str, p: Program, split_above: int | None = None) -> str:
+    """The single-state and batched C functions of one program (`single_source`, the loop over
+    states, the SIMD kernel)."""
+    sig = signature(p)
+    _, batch = _prototypes(model, sig)
     calls = [f"{a} + {k}*k" for a, k in sig.inputs] + [f"{o} + {_size(s)}*k" for o, s in sig.outputs]
     loop = f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n        {model}_{p.name}({', '.join(calls)});\n}}\n"
-    return parts + f"{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n\n" + loop + "\n" + simd_source(model, p)
+    return single_source(model, p, split_above) + "\n" + loop + "\n" + simd_source(model, p)
 
 
 def _preamble(model: str, split: bool) -> list[str]:
