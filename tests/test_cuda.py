@@ -137,6 +137,21 @@ def test_nvcc_compiles_the_source_for_a_gpu(tmp_path):
     assert cudalib.compile_cubin(source + "\n", "80", tmp_path, "twolink", use) != cubin
 
 
+@pytest.mark.slow
+def test_nvrtc_compiles_the_source_for_a_gpu(tmp_path):
+    """The loader's other compiler, NVRTC through its C API (the nvidia-cuda-nvrtc-cu12 wheel of the
+    cuda and test extras): a cubin for sm_90 without a GPU."""
+    library = cudalib._nvrtc_library()
+    if library is None:
+        pytest.skip("NVRTC is not installed here (pip install nvidia-cuda-nvrtc-cu12: the test extra has it)")
+    generate("twolink", "cuda", tmp_path)
+    source = (tmp_path / "twolink.cu").read_text()
+    cubin = cudalib.compile_cubin(source, "90", tmp_path, "twolink", ("nvrtc", library, "test"))
+    assert cubin.read_bytes()[:4] == b"\x7fELF"
+    with pytest.raises(RuntimeError, match="NVRTC failed on twolink.cu"):
+        cudalib.compile_cubin(source + "\nthis is not C++;\n", "90", tmp_path, "twolink", ("nvrtc", library, "test"))
+
+
 def test_the_header_and_source_compile_together_as_cpp(tmp_path):
     """The header's prototypes agree with the source's definitions (one translation unit)."""
     if CXX is None:

@@ -594,7 +594,10 @@ def _stores(out: str, mat, device: bool = False) -> list[str]:
     if zeros < MEMSET_MIN or 4 * zeros < len(mat):
         return [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
     if device:
-        lines = [f"    for (int z_ = 0; z_ < {len(mat)}; ++z_)  /* its {zeros} exact zeros */", f"        {out}[z_] = 0.0;"]
+        lines = [
+            f"    for (int z_ = 0; z_ < {len(mat)}; ++z_)  /* its {zeros} exact zeros */",
+            f"        {out}[z_] = 0.0;",
+        ]
     else:
         lines = [f"    memset({out}, 0, sizeof(double) * {len(mat)});  /* its {zeros} exact zeros */"]
     return lines + [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat) if e != 0]

@@ -201,13 +201,13 @@ class CudaFunction:
         single = all(x.dtype == cp.float32 for x in arrays) and "_f32" in self._kernels
         dtype = cp.float32 if single else cp.float64
         n = int(np.prod(lead, dtype=np.int64))
-        flat = [cp.ascontiguousarray(cp.broadcast_to(x.astype(dtype, copy=False), (*lead, x.shape[-1]))) for x in arrays]
+        flat = [
+            cp.ascontiguousarray(cp.broadcast_to(x.astype(dtype, copy=False), (*lead, x.shape[-1]))) for x in arrays
+        ]
         outs = self._outputs(out, lead, dtype)
         if n:
             bad = cp.zeros(1, dtype=cp.int32)
-            how = self.launch
-            kernel = self._kernels["_f32" if single else ""]
-            kernel(((n + how.block - 1) // how.block,), (how.block,), (np.int64(n), bad, *flat, *outs), shared_mem=how.shared)
+            self.run(n, flat, outs, bad)
             if int(bad.get()[0]):
                 for (a, _), x in zip(sig.inputs, flat):
                     if not bool(cp.isfinite(x).all()):
@@ -215,6 +215,16 @@ class CudaFunction:
         library = "numpy" if "numpy" in libraries else next((lib for lib in libraries if lib != "cupy"), "cupy")
         results = tuple(_back(o, library) for o in outs) if out is None else out
         return results[0] if len(results) == 1 and out is None else (results if out is None else out)
+
+    def run(self, n: int, inputs: list, outputs: list, bad) -> None:
+        """Launch the kernel on the current CuPy stream, without checks and without waiting: `n`
+        states of C-contiguous CuPy arrays, all float64 or all float32 (a staged function), of
+        shapes (n, size); `bad`, an int32 CuPy array set to 1 where an input is NaN or infinite.
+        What a pipeline of kernels or a benchmark calls; everyone else calls the function."""
+        how = self.launch
+        kernel = self._kernels["_f32" if inputs[0].dtype == self._cupy.float32 else ""]
+        grid = ((n + how.block - 1) // how.block,)
+        kernel(grid, (how.block,), (np.int64(n), bad, *inputs, *outputs), shared_mem=how.shared)
 
     def _outputs(self, out, lead: tuple, dtype) -> list:
         """Fresh device arrays for the outputs, or the caller's `out=` (CuPy or PyTorch CUDA arrays of
