@@ -22,10 +22,9 @@ def _relative(got, want) -> float:
     return float(np.abs(np.asarray(got) - want).max() / max(1.0, np.abs(want).max()))
 
 
-def pinocchio_contacts(robot, q, v, tau):
-    """Pinocchio's (a, λ, v⁺, Λ) at one state with the robot's contact set as rigid constraints."""
-    from symdyn.bench.reduced import pin_configuration
-
+def pinocchio_setup(robot):
+    """Pinocchio's model of the robot with its contact set as rigid constraints (RigidConstraintModel,
+    CONTACT_3D / CONTACT_6D, LOCAL_WORLD_ALIGNED), and the proximal settings of an exact solve."""
     names = [name for name, _ in robot.contacts]
     model, ids = peer.peer_model(robot.with_frames(names))
     data = model.createData()
@@ -39,12 +38,38 @@ def pinocchio_contacts(robot, q, v, tau):
         models.append(cm)
         datas.append(cm.createData())
     pin.initConstraintDynamics(model, data, models, datas)
-    prox = pin.ProximalSettings(1e-14, 0.0, 1)
+    return model, data, models, datas, pin.ProximalSettings(1e-14, 0.0, 1)
+
+
+def pinocchio_contacts(robot, q, v, tau, setup=None):
+    """Pinocchio's (a, λ, v⁺, Λ) at one state with the robot's contact set as rigid constraints."""
+    from symdyn.bench.reduced import pin_configuration
+
+    model, data, models, datas, prox = setup or pinocchio_setup(robot)
     x = pin_configuration(model, np.atleast_2d(q))[0]
     a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
     force = data.lambda_c.copy()
     v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
     return a, force, v_after, data.impulse_c.copy()
+
+
+def pinocchio_derivatives(robot, q, v, tau, setup):
+    """Pinocchio's computeConstraintDynamicsDerivatives and computeImpulseDynamicsDerivatives at one
+    state, in the order of contact_fdyn_derivatives and contact_impulse_derivatives (Pinocchio's
+    impulse ddq_dv is d(v⁺ − v⁻)/dv⁻: the identity added here)."""
+    from symdyn.bench.reduced import pin_configuration
+
+    model, data, models, datas, prox = setup
+    x = pin_configuration(model, np.atleast_2d(q))[0]
+    a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
+    pin.computeConstraintDynamicsDerivatives(model, data, models, datas)
+    fdyn = [a, data.lambda_c, data.ddq_dq, data.ddq_dv, data.ddq_dtau, data.dlambda_dq, data.dlambda_dv]
+    fdyn = [x.copy() for x in fdyn] + [data.dlambda_dtau.copy()]
+    v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
+    pin.computeImpulseDynamicsDerivatives(model, data, models, datas, 0.0, prox)
+    dv = data.ddq_dv + np.eye(model.nv)
+    impulse = [v_after, data.impulse_c.copy(), data.ddq_dq.copy(), dv, data.dlambda_dq.copy(), data.dlambda_dv.copy()]
+    return fdyn, impulse
 
 
 @pytest.fixture(scope="module")
@@ -102,6 +127,71 @@ def test_a_fixed_arm_with_its_hand_on_a_surface():
         assert _relative(got_v, v_after) < RTOL and _relative(got_i, impulse) < RTOL
 
 
+def test_derivatives_equal_pinocchios(legged):
+    """contact_fdyn_derivatives and contact_impulse_derivatives (a batch of 200 states) against
+    Pinocchio's analytical derivatives, state by state, 1e-10 relative to each output's size."""
+    robot, f = legged
+    count = 200
+    q, v, _ = states(robot, count, seed=11)
+    tau = np.random.default_rng(11).uniform(-5, 5, (count, robot.nv))
+    fdyn = f.contact_fdyn_derivatives(q, v, tau)
+    impulse = f.contact_impulse_derivatives(q, v)
+    assert [x.shape[1:] for x in fdyn] == [(11,), (9,), (11, 11), (11, 11), (11, 11), (9, 11), (9, 11), (9, 11)]
+    setup = pinocchio_setup(robot)
+    for i in range(count):
+        want_fdyn, want_impulse = pinocchio_derivatives(robot, q[i], v[i], tau[i], setup)
+        for got, want in zip(fdyn, want_fdyn):
+            assert _relative(got[i], want) < RTOL
+        for got, want in zip(impulse, want_impulse):
+            assert _relative(got[i], want) < RTOL
+
+
+def _central(f, robot, q, v, tau, h=1e-6):
+    """Central differences of f(q, v, tau) → (x, λ) in the tangent space of q and by v and tau."""
+    columns = {"q": [], "v": [], "tau": []}
+    for k in range(robot.nv):
+        e = np.zeros(robot.nv)
+        e[k] = h
+        plus, minus = f(robot.integrate(q, e), v, tau), f(robot.integrate(q, -e), v, tau)
+        columns["q"].append([(p - m) / (2 * h) for p, m in zip(plus, minus)])
+        plus, minus = f(q, v + e, tau), f(q, v - e, tau)
+        columns["v"].append([(p - m) / (2 * h) for p, m in zip(plus, minus)])
+        if tau is not None:
+            plus, minus = f(q, v, tau + e), f(q, v, tau - e)
+            columns["tau"].append([(p - m) / (2 * h) for p, m in zip(plus, minus)])
+    return {key: [np.stack([c[j] for c in cols], axis=1) for j in range(2)] for key, cols in columns.items() if cols}
+
+
+def test_derivatives_are_the_central_differences_of_the_functions(legged):
+    """The derivatives against central differences of contact_fdyn and contact_impulse themselves
+    (q moved on its manifold: robot.integrate), and the constraints' own derivatives: J da/dz =
+    −∂(J a + γ)/∂z keeps the contact accelerations at zero to first order."""
+    robot, f = legged
+    q, v, _ = states(robot, 3, seed=13)
+    tau = np.random.default_rng(13).uniform(-5, 5, (3, robot.nv))
+    for i in range(3):
+        a, force, da_dq, da_dv, da_dtau, df_dq, df_dv, df_dtau = f.contact_fdyn_derivatives(q[i], v[i], tau[i])
+        fd = _central(f.contact_fdyn, robot, q[i], v[i], tau[i])
+        for got, want in [(da_dq, fd["q"][0]), (da_dv, fd["v"][0]), (da_dtau, fd["tau"][0])]:
+            assert _relative(got, want) < 1e-6
+        for got, want in [(df_dq, fd["q"][1]), (df_dv, fd["v"][1]), (df_dtau, fd["tau"][1])]:
+            assert _relative(got, want) < 1e-6
+        v_after, impulse, dv_dq, dv_dv, di_dq, di_dv = f.contact_impulse_derivatives(q[i], v[i])
+        fd = _central(lambda x, y, _: f.contact_impulse(x, y), robot, q[i], v[i], None)
+        for got, want in [(dv_dq, fd["q"][0]), (dv_dv, fd["v"][0]), (di_dq, fd["q"][1]), (di_dv, fd["v"][1])]:
+            assert _relative(got, want) < 1e-6
+        J = np.concatenate([f.frame_jacobian_aligned(q[i])[0, :3], f.frame_jacobian_aligned(q[i])[1]])
+        assert np.abs(J @ da_dtau).max() < 1e-10 * max(1.0, np.abs(da_dtau).max())  # τ moves no contact
+        assert np.abs(J @ dv_dv).max() < 1e-10 * max(1.0, np.abs(dv_dv).max())  # J v⁺ = 0 for every v⁻
+
+
+def test_a_rank_deficient_contact_set_is_refused_by_name(twolink):
+    """A surface on the two-link arm's tool: 6 rows, 2 joints — the forces are not unique."""
+    robot = twolink.nofriction(all=True).with_contacts({"tool": "surface"})
+    with pytest.raises(ValueError, match=r"the rows of 'tool' \(surface\) depend on those before it \(none\)"):
+        load(robot, "numpy")
+
+
 def test_contact_sets_are_refused_by_name():
     robot = random_tree_robot(3, n=3, base_joint="free")
     with pytest.raises(ValueError, match="no frame 'lnk2'.*link2"):
@@ -112,20 +202,28 @@ def test_contact_sets_are_refused_by_name():
 
 
 @pytest.mark.slow
-def test_solo12_on_four_feet_through_generated_c():
-    """Solo 12 read from its URDF, its four feet point contacts, through the generated C, against
-    Pinocchio's constraint dynamics on the same model (example-robot-data)."""
+@pytest.mark.parametrize("feet", [4, 2])
+def test_solo12_through_generated_c(feet):
+    """Solo 12 read from its URDF, four feet (and two) as point contacts, through the generated C,
+    against Pinocchio's constraint and impulse dynamics and their derivatives on the same model
+    (example-robot-data)."""
     from tests.test_task_space import FEET, _solo_file
     from symdyn.model import Robot
 
     robot = Robot.from_urdf(str(_solo_file()), tips="all", base_joint="free").nofriction(all=True)
-    robot = robot.with_contacts({foot: "point" for foot in FEET})
+    robot = robot.with_contacts({foot: "point" for foot in FEET[:feet]})
     f = load(robot, "c")
     q, v, _ = states(robot, 20, seed=9)
     tau = np.random.default_rng(9).uniform(-2, 2, (20, robot.nv))
+    setup = pinocchio_setup(robot)
     for i in range(20):
-        a, force, v_after, impulse = pinocchio_contacts(robot, q[i], v[i], tau[i])
+        a, force, v_after, impulse = pinocchio_contacts(robot, q[i], v[i], tau[i], setup)
         got_a, got_f = f.contact_fdyn(q[i], v[i], tau[i])
         assert _relative(got_a, a) < RTOL and _relative(got_f, force) < RTOL
         got_v, got_i = f.contact_impulse(q[i], v[i])
         assert _relative(got_v, v_after) < RTOL and _relative(got_i, impulse) < RTOL
+        want_fdyn, want_impulse = pinocchio_derivatives(robot, q[i], v[i], tau[i], setup)
+        for got, want in zip(f.contact_fdyn_derivatives(q[i], v[i], tau[i]), want_fdyn):
+            assert _relative(got, want) < RTOL
+        for got, want in zip(f.contact_impulse_derivatives(q[i], v[i]), want_impulse):
+            assert _relative(got, want) < RTOL

@@ -17,7 +17,7 @@ from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
-from .contact_functions import contact_names, contact_specs
+from .contact_functions import ContactSpecs, contact_names, derivatives_program
 from .task_functions import TaskPrograms
 
 __all__ = ["programs", "Programs", "derivations", "DERIVED"]
@@ -139,10 +139,7 @@ class Programs:
         if name in self.task.names:
             return self.task.program(name)
         if name in self.contacts:
-            if "contacts" not in self._specs:
-                M, bias = self.chosen("M")[0], self.chosen("bias")[0]
-                self._specs["contacts"] = contact_specs(self.dyns[0].robot, M, bias, tree=self.tree)
-            return self._specs["contacts"][name].program()
+            return self._contact(name)
         if name in ("tau", "M", "C", "Cqd", "G", "F"):
             return self.chosen(name)[1]
         if name == "fdyn":
@@ -157,6 +154,22 @@ class Programs:
         shared = frozenset(s for s, _ in self._minv().definitions)  # M's terms and factor: fdyn's too
         return fdyn_derivatives_program(
             self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"), shared
+        )
+
+    def _contact(self, name: str) -> Program:
+        """A contact function's program: the dynamics from the chosen M and bias, their derivatives
+        spliced from it, the residuals' Jacobians (from the chosen τ) and the KKT solve."""
+        if "contacts" not in self._specs:
+            M, bias = self.chosen("M")[0], self.chosen("bias")[0]
+            self._specs["contacts"] = ContactSpecs(self.dyns[0].robot, M, bias, tree=self.tree)
+        specs = self._specs["contacts"]
+        kind = "fdyn" if name.startswith("contact_fdyn") else "impulse"
+        if not name.endswith("_derivatives"):
+            return specs.dynamics(kind).program()
+        residual = specs.residual(kind, self.chosen("tau")[0], self.base_joint).program()
+        solve = specs.solve(2 * specs.n, identity=kind == "fdyn").program()
+        return derivatives_program(
+            kind, self.program(f"contact_{kind}"), residual, solve, specs.shared(), self.dyns[0].robot
         )
 
     def _minv(self) -> FunctionSpec:

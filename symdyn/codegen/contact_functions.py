@@ -13,22 +13,34 @@ surface contact its spatial acceleration (6 rows; the linear part is the classic
 — Pinocchio's `constraintDynamics` and `impulseDynamics` (M a = τ − b + Jᵀλ, J a + γ = 0;
 J v⁺ = 0).  One program each: M and the bias b = τ(q, v, 0) are the chosen ones (`choice`), and
 the contact frames' intermediates are renamed k_… so that they meet no name of the dynamics'.
-A contact set whose rows are dependent (A singular: two surfaces on one body) is not detected
-here: its pivot is zero and the outputs are not finite.
+A contact set whose rows are dependent (A singular: two surfaces on one body) is refused by name
+(`_independent`).  The derivatives (`derivatives_program`) differentiate the KKT residuals,
+r1 = τ(q, v, a) − Jᵀf and r2 = J a + γ (for the impact M(v⁺ − v⁻) − JᵀΛ and J v⁺), and solve
+the same KKT system for each column: ∂[a; f]/∂z = −K⁻¹ ∂r/∂z, K = [M −Jᵀ; J 0].
 """
 
 from __future__ import annotations
 
+import numpy as np
 import sympy as sp
 
 from ..derivation.task_space import derive_task_space
 from ..model import Robot
 from ..model.frames import CONTACT_KINDS
+from ..derivation.program import Program
+from .derivatives import Splice, jacobian, tangent_map
 from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor
 
-__all__ = ["CONTACT_NAMES", "contact_names", "contact_specs", "contact_count", "contact_signatures"]
+__all__ = [
+    "CONTACT_NAMES",
+    "ContactSpecs",
+    "contact_names",
+    "contact_count",
+    "contact_signatures",
+    "derivatives_program",
+]
 
-CONTACT_NAMES = ("contact_fdyn", "contact_impulse")
+CONTACT_NAMES = ("contact_fdyn", "contact_impulse", "contact_fdyn_derivatives", "contact_impulse_derivatives")
 
 
 def contact_names(robot: Robot) -> tuple[str, ...]:
@@ -93,67 +105,279 @@ def _small_factor(A: sp.Matrix, name: _Namer) -> tuple[list, list, list]:
     return defs, L, [sp.sympify(x).xreplace(rename) for x in iD]
 
 
-def contact_specs(robot: Robot, M: FunctionSpec, bias: FunctionSpec, *, tree: bool) -> dict[str, FunctionSpec]:
-    """The specs of contact_fdyn and contact_impulse from the chosen M and bias (see the module)."""
-    rows, gamma, kdefs, _ = _rows(robot)
-    Mmat, b = M.outputs[0][1], list(bias.outputs[0][1])
-    n, nc = Mmat.rows, len(rows)
-    q, v = M.inputs[0], bias.inputs[1]
-    mdefs, L, iD = ldlt_factor(Mmat, elimination_order(Mmat) if tree else None)
-    order = elimination_order(Mmat) if tree else list(range(n))
-    name = _Namer(max(n, nc))
-    X = [_solve(L, iD, order, rows[c], name, "X", c + 1) for c in range(nc)]  # columns of M⁻¹Jᵀ
-    A = sp.Matrix(
-        nc, nc, lambda i, j: name("kkt_A", sp.Add(*(rows[i][k] * X[j][k] for k in range(n))), i, j) if i >= j else 0
+def _independent(robot: Robot, rows: list, definitions: list, q: tuple, tries: int = 2) -> None:
+    """Refuse a contact set whose rows are dependent at every configuration tried (two surfaces on
+    one body, three points on one link): its forces are not unique, and A = J M⁻¹Jᵀ is singular.
+    The rows are evaluated at random configurations; the error names the first contact whose rows
+    add nothing to those before it."""
+    rng = np.random.default_rng(0)
+    counts = [CONTACT_KINDS[kind] for _, kind in robot.contacts]
+    culprits = []
+    for _ in range(tries):
+        values = {s: sp.Float(x) for s, x in zip(q, rng.uniform(-1.0, 1.0, len(q)))}
+        for sym, expr in definitions:
+            values[sym] = sp.sympify(expr).xreplace(values)
+        J = np.array([[float(sp.sympify(e).xreplace(values)) for e in row] for row in rows])
+        scale = max(1.0, np.abs(J).max())
+        start, culprit = 0, None
+        for k, count in enumerate(counts):
+            block = J[: start + count]
+            if np.linalg.matrix_rank(block, tol=1e-9 * scale) < start + count:
+                culprit = k
+                break
+            start += count
+        if culprit is None:
+            return
+        culprits.append(culprit)
+    name, kind = robot.contacts[culprits[0]]
+    before = ", ".join(f"{f!r} ({k})" for f, k in robot.contacts[: culprits[0]]) or "none"
+    raise ValueError(
+        f"contact set of {robot.name}: the rows of {name!r} ({kind}) depend on those before it ({before}) "
+        "at every configuration tried — the constraint Jacobian J is rank-deficient, so the contact forces "
+        "are not unique (two surfaces on one body, more rows than the joints that move the frame); drop "
+        f"{name!r} or merge it with the contact it repeats"
     )
-    A = sp.Matrix(nc, nc, lambda i, j: A[max(i, j), min(i, j)])
-    adefs, AL, AiD = _small_factor(A, name)
-    aorder = list(range(nc))
-    base = list(M.definitions) + list(bias.definitions) + kdefs + mdefs
 
-    def specs_of(kind: str) -> FunctionSpec:
+
+class ContactSpecs:
+    """The contact set's specs, sharing one build of their pieces: the rows J and drift γ, M's
+    LDLᵀ, X = M⁻¹Jᵀ, A = J X and A's LDLᵀ (see the module)."""
+
+    def __init__(self, robot: Robot, M: FunctionSpec, bias: FunctionSpec, *, tree: bool) -> None:
+        self.robot, self.M, self.bias = robot, M, bias
+        self.rows, self.gamma, self.kdefs, (q, _) = _rows(robot)
+        _independent(robot, self.rows, self.kdefs, tuple(q))
+        Mmat, self.b = M.outputs[0][1], list(bias.outputs[0][1])
+        n, nc = Mmat.rows, len(self.rows)
+        self.n, self.nc = n, nc
+        self.q, self.v = M.inputs[0], bias.inputs[1]
+        self.mdefs, self.L, self.iD = ldlt_factor(Mmat, elimination_order(Mmat) if tree else None)
+        self.order = elimination_order(Mmat) if tree else list(range(n))
+        name = _Namer(max(n, nc))
+        rows = self.rows
+        self.X = [_solve(self.L, self.iD, self.order, rows[c], name, "X", c + 1) for c in range(nc)]  # M⁻¹Jᵀ
+        A = sp.Matrix(
+            nc,
+            nc,
+            lambda i, j: name("kkt_A", sp.Add(*(rows[i][k] * self.X[j][k] for k in range(n))), i, j) if i >= j else 0,
+        )
+        A = sp.Matrix(nc, nc, lambda i, j: A[max(i, j), min(i, j)])
+        self.adefs, self.AL, self.AiD = _small_factor(A, name)
+        self.base = list(M.definitions) + list(bias.definitions) + self.kdefs + self.mdefs
+        self.named = name.defs
+        self.params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
+
+    def shared(self) -> frozenset:
+        """The symbols every contact program defines alike (M's terms and factor, X, A's factor):
+        a spliced program takes them from the one spliced before (`derivatives.Splice`)."""
+        return frozenset(s for s, _ in (*self.base, *self.named, *self.adefs))
+
+    def _definitions(self, local: _Namer) -> tuple:
+        defs = dict(self.base)
+        defs.update(self.named)
+        defs.update(self.adefs)
+        defs.update(local.defs)
+        return tuple(defs.items())
+
+    def _kkt(self, u: list, w: list, local: _Namer, col: int) -> tuple[list, list]:
+        """(x, λ) of [M −Jᵀ; J 0] [x; λ] = [u; w]: λ = A⁻¹(w − J M⁻¹u), x = M⁻¹u + X λ."""
+        n, nc = self.n, self.nc
+        y = _solve(self.L, self.iD, self.order, u, local, f"u{col}_", 0) if any(e != 0 for e in u) else [0] * n
+        rhs = [local(f"kkt_g{col}_", w[i] - sp.Add(*(self.rows[i][k] * y[k] for k in range(n))), i) for i in range(nc)]
+        lam = _solve(self.AL, self.AiD, list(range(nc)), rhs, local, f"lam{col}_", 0)
+        x = [local(f"kkt_x{col}_", y[k] + sp.Add(*(self.X[c][k] * lam[c] for c in range(nc))), k) for k in range(n)]
+        return x, lam
+
+    def dynamics(self, kind: str) -> FunctionSpec:
+        """contact_fdyn (kind "fdyn") or contact_impulse ("impulse")."""
+        n, nc, rows, robot = self.n, self.nc, self.rows, self.robot
         local = _Namer(max(n, nc))
+        v = self.v
         if kind == "fdyn":
             tau = tuple(sp.Symbol(f"tau{i + 1}", real=True) for i in range(n))
-            r = [local("kkt_r", tau[i] - b[i], i) for i in range(n)]
-            y = _solve(L, iD, order, r, local, "u", 0)
-            rhs = [local("kkt_g", sp.Add(*(rows[i][k] * y[k] for k in range(n))) + gamma[i], i) for i in range(nc)]
-            inputs, start = (q, ("v", v[1]), ("tau", tau)), y
+            r = [local("kkt_r", tau[i] - self.b[i], i) for i in range(n)]
+            y = _solve(self.L, self.iD, self.order, r, local, "u", 0)
+            rhs = [local("kkt_g", sp.Add(*(rows[i][k] * y[k] for k in range(n))) + self.gamma[i], i) for i in range(nc)]
+            inputs, start = (self.q, ("v", v[1]), ("tau", tau)), y
         else:
             rhs = [local("kkt_g", sp.Add(*(rows[i][k] * v[1][k] for k in range(n))), i) for i in range(nc)]
-            inputs, start = (q, ("v_before", v[1])), list(v[1])
-        lam = _solve(AL, AiD, aorder, rhs, local, "lam", 0)
+            inputs, start = (self.q, ("v_before", v[1])), list(v[1])
+        lam = _solve(self.AL, self.AiD, list(range(nc)), rhs, local, "lam", 0)
         lam = [local("kkt_lam", -x, i) for i, x in enumerate(lam)]
-        out = [local("kkt_out", start[k] + sp.Add(*(X[c][k] * lam[c] for c in range(nc))), k) for k in range(n)]
-        defs = dict(base)
-        defs.update(name.defs)
-        defs.update(adefs)
-        defs.update(local.defs)
+        out = [local("kkt_out", start[k] + sp.Add(*(self.X[c][k] * lam[c] for c in range(nc))), k) for k in range(n)]
         label = ("a", "force") if kind == "fdyn" else ("v_after", "impulse")
-        doc = f"Contact dynamics of the set {', '.join(f'{f} ({k})' for f, k in robot.contacts)}: " + (
+        doc = f"Contact dynamics of the set {_set(robot)}: " + (
             f"a ({n},) and the contact forces ({nc},), world axes at each frame, of M a = tau - b + J^T f, "
             "J a + gamma = 0 (Pinocchio's constraintDynamics)."
             if kind == "fdyn"
             else f"the velocity after an inelastic impact ({n},) and the impulses ({nc},): J v+ = 0 "
             "(impulseDynamics, restitution 0)."
         )
-        params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
         return FunctionSpec(
             f"contact_{kind}",
-            (*inputs, *params),
+            (*inputs, *self.params),
             ((label[0], sp.ImmutableMatrix(out)), (label[1], sp.ImmutableMatrix(lam))),
-            tuple(defs.items()),
+            self._definitions(local),
             doc,
-            f"contacts; M: {M.origin}, bias: {bias.origin}",
+            f"contacts; M: {self.M.origin}, bias: {self.bias.origin}",
         )
 
-    return {"contact_fdyn": specs_of("fdyn"), "contact_impulse": specs_of("impulse")}
+    def residual(self, kind: str, tau: FunctionSpec, base_joint: str | None) -> FunctionSpec:
+        """The KKT residuals' Jacobians in the tangent space of q: for "fdyn", r1 = τ(q, v, a) − Jᵀf,
+        r2 = J a + γ at (q, v, a, f), by (q, v); for "impulse", r1 = M(q)(v⁺ − v⁻) − JᵀΛ, r2 = J v⁺
+        at (q, v⁻, v⁺, Λ), by (q, v⁻).  Outputs dr1_dq, dr1_dv, dr2_dq, dr2_dv."""
+        n, nc, rows = self.n, self.nc, self.rows
+        q, v = self.q[1], self.v[1]
+        second = tuple(sp.Symbol(f"{'qdd' if kind == 'fdyn' else 'vplus'}{i + 1}", real=True) for i in range(n))
+        lam = tuple(sp.Symbol(f"lam{i + 1}", real=True) for i in range(nc))
+        if kind == "fdyn":
+            tq, tv, ta = (syms for _, syms in tau.inputs[:3])
+            swap = {**dict(zip(tq, q)), **dict(zip(tv, v)), **dict(zip(ta, second))}
+            defs = [(s, sp.sympify(e).xreplace(swap)) for s, e in tau.definitions]
+            first = [sp.sympify(e).xreplace(swap) for e in tau.outputs[0][1]]
+            r2 = [sp.Add(*(rows[c][k] * second[k] for k in range(n))) + self.gamma[c] for c in range(nc)]
+            names = ("v", "a", "force")
+        else:
+            Mmat = self.M.outputs[0][1]
+            defs = list(self.M.definitions)
+            first = [sp.Add(*(Mmat[i, j] * (second[j] - v[j]) for j in range(n))) for i in range(n)]
+            r2 = [sp.Add(*(rows[c][k] * second[k] for k in range(n))) for c in range(nc)]
+            names = ("v_before", "v_after", "impulse")
+        r1 = [first[i] - sp.Add(*(rows[c][i] * lam[c] for c in range(nc))) for i in range(n)]
+        jdefs, jac = jacobian(defs + list(self.kdefs), r1 + r2, list(q) + list(v), stem="Dk")
+        T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
+
+        def block(r0: int, rs: int, c0: int, cs: int, tangent: bool) -> sp.ImmutableMatrix:
+            if not tangent:
+                return sp.ImmutableMatrix(rs, cs, lambda i, k: jac[r0 + i][c0 + k])
+            return sp.ImmutableMatrix(
+                rs,
+                n,
+                lambda i, j: sp.Add(
+                    *(jac[r0 + i][k] * T[k, j] for k in range(len(q)) if jac[r0 + i][k] != 0 and T[k, j] != 0)
+                ),
+            )
+
+        outputs = (
+            ("dr1_dq", block(0, n, 0, len(q), True)),
+            ("dr1_dv", block(0, n, len(q), n, False)),
+            ("dr2_dq", block(n, nc, 0, len(q), True)),
+            ("dr2_dv", block(n, nc, len(q), n, False)),
+        )
+        return FunctionSpec(
+            f"contact_{kind}_residual",
+            (self.q, (names[0], v), (names[1], second), (names[2], lam), *self.params),
+            outputs,
+            tuple(dict([*defs, *self.kdefs, *jdefs]).items()),
+            "",
+            f"contacts; tau: {tau.origin}",
+            tuple(o for o, _ in outputs),
+        )
+
+    def solve(self, columns: int, identity: bool) -> FunctionSpec:
+        """[x; λ] = [M −Jᵀ; J 0]⁻¹ [u; w] for `columns` columns given as inputs u (n × columns) and
+        w (nc × columns), then (`identity`) n more with u = I, w = 0 (the derivatives by τ)."""
+        n, nc = self.n, self.nc
+        u = sp.Matrix(n, columns, lambda i, k: sp.Symbol(f"u{i + 1}_{k + 1}", real=True))
+        w = sp.Matrix(nc, columns, lambda i, k: sp.Symbol(f"w{i + 1}_{k + 1}", real=True))
+        local = _Namer(max(n, nc, columns))
+        xs, lams = [], []
+        for k in range(columns + (n if identity else 0)):
+            if k < columns:
+                x, lam = self._kkt(list(u[:, k]), list(w[:, k]), local, k + 1)
+            else:
+                e = [sp.S.One if i == k - columns else sp.S.Zero for i in range(n)]
+                x, lam = self._kkt(e, [sp.S.Zero] * nc, local, k + 1)
+            xs.append(x)
+            lams.append(lam)
+        X = sp.ImmutableMatrix(n, len(xs), lambda i, k: xs[k][i])
+        Lam = sp.ImmutableMatrix(nc, len(lams), lambda i, k: lams[k][i])
+        return FunctionSpec(
+            "contact_solve",
+            (self.q, ("u", tuple(u)), ("w", tuple(w)), *self.params),
+            (("x", X), ("lam", Lam)),
+            self._definitions(local),
+            "",
+            "contacts",
+            ("x", "lam"),
+        )
+
+
+def _set(robot: Robot) -> str:
+    return ", ".join(f"{f} ({k})" for f, k in robot.contacts)
+
+
+def derivatives_program(
+    kind: str, dynamics: Program, residual: Program, solve: Program, shared: frozenset, robot: Robot
+) -> Program:
+    """contact_fdyn_derivatives or contact_impulse_derivatives from the finished programs of the
+    contact dynamics, the residuals' Jacobians at its solution and the KKT solve of their columns,
+    spliced (`derivatives.Splice`): ∂[x; λ]/∂z = −K⁻¹ ∂r/∂z with K = [M −Jᵀ; J 0], and for fdyn
+    ∂[a; f]/∂τ = K⁻¹ [I; 0]."""
+    inputs = {s.name for _, syms in dynamics.inputs for s in syms} | {a for a, _ in dynamics.inputs}
+    labels = (
+        ("a", "force", "da_dq", "da_dv", "da_dtau", "dforce_dq", "dforce_dv", "dforce_dtau")
+        if kind == "fdyn"
+        else ("v_after", "impulse", "dv_after_dq", "dv_after_dv", "dimpulse_dq", "dimpulse_dv")
+    )
+    splice = Splice(inputs | set(labels) | {f"contact_{kind}_derivatives"})
+    x, lam = splice.append(dynamics, {}, "c_", shared)
+    n, nc = x.rows, lam.rows
+    x = [splice.name(e, f"c_{labels[0]}{i + 1}") for i, e in enumerate(x)]
+    lam = [splice.name(e, f"c_{labels[1]}{i + 1}") for i, e in enumerate(lam)]
+    q, v = dynamics.inputs[0][1], dynamics.inputs[1][1]
+    rq, rv, rx, rl = (syms for _, syms in residual.inputs[:4])
+    rename = {**dict(zip(rq, q)), **dict(zip(rv, v)), **dict(zip(rx, x)), **dict(zip(rl, lam))}
+    d1q, d1v, d2q, d2v = splice.append(residual, rename, "r_")
+    u = [-e for row in (d1q.row_join(d1v)).tolist() for e in row]
+    w = [-e for row in (d2q.row_join(d2v)).tolist() for e in row]
+    u = [splice.name(e, f"c_u{k + 1}") for k, e in enumerate(u)]
+    w = [splice.name(e, f"c_w{k + 1}") for k, e in enumerate(w)]
+    su, sw = solve.inputs[1][1], solve.inputs[2][1]
+    dx, dlam = splice.append(
+        solve, {**dict(zip(solve.inputs[0][1], q)), **dict(zip(su, u)), **dict(zip(sw, w))}, "s_", shared
+    )
+    pieces = [dx[:, :n], dx[:, n : 2 * n]] + ([dx[:, 2 * n :]] if kind == "fdyn" else [])
+    pieces += [dlam[:, :n], dlam[:, n : 2 * n]] + ([dlam[:, 2 * n :]] if kind == "fdyn" else [])
+    outputs = ((labels[0], sp.ImmutableMatrix(x)), (labels[1], sp.ImmutableMatrix(lam)))
+    outputs += tuple((label, sp.ImmutableMatrix(m)) for label, m in zip(labels[2:], pieces))
+    doc = (
+        f"Contact dynamics of the set {_set(robot)} and their derivatives: "
+        + (
+            f"a ({n},), force ({nc},), da_dq, da_dv, da_dtau ({n}, {n}), dforce_dq, dforce_dv, dforce_dtau ({nc}, {n}); "
+            "Pinocchio's computeConstraintDynamicsDerivatives"
+            if kind == "fdyn"
+            else f"v_after ({n},), impulse ({nc},), dv_after_dq, dv_after_dv ({n}, {n}), dimpulse_dq, dimpulse_dv "
+            f"({nc}, {n}); d/dv is by v_before"
+        )
+        + ", d/dq in the tangent space of q."
+    )
+    return Program(
+        f"contact_{kind}_derivatives",
+        dynamics.inputs,
+        splice.live([m for _, m in outputs]),
+        outputs,
+        doc,
+        dynamics.origin,
+        frozenset(o for o, _ in outputs[2:]),
+    )
 
 
 def contact_signatures(robot: Robot) -> dict:
     """{function: (inputs ((name, size), …), outputs ((name, shape), …))} of the contact functions."""
     nq, nv, nc = robot.nq, robot.nv, contact_count(robot)
+    square, tall = (nv, nv), (nc, nv)
     return {
         "contact_fdyn": ((("q", nq), ("v", nv), ("tau", nv)), (("a", (nv,)), ("force", (nc,)))),
         "contact_impulse": ((("q", nq), ("v_before", nv)), (("v_after", (nv,)), ("impulse", (nc,)))),
+        "contact_fdyn_derivatives": (
+            (("q", nq), ("v", nv), ("tau", nv)),
+            (("a", (nv,)), ("force", (nc,)), ("da_dq", square), ("da_dv", square), ("da_dtau", square))
+            + (("dforce_dq", tall), ("dforce_dv", tall), ("dforce_dtau", tall)),
+        ),
+        "contact_impulse_derivatives": (
+            (("q", nq), ("v_before", nv)),
+            (("v_after", (nv,)), ("impulse", (nc,)), ("dv_after_dq", square), ("dv_after_dv", square))
+            + (("dimpulse_dq", tall), ("dimpulse_dv", tall)),
+        ),
     }

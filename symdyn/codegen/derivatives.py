@@ -33,6 +33,7 @@ __all__ = [
     "fdyn_derivatives_program",
     "minv_spec",
     "christoffel_spec",
+    "Splice",
 ]
 
 _DOCS = {
@@ -310,7 +311,7 @@ def minv_spec(M: FunctionSpec, *, tree: bool = False) -> FunctionSpec:
     )
 
 
-class _Splice:
+class Splice:
     """Straight-line programs appended one after another into one: each assignment
     renamed into the inputs and earlier names, and one whose expression an earlier
     assignment already computes becomes that name (sin q1, M's entries, the
@@ -377,10 +378,10 @@ def fdyn_derivatives_program(
     joint CSE of the whole took ~2.7 s for ~3 % fewer operations.  τ, which
     tau_derivatives computes beside its Jacobians, is not an output: its
     assignments are dropped.  `shared`: the symbols of M's spec and of its LDLᵀ factor, which
-    fdyn and Minv both compute (`_Splice.append`)."""
+    fdyn and Minv both compute (`Splice.append`)."""
     q, qd = fdyn.inputs[0][1], fdyn.inputs[1][1]  # then tau (and p, a symbolic model's parameters)
     inputs = {s.name for _, syms in fdyn.inputs for s in syms} | {a for a, _ in fdyn.inputs}
-    splice = _Splice(inputs | {"qdd", "dqdd_dq", "dqdd_dqd", "Minv", "fdyn_derivatives"})
+    splice = Splice(inputs | {"qdd", "dqdd_dq", "dqdd_dqd", "Minv", "fdyn_derivatives"})
     (qdd,) = splice.append(fdyn, {}, "f_", shared)
     qdd = [splice.name(e, f"f_qdd{i + 1}") for i, e in enumerate(qdd)]
     tq, tqd, tqdd = (syms for _, syms in tau_derivatives.inputs[:3])
