@@ -482,10 +482,10 @@ class Robot:
         return dataclasses.replace(self, frames=tuple(names))
 
     def with_contacts(self, contacts: Mapping[str, str]) -> "Robot":
-        """A copy whose contact functions (`contact_fdyn`, `contact_impulse`) hold the frames of
-        `contacts` — {frame name: "point" (its origin's linear acceleration: 3 rows) or "surface"
-        (its whole spatial acceleration: 6 rows)} in the order given; forces in the world's axes at
-        the frame (LOCAL_WORLD_ALIGNED).  Each contact set is a model of its own.
+        """A copy whose contact functions (`contact_fdyn`, `contact_impulse` and their derivatives)
+        hold the frames of `contacts` — {frame name: "point" (its origin's linear acceleration: 3
+        rows) or "surface" (its whole spatial acceleration: 6 rows)} in the order given; forces in
+        the world's axes at the frame (LOCAL_WORLD_ALIGNED).  Each contact set is a model of its own.
 
         Raises:
             ValueError: an unknown frame (the closest known are named), a kind that is neither
