@@ -227,3 +227,16 @@ def test_solo12_through_generated_c(feet):
             assert _relative(got, want) < RTOL
         for got, want in zip(f.contact_impulse_derivatives(q[i], v[i]), want_impulse):
             assert _relative(got, want) < RTOL
+
+
+def test_contact_sets_of_one_robot_share_the_derivation(tmp_path, monkeypatch):
+    """Each set is a model of its own (its own fingerprint and code) on one joint-space derivation."""
+    from symdyn.derivation.entry import derive
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
+    robot = arms.load("twolink").nofriction(all=True)
+    first = derive(robot.with_contacts({"tool": "point"}), "newton-euler")
+    second = derive(robot.with_frames(["tool"]).with_contacts({"tool": "surface"}), "newton-euler")
+    assert not first.stats["from_cache"] and second.stats["from_cache"]
+    assert second.robot.contacts == (("tool", "surface"),)  # the caller's robot, not the cached one's
+    assert robot.with_contacts({"tool": "point"}).fingerprint() != robot.fingerprint()

@@ -38,6 +38,10 @@
  *   then M lines: JOINT R00 R01 R02 PX R10 R11 R12 PY R20 R21 R22 PZ, a frame fixed to joint line
  *   JOINT (0: the root) at that placement in the joint's frame; the task-space algorithms
  *   (frames_drift, frames_jacobian) serve them in order.
+ * Then, optionally, the contact set on the first K frames:
+ *   contacts K KIND...   (KIND 3: a point, CONTACT_3D; 6: a surface, CONTACT_6D; LOCAL_WORLD_ALIGNED)
+ *   which contact_fdyn (constraintDynamics) and contact_fdyn_derivatives (+
+ *   computeConstraintDynamicsDerivatives) hold.
  * STATES: K (a power of two) states, each q (nq), qd, qdd, tau (nv each)
  *   doubles: nq = nv = N on a fixed base (the file harness.c reads, so both
  *   time the same states).  symdyn's q: a planar root's is x y yaw, turned
@@ -63,6 +67,8 @@
 #include <pinocchio/algorithm/frames.hpp>
 #include <pinocchio/algorithm/center-of-mass.hpp>
 #include <pinocchio/algorithm/centroidal.hpp>
+#include <pinocchio/algorithm/constrained-dynamics.hpp>
+#include <pinocchio/algorithm/constrained-dynamics-derivatives.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -111,10 +117,11 @@ static JointIndex add_joint(Model &model, JointIndex parent, char type, const Ei
 
 static bool is_task_space(const std::string &name)
 {
-    return name.rfind("frames_", 0) == 0 || name == "com_centroidal";
+    return name.rfind("frames_", 0) == 0 || name.rfind("contact_", 0) == 0 || name == "com_centroidal";
 }
 
 static std::vector<FrameIndex> task_frames;  /* the frames of the arm file's "frames" section */
+static std::vector<int> contact_kinds;         /* its "contacts" section: 3 or 6 per frame */
 
 static Model read_arm(const char *path)
 {
@@ -223,6 +230,18 @@ static Model read_arm(const char *path)
             task_frames.push_back(model.addFrame(
                 Frame("task" + std::to_string(f), j, 0, SE3(R, p), FrameType::OP_FRAME)));
         }
+        ++lineno;
+        if (std::getline(in, line) && !line.empty()) {
+            std::istringstream s(line);
+            int k = 0, kind = 0;
+            if (!(s >> word >> k) || word != "contacts" || k < 1 || k > m)
+                bad(lineno, "expected 'contacts K KIND...' with 1 <= K <= " + std::to_string(m));
+            for (int c = 0; c < k; ++c) {
+                if (!(s >> kind) || (kind != 3 && kind != 6))
+                    bad(lineno, "contact " + std::to_string(c + 1) + ": its kind is 3 (point) or 6 (surface)");
+                contact_kinds.push_back(kind);
+            }
+        }
     }
     return model;
 }
@@ -312,6 +331,18 @@ int main(int argc, char **argv)
         const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
         std::vector<Data::Matrix6x> frameJ(task_frames.size(), Data::Matrix6x::Zero(6, n));
         std::vector<Eigen::Matrix<double, 6, 1>> drift(task_frames.size());
+        /* the contact set: rigid constraints at the first frames, solved exactly (mu = 0, one iteration) */
+        std::vector<RigidConstraintModel, Eigen::aligned_allocator<RigidConstraintModel>> contacts;
+        std::vector<RigidConstraintData, Eigen::aligned_allocator<RigidConstraintData>> contact_datas;
+        for (std::size_t c = 0; c < contact_kinds.size(); ++c) {
+            const Frame &frame = model.frames[task_frames[c]];
+            contacts.push_back(RigidConstraintModel(contact_kinds[c] == 3 ? CONTACT_3D : CONTACT_6D, model,
+                                                    frame.parentJoint, frame.placement, LOCAL_WORLD_ALIGNED));
+            contact_datas.push_back(RigidConstraintData(contacts.back()));
+        }
+        if (!contacts.empty())
+            initConstraintDynamics(model, data, contacts, contact_datas);
+        ProximalSettings prox(1e-12, 0.0, 1);
         /* per frame: its pose (16, row-major), Jacobian (6 x nv) and, with_drift, its drift (6) */
         auto task_output = [&](bool with_drift) {
             const Eigen::Index per = 16 + 6 * n + (with_drift ? 6 : 0);
@@ -391,11 +422,28 @@ int main(int argc, char **argv)
                  computeCentroidalMap(model, data, Q[k]);
                  sink = data.Ag(0, 0); },
              [&] { Eigen::MatrixXd out(9, n); out << data.Jcom, data.Ag; return out; }},
+            /* contacts: the accelerations and forces (a; lambda), then their derivatives
+               [da_dq da_dv da_dtau; dlambda_dq dlambda_dv dlambda_dtau] */
+            {"contact_fdyn", [&](std::size_t k) {
+                 constraintDynamics(model, data, Q[k], V[k], T[k], contacts, contact_datas, prox);
+                 sink = data.ddq[0]; },
+             [&] { Eigen::MatrixXd out(n + data.lambda_c.size(), 1); out << data.ddq, data.lambda_c; return out; }},
+            {"contact_fdyn_derivatives", [&](std::size_t k) {
+                 constraintDynamics(model, data, Q[k], V[k], T[k], contacts, contact_datas, prox);
+                 computeConstraintDynamicsDerivatives(model, data, contacts, contact_datas);
+                 sink = data.ddq_dq(0, 0); },
+             [&] {
+                 const Eigen::Index nc = data.lambda_c.size();
+                 Eigen::MatrixXd out(n + nc, 3 * n);
+                 out << data.ddq_dq, data.ddq_dv, data.ddq_dtau, data.dlambda_dq, data.dlambda_dv, data.dlambda_dtau;
+                 return out; }},
         };
         std::vector<std::string> wanted(argv + 5, argv + argc);
         for (const std::string &w : wanted)
             if (task_frames.empty() && w.rfind("frames_", 0) == 0)
                 throw std::runtime_error("algorithm '" + w + "' needs the arm file's frames section");
+            else if (contact_kinds.empty() && w.rfind("contact_", 0) == 0)
+                throw std::runtime_error("algorithm '" + w + "' needs the arm file's contacts section");
         for (const std::string &w : wanted)
             if (std::none_of(algorithms.begin(), algorithms.end(), [&](const Algorithm &a) { return w == a.name; }))
                 throw std::runtime_error("unknown algorithm '" + w + "'");

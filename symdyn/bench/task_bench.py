@@ -5,7 +5,10 @@ world-aligned Jacobian and drift of each: Pinocchio's forwardKinematics(q, v, 0)
 computeJointJacobians + updateFramePlacements + getFrameJacobian and
 getFrameClassicalAcceleration per foot), the Panda's hand (pose + LOCAL Jacobian:
 computeJointJacobians(q) + updateFramePlacements + getFrameJacobian) and Talos' centre of mass
-(com_jacobian + centroidal_map: jacobianCenterOfMass + computeCentroidalMap).  symdyn's side is
+(com_jacobian + centroidal_map: jacobianCenterOfMass + computeCentroidalMap); and the contact
+dynamics of Solo 12 on four feet and Talos on two soles (contact_fdyn: constraintDynamics;
+contact_fdyn_derivatives: + computeConstraintDynamicsDerivatives; both without friction, which
+Pinocchio's model has not).  symdyn's side is
 its generated scalar C (the lazy target's translation units, compiled into a small harness
 with the same loop as `harness.c`); Pinocchio's is `pin_peer.cpp` on the same model (its own
 reading of the URDF, written as an arm file with the frames), on the same states, in
@@ -46,6 +49,8 @@ class Case:
     frames: tuple
     functions: tuple
     algorithm: str
+    contacts: tuple = ()  # the first frames' contact kinds ("point", "surface")
+    target: float = 5.0  # the issue's per-call goal (×): 5 for the task space, 3 for the contacts
 
 
 CASES = {
@@ -73,7 +78,40 @@ CASES = {
         ("com_jacobian", "centroidal_map"),
         "com_centroidal",
     ),
+    "solo12-contacts": Case(
+        "Solo 12, four feet in contact",
+        "solo_description/robots/solo12.urdf",
+        {"tips": "all", "base_joint": "free"},
+        ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"),
+        ("contact_fdyn",),
+        "contact_fdyn",
+        ("point",) * 4,
+        3.0,
+    ),
+    "solo12-contact-derivatives": Case(
+        "Solo 12, four feet in contact, derivatives",
+        "solo_description/robots/solo12.urdf",
+        {"tips": "all", "base_joint": "free"},
+        ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"),
+        ("contact_fdyn_derivatives",),
+        "contact_fdyn_derivatives",
+        ("point",) * 4,
+        3.0,
+    ),
+    "talos-contacts": Case(
+        "Talos, two soles in contact",
+        "talos_data/robots/talos_full_v2.urdf",
+        {"tips": "all", "base_joint": "free", "locked": {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}},
+        ("left_sole_link", "right_sole_link"),
+        ("contact_fdyn",),
+        "contact_fdyn",
+        ("surface",) * 2,
+        3.0,
+    ),
 }
+
+#: Where each input of a generated function lies in a state of the harness's file (q, v, a, τ).
+_STATE = {"q": "Q", "v": "V", "a": "A", "tau": "T", "v_before": "V"}
 
 
 def robots_folder() -> Path:
@@ -98,10 +136,13 @@ def case_robot(case: Case) -> tuple[Robot, Path]:
 
         path = Path(str(files("symdyn.model.arms") / "data" / "panda.urdf"))
     robot = Robot.from_urdf(str(path), **case.options)
-    return (robot.with_frames(case.frames) if case.frames else robot), path
+    robot = robot.with_frames(case.frames) if case.frames else robot
+    if case.contacts:
+        robot = robot.nofriction(all=True).with_contacts(dict(zip(case.frames, case.contacts)))
+    return robot, path
 
 
-def _peer_arm(robot: Robot, path: Path, folder: Path) -> Path:
+def _peer_arm(robot: Robot, path: Path, folder: Path, contacts: tuple = ()) -> Path:
     """Pinocchio's model of the file with the robot's frames, as pin_peer.cpp reads it."""
     model, ids = file_model(robot, path)
     tree = pin_peer.tree_joints(model)
@@ -115,32 +156,56 @@ def _peer_arm(robot: Robot, path: Path, folder: Path) -> Path:
         numbers = np.ravel(frame.placement.homogeneous[:3])
         lines.append(f"{line} " + " ".join(repr(float(x) + 0.0) for x in numbers))
     if lines:
-        arm.write_text(arm.read_text() + f"frames {len(lines)}\n" + "".join(x + "\n" for x in lines))
+        kinds = " ".join("3" if kind == "point" else "6" for kind in contacts)
+        section = f"frames {len(lines)}\n" + "".join(x + "\n" for x in lines)
+        arm.write_text(arm.read_text() + section + (f"contacts {len(contacts)} {kinds}\n" if contacts else ""))
     return arm
 
 
-def _harness_source(model: str, robot: Robot, case: Case, sizes: dict) -> str:
-    """A C harness timing one step of the case (its functions called in turn), then printing its
-    outputs at state 3 in pin_peer.cpp's layout (per frame: pose, Jacobian, drift)."""
-    nq, nv, m = robot.nq, robot.nv, len(robot.task_frames)
-    buffers = "".join(f"static double o_{f}[{sizes[f]}];\n" for f in case.functions)
-    args = {"q": "Q", "v": "V", "a": "V"}
-    from ..derivation.task_space import OUTPUTS
-
-    calls = " ".join(f"{model}_{f}({', '.join(args[a] for a in OUTPUTS[f][1])}, o_{f});" for f in case.functions)
+def _check_lines(case: Case, sigs: dict, m: int) -> str:
+    """The C that prints the case's outputs at one state in pin_peer.cpp's layout."""
     if case.algorithm == "com_centroidal":
-        check = 'for (i = 0; i < 3 * NV; ++i) printf(" %.17g", o_com_jacobian[i]);\n'
-        check += '    for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_centroidal_map[i]);\n'
-    else:
-        jac = case.functions[1]
-        check = f"for (f = 0; f < {m}; ++f) {{\n"
-        check += '        for (i = 0; i < 16; ++i) printf(" %.17g", o_frame_pose[16 * f + i]);\n'
-        check += f'        for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_{jac}[6 * NV * f + i]);\n'
-        if "frame_drift" in case.functions:
-            check += '        for (i = 0; i < 6; ++i) printf(" %.17g", o_frame_drift[6 * f + i]);\n'
-        check += "    }\n"
+        check = 'for (i = 0; i < 3 * NV; ++i) printf(" %.17g", o_com_jacobian_Jcom[i]);\n'
+        return check + '    for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_centroidal_map_Ag[i]);\n'
+    if case.algorithm == "contact_fdyn":
+        return 'for (i = 0; i < NV; ++i) printf(" %.17g", o_contact_fdyn_a[i]);\n' + (
+            '    for (i = 0; i < NC; ++i) printf(" %.17g", o_contact_fdyn_force[i]);\n'
+        )
+    if case.algorithm == "contact_fdyn_derivatives":  # [da_dq da_dv da_dtau; dforce_dq dforce_dv dforce_dtau], by rows
+        f = "o_contact_fdyn_derivatives_"
+        return (
+            "for (i = 0; i < NV; ++i) for (f = 0; f < 3 * NV; ++f)\n"
+            f'        printf(" %.17g", (f < NV ? {f}da_dq : f < 2 * NV ? {f}da_dv : {f}da_dtau)[i * NV + f % NV]);\n'
+            "    for (i = 0; i < NC; ++i) for (f = 0; f < 3 * NV; ++f)\n"
+            f'        printf(" %.17g", (f < NV ? {f}dforce_dq : f < 2 * NV ? {f}dforce_dv : {f}dforce_dtau)[i * NV + f % NV]);\n'
+        )
+    jac = case.functions[1]
+    check = f"for (f = 0; f < {m}; ++f) {{\n"
+    check += '        for (i = 0; i < 16; ++i) printf(" %.17g", o_frame_pose_pose[16 * f + i]);\n'
+    out = sigs[jac].outputs[0][0]
+    check += f'        for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_{jac}_{out}[6 * NV * f + i]);\n'
+    if "frame_drift" in case.functions:
+        check += '        for (i = 0; i < 6; ++i) printf(" %.17g", o_frame_drift_drift[6 * f + i]);\n'
+    return check + "    }\n"
+
+
+def _harness_source(model: str, robot: Robot, case: Case, sigs: dict) -> str:
+    """A C harness timing one step of the case (its functions called in turn), then printing its
+    outputs at state 3 in pin_peer.cpp's layout (`_check_lines`)."""
+    from ..codegen.contact_functions import contact_count
+
+    nq, nv, m = robot.nq, robot.nv, len(robot.task_frames)
+    buffers = "".join(
+        f"static double o_{f}_{o}[{int(np.prod(shape))}];\n" for f in case.functions for o, shape in sigs[f].outputs
+    )
+    calls = " ".join(
+        f"{model}_{f}({', '.join([_STATE[a] for a, _ in sigs[f].inputs] + [f'o_{f}_{o}' for o, _ in sigs[f].outputs])});"
+        for f in case.functions
+    )
+    first = f"o_{case.functions[0]}_{sigs[case.functions[0]].outputs[0][0]}"
     protos = "".join(
-        f"void {model}_{f}({', '.join('const double *' for _ in OUTPUTS[f][1])}, double *);\n" for f in case.functions
+        f"void {model}_{f}({', '.join(['const double *'] * len(sigs[f].inputs) + ['double *'] * len(sigs[f].outputs))});\n"
+        for f in case.functions
     )
     return f"""/* symdyn's side of the task-space comparison (symdyn.bench.task_bench): generated, do not edit. */
 #include <stdio.h>
@@ -148,6 +213,7 @@ def _harness_source(model: str, robot: Robot, case: Case, sizes: dict) -> str:
 #include <time.h>
 #define NQ {nq}
 #define NV {nv}
+#define NC {contact_count(robot) if robot.contacts else 0}
 {protos}{buffers}
 static double now_ns(void) {{ struct timespec t; clock_gettime(CLOCK_MONOTONIC, &t); return 1e9 * t.tv_sec + t.tv_nsec; }}
 static int by_value(const void *a, const void *b) {{ double x = *(const double *)a, y = *(const double *)b; return (x > y) - (x < y); }}
@@ -166,16 +232,18 @@ int main(int argc, char **argv)
     fclose(fh);
 #define Q (S + k * W)
 #define V (S + k * W + NQ)
+#define A (S + k * W + NQ + NV)
+#define T (S + k * W + NQ + 2 * NV)
     for (r = 0; r < reps; ++r) {{
         double t0 = now_ns();
-        for (i = 0; i < ncalls; ++i) {{ k = i & (K - 1); {calls} sink += o_{case.functions[0]}[0]; }}
+        for (i = 0; i < ncalls; ++i) {{ k = i & (K - 1); {calls} sink += {first}[0]; }}
         v[r] = (now_ns() - t0) / (double)ncalls;
     }}
     qsort(v, reps, sizeof *v, by_value);
     printf("time step %.3f\\n", v[reps / 2]);
     k = 3; {calls}
     printf("check step");
-    {check}    printf("\\n");
+    {_check_lines(case, sigs, m)}    printf("\\n");
     (void)f; (void)sink;
     return 0;
 }}
@@ -189,14 +257,13 @@ def _symdyn_harness(robot: Robot, case: Case, log) -> Path:
 
     name = identifier(robot.name)
     sigs = {s.name: s for s in lazy.signatures(robot)}
-    sizes = {f: int(np.prod(sigs[f].outputs[0][1])) for f in case.functions}
     texts = {f"{f}.c": text for f, text in lazy.scalar_units(robot, case.functions).items()}
-    texts["task_harness.c"] = _harness_source(name, robot, case, sizes)
+    texts["task_harness.c"] = _harness_source(name, robot, case, sigs)
     return cached_program(f"task-{name}", texts, log=log)
 
 
 def _states(robot: Robot, count: int, seed: int = 0):
-    """(q, v, a, τ = 0): joints within their limits, a floating base moved along a random twist."""
+    """(q, v, a, τ): joints within their limits, a floating base moved along a random twist."""
     rng = np.random.default_rng(seed)
     lo, hi = robot.qlim.T
     q = robot.neutral() + np.zeros((count, 1))
@@ -206,7 +273,7 @@ def _states(robot: Robot, count: int, seed: int = 0):
         twist[:, : robot.nv - robot.n] = rng.normal(size=(count, robot.nv - robot.n))
         q = robot.integrate(q, twist)
     v = rng.uniform(-2, 2, (count, robot.nv))
-    return q, v, rng.uniform(-5, 5, (count, robot.nv)), np.zeros((count, robot.nv))
+    return q, v, rng.uniform(-5, 5, (count, robot.nv)), rng.uniform(-2, 2, (count, robot.nv))
 
 
 def _agree(label: str, ours: np.ndarray, peer: np.ndarray, rtol: float = 1e-10) -> float:
@@ -221,12 +288,13 @@ def _batch_ns(robot: Robot, case: Case, count: int, threads: int | None) -> floa
     every core (one warm-up call first: the kernels are compiled when first called)."""
     from ..codegen.entry import load
 
-    c = load(robot, "c")
-    q, v, _, _ = _states(robot, count, seed=1)
-    args = {"q": (q,), "v": (q, v)}
-    from ..derivation.task_space import OUTPUTS
+    from ..codegen import lazy
 
-    calls = [(getattr(c, f), args["v" if "v" in OUTPUTS[f][1] else "q"]) for f in case.functions]
+    c = load(robot, "c")
+    q, v, a, tau = _states(robot, count, seed=1)
+    state = {"q": q, "v": v, "a": a, "tau": tau, "v_before": v}
+    sigs = {s.name: s for s in lazy.signatures(robot)}
+    calls = [(getattr(c, f), tuple(state[x] for x, _ in sigs[f].inputs)) for f in case.functions]
     outs = [f(*a) for f, a in calls]  # compiles the kernels, allocates the outputs
     best = float("inf")
     for _ in range(5):
@@ -245,7 +313,7 @@ def bench_case(key: str, *, calls: int = 20000, reps: int = 7, rounds: int = 3, 
     work = writable(cache_dir() / "bench")
     q, v, a, tau = _states(robot, POOL)
     states = write_states(work / f"task-states-{os.getpid()}.bin", q, v, a, tau)
-    arm = _peer_arm(robot, path, work)
+    arm = _peer_arm(robot, path, work, case.contacts)
     try:
         ours = _symdyn_harness(robot, case, log)
         peer = pin_peer.peer_binary(log)
@@ -264,7 +332,7 @@ def bench_case(key: str, *, calls: int = 20000, reps: int = 7, rounds: int = 3, 
         states.unlink(missing_ok=True)
         arm.unlink(missing_ok=True)
     title = f"task space, {case.name} ({robot.nv} velocities): {' + '.join(case.functions)}"
-    rows = [Row(title, "per call", tuple(symdyn_ns), f"Pinocchio {case.algorithm}", tuple(peer_ns), target=5)]
+    rows = [Row(title, "per call", tuple(symdyn_ns), f"Pinocchio {case.algorithm}", tuple(peer_ns), target=case.target)]
     if batch:
         from .batched import ceilings
         from ..codegen import lazy

@@ -100,7 +100,8 @@ def derive(
         dyn.stats["derive_seconds"] = time.perf_counter() - start
         return dyn
 
-    entry = key(robot.fingerprint(), method, __version__, code_fingerprint(), f"regroup={regroup}")
+    # keyed without the task frames and contact set: every contact set of a robot shares this derivation
+    entry = key(robot.dynamics_fingerprint(), method, __version__, code_fingerprint(), f"regroup={regroup}")
     kind = f"derive-{method}" + ("-regrouped" if regroup else "")
     dyn, hit = cached(kind, entry, build, use_cache=cache)
     dyn = dataclasses.replace(dyn, robot=robot)  # the caller's name and poses

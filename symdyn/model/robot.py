@@ -607,6 +607,14 @@ class Robot:
         """SHA-256 of every parameter that affects the dynamics (not name or poses)."""
         return hashlib.sha256(_canonical(self._params()).encode()).hexdigest()
 
+    def dynamics_fingerprint(self) -> str:
+        """The fingerprint without the chosen task frames and contact set: what the joint-space
+        derivation depends on, so that the contact sets of one robot (each a model of its own)
+        share one derivation (`derive`'s cache)."""
+        if not (self.frames or self.contacts):
+            return self.fingerprint()
+        return dataclasses.replace(self, frames=(), contacts=()).fingerprint()
+
     def require_numeric(self, what: str = "this operation") -> None:
         if self.is_symbolic:
             names = ", ".join(sorted(str(s) for s in self.free_symbols))
