@@ -26,3 +26,34 @@ def test_the_casadi_step_is_robot_integrate():
     assert np.all(np.isfinite(jac(robot.neutral(), np.zeros(robot.nv)).full()))
     with pytest.raises(ValueError, match="not free"):
         ocp_legged.integrate_function(random_tree_robot(2, n=3))
+
+
+@pytest.mark.slow
+def test_solo12_jumps_from_a_standing_guess_and_the_generated_contact_dynamics_replay_it(tmp_path):
+    """The study's jump converges; its torques, replayed open loop on the generated C contact
+    dynamics (contact_fdyn, fdyn, contact_impulse), give the optimum's motion; every force in its
+    friction pyramid, the feet on the ground in stance and above it in flight."""
+    from symdyn.apps.studies import legged
+    from tests.test_task_space import _solo_file
+
+    _solo_file()  # skips without example-robot-data
+    from symdyn.codegen.entry import load
+
+    robot = legged.solo12()
+    problem = legged.jump_problem(robot)
+    sol = ocp_legged.solve(problem)
+    assert sol.status == "Solve_Succeeded"
+    replayed = legged.replay(robot, problem, sol)
+    assert np.abs(replayed[:, :3] - sol.q[:, :3]).max() < 1e-5  # the base, m
+    assert np.abs(replayed - sol.q).max() < 1e-3  # every coordinate (IPOPT's 1e-6 on the constraints, open loop)
+    np.testing.assert_allclose(sol.q[-1, :3] - problem.q0[:3], [0.15, 0.0, 0.0], atol=1e-6)
+    for f in sol.forces:
+        for c in range(len(f) // 3):
+            assert f[3 * c + 2] >= -1e-6 and max(abs(f[3 * c]), abs(f[3 * c + 1])) <= 0.7 * f[3 * c + 2] + 1e-6
+    feet = load(robot, "c").frame_pose(sol.q)[:, :, 2, 3]
+    flight = [k for k, p in enumerate(sol.phase_of_node) if p == 1][1:]
+    assert feet[flight].min() > 0.0  # in the air
+    assert np.abs(feet[sol.phase_of_node.index(2)]).max() < 1e-6  # the touchdown on the ground
+    sol.save(tmp_path / "jump.npz")
+    saved = np.load(tmp_path / "jump.npz")
+    assert saved["q"].shape == sol.q.shape and saved["forces"].shape == (len(sol.forces), 12)
