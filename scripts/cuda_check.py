@@ -37,7 +37,7 @@ def model(name: str) -> Robot:
     """A shipped arm, or a whole robot of example-robot-data on a free base."""
     if name in arms.NAMES:
         return arms.load(name)
-    from symdyn.bench.task_bench import robots_folder
+    from symdyn.model.example_robots import robots_folder
 
     files = {"go2": "go2_description/urdf/go2.urdf", "talos": "talos_data/robots/talos_full_v2.urdf"}
     return Robot.from_urdf(str(robots_folder() / files[name]), tips="all", base_joint="free")

@@ -15,7 +15,6 @@ Needs Pinocchio (`pin`) and example-robot-data (the `robots` extra):
 
 from __future__ import annotations
 
-import importlib.metadata
 import sys
 import tempfile
 from pathlib import Path
@@ -23,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from symdyn import Robot
+from symdyn.model import example_robots
 from symdyn.numeric import reference as ref
 from symdyn.numeric.snap_effect import effect_states
 
@@ -31,12 +31,11 @@ UR10 = "ur_description/urdf/ur10_robot.urdf"
 
 
 def robots_folder() -> Path:
-    """example-robot-data's robots/ folder, inside the wheel's cmeel.prefix."""
+    """example-robot-data's robots/ folder, or the exit that says what to install."""
     try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
+        return example_robots.robots_folder()
+    except FileNotFoundError:
         sys.exit("physics_changes: pip install example-robot-data pin (or pip install -e '.[robots,test]')")
-    return Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots"))
 
 
 def pinocchio_model(path: Path, robot: Robot):

@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from symdyn.bench import task_space as peer
-from symdyn.bench.task_bench import robots_folder
+from symdyn.model.example_robots import robots_folder
 from symdyn.codegen.entry import load
 from symdyn.codegen.task_functions import task_names
 from symdyn.derivation.task_space import OUTPUTS, task_space

@@ -19,7 +19,6 @@ against Pinocchio's per-call time.
 
 from __future__ import annotations
 
-import importlib.metadata
 import os
 import subprocess
 import time
@@ -30,12 +29,13 @@ import numpy as np
 
 from ..derivation.cache import cache_dir, writable
 from ..model import Robot
+from ..model.example_robots import robots_folder
 from . import pin_peer
 from .harness import POOL, cached_program, write_states
 from .rows import Row
 from .task_space import file_model
 
-__all__ = ["CASES", "Case", "bench_case", "robots_folder"]
+__all__ = ["CASES", "Case", "bench_case"]
 
 
 @dataclass(frozen=True)
@@ -112,19 +112,6 @@ CASES = {
 
 #: Where each input of a generated function lies in a state of the harness's file (q, v, a, τ).
 _STATE = {"q": "Q", "v": "V", "a": "A", "tau": "T", "v_before": "V"}
-
-
-def robots_folder() -> Path:
-    """example-robot-data's robots/ folder (its wheel's cmeel.prefix).
-
-    Raises:
-        FileNotFoundError: example-robot-data is not installed (pip install example-robot-data).
-    """
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        raise FileNotFoundError("example-robot-data is not installed: pip install example-robot-data") from None
-    return Path(dist.locate_file("cmeel.prefix/share/example-robot-data/robots"))
 
 
 def case_robot(case: Case) -> tuple[Robot, Path]:

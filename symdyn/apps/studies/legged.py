@@ -29,7 +29,7 @@ STAND |= {"HL_HFE": -0.8, "HL_KFE": 1.6, "HR_HFE": -0.8, "HR_KFE": 1.6}
 
 def solo12() -> Robot:
     """Solo 12 on a free base with its feet as frames (example-robot-data's URDF, no friction)."""
-    from ...bench.task_bench import robots_folder
+    from ...model.example_robots import robots_folder
 
     path = robots_folder() / "solo_description" / "robots" / "solo12.urdf"
     robot = Robot.from_urdf(str(path), tips="all", base_joint="free")
