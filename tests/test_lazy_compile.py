@@ -146,3 +146,103 @@ def test_a_compiler_error_names_the_function_and_spares_the_others(twolink, bind
     with pytest.raises(RuntimeError, match=r"compiling twolink's Minv \(scalar code\) failed"):
         lib.functions["Minv"](np.zeros((3, 2)))  # the kernel needs the scalar code
     assert lib.functions["M"](np.zeros(2))[1, 1] == 0.25
+
+
+def _wait_for_kernel(lib, function: str, seconds: float = 60.0) -> None:
+    import time
+
+    end = time.monotonic() + seconds
+    while function in lib.units._compiling and time.monotonic() < end:
+        time.sleep(0.05)
+    assert function not in lib.units._compiling, "the background compile did not finish"
+
+
+@pytest.mark.parametrize("binding", BINDINGS)
+def test_a_large_kernel_compiles_in_the_background_while_the_scalar_code_answers(
+    twolink, tmp_path, binding, monkeypatch
+):
+    """Issue 44, item 6: a batch call never waits for a large kernel's compiler: the scalar code
+    answers (the single calls' values, a NaN still refused by name), the kernel is built in the
+    background and serves the calls after."""
+    monkeypatch.setattr(clib, "BACKGROUND_BYTES", 0)  # every kernel counts as large
+    gate = __import__("threading").Event()
+    real = clib._build_units
+
+    def slow(units):  # the kernel's compile waits until the first batch call has been answered
+        if any(u.kind == "simd" for u in units):
+            gate.wait(30)
+        real(units)
+
+    monkeypatch.setattr(clib, "_build_units", slow)
+    lib = load_library(*twolink, CompileOptions(binding=binding))
+    (q, qd, qdd), tau = cases("twolink")["tau"]
+    got = lib.functions["tau"](q, qd, qdd)  # answered while the kernel waits to compile
+    assert "tau" in lib.units._compiling and _built(tmp_path) == ["tau.scalar"]
+    single = np.array([lib.functions["tau"](q[k], qd[k], qdd[k]) for k in range(len(q))])
+    np.testing.assert_array_equal(got, single)
+    bad = qd.copy()
+    bad[2, 1] = np.nan
+    with pytest.raises(ValueError, match="qd contains NaN or infinity"):
+        lib.functions["tau"](q, bad, qdd)
+    gate.set()
+    _wait_for_kernel(lib, "tau")
+    assert _built(tmp_path) == ["tau.scalar", "tau.simd"]
+    assert_close(lib.functions["tau"](q, qd, qdd), tau, "tau by its kernel")
+
+
+def test_a_background_kernel_that_fails_raises_at_the_next_batch_call(twolink, monkeypatch):
+    monkeypatch.setattr(clib, "BACKGROUND_BYTES", 0)
+    real = clib._build_units
+
+    def broken(units):
+        if any(u.kind == "simd" for u in units):
+            raise RuntimeError("compiling twolink's M (batch kernel) failed: injected")
+        real(units)
+
+    monkeypatch.setattr(clib, "_build_units", broken)
+    lib = load_library(*twolink)
+    (q,), M = cases("twolink")["M"]
+    assert_close(lib.functions["M"](q), M, "M by the scalar code")
+    _wait_for_kernel(lib, "M")
+    with pytest.raises(RuntimeError, match="M \\(batch kernel\\) failed: injected"):
+        lib.functions["M"](q)
+    assert_close(lib.functions["M"](q[0]), M[0], "the single call still works")
+
+
+def test_a_compiler_ends_with_the_process_that_started_it(tmp_path):
+    """A compile outliving its Python (killed) is ended by the kernel (Linux: PR_SET_PDEATHSIG)."""
+    if not sys.platform.startswith("linux"):
+        pytest.skip("PR_SET_PDEATHSIG is Linux's")
+    script = (
+        "import subprocess, sys, time\n"
+        "from symdyn.codegen.emit import clib\n"
+        "p = subprocess.Popen(['sleep', '60'], preexec_fn=clib._die_with_parent)\n"
+        "print(p.pid, flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    child = int(parent.stdout.readline())
+    parent.kill()
+    parent.wait()
+    import time
+
+    for _ in range(100):
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    os.kill(child, 9)
+    pytest.fail("the child outlived its killed parent")
+
+
+def test_a_kernel_too_large_to_compile_at_a_call_is_left_to_the_scalar_code(twolink, tmp_path, monkeypatch):
+    monkeypatch.setattr(clib, "BACKGROUND_BYTES", 0)
+    monkeypatch.setattr(clib, "SCALAR_ONLY_BYTES", 0)
+    lib = load_library(*twolink)
+    (q, qd), C = cases("twolink")["C"]
+    assert_close(lib.functions["C"](q, qd), C, "C by the scalar code")
+    assert _built(tmp_path) == ["C.scalar"] and not lib.units._compiling
+    lib.build(["C"])  # ahead, on request: the kernel after all
+    assert _built(tmp_path) == ["C.scalar", "C.simd"]
+    assert_close(lib.functions["C"](q, qd), C, "C by its kernel")

@@ -32,6 +32,7 @@ keyword arguments, bad input) and return new arrays.
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures
 import contextlib
 import ctypes
@@ -48,6 +49,7 @@ import sys
 import sysconfig
 import tempfile
 import threading
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -148,6 +150,8 @@ static int bind(spec_t *s, int many)
         return -1;
     p = PyLong_AsVoidPtr(r);
     Py_DECREF(r);
+    if (!p && many && !PyErr_Occurred())
+        return 0;   /* its kernel is compiling in the background: the scalar code serves meanwhile */
     if (!p) {
         if (!PyErr_Occurred())
             PyErr_Format(PyExc_RuntimeError, "%%s(): the builder gave no address", s->cname);
@@ -161,6 +165,30 @@ static int bind(spec_t *s, int many)
 }
 
 %(trampolines)s
+/* The scalar code state after state, while the batch kernel compiles (`_Units.background`): the
+   same values as single calls; nonzero (nothing computed) when an input is NaN or infinite. */
+static int call_loop(const spec_t *s, npy_intp n, double *const *all)
+{
+    double *p[2 * MAXARGS];
+    npy_intp k, z, size[2 * MAXARGS];
+    int i, d, m = s->nin + s->nout;
+    for (i = 0; i < s->nin; ++i)
+        size[i] = s->in_size[i];
+    for (i = 0; i < s->nout; ++i)
+        for (size[s->nin + i] = 1, d = 0; d < s->out_nd[i]; ++d)
+            size[s->nin + i] *= s->out_dims[i][d];
+    for (i = 0; i < s->nin; ++i)
+        for (z = 0; z < n * size[i]; ++z)
+            if (!isfinite(all[i][z]))
+                return 1;
+    for (k = 0; k < n; ++k) {
+        for (i = 0; i < m; ++i)
+            p[i] = all[i] + k * size[i];
+        call_one(s->one, m, p);
+    }
+    return 0;
+}
+
 /* Whether the call is the common one: positional C-contiguous double arrays
    (..., size) of one leading shape with room for the outputs' dimensions, finite
    when they hold one state (a batch's kernel tests its inputs as it gathers them). */
@@ -361,8 +389,10 @@ static PyObject *call(spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObje
         int nonfinite;
         if (!s->many && bind(s, 1) < 0)
             goto done;
+        if (!s->many && !s->one && bind(s, 0) < 0)
+            goto done;
         Py_BEGIN_ALLOW_THREADS
-        nonfinite = call_many(s->many, (int)count, threads, s->nin + s->nout, all);
+        nonfinite = s->many ? call_many(s->many, (int)count, threads, s->nin + s->nout, all) : call_loop(s, count, all);
         Py_END_ALLOW_THREADS
         if (nonfinite) {   /* the contract's check names the argument (a checked call is finite) */
             PyObject *why = normal ? NULL : checked(s, args, nargs, kwnames, out_nd);
@@ -888,6 +918,17 @@ def function_units(model: str, c_text: str, h_text: str, names: list[str]) -> di
 #: at a lower level and runs 10-40 % slower at -O1: it keeps -O3.  Under 64 kB the
 #: difference is a tenth of a second.
 SIMD_O2_BYTES = 64_000
+
+#: A batch kernel of at least this much C compiles in the background at its first batch call,
+#: which the scalar code answers meanwhile (state after state, the single calls' values): gcc's
+#: time and memory on a kernel grow faster than its size (a random 30-joint arm's
+#: fdyn_derivatives: still compiling after 14 min at 7.7 GB), and no call should wait longer than
+#: the scalar loop takes.  Smaller kernels (every shipped arm's, a quadruped's τ, M, q̈) compile at
+#: the first batch call, as before.  `CLibrary.build` compiles any ahead.
+BACKGROUND_BYTES = 1_000_000
+#: A batch kernel of at least this much C is not compiled at a call at all (its compile would take
+#: many minutes and gigabytes): the scalar code serves its batches; `CLibrary.build` still builds it.
+SCALAR_ONLY_BYTES = 8_000_000
 SIMD_O1_BYTES = 256_000
 
 
@@ -991,10 +1032,37 @@ def _compile_units(cc: str, units: list[_Unit]) -> None:
 
 
 def _start(cc: str, u: _Unit, source: Path, flags: tuple):
-    """(unit, compiler process, command, temporary output) of one unit's compile."""
+    """(unit, compiler process, command, temporary output) of one unit's compile; the compiler is
+    ended when this process exits (`_RUNNING`), however it exits."""
     tmp = u.path.with_name(f".{u.path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     cmd = [cc, *flags, str(source), "-o", str(tmp), "-lm"]
-    return u, subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True), cmd, tmp
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_die_with_parent)
+    _RUNNING.add(proc)
+    return u, proc, cmd, tmp
+
+
+#: The compilers running now: killed at the interpreter's exit (a background kernel's compile
+#: would outlive it otherwise); a killed interpreter's compilers get SIGKILL from the kernel
+#: (`_die_with_parent`).
+_RUNNING: "weakref.WeakSet[subprocess.Popen]" = weakref.WeakSet()
+
+
+@atexit.register
+def _end_compilers() -> None:
+    for proc in list(_RUNNING):
+        if proc.poll() is None:
+            proc.kill()
+
+
+_PR_SET_PDEATHSIG = 1
+_PRCTL = getattr(ctypes.CDLL(None), "prctl", None) if sys.platform.startswith("linux") else None
+
+
+def _die_with_parent() -> None:
+    """In the compiler's process, before exec: SIGKILL when the thread that started it ends (Linux;
+    elsewhere the atexit handler alone ends it)."""
+    if _PRCTL is not None:
+        _PRCTL(_PR_SET_PDEATHSIG, 9)
 
 
 class _Units:
@@ -1011,6 +1079,8 @@ class _Units:
         fork_safe(self, "lock")  # a forked child gets a lock of its own
         self.loaded: dict[tuple[str, str], tuple[ctypes.CDLL, int]] = {}
         self._units: dict[tuple[str, str], _Unit] = {}
+        self._compiling: set[str] = set()  # batch kernels compiling in the background
+        self._failed: dict[str, Exception] = {}
         self._folder: Path | None = None
 
     def folder(self) -> Path:
@@ -1077,11 +1147,48 @@ class _Units:
         self.loaded[u.function, u.kind] = (dll, address)
 
     def __call__(self, function: str, kind: str) -> int:
-        """The address of `function`'s compiled code of `kind`, built and loaded if need be."""
+        """The address of `function`'s compiled code of `kind`, built and loaded if need be; 0 for
+        a large batch kernel not yet built (`background`): the call uses the scalar code meanwhile."""
         with self.lock:
             if (function, kind) not in self.loaded:
+                if kind == "simd" and self.background(function):
+                    return 0
                 self.prepare([(function, kind)])
             return self.loaded[function, kind][1]
+
+    def background(self, function: str) -> bool:
+        """Whether `function`'s batch calls go to the scalar code: its kernel is being compiled in the
+        background (started here if its unit has BACKGROUND_BYTES or more of C and is not in the
+        cache; the scalar unit is built first, for the calls meanwhile), or is too large to compile
+        at a call (SCALAR_ONLY_BYTES).  A kernel that failed to compile raises here, at the first
+        batch call after."""
+        if function in self._failed:
+            raise self._failed[function]
+        if function in self._compiling:
+            return True
+        size = 0 if self.whole else len(self.texts[function, "simd"])
+        if size < BACKGROUND_BYTES:
+            return False
+        unit = self.unit(function, "simd")
+        if _intact(unit.path):
+            return False
+        self.prepare([(function, "scalar")])
+        if size >= SCALAR_ONLY_BYTES:  # the scalar code serves its batches for good
+            return True
+
+        def build() -> None:
+            try:
+                _build_units([unit])
+                with self.lock:
+                    self._load(unit)
+            except Exception as exc:  # surfaced at the next batch call (`background`)
+                self._failed[function] = exc
+            finally:
+                self._compiling.discard(function)
+
+        self._compiling.add(function)
+        threading.Thread(target=build, name=f"symdyn: {unit.label}", daemon=True).start()
+        return True
 
 
 def load_library(c_path: Path, h_path: Path, options: CompileOptions = CompileOptions()) -> "CLibrary":
@@ -1206,10 +1313,17 @@ class _CtypesFunction:
     def _bind(self, kind: str):
         address = self._units(self.sig.name, kind)
         if kind == "simd":
-            self._many = self._many_type(address)
+            self._many = self._many_type(address) if address else None
             return self._many
         self._one = self._one_type(address)
         return self._one
+
+    def _loop(self, count: int, arrays: list, outs: list) -> None:
+        """The scalar code on each state (the contract checked the inputs are finite)."""
+        one = self._one or self._bind("scalar")
+        flat = [a.reshape(count, -1) for a in (*arrays, *outs)]
+        for k in range(count):
+            one(*(x[k].ctypes.data for x in flat))
 
     def __call__(self, *args, out=None, threads=None, **kwargs):
         arrays, lead = contract.arguments(self.sig.name, self.sig.inputs, args, kwargs, self._lead_max)
@@ -1225,7 +1339,11 @@ class _CtypesFunction:
             if count > 2**31 - 1:
                 raise ValueError(f"{self.sig.name}(): {count} states, at most {2**31 - 1} per call")
             if count:
-                (self._many or self._bind("simd"))(count, min(int(threads), 256), *pointers)
+                many = self._many or self._bind("simd")
+                if many is not None:
+                    many(count, min(int(threads), 256), *pointers)
+                else:  # the kernel compiles in the background: the scalar code, state after state
+                    self._loop(count, arrays, outs)
         else:
             (self._one or self._bind("scalar"))(*pointers)
         return outs[0] if len(outs) == 1 else tuple(outs)
