@@ -216,7 +216,7 @@ def test_a_compiler_ends_with_the_process_that_started_it(tmp_path):
     script = (
         "import subprocess, sys, time\n"
         "from symdyn.codegen.emit import clib\n"
-        "p = subprocess.Popen(['sleep', '60'], preexec_fn=clib._die_with_parent)\n"
+        "p = subprocess.Popen([*clib._with_parent(), 'sleep', '60'])\n"
         "print(p.pid, flush=True)\n"
         "time.sleep(60)\n"
     )

@@ -1036,14 +1036,13 @@ def _start(cc: str, u: _Unit, source: Path, flags: tuple):
     ended when this process exits (`_RUNNING`), however it exits."""
     tmp = u.path.with_name(f".{u.path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     cmd = [cc, *flags, str(source), "-o", str(tmp), "-lm"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_die_with_parent)
+    proc = subprocess.Popen([*_with_parent(), *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     _RUNNING.add(proc)
     return u, proc, cmd, tmp
 
 
 #: The compilers running now: killed at the interpreter's exit (a background kernel's compile
-#: would outlive it otherwise); a killed interpreter's compilers get SIGKILL from the kernel
-#: (`_die_with_parent`).
+#: would outlive it otherwise).
 _RUNNING: "weakref.WeakSet[subprocess.Popen]" = weakref.WeakSet()
 
 
@@ -1054,15 +1053,24 @@ def _end_compilers() -> None:
             proc.kill()
 
 
-_PR_SET_PDEATHSIG = 1
-_PRCTL = getattr(ctypes.CDLL(None), "prctl", None) if sys.platform.startswith("linux") else None
+#: Linux: the compiler is started through a small launcher that asks the kernel for SIGKILL when
+#: the thread that started it ends (PR_SET_PDEATHSIG, kept across exec) and then becomes the
+#: compiler, so that a killed interpreter's compiler dies too; no `preexec_fn` (a fork of a
+#: threaded process, which JAX and the thread pools make unsafe).  Elsewhere the atexit handler
+#: alone ends them.
+_LAUNCHER = (
+    "import ctypes, os, sys\n"
+    "ctypes.CDLL(None).prctl(1, 9)\n"
+    "if os.getppid() != int(sys.argv[1]):\n"
+    "    sys.exit(1)\n"
+    "os.execvp(sys.argv[2], sys.argv[2:])\n"
+)
 
 
-def _die_with_parent() -> None:
-    """In the compiler's process, before exec: SIGKILL when the thread that started it ends (Linux;
-    elsewhere the atexit handler alone ends it)."""
-    if _PRCTL is not None:
-        _PRCTL(_PR_SET_PDEATHSIG, 9)
+def _with_parent() -> list[str]:
+    """The launcher's command before the compiler's (none off Linux); this process's pid now (a
+    forked child's own)."""
+    return [sys.executable, "-c", _LAUNCHER, str(os.getpid())] if sys.platform.startswith("linux") else []
 
 
 class _Units:
