@@ -240,3 +240,31 @@ def test_contact_sets_of_one_robot_share_the_derivation(tmp_path, monkeypatch):
     assert not first.stats["from_cache"] and second.stats["from_cache"]
     assert second.robot.contacts == (("tool", "surface"),)  # the caller's robot, not the cached one's
     assert robot.with_contacts({"tool": "point"}).fingerprint() != robot.fingerprint()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("soles", [("left_sole_link", "right_sole_link"), ("left_sole_link",)])
+def test_talos_on_its_soles_through_generated_c(soles):
+    """Talos (example-robot-data, a free base, 36 velocities) on two surface contacts and on one,
+    through the generated C, against Pinocchio's constraint and impulse dynamics on its own reading
+    of the same file."""
+    from symdyn.model import Robot
+    from symdyn.model.example_robots import robots_folder
+
+    try:
+        path = robots_folder() / "talos_data" / "robots" / "talos_full_v2.urdf"
+    except FileNotFoundError as exc:
+        pytest.skip(str(exc))
+    locked = {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}
+    robot = Robot.from_urdf(str(path), tips="all", base_joint="free", locked=locked).nofriction(all=True)
+    robot = robot.with_contacts({sole: "surface" for sole in soles})
+    f = load(robot, "c")
+    q, v, _ = states(robot, 10, seed=21)
+    tau = np.random.default_rng(21).uniform(-5, 5, (10, robot.nv))
+    setup = pinocchio_setup(robot)
+    for i in range(10):
+        a, force, v_after, impulse = pinocchio_contacts(robot, q[i], v[i], tau[i], setup)
+        got_a, got_f = f.contact_fdyn(q[i], v[i], tau[i])
+        assert _relative(got_a, a) < RTOL and _relative(got_f, force) < RTOL
+        got_v, got_i = f.contact_impulse(q[i], v[i])
+        assert _relative(got_v, v_after) < RTOL and _relative(got_i, impulse) < RTOL
