@@ -268,3 +268,8 @@ def test_talos_on_its_soles_through_generated_c(soles):
         assert _relative(got_a, a) < RTOL and _relative(got_f, force) < RTOL
         got_v, got_i = f.contact_impulse(q[i], v[i])
         assert _relative(got_v, v_after) < RTOL and _relative(got_i, impulse) < RTOL
+    if len(soles) == 2:  # the derivatives too (~90 s to generate and compile), at three states
+        for i in range(3):
+            want_fdyn, _ = pinocchio_derivatives(robot, q[i], v[i], tau[i], setup)
+            for got, want in zip(f.contact_fdyn_derivatives(q[i], v[i], tau[i]), want_fdyn):
+                assert _relative(got, want) < RTOL
