@@ -124,8 +124,9 @@ def examples(page: Path) -> list[tuple[str, str | None]]:
 
 
 #: Pages whose examples take long (compiling CasADi's C for a Puma OCP: ~40 s; XLA compiling
-#: the JAX target: ~5 s): run by `make docs-check` (SYMDYN_SLOW_DOCS=1), not by the suite.
-SLOW_PAGES = {"studies_ocp.md", "jax_torch.md"}
+#: the JAX target: ~5 s; generating four contact sets' functions: ~25 s): run by `make docs-check`
+#: (SYMDYN_SLOW_DOCS=1), not by the suite.
+SLOW_PAGES = {"studies_ocp.md", "jax_torch.md", "contacts.md"}
 PAGES_WITH_CODE = sorted(
     (p for p in DOCS.rglob("*.md") if "equations" not in p.parts and python_blocks(p)), key=lambda p: p.as_posix()
 )

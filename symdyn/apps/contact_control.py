@@ -50,7 +50,9 @@ class WholeBodyInverseDynamics:
         self.weights = w
         self.nb = robot.nv - robot.n
         # τ and the contact frames' Jacobians only: the same robot without its contact functions
-        plain = dataclasses.replace(robot, contacts=()).with_frames([name for name, _ in robot.contacts])
+        plain = dataclasses.replace(robot, contacts=(), baumgarte=(0.0, 0.0)).with_frames(
+            [name for name, _ in robot.contacts]
+        )
         self.model = load(plain, target)
 
     def contact_rows(self, q) -> np.ndarray:

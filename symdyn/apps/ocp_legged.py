@@ -315,6 +315,6 @@ def standing(robot: Robot, joints: dict, ground: float = 0.0) -> np.ndarray:
     index = {name: robot.nq - robot.n + i for i, name in enumerate(robot.joint_names)}
     for name, angle in joints.items():
         q[index[name]] = angle
-    pose = load(dataclasses.replace(robot, contacts=()), "c").frame_pose(q)
+    pose = load(dataclasses.replace(robot, contacts=(), baumgarte=(0.0, 0.0)), "c").frame_pose(q)
     q[2] += ground - float(np.min(pose[:, 2, 3]))
     return q

@@ -13,6 +13,8 @@ surface contact its spatial acceleration (6 rows; the linear part is the classic
 — Pinocchio's `constraintDynamics` and `impulseDynamics` (M a = τ − b + Jᵀλ, J a + γ = 0;
 J v⁺ = 0).  One program each: M and the bias b = τ(q, v, 0) are the chosen ones (`choice`), and
 the contact frames' intermediates are renamed k_… so that they meet no name of the dynamics'.
+With Baumgarte gains (`Robot.with_contacts(…, kp=, kd=)`) the constraint is Pinocchio's corrected
+one, J a + γ = −kd J v − kp e, e the frames' errors from an `anchor` input (`_anchor_errors`).
 A contact set whose rows are dependent (A singular: two surfaces on one body) is refused by name
 (`_independent`).  The derivatives (`derivatives_program`) differentiate the KKT residuals,
 r1 = τ(q, v, a) − Jᵀf and r2 = J a + γ (for the impact M(v⁺ − v⁻) − JᵀΛ and J v⁺), and solve
@@ -21,12 +23,16 @@ the same KKT system for each column: ∂[a; f]/∂z = −K⁻¹ ∂r/∂z, K = [
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 import sympy as sp
 
 from ..derivation.task_space import derive_task_space
 from ..model import Robot
 from ..model.frames import CONTACT_KINDS
+from ..model.rotations import quaternion_entries
 from ..derivation.program import Program
 from .derivatives import Splice, jacobian, tangent_map
 from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor
@@ -34,6 +40,7 @@ from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor
 __all__ = [
     "CONTACT_NAMES",
     "ContactSpecs",
+    "anchor_size",
     "contact_names",
     "contact_count",
     "contact_signatures",
@@ -53,8 +60,9 @@ def contact_count(robot: Robot) -> int:
     return sum(CONTACT_KINDS[kind] for _, kind in robot.contacts)
 
 
-def _rows(robot: Robot) -> tuple[list, list, list, tuple]:
-    """(J rows, γ, the definitions they use renamed k_…, the velocity symbols) of the contact set."""
+def _rows(robot: Robot) -> tuple[list, list, list, tuple, list]:
+    """(J rows, γ, the definitions they use renamed k_…, (q, v) symbols, each frame's (p, R) in the
+    world) of the contact set."""
     contact_robot = robot.with_frames([name for name, _ in robot.contacts])
     ts = derive_task_space(contact_robot)
     J, drift, world = (
@@ -76,7 +84,79 @@ def _rows(robot: Robot) -> tuple[list, list, list, tuple]:
     defs = [(rename[s], sp.sympify(e).xreplace(zero).xreplace(rename)) for s, e in ts.definitions]
     rows = [[sp.sympify(e).xreplace(rename) for e in row] for row in rows]
     gamma = [sp.sympify(e).xreplace(zero).xreplace(rename) for e in gamma]
-    return rows, gamma, defs, (ts.q, ts.v)
+    T = ts.outputs["frame_pose"].xreplace(rename)
+    poses = [(T[4 * k : 4 * k + 3, 3], T[4 * k : 4 * k + 3, :3]) for k in range(len(robot.contacts))]
+    return rows, gamma, defs, (ts.q, ts.v), poses
+
+
+#: Terms kept of the series h(u) = θ²/(2u), u = 1 − cos θ, that the surface anchors' log₆ reads
+#: θ from: its terms fall as (u/2)ᵐ, so 40 keep it exact to double precision for θ ≤ 90°.
+LOG_TERMS = 40
+
+
+@functools.cache
+def _log_series() -> tuple[tuple, tuple]:
+    """The coefficients of h(u) = θ²/(2u) = Σ aₘ uᵐ (θ² = 4 arcsin²√(u/2) = Σₙ 2ⁿ⁺¹uⁿ/(n² C(2n, n)))
+    and of k(u) = (1 − (1 − u/2) h(u))/u = Σ (aₘ₋₁/2 − aₘ) uᵐ⁻¹."""
+    a = [sp.Rational(2 ** (m + 1), (m + 1) ** 2 * math.comb(2 * m + 2, m + 1)) for m in range(LOG_TERMS + 1)]
+    return tuple(a[:LOG_TERMS]), tuple(a[m - 1] / 2 - a[m] for m in range(1, LOG_TERMS + 1))
+
+
+def _horner(coefficients: tuple, u: sp.Expr) -> sp.Expr:
+    out = sp.S.Zero
+    for c in reversed(coefficients):
+        out = out * u + c
+    return out
+
+
+def _log6(R: sp.Matrix, t: sp.Matrix, name) -> tuple[list, list]:
+    """SE(3)'s logarithm (linear, angular) of the placement (R, t), as Pinocchio's `log6`, without a
+    branch: with u = 1 − cos θ = (3 − tr R)/2 and h, k of `_log_series`, θ/(2 sin θ) = ½√(h/(1 − u/2))
+    and (1 − (θ/2)cot(θ/2))/θ² = k/(2h(1 + √((1 − u/2)h))) — smooth at θ = 0, where the
+    closed forms are 0/0; exact for θ ≤ 90° (`LOG_TERMS`).  `name(stem, expr)` names a term."""
+    h_terms, k_terms = _log_series()
+    u = name("u", (3 - R.trace()) / 2)
+    h, k = name("h", _horner(h_terms, u)), name("k", _horner(k_terms, u))
+    f = name("f", sp.sqrt(h / (1 - u / 2)) / 2)
+    w = sp.Matrix(
+        [name("w", (R[2, 1] - R[1, 2]) * f), name("w", (R[0, 2] - R[2, 0]) * f), name("w", (R[1, 0] - R[0, 1]) * f)]
+    )
+    g = name("g", k / (2 * h * (1 + sp.sqrt((1 - u / 2) * h))))
+    t = sp.Matrix([name("t", e) for e in t])
+    wt = sp.Matrix([name("wt", e) for e in w.cross(t)])
+    return [name("lin", e) for e in t - wt / 2 + g * w.cross(wt)], list(w)
+
+
+def anchor_size(robot: Robot) -> int:
+    """The size of the `anchor` input of a contact set with kp > 0 (3 per point, 7 per surface), else 0."""
+    if not robot.baumgarte[0]:
+        return 0
+    return sum(3 if kind == "point" else 7 for _, kind in robot.contacts)
+
+
+def _anchor_errors(robot: Robot, poses: list) -> tuple[tuple, list, list]:
+    """(the anchor's symbols, e, the definitions e uses): each contact frame's error from its anchor
+    in world axes, as Pinocchio's corrector measures it — p − p_anchor for a point; for a surface
+    −R·log₆(M⁻¹M_anchor), M = (R, p) the frame's placement and M_anchor = (x y z, quaternion) the
+    anchor's.  The terms are named k_anchor…, so that derivatives take them one at a time."""
+    anchor, errors, defs = [], [], []
+
+    def name(stem: str, expr: sp.Expr) -> sp.Symbol:
+        symbol = sp.Symbol(f"k_anchor_{stem}{len(defs) + 1}", real=True)
+        defs.append((symbol, sp.sympify(expr)))
+        return symbol
+
+    for (_, kind), (p, R) in zip(robot.contacts, poses):
+        a = [sp.Symbol(f"anchor{len(anchor) + i + 1}", real=True) for i in range(3 if kind == "point" else 7)]
+        anchor += a
+        if kind == "point":
+            errors += [p[i] - a[i] for i in range(3)]
+            continue
+        target = sp.Matrix(3, 3, [name("R", e) for e in quaternion_entries(*a[3:])])
+        relative = sp.Matrix(3, 3, [name("Rr", e) for e in R.T * target])
+        linear, angular = _log6(relative, R.T * (sp.Matrix(a[:3]) - p), name)
+        errors += [-e for e in R * sp.Matrix(linear)] + [-e for e in R * sp.Matrix(angular)]
+    return tuple(anchor), errors, defs
 
 
 def _solve(L: list, iD: list, order: list, rhs: list, name: _Namer, stem: str, col: int) -> list:
@@ -145,8 +225,9 @@ class ContactSpecs:
 
     def __init__(self, robot: Robot, M: FunctionSpec, bias: FunctionSpec, *, tree: bool) -> None:
         self.robot, self.M, self.bias = robot, M, bias
-        self.rows, self.gamma, self.kdefs, (q, _) = _rows(robot)
+        self.rows, self.gamma, self.kdefs, (q, _), poses = _rows(robot)
         _independent(robot, self.rows, self.kdefs, tuple(q))
+        self.anchor, self.errors, self.edefs = _anchor_errors(robot, poses) if robot.baumgarte[0] else ((), [], [])
         Mmat, self.b = M.outputs[0][1], list(bias.outputs[0][1])
         n, nc = Mmat.rows, len(self.rows)
         self.n, self.nc = n, nc
@@ -167,13 +248,33 @@ class ContactSpecs:
         self.named = name.defs
         self.params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
 
+    def _constraint(self, a: list, v: tuple) -> list:
+        """J a + γ, and with Baumgarte gains + kd J v + kp e: the rows of the constraint."""
+        kp, kd = self.robot.baumgarte
+        out = []
+        for c, row in enumerate(self.rows):
+            r = sp.Add(*(row[k] * a[k] for k in range(self.n))) + self.gamma[c]
+            if kd:
+                r += kd * sp.Add(*(row[k] * v[k] for k in range(self.n)))
+            if kp:
+                r += kp * self.errors[c]
+            out.append(r)
+        return out
+
+    def fdyn_inputs(self) -> tuple:
+        """contact_fdyn's inputs: (q, v, tau[, anchor]) and the parameters."""
+        tau = ("tau", tuple(sp.Symbol(f"tau{i + 1}", real=True) for i in range(self.n)))
+        anchor = (("anchor", self.anchor),) if self.anchor else ()
+        return (self.q, ("v", self.v[1]), tau, *anchor, *self.params)
+
     def shared(self) -> frozenset:
         """The symbols every contact program defines alike (M's terms and factor, X, A's factor):
         a spliced program takes them from the one spliced before (`derivatives.Splice`)."""
         return frozenset(s for s, _ in (*self.base, *self.named, *self.adefs))
 
-    def _definitions(self, local: _Namer) -> tuple:
+    def _definitions(self, local: _Namer, anchor: bool = False) -> tuple:
         defs = dict(self.base)
+        defs.update(self.edefs if anchor else ())
         defs.update(self.named)
         defs.update(self.adefs)
         defs.update(local.defs)
@@ -194,14 +295,15 @@ class ContactSpecs:
         local = _Namer(max(n, nc))
         v = self.v
         if kind == "fdyn":
-            tau = tuple(sp.Symbol(f"tau{i + 1}", real=True) for i in range(n))
+            inputs = self.fdyn_inputs()
+            tau = inputs[2][1]
             r = [local("kkt_r", tau[i] - self.b[i], i) for i in range(n)]
             y = _solve(self.L, self.iD, self.order, r, local, "u", 0)
-            rhs = [local("kkt_g", sp.Add(*(rows[i][k] * y[k] for k in range(n))) + self.gamma[i], i) for i in range(nc)]
-            inputs, start = (self.q, ("v", v[1]), ("tau", tau)), y
+            rhs = [local("kkt_g", e, i) for i, e in enumerate(self._constraint(y, v[1]))]
+            start = y
         else:
             rhs = [local("kkt_g", sp.Add(*(rows[i][k] * v[1][k] for k in range(n))), i) for i in range(nc)]
-            inputs, start = (self.q, ("v_before", v[1])), list(v[1])
+            inputs, start = (self.q, ("v_before", v[1]), *self.params), list(v[1])
         lam = _solve(self.AL, self.AiD, list(range(nc)), rhs, local, "lam", 0)
         lam = [local("kkt_lam", -x, i) for i, x in enumerate(lam)]
         out = [local("kkt_out", start[k] + sp.Add(*(self.X[c][k] * lam[c] for c in range(nc))), k) for k in range(n)]
@@ -215,9 +317,9 @@ class ContactSpecs:
         )
         return FunctionSpec(
             f"contact_{kind}",
-            (*inputs, *self.params),
+            inputs,
             ((label[0], sp.ImmutableMatrix(out)), (label[1], sp.ImmutableMatrix(lam))),
-            self._definitions(local),
+            self._definitions(local, anchor=kind == "fdyn"),
             doc,
             f"contacts; M: {self.M.origin}, bias: {self.bias.origin}",
         )
@@ -235,7 +337,7 @@ class ContactSpecs:
             swap = {**dict(zip(tq, q)), **dict(zip(tv, v)), **dict(zip(ta, second))}
             defs = [(s, sp.sympify(e).xreplace(swap)) for s, e in tau.definitions]
             first = [sp.sympify(e).xreplace(swap) for e in tau.outputs[0][1]]
-            r2 = [sp.Add(*(rows[c][k] * second[k] for k in range(n))) + self.gamma[c] for c in range(nc)]
+            r2 = self._constraint(list(second), v)
             names = ("v", "a", "force")
         else:
             Mmat = self.M.outputs[0][1]
@@ -244,7 +346,8 @@ class ContactSpecs:
             r2 = [sp.Add(*(rows[c][k] * second[k] for k in range(n))) for c in range(nc)]
             names = ("v_before", "v_after", "impulse")
         r1 = [first[i] - sp.Add(*(rows[c][i] * lam[c] for c in range(nc))) for i in range(n)]
-        jdefs, jac = jacobian(defs + list(self.kdefs), r1 + r2, list(q) + list(v), stem="Dk")
+        edefs = list(self.edefs) if kind == "fdyn" else []
+        jdefs, jac = jacobian(defs + list(self.kdefs) + edefs, r1 + r2, list(q) + list(v), stem="Dk")
         T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
 
         def block(r0: int, rs: int, c0: int, cs: int, tangent: bool) -> sp.ImmutableMatrix:
@@ -264,11 +367,12 @@ class ContactSpecs:
             ("dr2_dq", block(n, nc, 0, len(q), True)),
             ("dr2_dv", block(n, nc, len(q), n, False)),
         )
+        anchor = (("anchor", self.anchor),) if kind == "fdyn" and self.anchor else ()
         return FunctionSpec(
             f"contact_{kind}_residual",
-            (self.q, (names[0], v), (names[1], second), (names[2], lam), *self.params),
+            (self.q, (names[0], v), (names[1], second), (names[2], lam), *anchor, *self.params),
             outputs,
-            tuple(dict([*defs, *self.kdefs, *jdefs]).items()),
+            tuple(dict([*defs, *self.kdefs, *edefs, *jdefs]).items()),
             "",
             f"contacts; tau: {tau.origin}",
             tuple(o for o, _ in outputs),
@@ -367,11 +471,12 @@ def contact_signatures(robot: Robot) -> dict:
     """{function: (inputs ((name, size), …), outputs ((name, shape), …))} of the contact functions."""
     nq, nv, nc = robot.nq, robot.nv, contact_count(robot)
     square, tall = (nv, nv), (nc, nv)
+    state = (("q", nq), ("v", nv), ("tau", nv)) + ((("anchor", anchor_size(robot)),) if robot.baumgarte[0] else ())
     return {
-        "contact_fdyn": ((("q", nq), ("v", nv), ("tau", nv)), (("a", (nv,)), ("force", (nc,)))),
+        "contact_fdyn": (state, (("a", (nv,)), ("force", (nc,)))),
         "contact_impulse": ((("q", nq), ("v_before", nv)), (("v_after", (nv,)), ("impulse", (nc,)))),
         "contact_fdyn_derivatives": (
-            (("q", nq), ("v", nv), ("tau", nv)),
+            state,
             (("a", (nv,)), ("force", (nc,)), ("da_dq", square), ("da_dv", square), ("da_dtau", square))
             + (("dforce_dq", tall), ("dforce_dv", tall), ("dforce_dtau", tall)),
         ),

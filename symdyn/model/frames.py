@@ -13,9 +13,10 @@ chain, or each leaf link of a tree.
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass
 
-__all__ = ["Frame", "known_frames", "resolve", "default_names", "contact_set", "CONTACT_KINDS"]
+__all__ = ["Frame", "known_frames", "resolve", "default_names", "contact_set", "baumgarte_gains", "CONTACT_KINDS"]
 
 #: The kinds of contact (`Robot.with_contacts`) and the rows each constrains.
 CONTACT_KINDS = {"point": 3, "surface": 6}
@@ -120,3 +121,23 @@ def contact_set(robot, contacts) -> tuple:
     if pairs:
         resolve(robot, [name for name, _ in pairs])  # known, each once
     return pairs
+
+
+def baumgarte_gains(robot, gains) -> tuple:
+    """(kp, kd) as floats, checked: finite, ≥ 0, and only with a contact set.
+
+    Raises:
+        ValueError: a gain negative, not a number or not finite; gains without contacts.
+    """
+    try:
+        kp, kd = (float(g) for g in gains)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"Baumgarte gains of robot {robot.name!r} must be two numbers (kp, kd), got {gains!r}"
+        ) from None
+    for name, g in (("kp", kp), ("kd", kd)):
+        if not (math.isfinite(g) and g >= 0.0):
+            raise ValueError(f"Baumgarte gain {name} of robot {robot.name!r} must be finite and >= 0, got {g!r}")
+    if (kp or kd) and not robot.contacts:
+        raise ValueError(f"Baumgarte gains of robot {robot.name!r} (kp={kp}, kd={kd}) need a contact set")
+    return (kp, kd)

@@ -359,6 +359,9 @@ class Robot:
     #: The contact set of the contact functions: ((frame name, "point" or "surface"), …) in order
     #: (`with_contacts`); empty: none.
     contacts: tuple = ()
+    #: The contact set's Baumgarte gains (kp, kd) (`with_contacts`): (0, 0) holds J a + γ = 0
+    #: exactly; otherwise J a + γ = −kd J v − kp e(q, anchor) (Pinocchio's corrector).
+    baumgarte: tuple = (0.0, 0.0)
     #: `Robot.from_urdf(path_or_xml, *, base_link=…, tip_link=…, locked=…, exclude=…, snap=…)`: the
     #: arm of a URDF file (`symdyn.model.urdf.from_urdf`, attached by `symdyn.model`, which builds on this module).
     from_urdf: ClassVar[Callable[..., "Robot"]]
@@ -412,6 +415,7 @@ class Robot:
         if self.frames:
             frames.resolve(self, self.frames)  # every name known, none twice
         set_("contacts", frames.contact_set(self, self.contacts))
+        set_("baumgarte", frames.baumgarte_gains(self, self.baumgarte))
 
     def __str__(self) -> str:
         """A summary a person reads: joints, convention, source and, for a robot read from a
@@ -481,17 +485,25 @@ class Robot:
         frames.resolve(self, names)
         return dataclasses.replace(self, frames=tuple(names))
 
-    def with_contacts(self, contacts: Mapping[str, str]) -> "Robot":
+    def with_contacts(self, contacts: Mapping[str, str], *, kp: float = 0.0, kd: float = 0.0) -> "Robot":
         """A copy whose contact functions (`contact_fdyn`, `contact_impulse` and their derivatives)
         hold the frames of `contacts` — {frame name: "point" (its origin's linear acceleration: 3
         rows) or "surface" (its whole spatial acceleration: 6 rows)} in the order given; forces in
         the world's axes at the frame (LOCAL_WORLD_ALIGNED).  Each contact set is a model of its own.
 
+        `kp`, `kd` ≥ 0: Baumgarte gains, as Pinocchio's `BaumgarteCorrectorParameters` on each
+        contact: `contact_fdyn` then holds J a + γ = −kd J v − kp e.  With kp > 0 it and its
+        derivatives take one more input, `anchor`: where each contact should be, in the world —
+        x y z for a point, x y z qx qy qz qw for a surface (Pinocchio's XYZQUAT, a unit
+        quaternion) — and e is the frame's error from it: p − p_anchor for a point, −log₆ of the
+        frame's placement relative to the anchor in world axes for a surface (`docs/contacts.md`).
+        The impact (`contact_impulse`) has no corrector.
+
         Raises:
             ValueError: an unknown frame (the closest known are named), a kind that is neither
-                "point" nor "surface", or no contact.
+                "point" nor "surface", no contact, or a gain that is negative or not finite.
         """
-        return dataclasses.replace(self, contacts=tuple(dict(contacts).items()))
+        return dataclasses.replace(self, contacts=tuple(dict(contacts).items()), baumgarte=(kp, kd))
 
     def require_chain(self, what: str) -> None:
         """Refuse a tree or a floating base where `what` reads chains only.
@@ -598,6 +610,8 @@ class Robot:
         if self.contacts:  # a contact set enters the generated code too
             placed = frames.resolve(self, [name for name, _ in self.contacts])
             chosen += (tuple((f.key(), kind) for f, (_, kind) in zip(placed, self.contacts)),)
+            if any(self.baumgarte):  # gains enter the code; none: the fingerprint is what it was
+                chosen += (("baumgarte",) + self.baumgarte,)
         if self.base_joint is None:  # a fixed base: the fingerprint is what it always was
             return (self.convention, self.gravity, self.base, self.tool, links) + chosen
         body = self.base_body._params() if self.base_body is not None else None
@@ -613,7 +627,7 @@ class Robot:
         share one derivation (`derive`'s cache)."""
         if not (self.frames or self.contacts):
             return self.fingerprint()
-        return dataclasses.replace(self, frames=(), contacts=()).fingerprint()
+        return dataclasses.replace(self, frames=(), contacts=(), baumgarte=(0.0, 0.0)).fingerprint()
 
     def require_numeric(self, what: str = "this operation") -> None:
         if self.is_symbolic:
@@ -724,7 +738,9 @@ class Robot:
         if self.convention == "modified":
             return self
         if self.frames or self.frame_catalog or self.contacts:
-            return dataclasses.replace(self, frames=(), frame_catalog=(), contacts=()).to_modified()
+            return dataclasses.replace(
+                self, frames=(), frame_catalog=(), contacts=(), baumgarte=(0.0, 0.0)
+            ).to_modified()
         if self.convention == "standard" and any(link.parent is not None for link in self.links):
             raise NotImplementedError(
                 f"robot {self.name!r} is a standard-DH tree: to_modified converts chains (a floating base "

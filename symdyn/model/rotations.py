@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quaternion_matrix"]
+__all__ = ["quaternion_matrix", "quaternion_entries"]
 
 
 def quaternion_matrix(quat, order: str = "xyzw") -> np.ndarray:
@@ -28,7 +28,16 @@ def quaternion_matrix(quat, order: str = "xyzw") -> np.ndarray:
     else:
         raise ValueError(f"quaternion order {order!r}: expected 'xyzw' (w last) or 'wxyz' (w first)")
     R = np.empty(quat.shape[:-1] + (3, 3))
-    R[..., 0, 0], R[..., 0, 1], R[..., 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)
-    R[..., 1, 0], R[..., 1, 1], R[..., 1, 2] = 2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)
-    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = 2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)
+    for k, entry in enumerate(quaternion_entries(x, y, z, w)):
+        R[..., k // 3, k % 3] = entry
     return R
+
+
+def quaternion_entries(x, y, z, w) -> tuple:
+    """The nine entries, row by row, of the rotation of the unit quaternion (x, y, z, w): numbers,
+    arrays or symbols (the generated contact anchors' use the last)."""
+    return (
+        *(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+        *(2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+        *(2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
+    )
