@@ -3,7 +3,7 @@
 Flow: model → derive (Lagrange, Newton–Euler) → simplify → program → emit
 (NumPy, C, CasADi, array API), every stage checked against `symdyn.reference`.
 One sub-package per stage, imports only downhill: model ← derivation ←
-codegen ← numeric ← apps ← bench ← cli (docs/architecture.md).
+codegen ← numeric ← presentation ← apps ← bench ← cli (docs/architecture.md).
 Entry points: `models.load`, `derive`, `generate`, `load`.
 """
 
@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 from .model import Link, Robot  # noqa: E402
+from .model import robot as _robot_module  # noqa: E402
 from .model import snapping as _snapping  # noqa: E402
 from . import models  # noqa: E402
 
@@ -28,6 +29,16 @@ def _snap_effect(snapped: Robot, literal: Robot) -> Any:
 
 
 _snapping.set_effect_measure(_snap_effect)
+
+
+def _draw(robot: Robot, q: Any = None, *, ax: Any = None, title: str | None = None) -> Any:
+    """`symdyn.presentation.picture.plot`, imported when a robot is first drawn (`Robot.plot`)."""
+    from .presentation.picture import plot
+
+    return plot(robot, q, ax=ax, title=title)
+
+
+_robot_module.set_drawing(_draw)
 
 if TYPE_CHECKING:  # the stages below are imported when first used: `import symdyn` stays quick
     from pathlib import Path

@@ -133,7 +133,7 @@ def _cmd_print(args: argparse.Namespace) -> int:
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
-    """Draw a model as read (`symdyn.model.picture`) into --out, and say what it shows; a file
+    """Draw a model as read (`symdyn.presentation.picture`) into --out, and say what it shows; a file
     whose moving bodies have impossible inertias is drawn with them repaired, with the warning."""
     from .model import URDFError, command_line
 

@@ -1,5 +1,5 @@
 """The package's shape (docs/architecture.md): one folder per stage, imports
-only downhill (model < derivation < presentation < codegen < numeric < apps <
+only downhill (model < derivation < codegen < numeric < presentation < apps <
 identify < sweep < bench < the top-level modules), no import circles, and a
 reference that never touches sympy.
 
@@ -26,9 +26,9 @@ PACKAGE = Path(symdyn.__file__).resolve().parent
 #: generated/; the wheel carries it as package data), not modules of the package.
 DATA = ("generated",)
 #: The stage folders, downhill first: a module may import its own stage and those before it.
-#: presentation (closed forms printed, named constants) is a consumer of derivations beside codegen:
-#: it needs only model and derivation, so it ranks right after derivation.
-STAGES = ("model", "derivation", "presentation", "codegen", "numeric", "apps", "identify", "sweep", "bench")
+#: presentation (closed forms printed, named constants, a model drawn) is a consumer of derivations
+#: and of the numeric reference's frames, which nothing below it imports: it ranks after numeric.
+STAGES = ("model", "derivation", "codegen", "numeric", "presentation", "apps", "identify", "sweep", "bench")
 #: Top-level modules: the package, the command line and the documented names kept as thin re-exports.
 TOP_MODULES = ("symdyn", "symdyn.__main__", "symdyn.cli", "symdyn.models", "symdyn.reference", "symdyn.ocp")
 TOP = len(STAGES)

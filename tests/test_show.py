@@ -10,7 +10,7 @@ import pytest
 
 from symdyn import Link, Robot
 from symdyn.cli import main
-from symdyn.model.picture import ellipsoid_axes, frames
+from symdyn.presentation.picture import ellipsoid_axes, frames
 
 pytest.importorskip("matplotlib")
 

@@ -254,6 +254,17 @@ class Link:
         return tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in skip)
 
 
+#: The function `Robot.plot` draws with (`symdyn.presentation.picture.plot`, a later stage), installed
+#: by the `symdyn` package through `set_drawing`.
+_DRAWING: Callable[..., Any] | None = None
+
+
+def set_drawing(draw: Callable[..., Any]) -> None:
+    """Install the function `Robot.plot` calls: draw(robot, q, ax=…, title=…) → a Figure."""
+    global _DRAWING
+    _DRAWING = draw
+
+
 def _check_link_physics(link: Link, i: int) -> None:
     """Mass ≥ 0, inertia symmetric, positive semidefinite and obeying the triangle
     inequality (unless the link says it is not physical); sane motor params."""
@@ -679,16 +690,16 @@ class Robot:
     def plot(self, q: Sequence[float] | None = None, *, ax: Any = None, title: str | None = None) -> Any:
         """A matplotlib Figure of the robot at q (default 0): the chain, joint axes, centres of
         mass, inertia ellipsoids and, read from a URDF, the whole tree with its locked branches
-        and excluded subtrees marked (`symdyn.model.picture.plot`; `symdyn show` on the command
+        and excluded subtrees marked (`symdyn.presentation.picture.plot`; `symdyn show` on the command
         line).  Save it with `fig.savefig("robot.png")`.
 
         Raises:
             ImportError: matplotlib is missing (pip install 'symdyn[plot]').
             ValueError: a symbolic robot, or q of the wrong length.
         """
-        from .picture import plot
-
-        return plot(self, q, ax=ax, title=title)
+        if _DRAWING is None:
+            raise ImportError("Robot.plot draws through symdyn.presentation.picture: import symdyn first")
+        return _DRAWING(self, q, ax=ax, title=title)
 
     def nofriction(self, all: bool = False) -> "Robot":  # noqa: A002 (Toolbox name)
         """Remove Coulomb friction; with `all=True` remove viscous friction too.  A robot as read

@@ -39,6 +39,7 @@ __all__ = [
     "accel",
     "fdyn",
     "fkine",
+    "body_frames",
     "jacob0",
     "energy",
     "momentum",
@@ -749,6 +750,25 @@ def fkine(robot: Robot, q: ArrayLike) -> np.ndarray:
     T = np.zeros(q.shape[:-1] + (4, 4))
     T[..., :3, :3] = Rn @ c.tool_R
     T[..., :3, 3] = _tool_point(c, Rs, ps)
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def body_frames(robot: Robot, q: ArrayLike) -> np.ndarray:
+    """World placements (..., n + 1, 4, 4) of frame 0 (the base, or the body a base joint moves)
+    and of each link's body frame (its parent's · A_i: base·A₁, base·A₁·A₂, … on a chain).
+
+    Raises:
+        ValueError: a symbolic robot, or `q` that is not a finite numeric array of
+            shape (nq,) or (..., nq).
+    """
+    c = _chain(robot)
+    q = _state(c, q, "q")
+    Rs, ps = _frames(c, q)
+    R0, p0 = _base_frame(c, q)
+    T = np.zeros(q.shape[:-1] + (c.n + 1, 4, 4))
+    T[..., 0, :3, :3], T[..., 0, :3, 3] = R0, p0
+    T[..., 1:, :3, :3], T[..., 1:, :3, 3] = Rs, ps
     T[..., 3, 3] = 1.0
     return T
 

@@ -65,7 +65,7 @@ class Repair:
 
 @dataclass(frozen=True)
 class Bone:
-    """One link of the file's whole tree as read, for pictures (`symdyn.model.picture`): its
+    """One link of the file's whole tree as read, for pictures (`symdyn.presentation.picture`): its
     frame in the root link's frame with the chain at q = 0 and every locked joint at its value.
 
     joint: the joint above it ('' for the root), `kind` its URDF type, `axis` its unit axis in

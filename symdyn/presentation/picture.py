@@ -1,6 +1,6 @@
 """A picture of a robot as read: what a new user looks at to know a file was read as they meant.
 
-Beside the model, before any derivation: `plot(robot)` (also `robot.plot()`) draws
+Presentation of the model, before any derivation (its frames are the numeric reference's): `plot(robot)` (also `robot.plot()`) draws
 the skeleton in 3-D at q = 0 — the chain from base to tip highlighted, each
 joint's axis, each moving link's centre of mass and its inertia as the uniform
 ellipsoid of the same mass and principal moments, the task frames (`robot.task_frames`) as
@@ -13,12 +13,11 @@ marked.  `symdyn show FILE --out robot.png` writes it.  Needs matplotlib (the
 
 from __future__ import annotations
 
-import math
 from typing import Any, Sequence
 
 import numpy as np
 
-from .base_joint import base_pose
+from ..numeric.reference import body_frames
 
 __all__ = ["plot", "frames", "ellipsoid_axes"]
 
@@ -29,46 +28,6 @@ ROLES = {
     "excluded": ("tab:red", "excluded (left out)"),
     "above": ("silver", "above the base (fixed)"),
 }
-
-
-def _dh(link, q: float, modified: bool) -> np.ndarray:
-    theta, d = float(link.theta) + float(link.offset), float(link.d)
-    if link.is_revolute:
-        theta += q
-    else:
-        d += q
-    a, alpha = float(link.a), float(link.alpha)
-    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
-    if modified:  # Craig: Rx(alpha) Tx(a) Rz(theta) Tz(d)
-        return np.array(
-            [[ct, -st, 0, a], [st * ca, ct * ca, -sa, -d * sa], [st * sa, ct * sa, ca, d * ca], [0, 0, 0, 1]]
-        )
-    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1]])
-
-
-def _general(link, q: float) -> np.ndarray:
-    T = np.array(link.origin, dtype=float) if link.origin is not None else np.eye(4)
-    u = np.array(link.axis, dtype=float)
-    M = np.eye(4)
-    if link.is_revolute:
-        K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-        M[:3, :3] = np.eye(3) + math.sin(q) * K + (1 - math.cos(q)) * K @ K
-    else:
-        M[:3, 3] = u * q
-    return T @ M
-
-
-def _base_pose(robot: Any, q: np.ndarray) -> np.ndarray:
-    """The floating base's placement of q's first coordinates (free: x y z qx qy qz qw; planar: x y yaw)."""
-    T = np.eye(4)
-    if robot.base_joint == "free":  # the quaternion checked as everywhere (base_joint: a norm off 1 is an error)
-        R, p = base_pose("free", np.asarray(q, dtype=float))
-        T[:3, :3], T[:3, 3] = R, p
-    elif robot.base_joint == "planar":
-        c, s = math.cos(q[2]), math.sin(q[2])
-        T[:2, :2] = [[c, -s], [s, c]]
-        T[:2, 3] = q[:2]
-    return T
 
 
 def frames(robot: Any, q: Sequence[float] | None = None) -> list[np.ndarray]:
@@ -82,23 +41,15 @@ def frames(robot: Any, q: Sequence[float] | None = None) -> list[np.ndarray]:
     """
     robot.require_numeric("a picture")
     q = np.zeros(robot.n) if q is None else np.asarray(q, dtype=float)
-    base = np.array(robot.base, dtype=float)
-    if q.shape == (robot.nq,) and robot.nq != robot.n:
-        base, q = base @ _base_pose(robot, q), q[robot.nq - robot.n :]
-    if q.shape != (robot.n,):
+    if q.shape == (robot.n,) and robot.nq != robot.n:  # the joints only: the base where q0 puts it
+        q = np.concatenate([robot.neutral()[: robot.nq - robot.n], q])
+    if q.shape != (robot.nq,):
         sizes = f"{robot.n} entries (one per joint)" + (
             f" or {robot.nq} (q with the base's)" if robot.nq != robot.n else ""
         )
         raise ValueError(f"q must have {sizes}, got shape {q.shape}")
-    out = [base]
-    for link, qi, parent in zip(robot.links, q, robot.parents):
-        if robot.convention == "general":
-            A = _general(link, qi)
-        else:
-            A = _dh(link, qi, robot.convention == "modified")
-        out.append(out[parent + 1] @ A)
-    out.append(out[-1] @ np.array(robot.tool, dtype=float))
-    return out
+    bodies = list(body_frames(robot, q))
+    return bodies + [bodies[-1] @ np.array(robot.tool, dtype=float)]
 
 
 def ellipsoid_axes(m: float, I: Sequence | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
