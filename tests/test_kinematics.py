@@ -24,6 +24,18 @@ def test_fkine_and_jacob0_agree_with_the_reference(name):
         assert np.abs(np.array(J(*state), float) - ref.jacob0(robot, state)).max() < 1e-12
 
 
+@pytest.mark.parametrize("name", ["puma560", "puma560_mdh", "rrp"])
+def test_every_body_frame_agrees_with_the_reference(name):
+    """The reference's body_frames (what pictures draw) are the symbolic link poses, the base first."""
+    robot = models.load(name).subs({})
+    q = joint_symbols(robot.n)[0]
+    poses = sp.lambdify(q, kinematics.link_poses(robot), "numpy")
+    for state in random_states(robot, 20, seed=3)[0]:
+        got = ref.body_frames(robot, state)
+        assert np.abs(got[0] - np.array(robot.base, dtype=float)).max() == 0
+        assert np.abs(got[1:] - np.array(poses(*state), dtype=float)).max() < 1e-12
+
+
 def test_right_angles_are_exact():
     robot = models.load("puma560")  # α = ±π/2 stored as floats
     for frame in kinematics.link_frames(robot):
