@@ -27,7 +27,7 @@ def test_fkine_and_jacob0_agree_with_the_reference(name):
 @pytest.mark.parametrize("name", ["puma560", "puma560_mdh", "rrp"])
 def test_every_body_frame_agrees_with_the_reference(name):
     """The reference's body_frames (what pictures draw) are the symbolic link poses, the base first."""
-    robot = models.load(name).subs({})
+    robot = models.load(name)
     q = joint_symbols(robot.n)[0]
     poses = sp.lambdify(q, kinematics.link_poses(robot), "numpy")
     for state in random_states(robot, 20, seed=3)[0]:
