@@ -23,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from symdyn.apps import ocp  # noqa: E402
+from symdyn.apps.ocp import transcription  # noqa: E402
 from symdyn.apps.studies import ocp as studies  # noqa: E402
 
 
@@ -33,7 +34,7 @@ def stagewise(problem: ocp.Problem, arm: ocp.ArmFunctions) -> tuple[ca.Opti, ca.
     n, N, lim = problem.n, problem.N, problem.limits
     q0, qd0, qf, qdf = problem.boundary()
     qlo, qhi = np.asarray(lim.q, float).T
-    guess = ocp._guess(problem, arm, problem.T_guess)
+    guess = transcription._guess(problem, arm, problem.T_guess)
     opti = ca.Opti()
     X, U = [], []
     for k in range(N + 1):  # declared in stage order: x0, u0, x1, u1, …, xN
@@ -56,7 +57,7 @@ def stagewise(problem: ocp.Problem, arm: ocp.ArmFunctions) -> tuple[ca.Opti, ca.
             qm = (q + qn) / 2 + h / 8 * (qd - qdn)
             opti.subject_to(X[k + 1] == ca.vertcat(qn, qdn, qddn, taun, T))  # gap-closing first
             points.append((qm, qdm, qddm, taum))
-            J += problem.cost.smoothness * ca.sum1(ocp._quadratic_smoothness(tau, taum, taun, h))
+            J += problem.cost.smoothness * ca.sum1(transcription._quadratic_smoothness(tau, taum, taun, h))
         if k == 0:
             opti.subject_to([q == q0, qd == qd0])
             opti.subject_to(opti.bounded(problem.T_bounds[0], T, problem.T_bounds[1]))

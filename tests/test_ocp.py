@@ -8,6 +8,7 @@ import pytest
 
 from symdyn import models
 from symdyn.apps import ocp
+from symdyn.apps.ocp import transcription
 from symdyn.apps.studies import ocp as S
 from symdyn.numeric import reference as ref
 
@@ -180,7 +181,7 @@ def test_hermite_simpson_smoothness_is_the_exact_integral_of_the_quadratic():
     x = np.linspace(0, h, 200001)
     p = np.polyfit([0, h / 2, h], [a, b, c], 2)
     exact = np.trapezoid(np.polyval(np.polyder(p), x) ** 2, x)
-    assert ocp._quadratic_smoothness(a, b, c, h) == pytest.approx(exact, rel=1e-9)
+    assert transcription._quadratic_smoothness(a, b, c, h) == pytest.approx(exact, rel=1e-9)
 
 
 def test_twolink_hangs_at_minus_half_pi_and_is_upright_at_plus_half_pi(arm2):

@@ -12,6 +12,7 @@ import pytest
 
 import symdyn
 from symdyn.apps import ocp
+from symdyn.apps.ocp import functions
 from symdyn.derivation import progress
 from symdyn.apps.studies import mpc
 from symdyn.codegen.emit.casadi import compiled
@@ -102,7 +103,7 @@ def test_the_compiled_build_shows_progress_and_a_cached_one_is_silent(arm2, tmp_
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(progress, "REPORT_AFTER_S", 0.0)  # the two-link arm builds in about a second
     arm = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)  # not the in-process lru_cache
-    ocp._compiled_step.__wrapped__(arm.fdyn_sx, 2, 1, arm.fdyn_derivatives_sx, arm.name)
+    functions._compiled_step.__wrapped__(arm.fdyn_sx, 2, 1, arm.fdyn_derivatives_sx, arm.name)
     err = capsys.readouterr().err
     for what in (
         "compiling tau (symdyn) with its Jacobian and Hessian",
@@ -113,7 +114,7 @@ def test_the_compiled_build_shows_progress_and_a_cached_one_is_silent(arm2, tmp_
     assert len(re.findall(r": done in \d+\.\d s", err)) >= 3, err
     monkeypatch.setattr(progress, "REPORT_AFTER_S", 2.0)  # as shipped: a read from the cache is far quicker
     again = ocp.dynamics.__wrapped__(arm2, "symdyn", compiled=True)
-    ocp._compiled_step.__wrapped__(again.fdyn_sx, 2, 1, again.fdyn_derivatives_sx, again.name)
+    functions._compiled_step.__wrapped__(again.fdyn_sx, 2, 1, again.fdyn_derivatives_sx, again.name)
     assert capsys.readouterr().err == ""
 
 

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from symdyn.apps import ocp
+from symdyn.apps.ocp import functions
 from symdyn.model import Link, Robot
 from symdyn.model.base_joint import coordinate_rates
 from symdyn.numeric import reference as ref
@@ -71,7 +72,7 @@ def test_the_shooting_interval_integrates_the_planar_rates(puck):
     def f(x):
         return np.r_[coordinate_rates(robot, x[:5], x[5:]), ref.accel(robot, x[:5], x[5:], tau)]
 
-    want = ocp.rk4_steps(f, np.r_[q[40], v[40]], 0.06, 3)
+    want = functions.rk4_steps(f, np.r_[q[40], v[40]], 0.06, 3)
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
 
 

@@ -9,6 +9,7 @@ import pytest
 
 import symdyn
 from symdyn.apps import ocp, ocp_step
+from symdyn.apps.ocp import functions
 from symdyn.model.random_arms import ArmOptions, random_arm
 
 ARMS = {
@@ -40,7 +41,7 @@ def test_explicit_derivatives_equal_casadis_ad_through_the_stages(name, substeps
     n = robot.n
     derivatives = symdyn.load(robot, "casadi").functions["fdyn_derivatives"] if generated else None
     mine = ocp_step.step_functions(fdyn, n, substeps, derivatives)
-    ref = ocp._rk4_step(fdyn, n, substeps)
+    ref = functions._rk4_step(fdyn, n, substeps)
     ref_fns = (ref, ref.jacobian(), ref.reverse(1), ref.reverse(1).jacobian())
     rng = np.random.default_rng(substeps)
     for _ in range(3):

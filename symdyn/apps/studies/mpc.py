@@ -20,6 +20,7 @@ import numpy as np
 from ...model import Robot
 from ...numeric import reference as ref
 from .. import ocp
+from ..ocp.functions import rk4_steps
 from ._plot import finish, pyplot, save
 from .ocp import puma, puma_limits
 
@@ -58,7 +59,7 @@ def perturbed(robot: Robot, scale: float = PERTURBATION) -> Robot:
 def _plant_step(robot: Robot, x: np.ndarray, tau: np.ndarray, dt: float, substeps: int) -> np.ndarray:
     """The state after dt under constant τ: RK4 on the reference forward dynamics."""
     n = robot.n
-    return ocp.rk4_steps(lambda x: np.concatenate([x[n:], ref.accel(robot, x[:n], x[n:], tau)]), x, dt, substeps)
+    return rk4_steps(lambda x: np.concatenate([x[n:], ref.accel(robot, x[:n], x[n:], tau)]), x, dt, substeps)
 
 
 SCHEMES = ("rti", "ipopt")
