@@ -56,7 +56,13 @@ class LeggedProblem:
     """A legged OCP: the robot (a free base; its `frames` hold every foot), the schedule, the
     start q0 (at rest), the goal's base displacement (world x, y, z) at the end (at rest again),
     the friction coefficient and the weights.  `apex`: a least base height during the flight
-    phases (m, world), or None."""
+    phases (m, world), or None.  `clearance`: a least height of the swinging feet (those out of
+    contact while others hold the robot) at each such phase's middle node (m above the ground), or
+    None.  `footholds`: each touchdown puts its feet where they stood at q0 moved by the
+    displacement (a footstep plan of one step per foot: a trot's), rather than anywhere on the
+    ground.  `baumgarte`: (kp, kd) of the contacts (`Robot.with_contacts`): each foot in contact then
+    holds J a + γ = −kd J v − kp (p − p_anchor), its anchor where its stance began — what keeps
+    the feet from creeping under semi-implicit Euler steps, which hold the acceleration only."""
 
     robot: Robot
     phases: tuple
@@ -66,12 +72,17 @@ class LeggedProblem:
     apex: float | None = None
     velocity_weight: float = 1e-2
     ground: float = 0.0
+    clearance: float | None = None
+    footholds: bool = False
+    baumgarte: tuple = (0.0, 0.0)
 
 
 @dataclass
 class LeggedSolution:
     """The optimum: node times, q (N+1, nq), v (N+1, nv), τ (N, n), each node's contact forces
-    (world axes; an empty array in flight), IPOPT's status, iterations and seconds."""
+    (world axes; an empty array in flight), IPOPT's status, iterations and seconds, and of those
+    seconds the ones CasADi spent evaluating the problem's functions and derivatives (the rest is
+    IPOPT's own: its linear solver, mostly)."""
 
     t: np.ndarray
     q: np.ndarray
@@ -83,6 +94,7 @@ class LeggedSolution:
     seconds: float
     build_seconds: float
     phase_of_node: list = field(default_factory=list)
+    function_seconds: float = float("nan")
 
     def save(self, path) -> None:
         """An animation-ready trajectory: t, q, v, τ and the forces (padded with NaN) as one .npz."""
@@ -136,7 +148,7 @@ def integrate_function(robot: Robot) -> ca.Function:
     return ca.Function("integrate", [q, w], [out], ["q", "w"], ["q_next"])
 
 
-def _functions(robot: Robot, feet: tuple, contacts: tuple, transcription: str) -> dict:
+def _functions(robot: Robot, feet: tuple, contacts: tuple, transcription: str, gains: tuple = (0.0, 0.0)) -> dict:
     """The CasADi functions one contact set needs (its own model; the derivation is shared): the
     forward transcription's contact_fdyn (fdyn in flight), the inverse one's τ, the feet's
     world-aligned Jacobians and drifts; both the feet's poses and, at a touchdown, the impact."""
@@ -145,7 +157,7 @@ def _functions(robot: Robot, feet: tuple, contacts: tuple, transcription: str) -
 
     model = robot.with_frames(feet)
     if contacts:
-        model = model.with_contacts({f: "point" for f in contacts})
+        model = model.with_contacts({f: "point" for f in contacts}, kp=gains[0], kd=gains[1])
     dyns, origins = derivations(model)
     programs = Programs(dyns, None, origins)
     names = ["frame_pose"] + (["contact_impulse"] if contacts else [])
@@ -182,12 +194,18 @@ def solve(
         if unknown or phase.nodes < 1 or not phase.duration > 0:
             raise ValueError(f"phase {phase}: feet {unknown} not among robot.frames {feet}, or no nodes/duration")
     start = time.perf_counter()
-    funcs = {s: _functions(robot, feet, s, transcription) for s in {p.contacts for p in problem.phases}}
+    gains = problem.baumgarte
+    funcs = {s: _functions(robot, feet, s, transcription, gains) for s in {p.contacts for p in problem.phases}}
     step = integrate_function(robot)
     nq, nv, n = robot.nq, robot.nv, robot.n
     nb = nv - n
     q0 = np.asarray(problem.q0, dtype=float)
     N = sum(p.nodes for p in problem.phases)
+    stood = funcs[problem.phases[0].contacts]["frame_pose"](q0)
+    holds = [
+        np.ravel(stood[4 * i : 4 * i + 2, 3]) + np.asarray(problem.displacement[:2], dtype=float)
+        for i in range(len(feet))
+    ]
     opti = ca.Opti()
     Q, V, U = opti.variable(nq, N + 1), opti.variable(nv, N + 1), opti.variable(n, N)
     A = opti.variable(nv, N) if transcription == "inverse" else None
@@ -196,7 +214,7 @@ def solve(
     cost, forces, force_vars, phase_of_node, t = 0, [], [], [], [0.0]
     opti.subject_to(Q[:, 0] == q0)
     opti.subject_to(V[:, 0] == 0)
-    k, previous = 0, None
+    k, previous, anchors = 0, None, {}
     for index, phase in enumerate(problem.phases):
         f = funcs[phase.contacts]
         h = phase.step
@@ -204,18 +222,27 @@ def solve(
         for j in range(phase.nodes):
             q, v, tau = Q[:, k], V[:, k], U[:, k]
             pose = f["frame_pose"](q)
+            for i, foot in enumerate(feet):  # a foot's anchor: where its stance began
+                if foot in phase.contacts and (j == 0 and foot not in (previous or ()) or k == 0):
+                    anchors[foot] = pose[4 * i : 4 * i + 3, 3]
             heights = [pose[4 * i + 2, 3] for i in range(len(feet))]
             if j == 0 and touchdown:
                 landing = [feet.index(foot) for foot in phase.contacts if foot not in previous]
                 opti.subject_to(ca.vertcat(*(heights[i] for i in landing)) == problem.ground)
+                if problem.footholds:
+                    for i in landing:
+                        opti.subject_to(pose[4 * i : 4 * i + 2, 3] == holds[i])
                 v = f["contact_impulse"](q, v)[0]
             free = [heights[i] for i, foot in enumerate(feet) if foot not in phase.contacts]
             if free and j > 0:  # not at a phase's first node, where a lift-off leaves its feet on the ground
                 opti.subject_to(ca.vertcat(*free) >= problem.ground)
+            if free and phase.contacts and problem.clearance is not None and j == phase.nodes // 2:
+                opti.subject_to(ca.vertcat(*free) >= problem.ground + problem.clearance)
             full = ca.vertcat(ca.DM.zeros(nb), tau)
             if transcription == "forward":
                 if phase.contacts:
-                    a, force = f["contact_fdyn"](q, v, full)
+                    anchor = (ca.vertcat(*(anchors[foot] for foot in phase.contacts)),) if gains[0] else ()
+                    a, force = f["contact_fdyn"](q, v, full, *anchor)
                 else:
                     a, force = f["fdyn"](q, v, full), None
             else:
@@ -230,7 +257,13 @@ def solve(
                     Jc = ca.vertcat(*(J[6 * i : 6 * i + 3, :] for i in rows))
                     gamma = ca.vertcat(*(drift[i, :3].T for i in rows))
                     generalized = full + ca.mtimes(Jc.T, force)
-                    opti.subject_to(ca.mtimes(Jc, a) + gamma == 0)
+                    residual = ca.mtimes(Jc, a) + gamma
+                    if gains[1]:  # Baumgarte (`with_contacts`' kd, kp): J a + γ = −kd J v − kp (p − p_anchor)
+                        residual += gains[1] * ca.mtimes(Jc, v)
+                    if gains[0]:
+                        held = ca.vertcat(*(pose[4 * i : 4 * i + 3, 3] for i in rows))
+                        residual += gains[0] * (held - ca.vertcat(*(anchors[feet[i]] for i in rows)))
+                    opti.subject_to(residual == 0)
                 opti.subject_to(f["tau"](q, v, a) == generalized)
             if force is not None:
                 for c in range(len(phase.contacts)):
@@ -290,6 +323,7 @@ def solve(
         seconds,
         build,
         phase_of_node,
+        sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_")),
     )
 
 
