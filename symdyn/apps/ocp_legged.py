@@ -148,13 +148,19 @@ def integrate_function(robot: Robot) -> ca.Function:
     return ca.Function("integrate", [q, w], [out], ["q", "w"], ["q_next"])
 
 
-def _functions(robot: Robot, feet: tuple, contacts: tuple, transcription: str, gains: tuple = (0.0, 0.0)) -> dict:
+def _functions(
+    robot: Robot, feet: tuple, contacts: tuple, transcription: str, gains: tuple = (0.0, 0.0), source: str = "symdyn"
+) -> dict:
     """The CasADi functions one contact set needs (its own model; the derivation is shared): the
     forward transcription's contact_fdyn (fdyn in flight), the inverse one's τ, the feet's
     world-aligned Jacobians and drifts; both the feet's poses and, at a touchdown, the impact."""
     from ..codegen.choice import Programs, derivations
     from ..codegen.emit.casadi import function
 
+    if source == "plain":  # the baseline: a free-base recursion written plainly in CasADi
+        from ..numeric import casadi_legged
+
+        return casadi_legged.functions(robot.with_frames(feet), contacts)
     model = robot.with_frames(feet)
     if contacts:
         model = model.with_contacts({f: "point" for f in contacts}, kp=gains[0], kd=gains[1])
@@ -177,14 +183,19 @@ def solve(
     print_level: int = 0,
     hessian: str = "exact",
     ipopt: dict | None = None,
+    source: str = "symdyn",
 ) -> LeggedSolution:
     """The optimum of `problem` by IPOPT from a standing guess (q0 moved along the displacement,
     the torques and forces that hold q0).  `transcription`: "inverse" (the accelerations and
     contact forces are variables: τ(q, v, a) = [0; τ] + Jᵀf and J a + γ = 0 at each node — the
     generated τ, Jacobians and drifts, small functions; converges in far fewer iterations) or
-    "forward" (a, f = contact_fdyn(q, v, [0; τ]): the generated contact dynamics themselves)."""
+    "forward" (a, f = contact_fdyn(q, v, [0; τ]): the generated contact dynamics themselves).
+    `source`: "symdyn" (the generated functions) or "plain" (the baseline written plainly in CasADi,
+    `symdyn.numeric.casadi_legged`: the inverse transcription only)."""
     if transcription not in ("inverse", "forward"):
         raise ValueError(f"transcription must be 'inverse' or 'forward', got {transcription!r}")
+    if source not in ("symdyn", "plain") or (source == "plain" and transcription != "inverse"):
+        raise ValueError(f"source must be 'symdyn' or 'plain' (with the inverse transcription), got {source!r}")
     robot = problem.robot
     if robot.base_joint != "free":
         raise ValueError(f"ocp_legged.solve({robot.name!r}): a legged OCP needs a free base")
@@ -195,7 +206,8 @@ def solve(
             raise ValueError(f"phase {phase}: feet {unknown} not among robot.frames {feet}, or no nodes/duration")
     start = time.perf_counter()
     gains = problem.baumgarte
-    funcs = {s: _functions(robot, feet, s, transcription, gains) for s in {p.contacts for p in problem.phases}}
+    sets = {p.contacts for p in problem.phases}
+    funcs = {s: _functions(robot, feet, s, transcription, gains, source) for s in sets}
     step = integrate_function(robot)
     nq, nv, n = robot.nq, robot.nv, robot.n
     nb = nv - n

@@ -34,12 +34,17 @@ def _rz(c, s) -> ca.SX:
 def _constants(robot: Robot) -> list[dict]:
     """Per link: pre/post rotation and offset, joint axis S (ω; v) in body coordinates,
     mass, first moment m·r and inertia about the body origin, all as floats."""
-    robot.require_numeric("the plain CasADi RNEA")
     if robot.base_joint is not None:
         raise NotImplementedError(
             f"the plain CasADi RNEA reads robots on a fixed base (chains and trees); robot {robot.name!r} "
-            f"has a {robot.base_joint} base joint"
+            f"has a {robot.base_joint} base joint (a free base: symdyn.numeric.casadi_legged)"
         )
+    return link_constants(robot)
+
+
+def link_constants(robot: Robot) -> list[dict]:
+    """`_constants` for any base (the free base's own body is the caller's)."""
+    robot.require_numeric("the plain CasADi RNEA")
     out = []
     for link in robot.links:
         Rx = _rx(link.alpha)
@@ -82,7 +87,19 @@ def _constants(robot: Robot) -> list[dict]:
     return out
 
 
-def _friction(k: dict, qdi) -> ca.SX:
+def body_force(k: dict, w, v, dw, dv) -> list:
+    """[moment, force] a body with k's mass m, first moment h and inertia Io about its origin needs
+    for the motion (ω, v) and its derivative (dω, dv), body coordinates (Newton–Euler)."""
+    Io, h = ca.DM(k["Io"]), ca.DM(k["h"])
+    L = ca.mtimes(Io, w) + ca.cross(h, v)
+    P = k["m"] * v + ca.cross(w, h)
+    return [
+        ca.mtimes(Io, dw) + ca.cross(h, dv) + ca.cross(w, L) + ca.cross(v, P),
+        k["m"] * dv + ca.cross(dw, h) + ca.cross(w, P),
+    ]
+
+
+def joint_friction(k: dict, qdi) -> ca.SX:
     """G²·B·q̇ + |G|·(Tc⁺ if q̇ > 0, Tc⁻ if q̇ < 0, 0 at rest); no Coulomb node when Tc = 0."""
     out = k["G"] ** 2 * k["B"] * qdi
     tp, tn = k["Tc"]
@@ -91,7 +108,7 @@ def _friction(k: dict, qdi) -> ca.SX:
     return out
 
 
-def _transform(k: dict, qi) -> tuple[ca.SX, ca.SX]:
+def transform(k: dict, qi) -> tuple[ca.SX, ca.SX]:
     """Rotation and origin of a body in its parent: pre · Rz(θ)Tz(d) · post."""
     theta = qi + k["offset"] if k["revolute"] else k["theta"]
     d = k["d"] if k["revolute"] else qi + k["offset"]
@@ -111,7 +128,7 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
     frames, forces, motions = [], [], []
     for i, k in enumerate(links):
         w, v, dw, dv = at_rest if parents[i] < 0 else motions[parents[i]]
-        R, p = _transform(k, q[i])
+        R, p = transform(k, q[i])
         Rt = R.T
         sw, sv = ca.DM(k["S"][:3]), ca.DM(k["S"][3:])
         w_new, v_new = ca.mtimes(Rt, w), ca.mtimes(Rt, v + ca.cross(w, p))
@@ -119,15 +136,7 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
         w, v = w_new + sw * qd[i], v_new + sv * qd[i]
         dw = dw_new + sw * qdd[i] + ca.cross(w, sw * qd[i])
         dv = dv_new + sv * qdd[i] + ca.cross(w, sv * qd[i]) + ca.cross(v, sw * qd[i])
-        Io, h = ca.DM(k["Io"]), ca.DM(k["h"])
-        L = ca.mtimes(Io, w) + ca.cross(h, v)
-        P = k["m"] * v + ca.cross(w, h)
-        forces.append(
-            [
-                ca.mtimes(Io, dw) + ca.cross(h, dv) + ca.cross(w, L) + ca.cross(v, P),
-                k["m"] * dv + ca.cross(dw, h) + ca.cross(w, P),
-            ]
-        )
+        forces.append(body_force(k, w, v, dw, dv))
         frames.append((R, p))
         motions.append((w, v, dw, dv))
     tau = [None] * robot.n
@@ -136,7 +145,7 @@ def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
         n_, f_ = forces[i]
         tau[i] = ca.dot(n_, ca.DM(k["S"][:3])) + ca.dot(f_, ca.DM(k["S"][3:])) + k["armature"] * qdd[i]
         if friction:
-            tau[i] += _friction(k, qd[i])
+            tau[i] += joint_friction(k, qd[i])
         if parents[i] >= 0:
             R, p = frames[i]
             fp = ca.mtimes(R, f_)
@@ -191,7 +200,7 @@ def functions(robot: Robot, *, friction: bool = True) -> SimpleNamespace:
     zero = ca.SX.zeros(n)
     G = _rnea(robot, q, zero, zero, gravity=True, friction=False)
     Cqd = _rnea(robot, q, qd, zero, gravity=False, friction=False)
-    F = ca.vertcat(*(_friction(k, qd[i]) if friction else ca.SX(0) for i, k in enumerate(_constants(robot))))
+    F = ca.vertcat(*(joint_friction(k, qd[i]) if friction else ca.SX(0) for i, k in enumerate(_constants(robot))))
     return SimpleNamespace(
         tau=rnea_function(robot, friction=friction),
         M=mass_function(robot),
