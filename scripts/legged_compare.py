@@ -1,5 +1,7 @@
 """The legged OCPs side by side: symdyn's Solo 12 jump and trot (CasADi + IPOPT on the generated
-functions, `symdyn.apps.studies.legged`) and Crocoddyl's own jump and trot (FDDP) in one run.
+functions, `symdyn.apps.studies.legged`), the same problems on the plain baseline (a free-base
+recursion written in CasADi SX, `symdyn.numeric.casadi_legged`) and Crocoddyl's own jump and trot
+(FDDP), in one run.
 
 Run: .venv/bin/python scripts/legged_compare.py [--crocoddyl PYTHON]
 PYTHON is the interpreter of an environment where Crocoddyl installs, pinned to the Pinocchio it
@@ -30,27 +32,31 @@ from symdyn.apps.studies import legged  # noqa: E402
 from symdyn.model.example_robots import robots_folder  # noqa: E402
 
 
+TOOLS = {"symdyn": "symdyn's functions + IPOPT", "plain": "plain CasADi recursion + IPOPT"}
+
+
 def symdyn_rows() -> list[dict]:
     robot = legged.solo12()
     rows = []
     for name, make in (("jump", legged.jump_problem), ("trot", legged.trot_problem)):
-        problem = make(robot)
-        sol = ocp_legged.solve(problem)
-        knots = sum(p.nodes for p in problem.phases)
-        rows.append(
-            {
-                "tool": "symdyn + IPOPT (exact Hessian)",
-                "problem": name,
-                "knots": knots,
-                "iterations": sol.iterations,
-                "converged": sol.status == "Solve_Succeeded",
-                "seconds": sol.seconds,
-                "per_iteration_ms": 1e3 * sol.seconds / max(sol.iterations, 1),
-                "functions_share": sol.function_seconds / sol.seconds,
-                "build_seconds": sol.build_seconds,
-            }
-        )
+        for source in TOOLS:
+            rows.append(_row(make(robot), name, source))
     return rows
+
+
+def _row(problem: ocp_legged.LeggedProblem, name: str, source: str) -> dict:
+    sol = ocp_legged.solve(problem, source=source)
+    return {
+        "tool": TOOLS[source],
+        "problem": name,
+        "knots": sum(p.nodes for p in problem.phases),
+        "iterations": sol.iterations,
+        "converged": sol.status == "Solve_Succeeded",
+        "seconds": sol.seconds,
+        "per_iteration_ms": 1e3 * sol.seconds / max(sol.iterations, 1),
+        "functions_share": sol.function_seconds / sol.seconds,
+        "build_seconds": sol.build_seconds,
+    }
 
 
 def crocoddyl_rows(python: str) -> list[dict]:
@@ -68,14 +74,15 @@ def crocoddyl_rows(python: str) -> list[dict]:
 
 def table(rows: list[dict]) -> str:
     lines = [
-        "| tool | problem | knots | iterations | converged | to convergence | per iteration | functions' share |",
-        "|---|---|---|---|---|---|---|---|",
+        "| tool | problem | knots | iterations | converged | to convergence | per iteration | functions' share | build |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         share = f"{r['functions_share']:.0%}" if "functions_share" in r else "—"
+        build = f"{r['build_seconds']:.1f} s" if "build_seconds" in r else "—"
         lines.append(
             f"| {r['tool']} | {r['problem']} | {r['knots']} | {r['iterations']} | {'yes' if r['converged'] else 'no'} "
-            f"| {r['seconds']:.2f} s | {r['per_iteration_ms']:.1f} ms | {share} |"
+            f"| {r['seconds']:.2f} s | {r['per_iteration_ms']:.1f} ms | {share} | {build} |"
         )
     return "\n".join(lines)
 
