@@ -24,8 +24,9 @@ TOL = 1e-10
 SMALL = ArmOptions(n_max=4)
 #: Seeds of the fast sample: 1 to 4 joints, between them every feature of the generator
 #: (103 and 110, two more 4-joint arms, left to the sweeps: 13 s each of compiling; 105, a
-#: 3-joint arm whose features the others have, too: 6 s).
-SAMPLE = (100, 101, 102, 104, 107, 109, 106, 108, 111)
+#: 3-joint arm whose features the others have, too: 6 s).  The first (two joints, modified DH)
+#: runs in the main suite, with a general-convention arm below.
+SAMPLE = (101, 104, 109, 100, 102, 107, 106, 108, 111)
 
 
 def _assert_agrees(robot, findings):
@@ -34,7 +35,7 @@ def _assert_agrees(robot, findings):
     assert not bad, f"{report}\nthe arm:\n{robot_code(robot)}"
 
 
-@pytest.mark.parametrize("seed", tiered(SAMPLE, 6))  # 106, 108, 111 (the slowest): make test-all
+@pytest.mark.parametrize("seed", tiered(SAMPLE, 1))  # the other eight, 106, 108, 111 the slowest: make test-all
 def test_random_arm_agrees_at_every_stage(seed):
     robot = random_arm(seed, SMALL)
     _assert_agrees(robot, check_arm(robot, count=12, seed=seed))
@@ -45,7 +46,7 @@ def test_random_arm_agrees_at_every_stage(seed):
 GENERAL = ArmOptions(n_max=4, general=1.0)
 
 
-@pytest.mark.parametrize("seed", (303, 304, 306))
+@pytest.mark.parametrize("seed", tiered((303, 304, 306), 1))
 def test_random_general_arm_agrees_at_every_stage(seed):
     robot = random_arm(seed, GENERAL)
     assert robot.convention == "general"

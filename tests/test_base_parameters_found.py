@@ -66,7 +66,7 @@ def test_the_found_arm_has_exact_base_parameters():
     assert_exact_base_parameters(robot, base, 12, seed=101)
 
 
-@pytest.mark.parametrize(("seed", "general"), tiered([(60, 0.5), (52, 1.0), (38, 1.0)], 2))
+@pytest.mark.parametrize(("seed", "general"), tiered([(52, 1.0), (60, 0.5), (38, 1.0)], 1))
 def test_other_found_arms_have_exact_base_parameters(seed, general):
     """The same cause, the other ways it shows: a coefficient of 2e-16 on a first moment (seed 60),
     a first moment column at a double's rounding that makes an exactly dependent one look
@@ -110,7 +110,7 @@ def _perpendicular_behind_a_slide(seed: int) -> Robot:
     return Robot(f"perpendicular{seed}", links, convention="general")
 
 
-@pytest.mark.parametrize("seed", tiered(range(12), 2))
+@pytest.mark.parametrize("seed", tiered(range(12), 1))
 def test_perpendicular_axes_behind_a_generic_slide_have_exact_base_parameters(seed):
     """The class of the found arm: every one is refused in doubles at every tolerance, and decided
     modulo the prime: IA3 a base parameter of its own, exact against the symbolic regressor."""

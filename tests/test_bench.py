@@ -20,6 +20,7 @@ from symdyn.bench import pin_peer
 from symdyn.model import Link, Robot
 from symdyn.numeric import reference
 from symdyn.codegen.entry import GENERATED
+from tests.conftest import tiered
 
 PUMA = GENERATED / "puma560"
 FUNCTIONS = ("tau", "M", "C", "Cqd", "G", "fdyn", "tau_derivatives", "fdyn_derivatives", "Minv", "casadi_rnea")
@@ -255,7 +256,7 @@ def _modified_prismatic_arm():
     return Robot("mdh3", tuple(links), convention="modified")
 
 
-@pytest.mark.parametrize("arm", ["puma560", "mdh3", "panda"])
+@pytest.mark.parametrize("arm", tiered(["puma560", "mdh3", "panda"], 2))  # the Panda: make test-all
 def test_arm_file_round_trip_gives_the_reference_dynamics(arm, puma, tmp_path):
     """The arm written for the C++ peer, read back and built as the C++ builds it, has the
     dynamics of symdyn's reference: the peer is timed on the very arm symdyn is (the Panda:

@@ -113,6 +113,9 @@ def test_lock_values_are_numbers_per_joint():
         command_line.parse_locks(["a=0.5", "a=0.6"])
 
 
+# make test-all: `symdyn bench --model FILE` is in the main suite on the same file as a whole robot
+# without the C++ peer (test_bench_takes_a_whole_robot_from_the_command_line)
+@pytest.mark.slow
 def test_bench_takes_a_urdf_file(capsys):
     """The peers are built from the same Robot; the smallest run (no C++ peer, no CasADi baseline)."""
     argv = [

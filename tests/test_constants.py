@@ -7,6 +7,7 @@ from symdyn import cli, models
 from symdyn.derivation import trigpoly
 from symdyn.presentation.constants import constant_form, render_form, units
 from symdyn.derivation.entry import derive
+from tests.conftest import tiered
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +24,7 @@ def _angles(dyn):
     return [q for q, link in zip(dyn.q, dyn.robot.links) if link.is_revolute]
 
 
-@pytest.mark.parametrize("kind", ["M", "Cqd", "G", "F"])
+@pytest.mark.parametrize("kind", tiered(["M", "G", "F", "Cqd"], 3))  # C·q̇: make test-all
 def test_the_puma_form_expands_back_to_exactly_the_derived_dynamics(puma, kind):
     dyn = puma.dyn
     ours = puma.matrix(kind)

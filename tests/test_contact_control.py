@@ -12,11 +12,17 @@ from tests.test_task_space import states, with_random_frames
 
 
 @pytest.fixture(scope="module")
-def standing():
+def tree():
     """A random tree on a free base on a point and a surface (9 force rows for 6 base equations)."""
     robot = with_random_frames(random_tree_robot(3, n=5, base_joint="free"), 3).nofriction(all=True)
-    robot = robot.with_frames(["f4", "f5"]).with_contacts({"f4": "point", "f5": "surface"})
-    return robot, load(robot, "numpy"), WholeBodyInverseDynamics(robot, "numpy")
+    return robot.with_frames(["f4", "f5"]).with_contacts({"f4": "point", "f5": "surface"})
+
+
+@pytest.fixture(scope="module")
+def standing(tree):
+    """The tree, its generated NumPy contact dynamics and its whole-body inverse dynamics (on the
+    default target, lazy C: τ and the contact Jacobians only are built)."""
+    return tree, load(tree, "numpy"), WholeBodyInverseDynamics(tree)
 
 
 def _consistent(robot, f, count, seed):
@@ -48,7 +54,7 @@ def test_least_norm_forces_are_the_smallest_that_carry_the_base(standing):
     q, v, a, _, force_fdyn = _consistent(robot, f, 10, seed=4)
     _, force = wbid(q, v, a)
     assert np.all(np.linalg.norm(force, axis=1) <= np.linalg.norm(force_fdyn, axis=1) + 1e-9)
-    heavy = WholeBodyInverseDynamics(robot, "numpy", weights=[100.0] * 3 + [1.0] * 6)
+    heavy = WholeBodyInverseDynamics(robot, weights=[100.0] * 3 + [1.0] * 6)
     tau_w, force_w = heavy(q, v, a)
     assert np.linalg.norm(force_w[:, :3]) < np.linalg.norm(force[:, :3])
     back_a, back_force = f.contact_fdyn(q, v, tau_w)
@@ -56,12 +62,12 @@ def test_least_norm_forces_are_the_smallest_that_carry_the_base(standing):
     assert np.abs(back_force - force_w).max() < 1e-9 * max(1.0, np.abs(force_w).max())
 
 
-def test_a_set_that_cannot_carry_the_base_is_refused(standing):
-    robot, _, _ = standing
-    one_point = robot.with_contacts({"f4": "point"})
-    wbid = WholeBodyInverseDynamics(one_point, "numpy")
+def test_a_set_that_cannot_carry_the_base_is_refused(tree):
+    """On the default target (lazy C: only τ and the Jacobian are built, not every NumPy function)."""
+    one_point = tree.with_contacts({"f4": "point"})
+    wbid = WholeBodyInverseDynamics(one_point)
     q, v, a = states(one_point, 1, seed=5)
     with pytest.raises(ValueError, match=r"cannot carry its base: its forces span 3 of the base's 6 equations"):
         wbid(q[0], v[0], a[0])
     with pytest.raises(ValueError, match="weights must be 3 positive numbers"):
-        WholeBodyInverseDynamics(one_point, "numpy", weights=[1.0, -1.0, 1.0])
+        WholeBodyInverseDynamics(one_point, weights=[1.0, -1.0, 1.0])

@@ -13,13 +13,13 @@ from symdyn.derivation.entry import derive
 from symdyn.derivation.exact import compile_exact
 from symdyn.numeric import reference as ref
 
-from conftest import random_states
+from conftest import random_states, tiered
 from exact_eval import exact_value, random_point
 
-MODELS = ["twolink", "puma560", "puma560_mdh", "rrp"]
+MODELS = ["twolink", "puma560", "rrp", "puma560_mdh"]
 
 
-@pytest.fixture(scope="module", params=MODELS)
+@pytest.fixture(scope="module", params=tiered(MODELS, 3))  # the Puma in modified DH: make test-all
 def ne(request):
     return derive(models.load(request.param), "newton-euler")
 
@@ -85,6 +85,10 @@ def test_methods_agree_symbolically_for_the_symbolic_twolink():
             assert trigpoly.equal(x, y, a.q), term
 
 
+# make test-all: the two methods' exact agreement is in the main suite on the symbolic two-link arm
+# (test_methods_agree_symbolically_for_the_symbolic_twolink) and on random trees at exact rational
+# points (tests/test_tree_derivations.py::test_lagrange_and_newton_euler_agree_exactly_on_random_trees)
+@pytest.mark.slow
 def test_methods_agree_exactly_at_20_rational_points_for_the_puma():
     robot = models.load("puma560")
     lag, ne = derive(robot, "lagrange"), derive(robot, "newton-euler")

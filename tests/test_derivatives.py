@@ -11,6 +11,7 @@ from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit.clib import CompileOptions
 from symdyn.model import arms
 from symdyn.model.random_arms import ArmOptions, random_arm
+from tests.conftest import tiered
 
 pin = pytest.importorskip("pinocchio")
 
@@ -25,7 +26,8 @@ ARMS = {
 }
 
 
-@pytest.fixture(scope="module", params=list(ARMS))
+# rrp and random-7 (four joints): make test-all
+@pytest.fixture(scope="module", params=tiered(sorted(ARMS, key=lambda name: name in ("rrp", "random-7")), 3))
 def arm(request):
     """(robot, its generated C functions, states (q, qd, qdd, tau), Pinocchio's values there)."""
     robot = ARMS[request.param]()

@@ -38,6 +38,7 @@ from symdyn.derivation.regressor import (
 from symdyn import models
 from symdyn.model import Link
 from symdyn.model.random_robots import random_tree_robot
+from tests.conftest import tiered
 
 PER = len(INERTIAL) + len(FRICTION)
 TERMS = ("tau", "M", "G", "Cqd")
@@ -117,7 +118,7 @@ def _exact_Y(robot, points: int, seed: int) -> DomainMatrix:
 # --------------------------------------------------------------------------- the regressor
 
 
-@pytest.mark.parametrize("base", ["free", "planar"])
+@pytest.mark.parametrize("base", tiered(["planar", "free"], 1))
 def test_regressor_times_standard_parameters_is_tau(base):
     """Y·π = τ of the Newton–Euler derivation exactly (base rows included), and of the numeric
     reference at float states; π has the body's ten parameters first."""
@@ -161,12 +162,12 @@ def _revolute(robot) -> list[bool]:
 @pytest.mark.parametrize(
     ("base", "seed", "n", "count"),
     [
-        ("free", 3, 4, 39),
         ("free", 8, 3, 34),
-        ("free", "puma", 6, 58),
-        ("planar", 3, 4, 32),
         ("planar", 11, 3, 25),
-        ("planar", "puma", 6, 47),
+        pytest.param("free", 3, 4, 39, marks=pytest.mark.slow),
+        pytest.param("free", "puma", 6, 58, marks=pytest.mark.slow),
+        pytest.param("planar", 3, 4, 32, marks=pytest.mark.slow),
+        pytest.param("planar", "puma", 6, 47, marks=pytest.mark.slow),
         pytest.param("free", 6, 5, 50, marks=pytest.mark.slow),
         pytest.param("planar", 6, 5, 43, marks=pytest.mark.slow),
     ],
@@ -213,7 +214,7 @@ def test_base_parameters_of_floating_trees_are_exact(base, seed, n, count):
     assert len(friction) == len(FRICTION) * robot.n
 
 
-@pytest.mark.parametrize(("base", "seed"), [("free", 2), ("planar", 2), ("planar", "puma")])
+@pytest.mark.parametrize(("base", "seed"), tiered([("planar", 2), ("free", 2), ("planar", "puma")], 1))
 def test_regrouped_derivation_equals_the_plain_one_exactly(base, seed):
     """derive(regroup=True) on a floating base: the base body's regrouped parameters with the
     links', the same τ, M, G, C·v at rational points (base rows included), no more operations."""

@@ -16,6 +16,7 @@ import pytest
 from symdyn import models
 from symdyn.codegen import entry as codegen
 from symdyn.numeric import reference as ref
+from tests.conftest import tiered
 
 
 def _python(code: str, *args: str, **env: str) -> subprocess.CompletedProcess:
@@ -41,7 +42,7 @@ print(np.max(np.abs(lib.functions["M"](q) - ref.inertia(models.load("twolink"), 
 """
 
 
-@pytest.mark.parametrize("binding", ["extension", "ctypes"])
+@pytest.mark.parametrize("binding", tiered(["ctypes", "extension"], 1))
 def test_a_truncated_library_in_the_cache_is_rebuilt(tmp_path, binding):
     for attempt in ("build", "truncated"):
         run = _python(_LOAD_TWOLINK_C, binding, SYMDYN_CACHE_DIR=str(tmp_path))

@@ -22,6 +22,7 @@ from symdyn.identify.simulate import fourier, perturbed, write_trajectory
 from symdyn.model import arms
 from symdyn.model.random_arms import ArmOptions, random_arm
 from symdyn.numeric import reference as ref
+from tests.conftest import tiered
 
 #: The generated code that evaluates Y in these tests: NumPy loads at once, C would compile per worker.
 TARGET = "numpy"
@@ -44,7 +45,7 @@ def _arm(case):
     return arms.load(case) if isinstance(case, str) else random_arm(case, RANDOM)
 
 
-@pytest.mark.parametrize("case", ["twolink", "puma560", 1, 4, 11])
+@pytest.mark.parametrize("case", tiered(["twolink", "puma560", 1, 4, 11], 3))  # random arms 4 and 11: make test-all
 def test_noise_free_data_give_the_base_parameters_and_the_torques_back(case):
     robot = _arm(case)
     traj = fourier(robot, period=5, harmonics=5, rate=40, seed=1, rest=0.5)

@@ -19,6 +19,7 @@ from symdyn.identify.parameters import standard_vector, with_standard
 from symdyn.identify.simulate import fourier
 from symdyn.model.random_robots import random_tree_robot
 from symdyn.numeric import reference as ref
+from tests.conftest import tiered
 
 
 def _robot(base: str):
@@ -29,7 +30,7 @@ def _data(robot, **options):
     return simulate(robot, fourier(robot, period=4.0, harmonics=4, rate=50.0), seed=1, **options)
 
 
-@pytest.mark.parametrize("base", ["planar", "free"])
+@pytest.mark.parametrize("base", tiered(["planar", "free"], 1))
 def test_noise_free_data_give_the_base_bodys_and_links_base_parameters_back(base):
     robot = _robot(base)
     data = _data(robot)
@@ -125,6 +126,9 @@ def test_the_command_line_simulates_and_fits_a_floating_base(tmp_path):
         assert row["value"] == pytest.approx(truth["base"][row["name"]], rel=1e-8, abs=1e-10)
 
 
+# make test-all: the CasADi route is in the main suite on a fixed-base arm
+# (tests/test_identify_consistent.py::test_the_casadi_route_agrees_with_the_sdp_inside_the_cone)
+@pytest.mark.slow
 @pytest.mark.parametrize("base", ["planar", "free"])
 def test_without_clarabel_the_casadi_route_is_as_accurate(base):
     """The fallback (IPOPT over a log-Cholesky factor, no extra) stops at the same residual as the

@@ -54,6 +54,10 @@ def test_nothing_is_compiled_before_a_call_and_a_call_builds_only_what_it_needs(
     assert lib.functions["G"](q[:0]).shape == (0, 2) and "G.simd" not in _built(tmp_path)
 
 
+# make test-all: build() compiling every function ahead is in the main suite on a 3-joint arm's scalar code
+# (tests/test_lazy_generation.py::test_build_generates_and_compiles_every_function_ahead), units cached
+# by their text in test_nothing_is_compiled_before_a_call_and_a_call_builds_only_what_it_needs
+@pytest.mark.slow
 def test_build_compiles_every_unit_ahead_and_two_models_share_a_function_of_the_same_text(twolink, tmp_path):
     lib = load_library(*twolink)
     lib.build(["tau", "C"], batch=False)
@@ -121,6 +125,9 @@ def _python(code: str, *args: str, cache) -> subprocess.CompletedProcess:
     )
 
 
+# make test-all: a second process and a truncated unit are in the main suite on the two-link arm's M
+# (tests/test_hardening_codegen.py::test_a_truncated_library_in_the_cache_is_rebuilt)
+@pytest.mark.slow
 def test_a_second_process_compiles_nothing_and_a_truncated_unit_is_rebuilt_not_loaded(tmp_path):
     binding = "extension"  # the cache is the binding's, whichever it is (test_hardening_codegen: both)
     first = _python(_CALL_ALL, binding, "build", cache=tmp_path)

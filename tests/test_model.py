@@ -218,6 +218,10 @@ def test_a_generic_float_rotation_becomes_an_exactly_orthogonal_rational_one():
         np.testing.assert_allclose(np.array(E, dtype=float), R, atol=2e-15)
 
 
+# make test-all: the regrouped recursion on generically turned arms is in the main suite at three and four
+# joints (tests/test_regressor.py::test_base_parameters_of_generically_turned_arms_are_exact, and
+# tests/test_any_arm.py::test_random_general_arm_agrees_at_every_stage derives it)
+@pytest.mark.slow
 def test_code_generation_regroups_generically_turned_arms():
     """Base parameters no longer cost minutes per generic constant rotation: a generically placed
     arm's code comes from the regrouped recursion like the shipped arms'."""

@@ -194,6 +194,10 @@ def test_twolink_hangs_at_minus_half_pi_and_is_upright_at_plus_half_pi(arm2):
 # --------------------------------------------------------------------------- the studies, coarse
 
 
+# make test-all: multiple shooting on the two-link arm, solved and re-simulated, is in the main suite at
+# N=8 (test_multiple_shooting_re_simulated_with_its_own_rk4_reproduces_the_nodes), the compiled symdyn
+# dynamics in tests/test_ocp_compiled.py
+@pytest.mark.slow
 def test_swing_up_reaches_upright_open_loop_within_limits(arm2):
     sol, check = S.solve_checked(arm2, S.swing_up_problem(N=30), "symdyn")
     assert check.ok, check.describe()
@@ -223,6 +227,9 @@ def test_puma_minimum_effort_with_payload_costs_more_and_beats_minimum_jerk(puma
     assert costs[1] > 1.2 * costs[0]
 
 
+# make test-all: test_an_infinite_limit_leaves_that_joint_unbounded solves and verifies this same
+# minimum-time problem with each transcription in the main suite (on the uncompiled dynamics)
+@pytest.mark.slow
 def test_transcriptions_agree_on_the_two_link_minimum_time(arm2):
     lim = ocp.Limits(tau=np.array([30.0, 10.0]), qd=np.array([3.0, 3.0]))
     arm = ocp.dynamics(arm2, "plain")

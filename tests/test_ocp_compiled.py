@@ -16,6 +16,7 @@ from symdyn.apps.ocp import functions
 from symdyn.derivation import progress
 from symdyn.apps.studies import mpc
 from symdyn.codegen.emit.casadi import compiled
+from tests.conftest import tiered
 
 HANG, UP = np.array([-np.pi / 2, 0.0]), np.array([np.pi / 2, 0.0])
 
@@ -131,7 +132,7 @@ def test_load_compiled_gives_externals_that_follow_the_contract(arm2):
         symdyn.load(arm2, "numpy", compiled=True)
 
 
-@pytest.mark.parametrize("method", ["multiple-shooting", "trapezoidal"])
+@pytest.mark.parametrize("method", tiered(["trapezoidal", "multiple-shooting"], 1))
 def test_ocp_optimum_on_the_compiled_path_equals_the_sx_one(both, method):
     problem = ocp.Problem(
         HANG,

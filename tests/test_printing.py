@@ -10,6 +10,7 @@ from symdyn import cli, models
 from symdyn.derivation.entry import derive
 from symdyn.presentation.printing import closed_form, elements, render
 from symdyn.derivation.simplify import prune, tidy
+from tests.conftest import tiered
 
 
 def test_twolink_tau1_prints_in_the_grouping_of_eq_9_3():
@@ -80,7 +81,7 @@ def test_latex_of_the_pumas_named_constants_compiles_with_no_overfull_box(tmp_pa
     assert not [w for w in _overfull_boxes(tex, tmp_path) if w > 1]
 
 
-@pytest.mark.parametrize("fmt", ["text", "pretty", "latex"])
+@pytest.mark.parametrize("fmt", tiered(["text", "pretty", "latex"], 1))
 def test_every_printed_line_fits_its_width_budget(fmt):
     from symdyn.presentation.printing import WIDTHS, latex_width
 
@@ -305,7 +306,7 @@ def test_a_closed_form_too_large_to_print_is_refused_with_the_alternative(panda)
         plan(panda, ("M",), "closed")
 
 
-@pytest.mark.parametrize("base", ["planar", "free"])
+@pytest.mark.parametrize("base", tiered(["planar", "free"], 1))
 def test_a_floating_base_prints_its_closed_form_exactly(base):
     """A planar base's yaw folds like a joint angle, a free base's 1/|quaternion|² is a coefficient;
     both derivations print the same closed form, and each printed element is the derived one."""

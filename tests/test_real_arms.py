@@ -25,6 +25,11 @@ STAGES = {
 }
 
 
+# make test-all: every stage is in the main suite on smaller random arms, DH and general
+# (tests/test_any_arm.py::test_random_arm_agrees_at_every_stage and
+# test_random_general_arm_agrees_at_every_stage), the shipped arms' generated code in
+# tests/test_generated.py (byte for byte) and tests/test_task_space.py
+@pytest.mark.slow
 @pytest.mark.parametrize("name", STAGES)
 def test_shipped_arm_agrees_at_every_stage(name):
     robot = models.load(name)

@@ -261,6 +261,10 @@ def test_a_task_id_needs_an_integer_index():
             engine.task_id({"index": index, "s": 1})
 
 
+# make test-all: a sweep on worker processes is in the main suite on a LocalCluster
+# (test_a_sweep_on_two_worker_processes_equals_a_serial_run_exactly), the command's --scheduler
+# address in test_an_unreachable_scheduler_fails_within_seconds_naming_it
+@pytest.mark.slow
 def test_the_command_runs_on_a_cluster_started_apart_given_by_its_address(serial, tmp_path, capsys):
     """`--scheduler tcp://…`: a scheduler and a worker started as their own processes with Dask's
     command-line tools, as on a real cluster; the rows equal the serial run's."""

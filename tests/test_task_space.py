@@ -22,6 +22,7 @@ from symdyn.model import Robot
 from symdyn.model.frames import Frame
 from symdyn.model.random_arms import _rotation
 from symdyn.model.random_robots import random_tree_robot
+from tests.conftest import tiered
 
 pin = pytest.importorskip("pinocchio", reason="the task space is checked against Pinocchio (the test extra)")
 peer = pytest.importorskip("symdyn.bench.task_space")
@@ -98,7 +99,7 @@ def with_random_frames(robot: Robot, seed: int) -> Robot:
 # --------------------------------------------------------------------------- against Pinocchio
 
 
-@pytest.mark.parametrize("name", ["puma560", "puma560_mdh", "rrp", "ur5", "iiwa14", "panda"])
+@pytest.mark.parametrize("name", tiered(["puma560", "puma560_mdh", "rrp", "ur5", "iiwa14", "panda"], 3))
 def test_the_shipped_arms_tools_equal_pinocchio(name):
     robot = models.load(name)
     model, ids = peer.peer_model(robot)
@@ -106,7 +107,7 @@ def test_the_shipped_arms_tools_equal_pinocchio(name):
 
 
 @pytest.mark.parametrize("base_joint", [None, "free", "planar"])
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("seed", tiered([1, 2, 3], 1))
 def test_random_trees_with_frames_anywhere_equal_pinocchio(seed, base_joint):
     robot = with_random_frames(random_tree_robot(seed, n=4 if seed < 3 else 6, base_joint=base_joint), seed)
     model, ids = peer.peer_model(robot)

@@ -474,6 +474,10 @@ def test_an_impossible_inertia_on_a_locked_branch_is_refused_and_loads_once_excl
 # --------------------------------------------------------------------------- every stage
 
 
+# make test-all: every stage on a general-convention arm is in the main suite on a random one
+# (tests/test_any_arm.py::test_random_general_arm_agrees_at_every_stage), these files' parsing against
+# Pinocchio's in test_urdf_chain_agrees_with_pinocchios_parser
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "file, tip, seed", [("prismatic_continuous.urdf", None, 5), ("zero_mass_inertia.urdf", "l2", 6)]
 )

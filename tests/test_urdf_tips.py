@@ -16,10 +16,12 @@ import pytest
 from symdyn.model import Robot, URDFError, URDFWarning
 from symdyn.model.command_line import load, parse_tips
 from symdyn.model.random_trees import random_tree
+from tests.conftest import tiered
 
 pin = pytest.importorskip("pinocchio")
 
 SEEDS = range(24)
+MAIN = 8  # the random trees of the main suite; the other 16 of each test: make test-all
 
 
 def _inertial(m: float) -> str:
@@ -96,7 +98,7 @@ def test_the_order_is_by_joint_name_not_by_file_or_link():
     assert not robot.is_chain
 
 
-@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("seed", tiered(SEEDS, MAIN))
 def test_a_free_base_floats_the_root_with_what_is_fixed_to_it(seed):
     text = _unmimicked(seed)
     robot = _read(text, tips="all", base_joint="free")
@@ -117,7 +119,7 @@ def test_the_base_body_is_the_root_and_its_fixed_links():
     assert fixed.base_body is None and sum(float(link.m) for link in fixed.links) == pytest.approx(3.0)
 
 
-@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("seed", tiered(SEEDS, MAIN))
 def test_locked_leaders_and_their_mimics_match_pinocchios_reduced_model(seed):
     """Mimic joints follow their locked leaders; what stays moves in Pinocchio's order."""
     tree = random_tree(seed)
@@ -152,7 +154,7 @@ def _inside(text: str, joint: str) -> float:
 # --------------------------------------------------------------------------- tips as chains
 
 
-@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("seed", tiered(SEEDS, MAIN))
 def test_one_tip_is_the_chain_to_it(seed):
     tree = random_tree(seed)
     chain = _read(tree.text, tip_link=tree.tip, locked=tree.locked)
@@ -310,7 +312,7 @@ ROOT_JOINTS = {"free": "JointModelFreeFlyer", "planar": "JointModelPlanar"}
 
 
 @pytest.mark.parametrize("base_joint", [None, "free", "planar"])
-@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("seed", tiered(range(12), 4))  # the other 8 seeds: make test-all
 def test_tau_of_a_tree_is_pinocchios_rnea(seed, base_joint):
     from symdyn.numeric import reference as ref
 

@@ -21,6 +21,7 @@ from symdyn.bench.reduced import compare, reduced_model
 from symdyn.model import Robot, URDFError, URDFWarning
 from symdyn.model.random_trees import random_tree
 from symdyn.model.snapping import ANGLE_TOLERANCE, snap_angle, snap_axis
+from tests.conftest import tiered
 
 pin = pytest.importorskip("pinocchio")
 
@@ -80,12 +81,17 @@ def test_the_comparison_has_teeth_wrong_lock_values_or_a_dropped_branch_disagree
         _assert_agrees(dataclasses.replace(dropped, urdf=robot.urdf), TREE, count=20)
 
 
+# make test-all: a tree's generated code and derivatives are in the main suite on the two-arms and torso
+# trees (tests/test_tree_derivations.py::test_generated_functions_of_a_tree_agree_with_the_reference and
+# its derivatives), the locked tree against Pinocchio's reduced model in
+# test_random_trees_agree_with_pinocchios_reduced_model
+@pytest.mark.slow
 def test_generated_code_and_its_derivatives_agree_with_the_reduced_model():
     robot = _tree(locked={"head_pan": 0.7, "finger_left": 0.3})
     _assert_agrees(robot, TREE, seed=11, functions=symdyn.load(robot, "numpy"))
 
 
-@pytest.mark.parametrize("seed", range(24))
+@pytest.mark.parametrize("seed", tiered(range(24), 8))  # the other 16 trees: make test-all
 def test_random_trees_agree_with_pinocchios_reduced_model(seed, tmp_path):
     tree = random_tree(seed)
     path = tmp_path / f"tree{seed}.urdf"
@@ -95,6 +101,10 @@ def test_random_trees_agree_with_pinocchios_reduced_model(seed, tmp_path):
     _assert_agrees(robot, path, seed=seed, count=60)
 
 
+# make test-all: both derivations' exact agreement on trees is in the main suite on smaller random trees
+# (tests/test_tree_derivations.py::test_lagrange_and_newton_euler_agree_exactly_on_random_trees), the
+# locked tree's merged bodies against Pinocchio in test_random_trees_agree_with_pinocchios_reduced_model
+@pytest.mark.slow
 def test_a_locked_tree_passes_every_derivation_stage():
     """Both derivations and their exact agreement on merged bodies (rational numbers)."""
     robot = _tree(locked=LOCKS["non-zero locks, a chain joint locked too"])

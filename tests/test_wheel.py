@@ -13,6 +13,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 
+# make test-all (building and installing the wheel: 10-15 s): the README's blocks run in the main suite
+# from another directory on the checkout (tests/test_readme.py), generating a shipped model without
+# out_dir is refused there too (tests/test_generated.py::test_generate_needs_out_dir_for_a_model_not_shipped_as_is)
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory):
