@@ -20,7 +20,7 @@ import pytest
 
 from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit import c as c_emit
-from symdyn.codegen.emit import clib
+from symdyn.codegen.emit import cbuild
 from symdyn.model.random_arms import random_arm
 from symdyn.codegen.task_functions import TASK_NAMES
 from tests.conftest import tiered
@@ -175,8 +175,8 @@ void sincos_libm(long n, const double *x, double *s, double *c)
     lib = folder / "libsincos.so"
     subprocess.run(
         [
-            clib.compiler(),
-            *clib.DEFAULT_FLAGS,
+            cbuild.compiler(),
+            *cbuild.DEFAULT_FLAGS,
             "-Wall",
             "-Wextra",
             "-Werror",

@@ -6,12 +6,12 @@ import subprocess
 import sysconfig
 
 import pytest
-from symdyn.codegen.emit import clib
+from symdyn.codegen.emit import cbuild, clib
 
 
 @pytest.fixture(scope="module")
 def headers():
-    found = clib._python_headers()
+    found = cbuild.python_headers()
     if found is None:
         pytest.skip("Python.h is not installed here (the ctypes binding serves without it)")
     return found
@@ -19,7 +19,7 @@ def headers():
 
 def _compile(headers, *defines: str) -> subprocess.CompletedProcess:
     includes = [f"-I{h}" for h in headers]
-    command = [clib.compiler(), "-fsyntax-only", "-Wall", "-Wextra", "-Werror", "-Wno-unused-parameter", *defines]
+    command = [cbuild.compiler(), "-fsyntax-only", "-Wall", "-Wextra", "-Werror", "-Wno-unused-parameter", *defines]
     return subprocess.run([*command, *includes, str(clib.GLUE_C)], capture_output=True, text=True)
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from symdyn.codegen import entry as codegen
 from symdyn.codegen.emit import c as c_emit
-from symdyn.codegen.emit import clib
+from symdyn.codegen.emit import cbuild
 from symdyn.codegen.emit.clib import CompileOptions, load_library
 from tests.codegen_cases import MODELS, assert_close, cases
 
@@ -130,8 +130,8 @@ def test_a_long_source_is_split_into_whole_functions_each_with_the_preamble():
     head = text[: text.index("\nvoid ") + 1]
     definitions = re.compile(r"(?m)^(?=(static )?(void|int) \w+\()")  # a SIMD kernel's static lanes and range too
     functions = [f for f in definitions.split(text[len(head) :]) if f]
-    parts = clib.split_source(text, 3)
-    assert len(text) > clib.SPLIT_BYTES and len(parts) == 3
+    parts = cbuild.split_source(text, 3)
+    assert len(text) > cbuild.SPLIT_BYTES and len(parts) == 3
     assert all(p.startswith(head) for p in parts)
     bodies = sorted(f for p in parts for f in definitions.split(p[len(head) :]) if f)
     assert bodies == sorted(functions)
@@ -142,12 +142,12 @@ def test_a_long_source_is_split_into_whole_functions_each_with_the_preamble():
 
 def test_short_or_unusual_sources_compile_in_one_piece(monkeypatch):
     text = (codegen.GENERATED / "puma560" / "puma560.c").read_text()
-    assert clib.split_source(text, 1) == [text]
+    assert cbuild.split_source(text, 1) == [text]
     twolink = (codegen.GENERATED / "twolink" / "twolink.c").read_text()
-    monkeypatch.setattr(clib, "SPLIT_BYTES", len(twolink) + 1)  # shorter than that: one piece
-    assert clib.split_source(twolink, 4) == [twolink]
+    monkeypatch.setattr(cbuild, "SPLIT_BYTES", len(twolink) + 1)  # shorter than that: one piece
+    assert cbuild.split_source(twolink, 4) == [twolink]
     static_after = text + "\nstatic double helper(double x) { return x; }\n"
-    assert clib.split_source(static_after, 4) == [static_after]
+    assert cbuild.split_source(static_after, 4) == [static_after]
 
 
 def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, monkeypatch):
@@ -155,11 +155,11 @@ def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, m
     in parallel (`split_source`), then linked."""
     import ctypes
 
-    monkeypatch.setattr(clib, "_jobs", lambda: 2)
-    monkeypatch.setattr(clib, "SPLIT_BYTES", 0)  # the two-link arm's short file, in parts too
+    monkeypatch.setattr(cbuild, "jobs", lambda: 2)
+    monkeypatch.setattr(cbuild, "SPLIT_BYTES", 0)  # the two-link arm's short file, in parts too
     c_path, h_path = _copy_model(tmp_path)
     files = {p.name: p.read_text() for p in (c_path, h_path)}
-    lib = clib._library(tmp_path / "lib" / "libtwolink.so", clib.DEFAULT_FLAGS, files, [])
+    lib = cbuild.library(tmp_path / "lib" / "libtwolink.so", cbuild.DEFAULT_FLAGS, files, [])
     dll = ctypes.CDLL(str(lib))
     (q,), M = cases("twolink")["M"]
     got = np.empty((len(q), 2, 2))
@@ -167,7 +167,7 @@ def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, m
     assert_close(got, M, "split M")
     files["twolink.c"] = files["twolink.c"].replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, ")
     with pytest.raises(RuntimeError, match=r"compiling twolink\.part\d\.c failed"):
-        clib._library(tmp_path / "bad" / "libtwolink.so", clib.DEFAULT_FLAGS, files, [])
+        cbuild.library(tmp_path / "bad" / "libtwolink.so", cbuild.DEFAULT_FLAGS, files, [])
 
 
 def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, monkeypatch):

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from symdyn.codegen import entry as codegen
-from symdyn.codegen.emit import clib
+from symdyn.codegen.emit import cbuild, cunits
 from symdyn.codegen.emit.clib import CompileOptions, load_library
 from tests.codegen_cases import assert_close, cases
 
@@ -77,7 +77,7 @@ def test_a_large_function_s_parts_travel_with_its_scalar_code(monkeypatch):
     monkeypatch.setattr(c_emit, "SPLIT_ABOVE", 5)
     monkeypatch.setattr(c_emit, "PART_SIZE", 3)
     bundle = codegen.bundle(codegen._robot("twolink"))
-    units = clib.function_units("twolink", c_emit.c_source(bundle), c_emit.h_source(bundle), ["tau", "M"])
+    units = cunits.function_units("twolink", c_emit.c_source(bundle), c_emit.h_source(bundle), ["tau", "M"])
     assert "twolink_tau_part1(" in units["tau", "scalar"] and "twolink_tau_part1(" not in units["tau", "simd"]
     assert "twolink_tau_part1(" not in units["M", "scalar"] + units["M", "simd"]
     assert "twolink_M_lanes(" in units["M", "simd"] and "twolink_M_lanes(" not in units["M", "scalar"]
@@ -87,7 +87,7 @@ def test_a_large_function_s_parts_travel_with_its_scalar_code(monkeypatch):
 def test_a_file_not_laid_out_as_symdyn_writes_it_is_one_library_for_every_function(twolink, tmp_path):
     c_path, h_path = twolink
     c_path.write_text(c_path.read_text() + "\nstatic double helper(double x) { return x; }\n")
-    units = clib.function_units("twolink", c_path.read_text(), h_path.read_text(), ["tau", "M"])
+    units = cunits.function_units("twolink", c_path.read_text(), h_path.read_text(), ["tau", "M"])
     assert len(set(units.values())) == 1
     lib = load_library(c_path, h_path)
     (q, qd, qdd), tau = cases("twolink")["tau"]
@@ -100,12 +100,12 @@ _CALL_ALL = """
 import sys
 import numpy as np
 from symdyn.codegen import entry as codegen
-from symdyn.codegen.emit import clib
+from symdyn.codegen.emit import cbuild, clib, cunits
 
 if sys.argv[2] == "cached":  # from now on compiling is an error
     def refuse(*args, **kwargs):
         raise AssertionError("compiled something")
-    clib._compile_units = clib._build = refuse
+    cunits._compile_units = cbuild.build = refuse
 folder = codegen.GENERATED / "twolink"
 lib = clib.load_library(folder / "twolink.c", folder / "twolink.h", clib.CompileOptions(binding=sys.argv[1]))
 for sig in (s for s in lib.signatures if s.name in ("tau", "M", "fdyn")):
@@ -140,7 +140,7 @@ def test_a_second_process_compiles_nothing_and_a_truncated_unit_is_rebuilt_not_l
     again = _python(_CALL_ALL, binding, "build", cache=tmp_path)
     assert again.returncode == 0, again.stderr
     assert again.stdout == first.stdout
-    assert clib._intact(unit)
+    assert cbuild.intact(unit)
 
 
 @pytest.mark.parametrize("binding", BINDINGS)
@@ -171,16 +171,16 @@ def test_a_large_kernel_compiles_in_the_background_while_the_scalar_code_answers
     """Issue 44, item 6: a batch call never waits for a large kernel's compiler: the scalar code
     answers (the single calls' values, a NaN still refused by name), the kernel is built in the
     background and serves the calls after."""
-    monkeypatch.setattr(clib, "BACKGROUND_BYTES", 0)  # every kernel counts as large
+    monkeypatch.setattr(cunits, "BACKGROUND_BYTES", 0)  # every kernel counts as large
     gate = __import__("threading").Event()
-    real = clib._build_units
+    real = cunits._build_units
 
     def slow(units):  # the kernel's compile waits until the first batch call has been answered
         if any(u.kind == "simd" for u in units):
             gate.wait(30)
         real(units)
 
-    monkeypatch.setattr(clib, "_build_units", slow)
+    monkeypatch.setattr(cunits, "_build_units", slow)
     lib = load_library(*twolink, CompileOptions(binding=binding))
     (q, qd, qdd), tau = cases("twolink")["tau"]
     got = lib.functions["tau"](q, qd, qdd)  # answered while the kernel waits to compile
@@ -198,15 +198,15 @@ def test_a_large_kernel_compiles_in_the_background_while_the_scalar_code_answers
 
 
 def test_a_background_kernel_that_fails_raises_at_the_next_batch_call(twolink, monkeypatch):
-    monkeypatch.setattr(clib, "BACKGROUND_BYTES", 0)
-    real = clib._build_units
+    monkeypatch.setattr(cunits, "BACKGROUND_BYTES", 0)
+    real = cunits._build_units
 
     def broken(units):
         if any(u.kind == "simd" for u in units):
             raise RuntimeError("compiling twolink's M (batch kernel) failed: injected")
         real(units)
 
-    monkeypatch.setattr(clib, "_build_units", broken)
+    monkeypatch.setattr(cunits, "_build_units", broken)
     lib = load_library(*twolink)
     (q,), M = cases("twolink")["M"]
     assert_close(lib.functions["M"](q), M, "M by the scalar code")
@@ -222,8 +222,8 @@ def test_a_compiler_ends_with_the_process_that_started_it(tmp_path):
         pytest.skip("PR_SET_PDEATHSIG is Linux's")
     script = (
         "import subprocess, sys, time\n"
-        "from symdyn.codegen.emit import clib\n"
-        "p = subprocess.Popen([*clib._with_parent(), 'sleep', '60'])\n"
+        "from symdyn.codegen.emit import cunits\n"
+        "p = subprocess.Popen([*cunits._with_parent(), 'sleep', '60'])\n"
         "print(p.pid, flush=True)\n"
         "time.sleep(60)\n"
     )
@@ -244,8 +244,8 @@ def test_a_compiler_ends_with_the_process_that_started_it(tmp_path):
 
 
 def test_a_kernel_too_large_to_compile_at_a_call_is_left_to_the_scalar_code(twolink, tmp_path, monkeypatch):
-    monkeypatch.setattr(clib, "BACKGROUND_BYTES", 0)
-    monkeypatch.setattr(clib, "SCALAR_ONLY_BYTES", 0)
+    monkeypatch.setattr(cunits, "BACKGROUND_BYTES", 0)
+    monkeypatch.setattr(cunits, "SCALAR_ONLY_BYTES", 0)
     lib = load_library(*twolink)
     (q, qd), C = cases("twolink")["C"]
     assert_close(lib.functions["C"](q, qd), C, "C by the scalar code")

@@ -80,7 +80,7 @@ class Ceilings:
 
 def _ceilings_library() -> ctypes.CDLL:
     """ceilings.c compiled once into the cache, with the generated kernels' flags."""
-    from ..codegen.emit.clib import DEFAULT_FLAGS, compiler
+    from ..codegen.emit.cbuild import DEFAULT_FLAGS, compiler
 
     source = CEILINGS_C.read_text()
     key = hashlib.sha256(f"{compiler()}\n{source}".encode()).hexdigest()[:16]
@@ -207,7 +207,7 @@ def _peers(robot, threads: int, log):
     try:
         import casadi as ca
 
-        from ..codegen.emit.clib import compiler
+        from ..codegen.emit.cbuild import compiler
 
         folder = writable(cache_dir() / "bench" / f"casadi-rnea-{robot.fingerprint()[:16]}")
         lib = folder / "casadi_rnea.so"

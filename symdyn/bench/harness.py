@@ -45,7 +45,7 @@ def _digest(*parts: str | bytes) -> str:
 
 
 def _compiler() -> str:
-    from ..codegen.emit.clib import compiler
+    from ..codegen.emit.cbuild import compiler
 
     return compiler()
 

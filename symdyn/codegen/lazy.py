@@ -3,7 +3,7 @@
 `load(robot, "c")` for a robot built in Python or read from a file: a function's
 program is built (`choice.Programs`: only what it needs), printed as a C file of
 its own (`emit.c.function_file`, sealed, kept in the model's cache folder) and
-compiled (`emit.clib`, one translation unit per function and kind) when the
+compiled (`emit.cunits`, one translation unit per function and kind) when the
 function is first called.  A first `tau` waits for τ's derivation, program and
 compile only, not for fdyn_derivatives; a second process finds the files and the
 compiled units in the cache and derives nothing.  `generate(robot, "c", folder)`
@@ -20,7 +20,7 @@ from .. import __version__
 from ..derivation import progress, task_space
 from ..derivation.cache import build_lock, cache_dir, fork_safe, package_fingerprint, writable, write_atomic
 from ..model import Robot
-from .emit import c as c_emit, clib, format_ops, identifier, is_intact, read_header
+from .emit import c as c_emit, clib, cunits, format_ops, identifier, is_intact, read_header
 from .contact_functions import contact_names, contact_signatures
 from .task_functions import TaskPrograms
 
@@ -164,18 +164,18 @@ class _Units(Mapping):
 
     def __getitem__(self, key: tuple[str, str]) -> str:
         function, kind = key
-        if function not in self.sources.sigs or kind not in clib.KINDS:
+        if function not in self.sources.sigs or kind not in cunits.KINDS:
             raise KeyError(key)
         if function not in self._made:
             text = self.sources(function)
-            self._made[function] = clib.function_units(self.sources.name, text, self.header, [function])
+            self._made[function] = cunits.function_units(self.sources.name, text, self.header, [function])
         return self._made[function][key]
 
     def __iter__(self) -> Iterator[tuple[str, str]]:
-        return iter([(f, kind) for f in self.sources.sigs for kind in clib.KINDS])
+        return iter([(f, kind) for f in self.sources.sigs for kind in cunits.KINDS])
 
     def __len__(self) -> int:
-        return len(self.sources.sigs) * len(clib.KINDS)
+        return len(self.sources.sigs) * len(cunits.KINDS)
 
 
 def model_folder(robot: Robot) -> Path:

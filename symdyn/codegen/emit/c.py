@@ -654,7 +654,7 @@ def c_source(bundle: Bundle) -> str:
 
 def function_file(model: str, p: Program, comment: list[str]) -> str:
     """One function's C as a file of its own, sealed: `comment`, the preamble and the
-    function (the lazy C target keeps one per function; `clib.function_units` makes its
+    function (the lazy C target keeps one per function; `cunits.function_units` makes its
     translation units from it as from a whole file), split above CACHE_SPLIT_ABOVE lines."""
     split = len(p.assignments) > CACHE_SPLIT_ABOVE
     parts = [_comment(comment), *_preamble(model, split), function_source(model, p, CACHE_SPLIT_ABOVE)]

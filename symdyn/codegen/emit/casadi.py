@@ -238,10 +238,10 @@ def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS, derivatives=None) 
     compiler once into symdyn's cache, under a name keyed by the sha256 of the C
     source, the compiler and the flags (any change of f is a new library), and is
     reused when its sha256 matches the one recorded when it was built (a damaged
-    library is rebuilt, like the C target's, `emit.clib`).
+    library is rebuilt, like the C target's, `emit.cbuild`).
     """
     from ...derivation.cache import cache_dir
-    from .clib import _digest, _library
+    from .cbuild import digest, library
 
     name = f.name()
     cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
@@ -250,6 +250,6 @@ def compiled(f: ca.Function, *, flags: tuple = COMPILE_FLAGS, derivatives=None) 
     with tempfile.TemporaryDirectory() as tmp:
         cg.generate(tmp + os.sep)
         source = Path(tmp, f"{name}.c").read_text()
-    key = _digest(source, os.environ.get("CC", "cc"), " ".join(flags), FORMAT)[:16]
-    lib = _library(cache_dir() / "casadi" / f"{name}-{key}" / f"lib{name}.so", tuple(flags), {f"{name}.c": source}, [])
+    key = digest(source, os.environ.get("CC", "cc"), " ".join(flags), FORMAT)[:16]
+    lib = library(cache_dir() / "casadi" / f"{name}-{key}" / f"lib{name}.so", tuple(flags), {f"{name}.c": source}, [])
     return ca.external(name, str(lib))
