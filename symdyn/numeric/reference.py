@@ -744,14 +744,9 @@ def fkine(robot: Robot, q: ArrayLike) -> np.ndarray:
             shape (n,) or (..., n).
     """
     c = _chain(robot)
-    q = _state(c, q, "q")
-    Rs, ps = _frames(c, q)
-    Rn = Rs[..., -1, :, :]
-    T = np.zeros(q.shape[:-1] + (4, 4))
-    T[..., :3, :3] = Rn @ c.tool_R
-    T[..., :3, 3] = _tool_point(c, Rs, ps)
-    T[..., 3, 3] = 1.0
-    return T
+    tool = np.eye(4)
+    tool[:3, :3], tool[:3, 3] = c.tool_R, c.tool_p
+    return body_frames(robot, q)[..., -1, :, :] @ tool
 
 
 def body_frames(robot: Robot, q: ArrayLike) -> np.ndarray:

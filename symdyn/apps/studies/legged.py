@@ -149,13 +149,18 @@ def _replayed(drift: float, joints: float) -> str:
     )
 
 
+def _solved_study(robot: Robot, problem: ocp_legged.LeggedProblem, out_dir, name: str, title: str):
+    """Solve, save the trajectory (`<name>.npz`) and report (`legged_<name>.png`): (sol, drift, joints, cone)."""
+    sol = ocp_legged.solve(problem)
+    sol.save(Path(out_dir) / f"{name}.npz")
+    return (sol, *_report(robot, problem, sol, out_dir, f"legged_{name}", title))
+
+
 def solo_jump(out_dir: Path, quick: bool = False) -> str:
     """Solo 12 jumps 15 cm forward: stance, flight, impact, stance (CasADi + IPOPT on the generated functions)."""
     robot = solo12()
     problem = jump_problem(robot)
-    sol = ocp_legged.solve(problem)
-    sol.save(Path(out_dir) / "solo_jump.npz")
-    drift, joints, cone = _report(robot, problem, sol, out_dir, "legged_solo_jump", "Solo 12 jump")
+    sol, drift, joints, cone = _solved_study(robot, problem, out_dir, "solo_jump", "Solo 12 jump")
     lines = [
         "Solo 12 (example-robot-data, free base, no friction) jumps 15 cm forward: stance 0.3 s, flight 0.16 s, "
         "inelastic landing, stance 0.3 s; minimum effort, friction pyramids mu = 0.7; the inverse transcription "
@@ -212,9 +217,7 @@ def solo_trot(out_dir: Path, quick: bool = False) -> str:
     """Solo 12 trots two steps, 10 cm forward (CasADi + IPOPT on the generated functions)."""
     robot = solo12()
     problem = trot_problem(robot)
-    sol = ocp_legged.solve(problem)
-    sol.save(Path(out_dir) / "solo_trot.npz")
-    drift, joints, cone = _report(robot, problem, sol, out_dir, "legged_solo_trot", "Solo 12 trot")
+    sol, drift, joints, cone = _solved_study(robot, problem, out_dir, "solo_trot", "Solo 12 trot")
     feet = load(robot, "c").frame_pose(sol.q)[:, :, :3, 3]
     lines = [
         "Solo 12 (example-robot-data, free base, no friction) trots two steps 10 cm forward: four feet 0.08 s, "
