@@ -31,8 +31,9 @@ def _base(robot: Robot) -> dict:
 
 
 def _forward(robot: Robot, q, v, a, gravity: bool) -> list:
-    """Each body's (R, p) in the world and (ω, v, dω, dv) in its own axes — the base body first,
-    then the links — and their forces [moment, force] (body axes), by the forward pass."""
+    """Each body's (R, p) in the world, (R, p) in its parent (None for the base), (ω, v, dω, dv) in
+    its own axes — the base body first, then the links — and its force [moment, force] (body
+    axes), by the forward pass."""
     links, nb = link_constants(robot), 6
     base = np.array(robot.base, dtype=float)
     R0 = ca.mtimes(
@@ -41,9 +42,9 @@ def _forward(robot: Robot, q, v, a, gravity: bool) -> list:
     p0 = ca.DM(base[:3, 3]) + ca.mtimes(ca.DM(base[:3, :3]), q[:3])
     g = ca.DM(np.array(robot.gravity, dtype=float)) if gravity else ca.DM.zeros(3)
     motion = (v[3:6], v[:3], a[3:6], a[:3] + ca.mtimes(R0.T, g))  # the base's: Corke's upward g
-    bodies = [((R0, p0), motion, body_force(_base(robot), *motion))]
+    bodies = [((R0, p0), None, motion, body_force(_base(robot), *motion))]
     for i, k in enumerate(links):
-        (Rw, pw), (w, vv, dw, dv), _ = bodies[robot.parents[i] + 1]
+        (Rw, pw), _, (w, vv, dw, dv), _ = bodies[robot.parents[i] + 1]
         R, p = transform(k, q[7 + i])
         qd, qdd = v[nb + i], a[nb + i]
         sw, sv = ca.DM(k["S"][:3]), ca.DM(k["S"][3:])
@@ -52,21 +53,22 @@ def _forward(robot: Robot, q, v, a, gravity: bool) -> list:
         w, vv = w_in + sw * qd, v_in + sv * qd
         dw = dw_in + sw * qdd + ca.cross(w, sw * qd)
         dv = dv_in + sv * qdd + ca.cross(w, sv * qd) + ca.cross(vv, sw * qd)
-        bodies.append(((ca.mtimes(Rw, R), pw + ca.mtimes(Rw, p)), (w, vv, dw, dv), body_force(k, w, vv, dw, dv)))
+        world = (ca.mtimes(Rw, R), pw + ca.mtimes(Rw, p))
+        bodies.append((world, (R, p), (w, vv, dw, dv), body_force(k, w, vv, dw, dv)))
     return bodies
 
 
 def _tau(robot: Robot, q, v, a, friction: bool = True) -> ca.SX:
     """τ (nv) of the free-base RNEA: the base's wrench (force, moment; body axes), then the joints."""
     links, bodies = link_constants(robot), _forward(robot, q, v, a, gravity=True)
-    forces = [list(b[2]) for b in bodies]
+    forces = [list(b[3]) for b in bodies]
     tau = [None] * robot.n
     for i in range(robot.n - 1, -1, -1):
         k, (n_, f_) = links[i], forces[i + 1]
         tau[i] = ca.dot(n_, ca.DM(k["S"][:3])) + ca.dot(f_, ca.DM(k["S"][3:])) + k["armature"] * a[6 + i]
         if friction:
             tau[i] += joint_friction(k, v[6 + i])
-        R, p = transform(k, q[7 + i])
+        R, p = bodies[i + 1][1]
         parent, fp = forces[robot.parents[i] + 1], ca.mtimes(R, f_)
         parent[1] = parent[1] + fp
         parent[0] = parent[0] + ca.mtimes(R, n_) + ca.cross(p, fp)
@@ -78,7 +80,7 @@ def _feet(robot: Robot, bodies: list) -> list:
     acceleration (linear, angular), world axes."""
     out = []
     for frame in robot.task_frames:
-        (Rw, pw), (w, v, dw, dv), _ = bodies[frame.link + 1]
+        (Rw, pw), _, (w, v, dw, dv), _ = bodies[frame.link + 1]
         T = np.array(frame.placement, dtype=float)
         r = ca.DM(T[:3, 3])
         velocity = v + ca.cross(w, r)
