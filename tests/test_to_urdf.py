@@ -233,3 +233,49 @@ def test_a_tree_on_any_base_round_trips_through_a_fresh_urdf(base_joint):
         q = robot.integrate(robot.neutral(), rng.normal(size=robot.nv)) if base_joint else rng.uniform(-1, 1, robot.n)
         v, a = rng.normal(size=(2, robot.nv))
         np.testing.assert_allclose(rne(back, q, v, a), rne(robot, q, v, a), atol=1e-12)
+
+
+@pytest.mark.parametrize("change", [False, True])
+def test_inertias_repaired_on_reading_are_written_and_read_back_without_repair(tmp_path, change):
+    """inertia='balance' repairs (a chain link, and a rider on a locked branch) are what symdyn
+    computes with, so they are what the spliced file holds: read → write → read (with the default
+    check, nothing left to repair) gives the same τ, each repair said in a comment where it was."""
+    import warnings
+
+    from symdyn.model.urdf.xml import URDFError
+    from tests.test_almost_right import BAD, _arm, _file, _inertial
+
+    path = _file(tmp_path, _arm(l1=_inertial(), l2=_inertial(0.5, BAD), sensor=_inertial(0.2, BAD)))
+    with pytest.raises(URDFError, match="impossible"):
+        Robot.from_urdf(path, tip_link="l2")
+    with pytest.warns(URDFWarning, match="impossible inertia made physical"):
+        robot = Robot.from_urdf(path, tip_link="l2", inertia="balance")
+    if change:  # an identified model: l1 (which carries the repaired sensor) and l2 changed
+        robot = _changed(robot)
+    text = robot.to_urdf(source=path)
+    # the sensor's repair stays in its own inertial; l2's inertial is the identified body when changed
+    assert text.count("impossible inertia made physical") == (1 if change else 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", URDFWarning)
+        back = Robot.from_urdf(text, tip_link="l2")
+    assert back.urdf.repairs == ()
+    _assert_same_dynamics(robot, back)
+    if not change:
+        assert back.fingerprint() == robot.fingerprint()
+
+
+def test_self_closing_elements_last_in_their_parent_are_replaced_alone():
+    """expat reports a self-closing element's end at the next token: a `<dynamics/>` right before
+    `</joint>` (and an `<inertia/>` before `</inertial>`) is replaced without its parent's end tag."""
+    text = (
+        '<robot name="arm"><link name="base"/><link name="l1"><inertial><mass value="1"/>'
+        '<inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="5" velocity="2"/><dynamics damping="0.1"/></joint></robot>'
+    )
+    robot = from_urdf(text)
+    changed = dataclasses.replace(robot, links=(dataclasses.replace(robot.links[0], B=0.7, m=2),))
+    out = changed.to_urdf(source=text)
+    assert out.count("</joint>") == 1 and '<dynamics damping="0.7" friction="0.0"/></joint>' in out
+    back = from_urdf(out)
+    assert float(back.links[0].B) == 0.7 and back.links[0].m == 2

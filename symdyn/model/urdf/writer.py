@@ -15,7 +15,9 @@ to the user's other tools (Pinocchio, MuJoCo, Gazebo).  Two modes:
   inertia about the link origin), so that reading the file back merges to
   the new body.  Where that difference is not a physical body (the new body
   is lighter than its riders), the riders' inertials are removed and the
-  whole body goes to the moving link (an XML comment says so).
+  whole body goes to the moving link (an XML comment says so).  An inertia
+  that `inertia="balance"` repaired on reading is written repaired, a comment
+  saying what changed: the file holds the bodies symdyn computes with.
 - **fresh** — otherwise: a chain base_link → link1 … linkN (→ tool) with
   the robot's joint placements (modified-DH frames for a DH robot, the
   joint origins and axes for a general one), limits and inertials.
@@ -39,6 +41,7 @@ import numpy as np
 
 from ..placement import exact_cos_sin
 from ..robot import IDENTITY, Robot
+from .bodies import balanced
 from .reader import from_urdf
 from .tree import Tree
 from .xml import URDFError, URDFWarning, parse, read
@@ -112,15 +115,32 @@ def _friction(link) -> tuple[float, float, list]:
 
 
 def _spans(text: str) -> dict:
-    """Byte spans of each link's start tag and <inertial>, and of each joint's <dynamics>:
-    {("link", name): {"start": (a, b), "inertial": (a, b), "empty": bool}, ("joint", name): …}."""
+    """Byte spans of each link's start tag, <inertial> and its <inertia>, and of each joint's
+    <dynamics>: {("link", name): {"start": (a, b), "inertial": (a, b), "inertia": (a, b),
+    "empty": bool}, ("joint", name): …}."""
     data = text.encode()
     parser = expat.ParserCreate()
     stack: list = []
     spans: dict = {}
 
     def close(at: int) -> int:
-        return data.index(b">", at) + 1
+        """The byte after the tag that starts at `at` (a '>' inside a quoted value is not its end)."""
+        quote = None
+        for k in range(at, len(data)):
+            c = data[k : k + 1]
+            if quote:
+                quote = None if c == quote else quote
+            elif c in (b'"', b"'"):
+                quote = c
+            elif c == b">":
+                return k + 1
+        raise URDFError("a tag without its '>'")
+
+    def finish(at: int, begin: int) -> int:
+        """The byte after the element that started at `begin`; expat reports a self-closing
+        element's end at the next token, an element with content's at its end tag."""
+        head = close(begin)
+        return head if data[head - 2 : head] == b"/>" else close(at)
 
     def start(tag, attrib):
         at = parser.CurrentByteIndex
@@ -130,15 +150,19 @@ def _spans(text: str) -> dict:
             spans[(tag, attrib.get("name"))] = {"start": (at, end), "empty": data[end - 2 : end] == b"/>"}
         if len(stack) == 3 and stack[1][0] in ("link", "joint") and tag in ("inertial", "dynamics"):
             spans[(stack[1][0], stack[1][1].get("name"))][tag] = [at, None]
+        if len(stack) == 4 and stack[1][0] == "link" and stack[2][0] == "inertial" and tag == "inertia":
+            spans[("link", stack[1][1].get("name"))][tag] = [at, None]
 
     def end(tag):
         at = parser.CurrentByteIndex
         _, attrib, begin = stack.pop()
         if len(stack) == 2 and stack[1][0] in ("link", "joint") and tag in ("inertial", "dynamics"):
             key = (stack[1][0], stack[1][1].get("name"))
-            spans[key][tag][1] = close(at) if data[at : at + 2] == b"</" else close(begin)
+            spans[key][tag][1] = finish(at, begin)
+        if len(stack) == 3 and stack[1][0] == "link" and stack[2][0] == "inertial" and tag == "inertia":
+            spans[("link", stack[1][1].get("name"))][tag][1] = finish(at, begin)
         if len(stack) == 1 and tag in ("link", "joint"):
-            spans[(tag, attrib.get("name"))]["end"] = close(at) if data[at : at + 2] == b"</" else close(begin)
+            spans[(tag, attrib.get("name"))]["end"] = finish(at, begin)
 
     parser.StartElementHandler, parser.EndElementHandler = start, end
     parser.Parse(data, True)
@@ -168,8 +192,43 @@ def _original_text(robot: Robot, source) -> str | None:
     return None
 
 
+def _repaired(text: str, repairs: tuple) -> str:
+    """The file with each inertia that `inertia="balance"` repaired on reading replaced by the
+    repair (same `<inertial>` frame, mass and origin), a comment saying what changed: the file
+    then holds the bodies symdyn computes with and reads back with nothing to repair."""
+    tree = Tree.of("<source>", parse(text, "<source>"))
+    spans = _spans(text)
+    edits = []
+    for repair in repairs:
+        tensor = tree.links[repair.link].find("inertial").find("inertia")
+        k = {key: float(tensor.attrib.get(key, 0)) for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        I = ((k["ixx"], k["ixy"], k["ixz"]), (k["ixy"], k["iyy"], k["iyz"]), (k["ixz"], k["iyz"], k["izz"]))
+        J = np.array(balanced(I)[0], dtype=float)
+        a, b = spans[("link", repair.link)]["inertia"]
+        indent = _indent(text, a)
+        edits.append(
+            (
+                a,
+                b,
+                f"<!-- symdyn: impossible inertia made physical (inertia='balance'): {repair.line()} -->\n{indent}"
+                f'<inertia ixx="{_f(J[0, 0])}" ixy="{_f(J[0, 1])}" ixz="{_f(J[0, 2])}" '
+                f'iyy="{_f(J[1, 1])}" iyz="{_f(J[1, 2])}" izz="{_f(J[2, 2])}"/>',
+            )
+        )
+    return _edited(text, edits)
+
+
+def _edited(text: str, edits: list) -> str:
+    """`text` with each (start byte, end byte, replacement) applied; the spans do not overlap."""
+    data = text.encode()
+    for a, b, replacement in sorted(edits, reverse=True):
+        data = data[:a] + replacement.encode() + data[b:]
+    return data.decode()
+
+
 def _splice(robot: Robot, text: str) -> str:
     record = robot.urdf
+    text = _repaired(text, getattr(record, "repairs", ()))
     given = {lock.joint: lock.value for lock in record.locked if lock.why == "given"}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", URDFWarning)
@@ -182,7 +241,7 @@ def _splice(robot: Robot, text: str) -> str:
             locked=given or None,
             exclude=record.excluded,
             snap=record.snap,
-            inertia="balance" if getattr(record, "repairs", ()) else "check",
+            inertia="check",  # repairs are written: the file as it now reads
             massless=True,  # the file as read before; its mass, or lack of it, is the robot's to replace
         )
     if original.n != robot.n:
@@ -271,10 +330,7 @@ def _splice(robot: Robot, text: str) -> str:
                 a = span["end"]
                 close = text.encode().rindex(b"</joint>", 0, a)
                 edits.append((close, close, f"  {block}\n{indent[:-2]}"))
-    data = text.encode()
-    for a, b, replacement in sorted(edits, reverse=True):
-        data = data[:a] + replacement.encode() + data[b:]
-    return data.decode()
+    return _edited(text, edits)
 
 
 def _warn_lost(joint: str, lost: list) -> None:
