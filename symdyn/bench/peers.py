@@ -85,6 +85,7 @@ def pinocchio_model(robot: Robot):
                 pin.SE3.Identity(),
             )
     joints, bodies = [], []  # each link's Pinocchio joint and its body frame in that joint
+    parent, prev = root, pin.SE3.Identity()  # the tool's, on the base body when there is no link
     for i, link in enumerate(robot.links, start=1):
         up = robot.parents[i - 1]
         parent, prev = (joints[up], bodies[up]) if up >= 0 else (root, pin.SE3.Identity())

@@ -60,9 +60,13 @@ def known_frames(robot) -> dict[str, Frame]:
 
 def default_names(robot) -> tuple[str, ...]:
     """The frames served when none are chosen: the tool of a chain; each leaf link of a tree
-    (a link no other hangs on), named as the file names its frame (else link<k>)."""
+    (a link no other hangs on), named as the file names its frame (else link<k>); the body of
+    a robot without joints."""
     if robot.is_chain:
         return ("tool",)
+    if robot.n == 0:  # a single body on its base joint (a drone): the body's own frame
+        own = [f.name for f in robot.frame_catalog if f.link == -1 and _is_identity(f)]
+        return (own[0] if own else "base",)
     parents = set(robot.parents)
     leaves = [k for k in range(robot.n) if k not in parents]
     own = {f.link: f.name for f in reversed(robot.frame_catalog) if _is_identity(f)}

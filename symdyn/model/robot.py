@@ -268,7 +268,7 @@ def set_drawing(draw: Callable[..., Any]) -> None:
 def _check_link_physics(link: Link, i: int) -> None:
     """Mass ≥ 0, inertia symmetric, positive semidefinite and obeying the triangle
     inequality (unless the link says it is not physical); sane motor params."""
-    label = f"link {i + 1}"
+    label = f"link {i + 1}" if i >= 0 else "the base body"
     if not _is_symbolic(link.m) and link.m < 0:
         raise ValueError(f"mass of {label} is negative: m = {link.m}")
     I = link.I
@@ -336,7 +336,7 @@ class Robot:
     `dataclasses.replace(robot, base=T, gravity=g)` for variants.
 
     Raises:
-        ValueError: an unknown convention; no links, or one that is not a `Link`;
+        ValueError: an unknown convention; no links on a fixed base, or one that is not a `Link`;
             a link with negative mass, an inertia that is not symmetric, positive
             semidefinite or (unless `physical=False`) within the triangle
             inequality, negative Jm or B, Tc not (≥ 0, ≤ 0), motor parameters with
@@ -392,8 +392,8 @@ class Robot:
         if self.convention not in CONVENTIONS:
             raise ValueError(f"unknown DH convention {self.convention!r}: expected one of {CONVENTIONS}")
         links = tuple(self.links)
-        if not links:
-            raise ValueError(f"robot {self.name!r} has no links")
+        if not links and self.base_joint is None:  # a lone body (a drone) moves on its base joint
+            raise ValueError(f"robot {self.name!r} has no links and a fixed base: nothing moves")
         for i, link in enumerate(links):
             if not isinstance(link, Link):
                 raise ValueError(f"links[{i}] of robot {self.name!r} is a {type(link).__name__}, expected Link")
@@ -435,8 +435,8 @@ class Robot:
         shape = "" if all(link.parent is None for link in self.links) else ", a tree"
         base = f", on a {self.base_joint} base (nq = {self.nq}, nv = {self.nv})" if self.base_joint else ""
         lines = [
-            f"Robot {self.name!r}: {self.n} joints ({kinds}){shape}{base}, {self.convention} convention"
-            + (f", {self.source}" if self.source else "")
+            f"Robot {self.name!r}: {f'{self.n} joints ({kinds})' if self.n else 'one body, no joints'}{shape}{base}, "
+            f"{self.convention} convention" + (f", {self.source}" if self.source else "")
         ]
         records = [r for r in (self.urdf, self.mjcf) if r is not None]
         return "\n".join(lines + [line for r in records for line in r.lines()])
@@ -829,7 +829,7 @@ class Robot:
             origin = tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
             links.append(dataclasses.replace(link, origin=origin, axis=(0, 0, 1), r=r, I=I))
             turned.append(Ra)
-        prev = turned[-1]  # the tool hangs on the last link
+        prev = turned[-1] if turned else unturned  # the tool hangs on the last link (the base body without one)
         back = tuple(tuple(prev[k][i] for k in range(3)) + (0,) for i in range(3)) + ((0, 0, 0, 1),)
         return dataclasses.replace(self, links=tuple(links), tool=_matmul4(back, self.tool))
 

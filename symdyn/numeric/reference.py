@@ -153,22 +153,22 @@ def _chain(robot: Robot) -> _Chain:
     base, tool = T(robot.base), T(robot.tool)
     return _Chain(
         n=n,
-        revolute=np.array([l.is_revolute for l in robot.links]),
+        revolute=np.array([l.is_revolute for l in robot.links], dtype=bool),
         theta=np.array([0.0 if l.is_revolute else f(l.theta) for l in robot.links]),
         d=np.array([f(l.d) if l.is_revolute else 0.0 for l in robot.links]),
         offset=np.array([f(l.offset) for l in robot.links]),
-        pre_R=np.array(pre_R),
-        pre_p=np.array(pre_p),
-        post_R=np.array(post_R),
-        post_p=np.array(post_p),
-        S=np.array(S),
+        pre_R=np.array(pre_R).reshape(n, 3, 3),
+        pre_p=np.array(pre_p).reshape(n, 3),
+        post_R=np.array(post_R).reshape(n, 3, 3),
+        post_p=np.array(post_p).reshape(n, 3),
+        S=np.array(S).reshape(n, 6),
         m=m,
         h=h,
         Io=Io,
         armature=G**2 * np.array([f(l.Jm) for l in robot.links]),
         G=G,
         B=np.array([f(l.B) for l in robot.links]),
-        Tc=np.array([[f(x) for x in l.Tc] for l in robot.links]),
+        Tc=np.array([[f(x) for x in l.Tc] for l in robot.links]).reshape(n, 2),
         base_R=base[:3, :3],
         base_p=base[:3, 3],
         tool_R=tool[:3, :3],
@@ -188,8 +188,8 @@ _MASSLESS = Link()
 def _origin_inertias(links) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Mass (k,), first moment m·r (k, 3) and inertia about the frame origin (k, 3, 3) of links."""
     m = np.array([float(l.m) for l in links])
-    r = np.array([[float(x) for x in l.r] for l in links])
-    Ic = np.array([[[float(x) for x in row] for row in l.I] for l in links])
+    r = np.array([[float(x) for x in l.r] for l in links]).reshape(-1, 3)
+    Ic = np.array([[[float(x) for x in row] for row in l.I] for l in links]).reshape(-1, 3, 3)
     Io = Ic + m[:, None, None] * (np.einsum("ij,k->kij", np.eye(3), (r * r).sum(1)) - np.einsum("ki,kj->kij", r, r))
     return m, m[:, None] * r, Io
 
@@ -719,6 +719,8 @@ def _frames(c: _Chain, q):
         Rw, pw = (Rs[c.parents[i]], ps[c.parents[i]]) if c.parents[i] >= 0 else (R0, p0)
         ps.append(pw + np.einsum("...ij,...j->...i", Rw, p[..., i, :]))
         Rs.append(Rw @ R[..., i, :, :])
+    if not Rs:  # a lone body on its base joint
+        return np.zeros(q.shape[:-1] + (0, 3, 3)), np.zeros(q.shape[:-1] + (0, 3))
     return np.stack(Rs, -3), np.stack(ps, -2)
 
 

@@ -159,6 +159,10 @@ def plot(robot: Any, q: Sequence[float] | None = None, *, ax: Any = None, title:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
-    ax.set_title(title or f"{robot.name}: {robot.n} joints at q = 0" if q is None else f"{robot.name} at q = {q}")
+    ax.set_title(
+        title or f"{robot.name}: {f'{robot.n} joints' if robot.n else 'one body'} at q = 0"
+        if q is None
+        else f"{robot.name} at q = {q}"
+    )
     fig.legend(*ax.get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=7, frameon=False)
     return fig

@@ -178,13 +178,14 @@ def regressor_columns(robot: Robot, field, count: int, seed: int, links=None) ->
     kind = robot.base_joint
     nb = robot.nv - n
     rng = random.Random(seed)
-    cos, sin, q, qd, qdd = field.states(n, count, rng)
+    cos, sin, q, qd, qdd = field.states(max(n, 1), count, rng)  # a row even without joints: the field's zero
+    zero = q[0] * 0
+    cos, sin, q, qd, qdd = (a[:n] for a in (cos, sin, q, qd, qdd))
     red, k = field.reduce, field.const
     g0 = [k(_fraction(x)) for x in gravity_in_base(robot)]
     consts = [
         ([[k(x) for x in row] for row in f.R0], [k(x) for x in f.p0], [k(f.R0[r][2]) for r in range(3)]) for f in fs
     ]
-    zero = q[0] * 0
 
     def m(a, b):  # a product, reduced (mod p: before any sum, so that nothing overflows)
         return red(a * b)

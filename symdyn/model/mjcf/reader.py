@@ -426,7 +426,7 @@ def from_mjcf(
         held = set(given) if tip_list == "all" else {j for j in given if int(m.jnt_bodyid[j]) in on_path}
         carriers, base_mass, frames = _walk(reader, base, set(moving), held, base_joint is not None)
         reader.frames.update(frames)
-        if not carriers:
+        if not carriers and base_joint is None:  # on a base joint, the body alone (a drone) moves
             raise MJCFError(f"{label}: no hinge or slide joint moves below {reader.body(base)!r}")
         tip = tip_list[0] if tip_list != "all" and len(tip_list) == 1 else None
         pending = frames[tip][1] if tip is not None else IDENTITY

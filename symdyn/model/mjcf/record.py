@@ -111,17 +111,17 @@ class MjcfRecord(FileRecord):
         if not self.tips:
             out = [
                 f"MJCF {self.file} (sha256 {self.sha256}): chain {self.base_body} -> {self.tip_body}, "
-                f"joints {', '.join(self.joints)}; {gravity}"
+                f"joints {', '.join(self.joints) or 'none (one body)'}; {gravity}"
             ]
         else:
             to = "every hinge and slide joint" if self.tips == ("all",) else f"the chains to {', '.join(self.tips)}"
             out = [
                 f"MJCF {self.file} (sha256 {self.sha256}): tree from {self.base_body}, {to}: "
-                f"{len(self.joints)} moving joints (depth first); {gravity}"
+                f"{f'{len(self.joints)} moving joints (depth first)' if self.joints else 'no moving joint (one body)'}; {gravity}"
             ]
             names = {-1: self.base_body, **dict(enumerate(self.joints))}
             hung = [f"{j} (on {names[p]})" for j, p in zip(self.joints, self.parents or [-1] * len(self.joints))]
-            out.append("  moving: " + ", ".join(hung))
+            out += ["  moving: " + ", ".join(hung)] if hung else []
         if self.base_joint:
             by = f", the file's free joint {self.free_joint}" if self.free_joint else ""
             out.append(

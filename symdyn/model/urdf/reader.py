@@ -414,10 +414,21 @@ def from_urdf(
     return dataclasses.replace(robot, urdf=record)
 
 
+def _nothing_moves(tree, base_link: str | None) -> bool:
+    """No revolute, continuous or prismatic joint below `base_link` (default the root): one body."""
+    top = base_link or tree.root
+    return not any(tree.joints[c].attrib.get("type") in MOVING for c in tree.below(top) - {top})
+
+
 def _read_chain(
     *, tree, urdf, text, xacro, base_link, tip_link, locked, exclude, snap, name, inertia, massless
 ) -> tuple[Robot, UrdfRecord]:
     """The robot and record of the chain from base_link to tip_link (`from_urdf` without tips)."""
+    if tip_link is None and _nothing_moves(tree, base_link):
+        said = f"{urdf.source}: no joint below {base_link or tree.root!r} moves: a single rigid body (a drone) "
+        raise URDFError(
+            said + "moves on a base joint: base_joint='free' (or 'planar')", said + "needs --base-joint free"
+        )
     base, tip, path = tree.chain(base_link, tip_link)
     on_chain = {base} | {j.find("child").attrib["link"] for j in path}
     below_base = tree.below(base)
@@ -533,6 +544,8 @@ def _read_tree(
     carrier = branches.file_base_joint(tree, source, base_joint, base_link)
     if carrier is not None:  # the file's own floating joint under a dummy root: its child floats
         base_link = carrier.find("child").attrib["link"]
+    if tips is None and tip_link is None and _nothing_moves(tree, base_link):
+        tips = "all"  # no joint below moves: the body alone, whatever its leaves (a drone's rotors)
     if tips is None:  # one chain on a floating base
         base, tip, _ = tree.chain(base_link, tip_link)
         tip_list = (tip,)
@@ -579,7 +592,7 @@ def _read_tree(
         reader, tree, base, moving, out_of, would_move, base_moves=base_joint is not None
     )
     reader.raise_refusals()
-    if not segments:
+    if not segments and base_joint is None:  # on a base joint, the body alone (a drone) moves
         where_to = "to the tips" if tip_list != "all" else "below it"
         raise URDFError(f"{source}: no joint moves from {base!r} {where_to}: every one is fixed, locked or excluded")
     links = [branches.link_of(reader, seg, seg.parent) for seg in segments]

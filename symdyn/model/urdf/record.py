@@ -177,13 +177,19 @@ class UrdfRecord(FileRecord):
         do to tau, M and qdd), the friction read from the file."""
         kind = f"{'xacro' if self.is_xacro else 'URDF'} {self.file} (sha256 {self.sha256}): "
         if not self.tips:
-            out = [kind + f"chain {self.base_link} -> {self.tip_link}, joints {', '.join(self.joints)}"]
+            out = [
+                kind
+                + f"chain {self.base_link} -> {self.tip_link}, joints {', '.join(self.joints) or 'none (one body)'}"
+            ]
         else:
             to = "every joint" if self.tips == ("all",) else f"the chains to {', '.join(self.tips)}"
-            out = [kind + f"tree from {self.base_link}, {to}: {len(self.joints)} moving joints (depth first)"]
+            out = [
+                kind
+                + f"tree from {self.base_link}, {to}: {f'{len(self.joints)} moving joints (depth first)' if self.joints else 'no moving joint (one body)'}"
+            ]
             names = {-1: self.base_link, **dict(enumerate(self.joints))}
             hung = [f"{j} (on {names[p]})" for j, p in zip(self.joints, self.parents or [-1] * len(self.joints))]
-            out.append("  moving: " + ", ".join(hung))
+            out += ["  moving: " + ", ".join(hung)] if hung else []
         if self.base_joint:
             coordinates = {
                 "free": "x y z qx qy qz qw (Pinocchio's free-flyer)",
