@@ -11,12 +11,16 @@ from __future__ import annotations
 
 import math
 from fractions import Fraction
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import sympy as sp
 
 __all__ = [
+    "rotx",
+    "roty",
+    "rotz",
+    "transl",
     "exact_cos_sin",
     "exact",
     "exact_cos_sin_of",
@@ -242,3 +246,47 @@ def joint_motion(kind: str, axis: tuple, value: float) -> tuple:
         K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
         R = rational_rotation(np.eye(3) + math.sin(value) * K + (1 - math.cos(value)) * K @ K)
     return tuple(tuple(R[i]) + (sp.S.Zero,) for i in range(3)) + ((0, 0, 0, 1),)
+
+
+# --------------------------------------------------------------------------- 4×4 transforms
+
+
+def rotx(angle: Any) -> tuple:
+    """4×4 homogeneous rotation about x (exact for multiples of π/2).
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (`exact_cos_sin`).
+        ValueError: a NaN or infinite angle, or a non-numeric string.
+    """
+    c, s = exact_cos_sin(angle)
+    return ((1, 0, 0, 0), (0, c, -s, 0), (0, s, c, 0), (0, 0, 0, 1))
+
+
+def roty(angle: Any) -> tuple:
+    """4×4 homogeneous rotation about y (exact for multiples of π/2).
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (`exact_cos_sin`).
+        ValueError: a NaN or infinite angle, or a non-numeric string.
+    """
+    c, s = exact_cos_sin(angle)
+    return ((c, 0, s, 0), (0, 1, 0, 0), (-s, 0, c, 0), (0, 0, 0, 1))
+
+
+def rotz(angle: Any) -> tuple:
+    """4×4 homogeneous rotation about z (exact for multiples of π/2).
+
+    Raises:
+        TypeError: an angle that is not a number, a numeric string or a sympy
+            expression (`exact_cos_sin`).
+        ValueError: a NaN or infinite angle, or a non-numeric string.
+    """
+    c, s = exact_cos_sin(angle)
+    return ((c, -s, 0, 0), (s, c, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
+
+
+def transl(x: Any, y: Any, z: Any) -> tuple:
+    """4×4 homogeneous translation."""
+    return ((1, 0, 0, x), (0, 1, 0, y), (0, 0, 1, z), (0, 0, 0, 1))

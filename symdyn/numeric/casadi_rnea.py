@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from ..model import Robot, exact_cos_sin
-from .reference import rotation_z_to
+from .chain import rotation_z_to
 
 __all__ = ["rnea_function", "mass_function", "fdyn_function", "functions"]
 
@@ -119,7 +119,7 @@ def transform(k: dict, qi) -> tuple[ca.SX, ca.SX]:
 
 
 def _rnea(robot: Robot, q, qd, qdd, gravity: bool, friction: bool) -> ca.SX:
-    """τ (n×1 SX) by the body-coordinate RNEA of `symdyn.numeric.reference._recursion`."""
+    """τ (n×1 SX) by the body-coordinate RNEA of `symdyn.numeric.chain._recursion`."""
     links = _constants(robot)
     base_R = np.array(robot.base, dtype=float)[:3, :3]
     g = np.array(robot.gravity, dtype=float) if gravity else np.zeros(3)

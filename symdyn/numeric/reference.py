@@ -17,16 +17,15 @@ modified DH.
 
 from __future__ import annotations
 
-import functools
-from dataclasses import dataclass
 from typing import Callable, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-from ..model import Link, Robot, exact_cos_sin
+from ..model import Robot
 from ..model.base_joint import base_pose, coordinate_rates, normalize
+from .chain import BASE_AXES, Chain, chain_of, cross, dynamics, link_transforms, split_state, state, states, vector3
 
 __all__ = [
     "rne",
@@ -46,302 +45,6 @@ __all__ = [
 ]
 
 
-# --------------------------------------------------------------------------- the chain
-
-
-@dataclass(frozen=True)
-class _Chain:
-    """Numeric arrays of a robot, in the shape the recursion wants."""
-
-    n: int
-    revolute: np.ndarray  # (n,) bool
-    theta: np.ndarray  # constant θ (prismatic) or 0
-    d: np.ndarray  # constant d (revolute) or 0
-    offset: np.ndarray
-    pre_R: np.ndarray  # (n, 3, 3)
-    pre_p: np.ndarray  # (n, 3)
-    post_R: np.ndarray
-    post_p: np.ndarray
-    S: np.ndarray  # (n, 6) joint axis (ω, v) in body coordinates
-    m: np.ndarray  # (n,)
-    h: np.ndarray  # (n, 3) first moment m·r
-    Io: np.ndarray  # (n, 3, 3) inertia about the body origin
-    armature: np.ndarray  # (n,) G²·Jm
-    G: np.ndarray
-    B: np.ndarray
-    Tc: np.ndarray  # (n, 2)
-    base_R: np.ndarray
-    base_p: np.ndarray
-    tool_R: np.ndarray
-    tool_p: np.ndarray
-    gravity: np.ndarray  # (3,) Corke's convention, world
-    parents: tuple  # each link's parent, -1 for the base
-    base_joint: str | None  # None, "free" or "planar"
-    base_body: tuple  # (m, h, Io) of the body a base joint moves (zeros where none)
-    nq: int
-    nv: int
-
-    @property
-    def nb(self) -> int:
-        """Velocities of the base joint (6 free, 3 planar, 0 fixed): the first rows of v and τ."""
-        return self.nv - self.n
-
-
-#: The base joint's motion subspace in the recursion's (ω, v) order, from v's (v, ω) order.
-_BASE_AXES = {
-    "free": np.concatenate([np.eye(6)[3:], np.eye(6)[:3]]).T,  # columns: vx vy vz ωx ωy ωz
-    "planar": np.array([[0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 1, 0, 0, 0]], dtype=float).T,
-}
-
-
-def _rx(alpha) -> np.ndarray:
-    c, s = exact_cos_sin(alpha)
-    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]], dtype=float)
-
-
-def _rz(theta: np.ndarray) -> np.ndarray:
-    """Batched rotation about z; theta of shape (...)."""
-    c, s = np.cos(theta), np.sin(theta)
-    R = np.zeros(np.shape(theta) + (3, 3))
-    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = c, -s, s, c, 1.0
-    return R
-
-
-def rotation_z_to(a: np.ndarray) -> np.ndarray:
-    """A rotation taking z to the unit vector a (Rodrigues about z × a)."""
-    a = a / np.linalg.norm(a)
-    if a[2] < -1 + 1e-12:
-        return np.diag([1.0, -1.0, -1.0])
-    v = np.cross([0.0, 0.0, 1.0], a)
-    V = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + V + V @ V / (1 + a[2])
-
-
-@functools.lru_cache(maxsize=64)
-def _chain(robot: Robot) -> _Chain:
-    robot.require_numeric("the numeric reference")
-    n = robot.n
-    f = lambda x: float(x)  # noqa: E731
-    pre_R, pre_p, post_R, post_p, S = [], [], [], [], []
-    for link in robot.links:
-        Rx = _rx(link.alpha)
-        if robot.convention == "general":  # origin · Rot(axis): pre = origin·R_a, post = R_aᵀ
-            T, Ra = np.array(link.origin or np.eye(4), dtype=float), rotation_z_to(np.array(link.axis, dtype=float))
-            pre_R.append(T[:3, :3] @ Ra)
-            pre_p.append(T[:3, 3])
-            post_R.append(Ra.T)
-            post_p.append(np.zeros(3))
-        elif robot.convention == "standard":
-            pre_R.append(np.eye(3))
-            pre_p.append(np.zeros(3))
-            post_R.append(Rx)
-            post_p.append(np.array([f(link.a), 0.0, 0.0]))
-        else:
-            pre_R.append(Rx)
-            pre_p.append(np.array([f(link.a), 0.0, 0.0]))  # Rx(α)·Tx(a)
-            post_R.append(np.eye(3))
-            post_p.append(np.zeros(3))
-        z = np.array([0.0, 0.0, 1.0])
-        Rt = post_R[-1].T
-        if link.is_revolute:
-            S.append(np.concatenate([Rt @ z, Rt @ np.cross(z, post_p[-1])]))
-        else:
-            S.append(np.concatenate([np.zeros(3), Rt @ z]))
-    m, h, Io = _origin_inertias(robot.links)
-    G = np.array([f(l.G) for l in robot.links])
-    T = lambda M: np.array([[f(x) for x in row] for row in M])  # noqa: E731
-    base, tool = T(robot.base), T(robot.tool)
-    return _Chain(
-        n=n,
-        revolute=np.array([l.is_revolute for l in robot.links], dtype=bool),
-        theta=np.array([0.0 if l.is_revolute else f(l.theta) for l in robot.links]),
-        d=np.array([f(l.d) if l.is_revolute else 0.0 for l in robot.links]),
-        offset=np.array([f(l.offset) for l in robot.links]),
-        pre_R=np.array(pre_R).reshape(n, 3, 3),
-        pre_p=np.array(pre_p).reshape(n, 3),
-        post_R=np.array(post_R).reshape(n, 3, 3),
-        post_p=np.array(post_p).reshape(n, 3),
-        S=np.array(S).reshape(n, 6),
-        m=m,
-        h=h,
-        Io=Io,
-        armature=G**2 * np.array([f(l.Jm) for l in robot.links]),
-        G=G,
-        B=np.array([f(l.B) for l in robot.links]),
-        Tc=np.array([[f(x) for x in l.Tc] for l in robot.links]).reshape(n, 2),
-        base_R=base[:3, :3],
-        base_p=base[:3, 3],
-        tool_R=tool[:3, :3],
-        tool_p=tool[:3, 3],
-        gravity=np.array([f(x) for x in robot.gravity]),
-        parents=robot.parents,
-        base_joint=robot.base_joint,
-        base_body=tuple(a[0] for a in _origin_inertias([robot.base_body] if robot.base_body else [_MASSLESS])),
-        nq=robot.nq,
-        nv=robot.nv,
-    )
-
-
-_MASSLESS = Link()
-
-
-def _origin_inertias(links) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mass (k,), first moment m·r (k, 3) and inertia about the frame origin (k, 3, 3) of links."""
-    m = np.array([float(l.m) for l in links])
-    r = np.array([[float(x) for x in l.r] for l in links]).reshape(-1, 3)
-    Ic = np.array([[[float(x) for x in row] for row in l.I] for l in links]).reshape(-1, 3, 3)
-    Io = Ic + m[:, None, None] * (np.einsum("ij,k->kij", np.eye(3), (r * r).sum(1)) - np.einsum("ki,kj->kij", r, r))
-    return m, m[:, None] * r, Io
-
-
-def _link_transforms(c: _Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation (..., n, 3, 3) and origin (..., n, 3) of each body in its parent."""
-    theta = np.where(c.revolute, q + c.offset, c.theta)
-    d = np.where(c.revolute, c.d, q + c.offset)
-    Rj = _rz(theta)  # (..., n, 3, 3)
-    R = c.pre_R @ Rj @ c.post_R
-    pj = np.einsum("...ij,...j->...i", Rj, c.post_p)
-    pj = pj + d[..., None] * np.array([0.0, 0.0, 1.0])
-    p = c.pre_p + np.einsum("nij,...nj->...ni", c.pre_R, pj)
-    return R, p
-
-
-# --------------------------------------------------------------------------- input checks
-
-
-def _state(c: _Chain, x, name: str) -> np.ndarray:
-    """A float array of shape (..., nq) for q (a name starting "q" that is not "qd…": q, q0),
-    else (..., nv), finite, or a ValueError naming `name`."""
-    size = c.nq if name in ("q", "q0") else c.nv
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a numeric array of shape ({size},) or (N, {size}), got {x!r}") from None
-    if a.ndim == 0 or a.shape[-1] != size:
-        raise ValueError(f"{name} must have shape ({size},) or (N, {size}); got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        bad = np.argwhere(~np.isfinite(a))[0]
-        raise ValueError(f"{name} contains NaN or infinity (first at index {tuple(bad.tolist())})")
-    return a
-
-
-def _states(c: _Chain, **arrays) -> list[np.ndarray]:
-    out = [_state(c, v, k) for k, v in arrays.items()]
-    try:
-        batch = np.broadcast_shapes(*(a.shape[:-1] for a in out))
-    except ValueError:
-        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(arrays, out))
-        raise ValueError(f"state arrays have incompatible shapes: {shapes}") from None
-    return [np.broadcast_to(a, batch + a.shape[-1:]) for a in out]
-
-
-def _vector3(x, name: str) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be a finite 3-vector, got {x!r}")
-    return a
-
-
-# --------------------------------------------------------------------------- recursion
-
-_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
-
-
-def _cross(a, b) -> np.ndarray:
-    """a × b over the last axis, broadcast: (a_y b_z − a_z b_y, a_z b_x − a_x b_z,
-    a_x b_y − a_y b_x), the same roundings as np.cross without its overhead
-    (np.cross on 3-vectors dominated the recursion's run time)."""
-    return a[..., _NEXT] * b[..., _PREV] - a[..., _PREV] * b[..., _NEXT]
-
-
-def _body_force(m, h, Io, w, v, dw, dv) -> tuple[np.ndarray, np.ndarray]:
-    """f = I a + v ×* I v of one body about its frame origin, in its frame: (moment, force)."""
-    L = np.einsum("ij,...j->...i", Io, w) + _cross(h, v)
-    P = m * v + _cross(w, h)
-    n_ = np.einsum("ij,...j->...i", Io, dw) + _cross(h, dv) + _cross(w, L) + _cross(v, P)
-    return n_, m * dv + _cross(dw, h) + _cross(w, P)
-
-
-def _recursion(c: _Chain, q, qd, qdd, g_up_world, wrench=None, base=None):
-    """RNEA core on the tree: the joints' forces without friction (rotor inertia included), and
-    the spatial force (n, f) that frame 0 — the fixed base, or the body a base joint moves —
-    exerts on what it carries (its own body included), about its origin, in its coordinates.
-    q, qd, qdd: the joints' (..., n); g_up_world (3,) or one per state (..., 3).  base: None for a
-    fixed base, else (R, v, a): the base joint's rotation (..., 3, 3) and its velocity and
-    acceleration (..., nb) in v's order (`_BASE_AXES`)."""
-    R, p = _link_transforms(c, q)
-    batch = q.shape[:-1]
-    g0 = np.einsum("ji,...j->...i", c.base_R, g_up_world)
-    if base is None:
-        w0, v0, dw0 = np.zeros(batch + (3,)), np.zeros(batch + (3,)), np.zeros(batch + (3,))
-        dv0 = np.broadcast_to(g0, batch + (3,)).copy()
-    else:
-        Rb, vb, ab = base
-        axes = _BASE_AXES[c.base_joint]
-        w0, v0 = np.split(np.einsum("ij,...j->...i", axes, vb), 2, -1)
-        dw0, dv0 = np.split(np.einsum("ij,...j->...i", axes, ab), 2, -1)
-        dv0 = dv0 + np.einsum("...ji,...j->...i", Rb, g0)
-    motion = []  # (w, v, dw, dv) of each body
-    forces = []
-    for i in range(c.n):
-        w, v, dw, dv = motion[c.parents[i]] if c.parents[i] >= 0 else (w0, v0, dw0, dv0)
-        Rt = np.swapaxes(R[..., i, :, :], -1, -2)
-        pi = p[..., i, :]
-        sw, sv = c.S[i, :3], c.S[i, 3:]
-        # transform parent motion into this body, then add the joint's
-        w_new = np.einsum("...ij,...j->...i", Rt, w)
-        v_new = np.einsum("...ij,...j->...i", Rt, v + _cross(w, pi))
-        dw_new = np.einsum("...ij,...j->...i", Rt, dw)
-        dv_new = np.einsum("...ij,...j->...i", Rt, dv + _cross(dw, pi))
-        qdi, qddi = qd[..., i, None], qdd[..., i, None]
-        w, v = w_new + sw * qdi, v_new + sv * qdi
-        # a = X a_p + S q̈ + v ×m (S q̇)
-        dw = dw_new + sw * qddi + _cross(w, sw * qdi)
-        dv = dv_new + sv * qddi + _cross(w, sv * qdi) + _cross(v, sw * qdi)
-        motion.append((w, v, dw, dv))
-        forces.append(list(_body_force(c.m[i], c.h[i], c.Io[i], w, v, dw, dv)))
-    if wrench is not None:
-        fe, ne = wrench[..., :3], wrench[..., 3:]
-        fB = np.einsum("ij,...j->...i", c.tool_R, fe)
-        forces[-1][1] = forces[-1][1] + fB
-        forces[-1][0] = forces[-1][0] + np.einsum("ij,...j->...i", c.tool_R, ne) + _cross(c.tool_p, fB)
-    if base is None:
-        root = [np.zeros(batch + (3,)), np.zeros(batch + (3,))]
-    else:
-        root = list(_body_force(*c.base_body, w0, v0, dw0, dv0))
-    tau = np.empty(q.shape)
-    for i in range(c.n - 1, -1, -1):
-        n_, f_ = forces[i]
-        tau[..., i] = n_ @ c.S[i, :3] + f_ @ c.S[i, 3:] + c.armature[i] * qdd[..., i]
-        target = forces[c.parents[i]] if c.parents[i] >= 0 else root
-        Ri, pi = R[..., i, :, :], p[..., i, :]
-        fp = np.einsum("...ij,...j->...i", Ri, f_)
-        target[1] = target[1] + fp
-        target[0] = target[0] + np.einsum("...ij,...j->...i", Ri, n_) + _cross(pi, fp)
-    return tau, root
-
-
-def _split_state(c: _Chain, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(base part, joints' part) of q, v or τ."""
-    k = x.shape[-1] - c.n
-    return x[..., :k], x[..., k:]
-
-
-def _dynamics(c: _Chain, q, qd, qdd, g_up_world, wrench=None) -> tuple[np.ndarray, list]:
-    """τ (..., nv) without friction of checked states q (..., nq), v, v̇ (..., nv), the base
-    joint's forces first (`_BASE_AXES`: the base body's force, then moment, in its frame), and the
-    root force of `_recursion`."""
-    if c.base_joint is None:
-        return _recursion(c, q, qd, qdd, g_up_world, wrench)
-    qb, qj = _split_state(c, q)
-    (vb, vj), (ab, aj) = _split_state(c, qd), _split_state(c, qdd)
-    Rb = base_pose(c.base_joint, q)[0]
-    tau, root = _recursion(c, qj, vj, aj, g_up_world, wrench, (Rb, vb, ab))
-    moment, force = root
-    tau_b = np.einsum("ji,...j->...i", _BASE_AXES[c.base_joint], np.concatenate([moment, force], -1))
-    return np.concatenate([tau_b, tau], -1), root
-
-
 # --------------------------------------------------------------------------- public API
 
 
@@ -353,7 +56,7 @@ def friction(robot: Robot, qd: ArrayLike) -> np.ndarray:
         ValueError: a symbolic robot, or `qd` that is not a finite numeric array of
             shape (n,) or (..., n).
     """
-    return friction_law(robot)(_state(_chain(robot), qd, "qd"))
+    return friction_law(robot)(state(chain_of(robot), qd, "qd"))
 
 
 def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
@@ -366,7 +69,7 @@ def friction_law(robot: Robot) -> Callable[[np.ndarray], np.ndarray]:
     Raises:
         ValueError: a symbolic robot.
     """
-    c = _chain(robot)
+    c = chain_of(robot)
     viscous, gain, up, down = (np.concatenate([np.zeros(c.nb), x]) for x in (c.G**2 * c.B, np.abs(c.G), *c.Tc.T))
 
     def F(qd) -> np.ndarray:
@@ -437,28 +140,28 @@ def rne(
             (6,) or (..., 6) array broadcasting with the states; base_wrench for a
             floating base (its wrench is τ's first rows); a base quaternion whose norm is not 1.
     """
-    c = _chain(robot)
+    c = chain_of(robot)
     if base_wrench and c.base_joint is not None:
         raise ValueError(
             f"base_wrench: robot {robot.name!r} has a {c.base_joint} base joint, whose forces are τ's first {c.nb} rows"
         )
-    q, qd, qdd = _states(c, q=q, qd=qd, qdd=qdd)
-    g = c.gravity if gravity is None else _vector3(gravity, "gravity")
+    q, qd, qdd = states(c, q=q, qd=qd, qdd=qdd)
+    g = c.gravity if gravity is None else vector3(gravity, "gravity")
     W = None
     if wrench is not None:
         W = np.asarray(wrench, dtype=float)
         if W.shape[-1:] != (6,) or not np.all(np.isfinite(W)):
             raise ValueError(f"wrench must be a finite array of shape (6,) or (N, 6); got shape {W.shape}")
         W = np.broadcast_to(W, q.shape[:-1] + (6,))
-    tau, (n0, f0) = _dynamics(c, q, qd, qdd, g, W)
+    tau, (n0, f0) = dynamics(c, q, qd, qdd, g, W)
     tau = tau + friction(robot, qd)
     if not base_wrench:
         return tau
     return tau, np.concatenate([f0, n0], -1)
 
 
-def _rne_nofriction(c: _Chain, q, qd, qdd, g) -> np.ndarray:
-    return _dynamics(c, q, qd, qdd, g)[0]
+def _rne_nofriction(c: Chain, q, qd, qdd, g) -> np.ndarray:
+    return dynamics(c, q, qd, qdd, g)[0]
 
 
 def inertia(robot: Robot, q: ArrayLike) -> np.ndarray:
@@ -468,8 +171,8 @@ def inertia(robot: Robot, q: ArrayLike) -> np.ndarray:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
             shape (nq,) or (..., nq).
     """
-    c = _chain(robot)
-    q = _state(c, q, "q")
+    c = chain_of(robot)
+    q = state(c, q, "q")
     qs = np.repeat(q[..., None, :], c.nv, axis=-2)  # (..., nv copies, nq)
     eye = np.broadcast_to(np.eye(c.nv), qs.shape[:-1] + (c.nv,))
     cols = _rne_nofriction(c, qs, np.zeros_like(eye), eye, np.zeros(3))
@@ -485,13 +188,13 @@ def christoffel(robot: Robot, q: ArrayLike) -> np.ndarray:
             shape (n,) or (..., n).
         NotImplementedError: a floating base (its velocities are not q̇).
     """
-    c = _chain(robot)
+    c = chain_of(robot)
     if c.base_joint is not None:
         raise NotImplementedError(
             f"Christoffel symbols of robot {robot.name!r}: its {c.base_joint} base's velocities are not the "
             "derivatives of coordinates; its C(q, v)·v is rne(robot, q, v, 0, gravity=(0, 0, 0))"
         )
-    q = _state(c, q, "q")
+    q = state(c, q, "q")
     n = c.n
     pairs = [(i, j) for i in range(n) for j in range(i, n)]
     V = np.zeros((len(pairs), n))
@@ -522,8 +225,8 @@ def coriolis(robot: Robot, q: ArrayLike, qd: ArrayLike) -> np.ndarray:
             shape (nq,) / (nv,) or (..., nq) / (..., nv), or whose leading shapes do not
             broadcast; a base quaternion whose norm is not 1.
     """
-    c = _chain(robot)
-    q, qd = _states(c, q=q, qd=qd)
+    c = chain_of(robot)
+    q, qd = states(c, q=q, qd=qd)
     if c.base_joint is not None:
         return _spatial_coriolis(c, q, qd)
     return np.einsum("...kij,...i->...kj", christoffel(robot, q), qd)
@@ -548,12 +251,12 @@ def _skew3(a: np.ndarray) -> np.ndarray:
     return S - np.swapaxes(S, -1, -2)
 
 
-def _spatial_coriolis(c: _Chain, q, v) -> np.ndarray:
+def _spatial_coriolis(c: Chain, q, v) -> np.ndarray:
     """C = Σ Jᵢᵀ(Iᵢ J̇ᵢ + Bᵢ Jᵢ) over every body (the base body's included) in body coordinates,
     where Iᵢ is constant: Bᵢ skew with Bᵢ Vᵢ = Vᵢ ×* Iᵢ Vᵢ makes Ṁ − 2C skew.  Body Jacobians
     down the tree: Jᵢ = X Jₚ + Sᵢ eᵢᵀ, J̇ᵢ = X J̇ₚ − (Sᵢ q̇ᵢ)× X Jₚ."""
-    qj, vj = _split_state(c, q)[1], _split_state(c, v)[1]
-    R, p = _link_transforms(c, qj)
+    qj, vj = split_state(c, q)[1], split_state(c, v)[1]
+    R, p = link_transforms(c, qj)
     batch, nb = q.shape[:-1], c.nb
 
     def spatial(m, h, Io):  # 6×6 inertia about the origin, (ω, v) → (n, f)
@@ -561,7 +264,7 @@ def _spatial_coriolis(c: _Chain, q, v) -> np.ndarray:
         return np.block([[Io, H], [-H, m * np.eye(3)]])
 
     J0 = np.zeros(batch + (6, c.nv))
-    J0[..., :, :nb] = _BASE_AXES[c.base_joint]
+    J0[..., :, :nb] = BASE_AXES[c.base_joint]
     Jd0 = np.zeros_like(J0)
     C = np.zeros(batch + (c.nv, c.nv))
 
@@ -598,9 +301,9 @@ def gravload(robot: Robot, q: ArrayLike, *, gravity: ArrayLike | None = None) ->
         ValueError: a symbolic robot; `q` that is not a finite numeric array of
             shape (n,) or (..., n); a gravity that is not a finite 3-vector.
     """
-    c = _chain(robot)
-    q = _state(c, q, "q")
-    g = c.gravity if gravity is None else _vector3(gravity, "gravity")
+    c = chain_of(robot)
+    q = state(c, q, "q")
+    g = c.gravity if gravity is None else vector3(gravity, "gravity")
     z = np.zeros(q.shape[:-1] + (c.nv,))
     return _rne_nofriction(c, q, z, z, g)
 
@@ -615,14 +318,14 @@ def accel(robot: Robot, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> np.ndarr
         SingularInertia: M(q) is singular (a `ValueError`; it names the joint that
             moves no mass where one does not).
     """
-    c = _chain(robot)
-    q, qd, tau = _states(c, q=q, qd=qd, tau=tau)
+    c = chain_of(robot)
+    q, qd, tau = states(c, q=q, qd=qd, tau=tau)
     n, batch = c.nv, q.shape[:-1]
     # one recursion over n + 1 rows: q̈ = e_i (q̇ = 0, no gravity) give M's columns, the last the bias
     rows = np.concatenate([np.zeros(batch + (n, n)), qd[..., None, :]], -2)
     unit = np.concatenate([np.broadcast_to(np.eye(n), batch + (n, n)), np.zeros(batch + (1, n))], -2)
     g = np.concatenate([np.zeros((n, 3)), c.gravity[None]])
-    out = _dynamics(c, np.broadcast_to(q[..., None, :], batch + (n + 1, c.nq)), rows, unit, g)[0]
+    out = dynamics(c, np.broadcast_to(q[..., None, :], batch + (n + 1, c.nq)), rows, unit, g)[0]
     bias = out[..., n, :] + friction(robot, qd)
     M = np.swapaxes(out[..., :n, :], -1, -2)
     diagonal = np.diagonal(M, axis1=-2, axis2=-1)
@@ -677,11 +380,11 @@ def fdyn(
         SingularInertia: M(q) is singular along the motion (a `ValueError`).
         RuntimeError: the integrator fails (scipy's message).
     """
-    c = _chain(robot)
+    c = chain_of(robot)
     if not (np.isscalar(T) and np.isfinite(T) and T > 0):
         raise ValueError(f"T must be a positive finite time, got {T!r}")
-    q0 = _state(c, q0, "q0")
-    qd0 = np.zeros(c.nv) if qd0 is None else _state(c, qd0, "qd0")
+    q0 = state(c, q0, "q0")
+    qd0 = np.zeros(c.nv) if qd0 is None else state(c, qd0, "qd0")
     if q0.shape != (c.nq,) or qd0.shape != (c.nv,):
         shapes = f"shape ({c.nq},)" if c.nq == c.nv else f"shapes ({c.nq},) and ({c.nv},)"
         raise ValueError(f"fdyn integrates one state: q0 and qd0 must have {shapes}")
@@ -692,7 +395,7 @@ def fdyn(
         q, qd = x[: c.nq], x[c.nq :]
         if c.base_joint == "free":  # the integrator's drift off the unit sphere, not the user's input
             q = np.concatenate([q[:3], q[3:7] / np.linalg.norm(q[3:7]), q[7:]])
-        tau = zero if torque is None else _state(c, torque(t, q, qd), "torque(t, q, qd)")
+        tau = zero if torque is None else state(c, torque(t, q, qd), "torque(t, q, qd)")
         return np.concatenate([coordinate_rates(robot, q, qd), accel(robot, q, qd, tau)])
 
     sol = solve_ivp(rhs, (0.0, float(T)), np.concatenate([q0, qd0]), method=method, rtol=rtol, atol=atol, t_eval=t_eval)
@@ -702,7 +405,7 @@ def fdyn(
     return sol.t, (normalize(robot, q) if c.base_joint == "free" else q), sol.y[c.nq :].T
 
 
-def _base_frame(c: _Chain, q) -> tuple[np.ndarray, np.ndarray]:
+def _base_frame(c: Chain, q) -> tuple[np.ndarray, np.ndarray]:
     """World rotation and origin of frame 0 (the base, or the body a base joint moves) from q (nq)."""
     if c.base_joint is None:
         return np.broadcast_to(c.base_R, q.shape[:-1] + (3, 3)), np.broadcast_to(c.base_p, q.shape[:-1] + (3,))
@@ -710,9 +413,9 @@ def _base_frame(c: _Chain, q) -> tuple[np.ndarray, np.ndarray]:
     return c.base_R @ Rb, c.base_p + np.einsum("ij,...j->...i", c.base_R, pb)
 
 
-def _frames(c: _Chain, q):
+def _frames(c: Chain, q):
     """World rotation and origin of each body frame from q (nq): (..., n, 3, 3), (..., n, 3)."""
-    R, p = _link_transforms(c, _split_state(c, q)[1])
+    R, p = link_transforms(c, split_state(c, q)[1])
     R0, p0 = _base_frame(c, q)
     Rs, ps = [], []
     for i in range(c.n):
@@ -724,7 +427,7 @@ def _frames(c: _Chain, q):
     return np.stack(Rs, -3), np.stack(ps, -2)
 
 
-def _ancestors(c: _Chain, i: int) -> list[int]:
+def _ancestors(c: Chain, i: int) -> list[int]:
     """Link i and the links it hangs on, down to the base."""
     out = []
     while i >= 0:
@@ -733,7 +436,7 @@ def _ancestors(c: _Chain, i: int) -> list[int]:
     return out
 
 
-def _tool_point(c: _Chain, Rs, ps) -> np.ndarray:
+def _tool_point(c: Chain, Rs, ps) -> np.ndarray:
     """World position (..., 3) of the tool point from the body frames of `_frames`."""
     return ps[..., -1, :] + np.einsum("...ij,j->...i", Rs[..., -1, :, :], c.tool_p)
 
@@ -745,7 +448,7 @@ def fkine(robot: Robot, q: ArrayLike) -> np.ndarray:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
             shape (n,) or (..., n).
     """
-    c = _chain(robot)
+    c = chain_of(robot)
     tool = np.eye(4)
     tool[:3, :3], tool[:3, 3] = c.tool_R, c.tool_p
     return body_frames(robot, q)[..., -1, :, :] @ tool
@@ -759,8 +462,8 @@ def body_frames(robot: Robot, q: ArrayLike) -> np.ndarray:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
             shape (nq,) or (..., nq).
     """
-    c = _chain(robot)
-    q = _state(c, q, "q")
+    c = chain_of(robot)
+    q = state(c, q, "q")
     Rs, ps = _frames(c, q)
     R0, p0 = _base_frame(c, q)
     T = np.zeros(q.shape[:-1] + (c.n + 1, 4, 4))
@@ -779,8 +482,8 @@ def jacob0(robot: Robot, q: ArrayLike) -> np.ndarray:
         ValueError: a symbolic robot, or `q` that is not a finite numeric array of
             shape (nq,) or (..., nq).
     """
-    c = _chain(robot)
-    q = _state(c, q, "q")
+    c = chain_of(robot)
+    q = state(c, q, "q")
     Rs, ps = _frames(c, q)
     pe = _tool_point(c, Rs, ps)
     # each joint's axis in the world (S_i in body coordinates mapped by body i's pose); a
@@ -788,7 +491,7 @@ def jacob0(robot: Robot, q: ArrayLike) -> np.ndarray:
     revolute = c.revolute[:, None]
     z = np.einsum("...nij,nj->...ni", Rs, np.where(revolute, c.S[:, :3], c.S[:, 3:]))
     vb = np.einsum("...nij,nj->...ni", Rs, c.S[:, 3:])
-    v = np.where(revolute, vb + _cross(z, pe[..., None, :] - ps), z)
+    v = np.where(revolute, vb + cross(z, pe[..., None, :] - ps), z)
     on_path = np.isin(np.arange(c.n), _ancestors(c, c.n - 1))[:, None]
     J = np.swapaxes(np.where(on_path, np.concatenate([v, np.where(revolute, z, 0.0)], -1), 0.0), -1, -2)
     if c.base_joint is None:
@@ -800,7 +503,7 @@ def jacob0(robot: Robot, q: ArrayLike) -> np.ndarray:
     skew = skew - np.swapaxes(skew, -1, -2)
     top = np.concatenate([R0, -skew @ R0], -1)
     bottom = np.concatenate([np.zeros_like(R0), R0], -1)
-    base = np.concatenate([top, bottom], -2) @ _BASE_AXES[c.base_joint][[3, 4, 5, 0, 1, 2]]
+    base = np.concatenate([top, bottom], -2) @ BASE_AXES[c.base_joint][[3, 4, 5, 0, 1, 2]]
     return np.concatenate([base, J], -1)
 
 
@@ -814,8 +517,8 @@ def energy(robot: Robot, q: ArrayLike, qd: ArrayLike) -> tuple[np.ndarray, np.nd
         ValueError: a symbolic robot; q or qd that are not finite numeric arrays of
             shape (n,) or (..., n), or whose leading shapes do not broadcast.
     """
-    c = _chain(robot)
-    q, qd = _states(c, q=q, qd=qd)
+    c = chain_of(robot)
+    q, qd = states(c, q=q, qd=qd)
     kinetic = 0.5 * np.einsum("...i,...ij,...j->...", qd, inertia(robot, q), qd)
     Rs, ps, m, h = _bodies(c, q)
     com = ps + np.einsum("...nij,nj->...ni", Rs, h / np.where(m > 0, m, 1.0)[:, None])
@@ -823,7 +526,7 @@ def energy(robot: Robot, q: ArrayLike, qd: ArrayLike) -> tuple[np.ndarray, np.nd
     return kinetic, potential
 
 
-def _bodies(c: _Chain, q) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _bodies(c: Chain, q) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """World rotations (..., k, 3, 3), origins (..., k, 3), masses (k,) and first moments (k, 3)
     of every body: the links, then the body a base joint moves (massless for a fixed base)."""
     Rs, ps = _frames(c, q)
@@ -846,33 +549,33 @@ def momentum(robot: Robot, q: ArrayLike, qd: ArrayLike) -> np.ndarray:
             shape (nq,) / (nv,) or (..., nq) / (..., nv), or whose leading shapes do not
             broadcast; a base quaternion whose norm is not 1.
     """
-    c = _chain(robot)
-    q, qd = _states(c, q=q, qd=qd)
+    c = chain_of(robot)
+    q, qd = states(c, q=q, qd=qd)
     Rs, ps, m, h = _bodies(c, q)
     w, v = _velocities(c, q, qd)  # body coordinates, bodies as in `_bodies`
     Io = np.concatenate([c.Io, c.base_body[2][None]])
     # spatial momentum about each body's origin in its frame: (Io w + h × v, m v + w × h)
-    L = np.einsum("kij,...kj->...ki", Io, w) + _cross(h, v)
-    P = m[:, None] * v + _cross(w, h)
+    L = np.einsum("kij,...kj->...ki", Io, w) + cross(h, v)
+    P = m[:, None] * v + cross(w, h)
     Pw = np.einsum("...kij,...kj->...ki", Rs, P)
-    Lw = np.einsum("...kij,...kj->...ki", Rs, L) + _cross(ps, Pw)
+    Lw = np.einsum("...kij,...kj->...ki", Rs, L) + cross(ps, Pw)
     return np.concatenate([Pw.sum(-2), Lw.sum(-2)], -1)
 
 
-def _velocities(c: _Chain, q, qd) -> tuple[np.ndarray, np.ndarray]:
+def _velocities(c: Chain, q, qd) -> tuple[np.ndarray, np.ndarray]:
     """Angular and linear velocity (..., n + 1, 3) of every body in its own frame (`_bodies`' order)."""
-    qj, (vb, vj) = _split_state(c, q)[1], _split_state(c, qd)
-    R, p = _link_transforms(c, qj)
+    qj, (vb, vj) = split_state(c, q)[1], split_state(c, qd)
+    R, p = link_transforms(c, qj)
     batch = q.shape[:-1]
     if c.base_joint is None:
         w0 = v0 = np.zeros(batch + (3,))
     else:
-        w0, v0 = np.split(np.einsum("ij,...j->...i", _BASE_AXES[c.base_joint], vb), 2, -1)
+        w0, v0 = np.split(np.einsum("ij,...j->...i", BASE_AXES[c.base_joint], vb), 2, -1)
     ws, vs = [], []
     for i in range(c.n):
         w, v = (ws[c.parents[i]], vs[c.parents[i]]) if c.parents[i] >= 0 else (w0, v0)
         Rt = np.swapaxes(R[..., i, :, :], -1, -2)
         qdi = vj[..., i, None]
-        vs.append(np.einsum("...ij,...j->...i", Rt, v + _cross(w, p[..., i, :])) + c.S[i, 3:] * qdi)
+        vs.append(np.einsum("...ij,...j->...i", Rt, v + cross(w, p[..., i, :])) + c.S[i, 3:] * qdi)
         ws.append(np.einsum("...ij,...j->...i", Rt, w) + c.S[i, :3] * qdi)
     return np.stack(ws + [w0], -2), np.stack(vs + [v0], -2)

@@ -27,298 +27,18 @@ from pathlib import Path
 from typing import Iterable
 
 import numpy as np
-import sympy as sp
 
 from ..frames import Frame
-from ..rotations import quaternion_matrix
-from ..placement import compose, exact, joint_motion, link_number, rational_rotation, rpy_rotation
+from ..placement import compose, exact, link_number
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
-from ..snapping import ANGLE_TOLERANCE, Snapping, snap_angle, snap_axis
+from ..snapping import Snapping
 from ..urdf.bodies import Body
-from ..urdf.record import Locked, Snap
-from .compile import MJCFError, MJCFWarning, compile_mjcf, describe_equality, mujoco_module
+from ..urdf.record import Locked
+from .compile import MJCFError, MJCFWarning, compile_mjcf, mujoco_module
+from .compiled import KIND, Compiled, effort_of, lock_values, translation, unmodelled
 from .record import MjcfRecord
 
 __all__ = ["from_mjcf"]
-
-_KIND = {"hinge": "revolute", "slide": "prismatic"}
-
-
-def _translation(p) -> tuple:
-    return tuple(tuple(int(i == j) for j in range(3)) + (exact(p[i]),) for i in range(3)) + ((0, 0, 0, 1),)
-
-
-class _Reader:
-    """One reading of one compiled model: names, the snapping rule, locks, what was noted."""
-
-    def __init__(self, mujoco, compiled, snap: bool):
-        self.mj, self.m, self.spec = mujoco, compiled.model, compiled.spec
-        self.file, self.snap = compiled.file, snap
-        self.snaps: list[Snap] = []
-        self.locked: list[Locked] = []
-        self.left_out: list[str] = []
-        self.values: dict[int, tuple[float, str]] = {}
-        self.frames: dict[int, tuple[int, tuple]] = {}  # body → (the robot link it rides on, its frame there)
-        self.vanished = compiled.vanished  # equality constraints gone with the excluded bodies
-        m = self.m
-        self.children: dict[int, list[int]] = {}
-        for b in range(1, m.nbody):
-            self.children.setdefault(int(m.body_parentid[b]), []).append(b)
-
-    # ---- names and places
-    def body(self, b: int) -> str:
-        return self.m.body(b).name or f"#{b}"
-
-    def joint(self, j: int) -> str:
-        return self.m.joint(j).name or f"#{j} (unnamed, in body {self.body(int(self.m.jnt_bodyid[j]))!r})"
-
-    def where(self, kind: str, name: str) -> str:
-        element = getattr(self.spec, kind)(name) if name and not name.startswith("#") else None
-        info = element.info if element is not None else ""
-        return f"{self.file} ({info})" if info else self.file
-
-    def joint_type(self, j: int) -> str:
-        return {0: "free", 1: "ball", 2: "slide", 3: "hinge"}[int(self.m.jnt_type[j])]
-
-    def joints_of(self, b: int) -> range:
-        start = int(self.m.body_jntadr[b])
-        return range(start, start + int(self.m.body_jntnum[b])) if start >= 0 else range(0)
-
-    def below(self, b: int) -> set[int]:
-        out, todo = set(), [b]
-        while todo:
-            x = todo.pop()
-            out.add(x)
-            todo += self.children.get(x, [])
-        return out
-
-    # ---- numbers, snapped by the one rule
-    def orientation(self, quat, what: str) -> list:
-        """The exact rotation of a compiled unit quaternion: a signed permutation when every entry
-        is within the snapping tolerance of 0 or ±1; else roll, pitch, yaw (URDF's order), each
-        snapped by the rule; else (snap=False, or a pitch of ±π/2) the nearest rational rotation."""
-        R = quaternion_matrix(quat, order="wxyz")
-        near = np.round(R)
-        change = float(np.abs(R - near).max())
-        if change <= ANGLE_TOLERANCE and abs(np.linalg.det(near) - 1) < 0.5 and (self.snap or change == 0):
-            if change > 0:
-                quat_text = " ".join(repr(float(x)) for x in quat)
-                self.snaps.append(Snap(f"{what} rotation (quat)", quat_text, "quarter turns", change))
-            return [[sp.Integer(int(x)) for x in row] for row in near]
-        if not self.snap:
-            return rational_rotation(R)
-        pitch = math.asin(max(-1.0, min(1.0, -R[2, 0])))
-        roll, yaw = math.atan2(R[2, 1], R[2, 2]), math.atan2(R[1, 0], R[0, 0])
-        angles, snaps = [], []
-        for label, value in zip(("roll", "pitch", "yaw"), (roll, pitch, yaw)):
-            snapped = snap_angle(value)
-            if snapped is not None:
-                snaps.append(Snap(f"{what} {label} (as rpy)", repr(value), snapped.label, snapped.change))
-                value = snapped.value
-            angles.append(value)
-        E = rpy_rotation(angles)
-        if float(np.abs(np.array(E, dtype=float) - R).max()) > 2 * ANGLE_TOLERANCE:  # gimbal lock: rpy is ill-posed
-            return rational_rotation(R)
-        self.snaps += snaps
-        return E
-
-    def placement(self, b: int) -> tuple:
-        """The exact 4×4 transform of body b in its parent's frame (pos, quat as compiled)."""
-        R = self.orientation(self.m.body_quat[b], f"body {self.body(b)!r}")
-        p = [exact(float(x)) for x in self.m.body_pos[b]]
-        return tuple(tuple(R[i]) + (p[i],) for i in range(3)) + ((0, 0, 0, 1),)
-
-    def axis(self, j: int) -> tuple:
-        axis = tuple(float(a) for a in self.m.jnt_axis[j])
-        snapped = snap_axis(axis) if self.snap else None
-        if snapped is None:
-            return axis
-        self.snaps.append(
-            Snap(f"joint {self.joint(j)!r} axis", " ".join(map(repr, axis)), snapped.label, snapped.change)
-        )
-        return snapped.value
-
-    def motion(self, j: int, value: float) -> tuple:
-        """Body frame before joint j → after it, the joint at `value` (moved by value − qpos0)."""
-        kind = _KIND[self.joint_type(j)]
-        moved = joint_motion(kind, self.axis(j), value - float(self.m.qpos0[self.m.jnt_qposadr[j]]))
-        if kind == "prismatic" or moved is IDENTITY:
-            return moved
-        p = self.m.jnt_pos[j]
-        return compose(compose(_translation(p), moved), _translation(-p))
-
-    # ---- bodies
-    def inertial(self, b: int) -> Body:
-        """Body b's own mass, COM and inertia about the COM in its frame, as MuJoCo compiled them."""
-        m = self.m
-        R = quaternion_matrix(m.body_iquat[b], order="wxyz")
-        I = R @ np.diag(m.body_inertia[b]) @ R.T
-        upper = {(i, j): exact(float(I[i, j])) for i in range(3) for j in range(i, 3)}
-        return Body(
-            exact(float(m.body_mass[b])),
-            tuple(exact(float(x)) for x in m.body_ipos[b]),
-            tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3)),
-        )
-
-    def subtree(self, b: int, skip: set, into: str, moves: bool, seg: int = -1, at: tuple = IDENTITY) -> Body:
-        """Body b with everything hanging off it except the bodies in `skip` (the chain), in b's
-        frame; joints met are locked and recorded as merged into `into`, and each body's frame as
-        riding on robot link `seg` (-1: the base) at `at` (b's frame in it)."""
-        self.frames[b] = (seg, at)
-        body = self.inertial(b)
-        for child in self.children.get(b, []):
-            if child in skip:
-                continue
-            T = self.placement(child)
-            free = [j for j in self.joints_of(child) if self.joint_type(j) in ("ball", "free")]
-            if free:
-                j = free[0]
-                what = f"{self.joint_type(j)} joint {self.joint(j)!r} on body {self.body(child)!r}"
-                if moves:
-                    raise MJCFError(
-                        f"{self.where('joint', self.m.joint(j).name)}: {what} is not supported yet (it rides on "
-                        f"the chain, on body {into!r}): exclude= the body ({self.body(child)!r}) or end the chain before it"
-                    )
-                self.left_out.append(f"{self.body(child)!r} and its subtree ({what})")
-                continue
-            for j in self.joints_of(child):
-                value, why = self.values[j]
-                self.locked.append(Locked(self.joint(j), value, into, why, moves))
-                T = compose(T, self.motion(j, value))
-            body = body + self.subtree(child, skip, into, moves, seg, compose(at, T)).moved(T)
-        return body
-
-    # ---- the chain's links
-    def link(self, j: int, origin: tuple, body: Body, effort: float | None) -> Link:
-        m = self.m
-        dof = int(m.jnt_dofadr[j])
-        friction = float(m.dof_frictionloss[dof])
-        qlim = tuple(float(x) for x in m.jnt_range[j]) if m.jnt_limited[j] else None
-        try:
-            return Link(
-                joint=_KIND[self.joint_type(j)],
-                origin=tuple(tuple(link_number(x) for x in row) for row in origin),
-                axis=self.axis(j),
-                offset=-float(m.qpos0[m.jnt_qposadr[j]]) + 0.0,
-                qlim=qlim,
-                m=link_number(body.m),
-                r=tuple(link_number(x) for x in body.r),
-                I=tuple(tuple(link_number(x) for x in row) for row in body.I),
-                Jm=float(m.dof_armature[dof]),
-                B=float(m.dof_damping[dof]),
-                Tc=(friction, -friction + 0.0),
-                effort_limit=effort,
-            )
-        except ValueError as exc:
-            raise MJCFError(f"{self.where('joint', m.joint(j).name)}: joint {self.joint(j)!r}: {exc}") from None
-
-
-def _effort(reader: _Reader, j: int) -> tuple[float | None, list[str]]:
-    """The effort limit of joint j from the actuators that drive it (|gear| × force range, or
-    |gear| × |gain| × control range for a plain motor, summed) and its actuatorfrcrange."""
-    mj, m = reader.mj, reader.m
-    total, notes, unbounded = 0.0, [], []
-    for a in range(m.nu):
-        if int(m.actuator_trntype[a]) not in (mj.mjtTrn.mjTRN_JOINT, mj.mjtTrn.mjTRN_JOINTINPARENT):
-            continue
-        if int(m.actuator_trnid[a, 0]) != j:
-            continue
-        name, gear = m.actuator(a).name or f"#{a}", float(m.actuator_gear[a, 0])
-        plain = (
-            int(m.actuator_gaintype[a]) == mj.mjtGain.mjGAIN_FIXED
-            and int(m.actuator_biastype[a]) == mj.mjtBias.mjBIAS_NONE
-            and int(m.actuator_dyntype[a]) == mj.mjtDyn.mjDYN_NONE
-        )
-        if m.actuator_forcelimited[a]:
-            lo, hi = (float(x) for x in m.actuator_forcerange[a])
-            limit = abs(gear) * max(abs(lo), abs(hi))
-            notes.append(f"actuator {name!r}: |gear {gear!r}| x forcerange [{lo!r}, {hi!r}] = {limit!r}")
-        elif plain and m.actuator_ctrllimited[a]:
-            lo, hi = (float(x) for x in m.actuator_ctrlrange[a])
-            gain = float(m.actuator_gainprm[a, 0])
-            limit = abs(gear) * abs(gain) * max(abs(lo), abs(hi))
-            notes.append(
-                f"actuator {name!r}: |gear {gear!r}| x |gain {gain!r}| x ctrlrange [{lo!r}, {hi!r}] = {limit!r}"
-            )
-        else:
-            unbounded.append(name)
-            continue
-        total += limit
-    if unbounded:
-        notes.append(f"actuator(s) {', '.join(map(repr, unbounded))} without a force range: no effort limit from them")
-    limit = total if total > 0 and not unbounded else None
-    if m.jnt_actfrclimited[j]:
-        lo, hi = (float(x) for x in m.jnt_actfrcrange[j])
-        bound = max(abs(lo), abs(hi))
-        if bound > 0 and (limit is None or bound < limit):
-            limit = bound
-            notes.append(f"actuatorfrcrange [{lo!r}, {hi!r}] bounds the joint's actuator force: {bound!r}")
-    return limit, notes
-
-
-def _lock_values(reader: _Reader, joints: Iterable[int], given: dict[int, float]) -> dict:
-    """{joint: (value, why)}: given values (checked against the range), else qpos0, or the
-    limit nearest it when qpos0 lies outside the joint's range."""
-    m, out = reader.m, {}
-    for j in joints:
-        lo, hi = (float(x) for x in m.jnt_range[j])
-        limited = bool(m.jnt_limited[j])
-        if j in given:
-            value = given[j]
-            if limited and not lo <= value <= hi:
-                raise MJCFError(
-                    f"{reader.where('joint', m.joint(j).name)}: locked value {value!r} of joint {reader.joint(j)!r} "
-                    f"is outside its range [{lo!r}, {hi!r}]"
-                )
-            out[j] = (value, "given")
-        else:
-            value = float(m.qpos0[m.jnt_qposadr[j]])
-            out[j] = (min(max(value, lo), hi) if limited else value, "default")
-    return out
-
-
-def _unmodelled(reader: _Reader, chain_joints: list[int], moving_bodies: set[int]) -> list[str]:
-    """What MuJoCo would add to τ that symdyn does not model, on the part that moves."""
-    m, out = reader.m, []
-    for j in chain_joints:
-        dof = int(m.jnt_dofadr[j])
-        if m.jnt_stiffness[j] != 0:
-            out.append(
-                f"joint {reader.joint(j)!r} has a spring (stiffness {float(m.jnt_stiffness[j])!r}): not modelled"
-            )
-        for field, what in (("jnt_stiffnesspoly", j), ("dof_dampingpoly", dof)):
-            values = getattr(m, field, None)
-            if values is not None and np.any(values[what] != 0):
-                out.append(f"joint {reader.joint(j)!r} has nonlinear {field.split('_')[1]}: not modelled")
-    for a in range(m.nu):
-        for field in ("actuator_armature", "actuator_damping"):
-            values = getattr(m, field, None)
-            if values is not None and np.any(values[a] != 0):
-                out.append(f"actuator {m.actuator(a).name or a!r} has {field.split('_')[1]}: not modelled")
-    for b in sorted(moving_bodies):
-        if m.body_gravcomp[b] != 0:
-            out.append(f"body {reader.body(b)!r} has gravcomp {float(m.body_gravcomp[b])!r}: not modelled")
-    if m.neq:
-        names = [
-            describe_equality(
-                reader.mj.mjtEq(int(m.eq_type[e])),
-                m.equality(e).name,
-                *(
-                    _object_name(
-                        reader, int(m.eq_objtype[e]) if hasattr(m, "eq_objtype") else None, int(i), int(m.eq_type[e])
-                    )
-                    for i in (m.eq_obj1id[e], m.eq_obj2id[e])
-                ),
-            )
-            for e in range(m.neq)
-        ]
-        out.append(f"{m.neq} equality constraint(s) not modelled: {', '.join(names)}")
-    vanished = getattr(reader, "vanished", ())
-    if vanished:
-        out.append(f"equality constraint(s) gone with the excluded bodies: {', '.join(vanished)}")
-    if m.opt.density or m.opt.viscosity:
-        out.append("fluid forces (<option density viscosity>) not modelled")
-    return out
 
 
 def from_mjcf(
@@ -388,7 +108,7 @@ def from_mjcf(
     excluded = (exclude,) if isinstance(exclude, str) else tuple(exclude)
     compiled = compile_mjcf(path, excluded, base_body, tip_body)
     m = compiled.model
-    reader = _Reader(mj, compiled, snap)
+    reader = Compiled(mj, compiled, snap)
     label = compiled.file
 
     def body_id(name: str, what: str) -> int:
@@ -416,13 +136,13 @@ def from_mjcf(
         for b in sorted(on_path - {base}):
             _refuse_ball(reader, b)
         lockable = [
-            j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in _KIND
+            j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in KIND
         ]
         if tip_list == "all":
             moving = [j for j in lockable if j not in given]
         else:
             moving = [j for j in lockable if int(m.jnt_bodyid[j]) in on_path and j not in given]
-        reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
+        reader.values = lock_values(reader, [j for j in lockable if j not in moving], given)
         held = set(given) if tip_list == "all" else {j for j in given if int(m.jnt_bodyid[j]) in on_path}
         carriers, base_mass, frames = _walk(reader, base, set(moving), held, base_joint is not None)
         reader.frames.update(frames)
@@ -454,10 +174,10 @@ def from_mjcf(
         for b in chain:
             _refuse_ball(reader, b)
         lockable = [
-            j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in _KIND
+            j for j in range(m.njnt) if int(m.jnt_bodyid[j]) in below_base - {base} and reader.joint_type(j) in KIND
         ]
         moving = [j for b in chain for j in reader.joints_of(b) if j not in given]
-        reader.values = _lock_values(reader, [j for j in lockable if j not in moving], given)
+        reader.values = lock_values(reader, [j for j in lockable if j not in moving], given)
 
         reader.subtree(base, on_chain, reader.body(base), False)  # resting on the base: recorded, left out
         pending, carrier, origin, body = IDENTITY, None, IDENTITY, Body.empty()
@@ -474,7 +194,7 @@ def from_mjcf(
                 if carrier is not None:
                     carriers.append((carrier, origin, body))
                 if reader.joint_type(j) == "hinge":  # the link frame at the anchor; back to the body frame after
-                    origin, T = compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+                    origin, T = compose(T, translation(m.jnt_pos[j])), translation(-m.jnt_pos[j])
                 else:
                     origin, T = T, IDENTITY
                 carrier, body = j, Body.empty()
@@ -495,7 +215,7 @@ def from_mjcf(
 
     read, links = [], []
     for j, origin, body_j, parent in carriers:
-        effort, notes = _effort(reader, j)
+        effort, notes = effort_of(reader, j)
         dof = int(m.jnt_dofadr[j])
         terms = [
             f"{what} {float(v)!r} -> {to}"
@@ -512,7 +232,7 @@ def from_mjcf(
         links.append(dataclasses.replace(link, parent=parent, name=m.joint(j).name or None))
 
     moving_bodies = set().union(*(reader.below(int(m.jnt_bodyid[c[0]])) for c in carriers))
-    notes = _unmodelled(reader, [c[0] for c in carriers], moving_bodies | (below_base if base_joint else set()))
+    notes = unmodelled(reader, [c[0] for c in carriers], moving_bodies | (below_base if base_joint else set()))
     gravity = tuple(float(x) for x in m.opt.gravity)
     g = (0.0, 0.0, 0.0)
     if m.opt.disableflags & mj.mjtDisableBit.mjDSBL_GRAVITY:
@@ -610,7 +330,7 @@ def from_mjcf(
     return dataclasses.replace(robot, mjcf=record)
 
 
-def _given(reader: _Reader, locked: dict | None, below_base: set, base: int, label: str) -> dict[int, float]:
+def _given(reader: Compiled, locked: dict | None, below_base: set, base: int, label: str) -> dict[int, float]:
     """{joint id: value} of `locked`, each checked: a hinge or slide joint below the base, a finite value."""
     mj, m = reader.mj, reader.m
     given: dict[int, float] = {}
@@ -620,7 +340,7 @@ def _given(reader: _Reader, locked: dict | None, below_base: set, base: int, lab
             raise MJCFError(f"{label}: locked joint {joint!r} is not a joint of the file")
         if int(m.jnt_bodyid[j]) not in below_base or int(m.jnt_bodyid[j]) == base:
             raise MJCFError(f"{label}: locked joint {joint!r} is not below base_body {reader.body(base)!r}")
-        if reader.joint_type(j) not in _KIND:
+        if reader.joint_type(j) not in KIND:
             raise MJCFError(
                 f"{label}: locked joint {joint!r} is a {reader.joint_type(j)} joint; hinge and slide joints can be locked"
             )
@@ -630,18 +350,18 @@ def _given(reader: _Reader, locked: dict | None, below_base: set, base: int, lab
     return given
 
 
-def _refuse_ball(reader: _Reader, b: int) -> None:
+def _refuse_ball(reader: Compiled, b: int) -> None:
     """Refuse a ball or free joint on body b of the chain (or on the way to a tip)."""
     m = reader.m
     for j in reader.joints_of(b):
-        if reader.joint_type(j) not in _KIND:
+        if reader.joint_type(j) not in KIND:
             raise MJCFError(
                 f"{reader.where('joint', m.joint(j).name)}: {reader.joint_type(j)} joint {reader.joint(j)!r} on body "
                 f"{reader.body(b)!r} is not supported yet (hinge and slide joints are): choose a chain without it"
             )
 
 
-def _floating_base(reader: _Reader, base: int, base_joint: str | None, label: str) -> tuple[int, int | None]:
+def _floating_base(reader: Compiled, base: int, base_joint: str | None, label: str) -> tuple[int, int | None]:
     """(the base body, the free joint that carries it or None): with the world as base, a free
     joint on the world's only child body (MJCF's `<freejoint/>`) makes that body the floating
     base; else, for a base_joint, the world's only child body (or base_body) floats.
@@ -683,31 +403,20 @@ def _floating_base(reader: _Reader, base: int, base_joint: str | None, label: st
     return base, None
 
 
-def _object_name(reader: _Reader, objtype: int | None, i: int, eqtype: int) -> str:
-    """The name of an equality constraint's object i (a body, joint, tendon, site …; '' for none)."""
-    if i < 0:
-        return ""
-    mj, m = reader.mj, reader.m
-    if not objtype:  # not recorded (older MuJoCo, joint and tendon equalities): the constraint's type says it
-        kinds = {0: "BODY", 1: "BODY", 2: "JOINT", 3: "TENDON", 4: "FLEX"}
-        objtype = int(getattr(mj.mjtObj, f"mjOBJ_{kinds.get(eqtype, 'BODY')}"))
-    return mj.mj_id2name(m, objtype, i) or f"#{i}"
-
-
-def _free_root(reader: _Reader) -> bool:
+def _free_root(reader: Compiled) -> bool:
     """Whether the world's only child body floats on a free joint (MJCF's `<freejoint/>`)."""
     roots = reader.children.get(0, [])
     return len(roots) == 1 and any(reader.joint_type(j) == "free" for j in reader.joints_of(roots[0]))
 
 
-def _addresses(reader: _Reader, moving: list[int], free: int | None) -> dict:
+def _addresses(reader: Compiled, moving: list[int], free: int | None) -> dict:
     """The record's MuJoCo addresses (`MjcfRecord.qpos_address` …): where each moving joint and the
     free joint sit in qpos and qvel, and the file's qpos with the locked joints at their values."""
     m, mj = reader.m, reader.mj
     qpos = np.array(m.qpos0, dtype=float)
     for lock in reader.locked:
         j = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, lock.joint)
-        if j >= 0 and reader.joint_type(j) in _KIND:
+        if j >= 0 and reader.joint_type(j) in KIND:
             qpos[m.jnt_qposadr[j]] = lock.value
     return {
         "qpos_address": tuple(int(m.jnt_qposadr[j]) for j in moving),
@@ -719,7 +428,7 @@ def _addresses(reader: _Reader, moving: list[int], free: int | None) -> dict:
     }
 
 
-def _tip_bodies(reader: _Reader, base: int, tips, tip_body: str | None, body_id, label: str):
+def _tip_bodies(reader: Compiled, base: int, tips, tip_body: str | None, body_id, label: str):
     """The tips of a tree: "all", or body ids below the base (tip_body alone: one)."""
     if tips is None:
         if tip_body is not None:
@@ -750,7 +459,7 @@ def _tip_bodies(reader: _Reader, base: int, tips, tip_body: str | None, body_id,
     return out
 
 
-def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) -> tuple[list, Body, dict]:
+def _walk(reader: Compiled, base: int, moving: set, held: set, base_moves: bool) -> tuple[list, Body, dict]:
     """(carriers, the base's body, frames): depth first from the base in MuJoCo's body order,
     each moving joint a carrier (joint, origin, body, parent carrier or -1); joints off the
     moving set locked (`held`: those that would move), welded bodies merged; each body reached
@@ -779,7 +488,7 @@ def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) 
             for j in reader.joints_of(b):
                 if j in moving:
                     if reader.joint_type(j) == "hinge":  # the link frame at the anchor
-                        origin, T = compose(T, _translation(m.jnt_pos[j])), _translation(-m.jnt_pos[j])
+                        origin, T = compose(T, translation(m.jnt_pos[j])), translation(-m.jnt_pos[j])
                     else:
                         origin, T = T, IDENTITY
                     carriers.append([j, origin, Body.empty(), seg])
@@ -798,7 +507,7 @@ def _walk(reader: _Reader, base: int, moving: set, held: set, base_moves: bool) 
     return [tuple(c) for c in carriers], base_body, frames
 
 
-def _catalog(reader: _Reader) -> tuple[Frame, ...]:
+def _catalog(reader: Compiled) -> tuple[Frame, ...]:
     """Every body reached and every site on one, as frames (`Robot.frame_catalog`): a body by its
     name, a site by its own (site:NAME where a body has that name)."""
     m = reader.m
