@@ -5,7 +5,7 @@ Run: .venv/bin/python scripts/ocp_compare.py [--variants symdyn:compiled symdyn:
 Solves the same Puma 560 minimum-time problems (Hermite–Simpson collocation on
 τ = ID(q, q̇, q̈), multiple shooting on fdyn) with each source's functions in one
 run and prints sizes, IPOPT iterations, set-up, time per iteration and total solve
-time side by side with ratios (Markdown).  `--sources plain plain` validates the
+time side by side with ratios (Markdown).  `--variants plain:sx plain:sx` validates the
 harness (ratios ≈ 1).  As a function: `symdyn.apps.studies.ocp.compare(...)`.
 """
 

@@ -517,3 +517,16 @@ def test_the_batched_section_times_checked_variants_and_bounds_them_by_the_ceili
     text = batched.format_report([result], ceil)
     assert "mul-add peak" in text and "÷ bound" in text
     assert batched.plot([result], tmp_path / "b.png").stat().st_size > 1000
+
+
+def test_max_bytes_skips_a_batch_too_large_and_is_a_command_line_option():
+    """`--max-bytes` (the note the batched section prints names it) leaves out a function and size
+    whose outputs would take more memory; it must be positive."""
+    from symdyn.bench import batched, compare
+
+    result = batched.run(
+        models.load("twolink"), sizes=(10,), functions=("tau",), threads=1, max_bytes=100, log=lambda m: None
+    )
+    assert not result.times and result.notes == ["tau at N = 10: outputs 0.0 GB > --max-bytes, skipped"]
+    with pytest.raises(ValueError, match="--max-bytes must be a positive number of bytes, got 0.0"):
+        compare.main(["--model", "twolink", "--batched", "--max-bytes", "0"])

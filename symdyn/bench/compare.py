@@ -438,6 +438,13 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
         help="batch sizes of the batched section (default 10 1e3 1e5 1e6)",
     )
     p.add_argument(
+        "--max-bytes",
+        type=float,
+        default=4e8,
+        metavar="BYTES",
+        help="the batched section skips a function and size whose outputs take more memory (default 4e8)",
+    )
+    p.add_argument(
         "--threads",
         type=int,
         default=None,
@@ -472,7 +479,14 @@ def _batched(robots: list, args, log) -> str:
     log(f"batched section: measuring this machine's ceilings on 1 and {threads} threads")
     ceil = batched.ceilings(threads)
     results = [
-        batched.run(robot, sizes=args.sizes or batched.SIZES, threads=threads, seed=args.seed, log=log)
+        batched.run(
+            robot,
+            sizes=args.sizes or batched.SIZES,
+            threads=threads,
+            max_bytes=args.max_bytes,
+            seed=args.seed,
+            log=log,
+        )
         for robot in robots
     ]
     print(batched.format_report(results, ceil), flush=True)
@@ -532,6 +546,8 @@ def main(args=None) -> int:
         args = parser.parse_args(args)
     if min(args.batch, args.calls, args.pin_calls, args.reps, args.rounds) < 1:
         raise ValueError("--batch, --calls, --pin-calls, --reps and --rounds must be at least 1")
+    if not args.max_bytes > 0:
+        raise ValueError(f"--max-bytes must be a positive number of bytes, got {args.max_bytes}")
     from ..model import command_line
 
     names = model_names(getattr(args, "model", None))
