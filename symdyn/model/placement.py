@@ -17,6 +17,8 @@ import numpy as np
 import sympy as sp
 
 __all__ = [
+    "is_symbolic",
+    "walk",
     "rotx",
     "roty",
     "rotz",
@@ -290,3 +292,17 @@ def rotz(angle: Any) -> tuple:
 def transl(x: Any, y: Any, z: Any) -> tuple:
     """4×4 homogeneous translation."""
     return ((1, 0, 0, x), (0, 1, 0, y), (0, 0, 1, z), (0, 0, 0, 1))
+
+
+def is_symbolic(x: Any) -> bool:
+    """Whether a parameter is a sympy expression other than a number (a symbol to substitute)."""
+    return isinstance(x, sp.Basic) and not x.is_Number
+
+
+def walk(x):
+    """The entries of nested tuples (a vector, a matrix, a link's parameters), depth first."""
+    if isinstance(x, tuple):
+        for e in x:
+            yield from walk(e)
+    else:
+        yield x

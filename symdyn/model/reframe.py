@@ -17,9 +17,11 @@ from .placement import (
     exact,
     exact_cos_sin_of,
     exact_rotation,
+    is_symbolic,
     rational_rotation,
     rotx,
     transl,
+    walk,
 )
 
 if TYPE_CHECKING:
@@ -67,7 +69,7 @@ def to_modified(robot: "Robot") -> "Robot":
         Ic = [[exact(link.I[min(k, l)][max(k, l)]) for l in range(3)] for k in range(3)]
         floats = isinstance(link.a, float) or any(isinstance(x, float) for x in link.r)
         r = tuple(_plain((a if i == 0 else 0) + sum(R[i][k] * rc[k] for k in range(3)), floats) for i in range(3))
-        floats = any(isinstance(x, float) for x in _walk(link.I))
+        floats = any(isinstance(x, float) for x in walk(link.I))
         upper = {
             (i, j): _plain(sum(R[i][k] * Ic[k][l] * R[j][l] for k in range(3) for l in range(3)), floats)
             for i in range(3)
@@ -102,7 +104,7 @@ def axes_along_z(robot: "Robot") -> "Robot":
         R0 = exact_rotation([row[:3] for row in T[:3]])
         turns = (prev, R0, Ra)
         generic = sum(not all(isinstance(x, int) or x.is_Integer for row in M for x in row) for M in turns)
-        if generic <= 1 or any(_is_symbolic(x) for x in (*_walk(T), *link.r, *_walk(link.I))):
+        if generic <= 1 or any(is_symbolic(x) for x in (*walk(T), *link.r, *walk(link.I))):
             R = [
                 [sum(prev[k][i] * R0[k][l] * Ra[l][j] for k in range(3) for l in range(3)) for j in range(3)]
                 for i in range(3)
@@ -140,15 +142,3 @@ def _plain(x: sp.Expr, floats: bool) -> Any:
     if isinstance(x, sp.Rational) and exact(float(x)) == x:
         return float(x)
     return x
-
-
-def _walk(x):
-    if isinstance(x, tuple):
-        for e in x:
-            yield from _walk(e)
-    else:
-        yield x
-
-
-def _is_symbolic(x: Any) -> bool:
-    return isinstance(x, sp.Basic) and not x.is_Number

@@ -21,7 +21,7 @@ import sympy as sp
 
 from . import frames
 from . import reframe
-from .placement import exact_cos_sin, rotx, roty, rotz, transl  # noqa: F401 (the model's exact transforms)
+from .placement import exact_cos_sin, is_symbolic, rotx, roty, rotz, transl, walk  # noqa: F401 (the model's exact transforms)
 
 CONVENTIONS = ("standard", "modified", "general")
 JOINT_TYPES = ("revolute", "prismatic")
@@ -36,10 +36,6 @@ IDENTITY = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1))
 
 
 # --------------------------------------------------------------------------- helpers
-
-
-def _is_symbolic(x: Number) -> bool:
-    return isinstance(x, sp.Basic) and not x.is_Number
 
 
 def _scalar(x: Number, what: str) -> Number:
@@ -181,13 +177,13 @@ class Link:
             value = getattr(self, name)
             if value is not None and not (isinstance(value, (int, float)) and 0 < value < math.inf):
                 raise ValueError(f"{name} must be a positive number or None, got {value!r}")
-        if not any(_is_symbolic(x) for x in self.axis):
+        if not any(is_symbolic(x) for x in self.axis):
             norm = math.sqrt(sum(float(x) ** 2 for x in self.axis))
             if abs(norm - 1) > 1e-9:
                 raise ValueError(f"joint axis must be a unit vector, got {self.axis} (norm {norm})")
         if self.qlim is not None:
             lo, hi = _vector(self.qlim, 2, "qlim")
-            if not _is_symbolic(lo) and not _is_symbolic(hi) and not lo < hi:
+            if not is_symbolic(lo) and not is_symbolic(hi) and not lo < hi:
                 raise ValueError(f"joint limits reversed or empty: qlim = ({lo}, {hi}); expected lower < upper")
             set_("qlim", (lo, hi))
 
@@ -226,17 +222,17 @@ def _check_link_physics(link: Link, i: int) -> None:
     """Mass ≥ 0, inertia symmetric, positive semidefinite and obeying the triangle
     inequality (unless the link says it is not physical); sane motor params."""
     label = f"link {i + 1}" if i >= 0 else "the base body"
-    if not _is_symbolic(link.m) and link.m < 0:
+    if not is_symbolic(link.m) and link.m < 0:
         raise ValueError(f"mass of {label} is negative: m = {link.m}")
     I = link.I
     for a, b in ((0, 1), (0, 2), (1, 2)):
         x, y = I[a][b], I[b][a]
-        if _is_symbolic(x) or _is_symbolic(y):
+        if is_symbolic(x) or is_symbolic(y):
             if sp.simplify(sp.sympify(x) - y) != 0:
                 raise ValueError(f"inertia of {label} is not symmetric: I[{a},{b}]={x}, I[{b},{a}]={y}")
         elif abs(x - y) > 1e-12 * (1 + abs(x) + abs(y)):
             raise ValueError(f"inertia of {label} is not symmetric: I[{a},{b}]={x}, I[{b},{a}]={y}")
-    if not any(_is_symbolic(x) for row in I for x in row):
+    if not any(is_symbolic(x) for row in I for x in row):
         eig = np.linalg.eigvalsh(np.array(I, dtype=float))
         if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
             raise ValueError(f"inertia of {label} is not positive semidefinite: eigenvalues {eig.tolist()}")
@@ -248,14 +244,14 @@ def _check_link_physics(link: Link, i: int) -> None:
             )
     for name in ("Jm", "B"):
         v = getattr(link, name)
-        if not _is_symbolic(v) and v < 0:
+        if not is_symbolic(v) and v < 0:
             raise ValueError(f"{name} of {label} is negative: {v}")
     tp, tn = link.Tc
-    if (not _is_symbolic(tp) and tp < 0) or (not _is_symbolic(tn) and tn > 0):
+    if (not is_symbolic(tp) and tp < 0) or (not is_symbolic(tn) and tn > 0):
         raise ValueError(f"Coulomb friction of {label} must be Tc = (Tc+ >= 0, Tc- <= 0), got {link.Tc}")
-    if not _is_symbolic(link.G) and link.G == 0:
+    if not is_symbolic(link.G) and link.G == 0:
         motor = [link.Jm, link.B, *link.Tc]
-        if any(_is_symbolic(x) or x != 0 for x in motor):
+        if any(is_symbolic(x) or x != 0 for x in motor):
             raise ValueError(
                 f"gear ratio of {label} is 0 but it has motor parameters "
                 f"(Jm, B, Tc) = ({link.Jm}, {link.B}, {link.Tc}); give the ratio G"
@@ -266,7 +262,7 @@ def _check_link_convention(link: Link, i: int, convention: str, robot: str) -> N
     """DH links have no origin or axis; general links have no DH parameters."""
     if convention == "general":
         for name in ("a", "alpha", "d", "theta"):
-            if _is_symbolic(getattr(link, name)) or getattr(link, name) != 0:
+            if is_symbolic(getattr(link, name)) or getattr(link, name) != 0:
                 raise ValueError(
                     f"link {i + 1} of robot {robot!r} sets DH parameter {name} = "
                     f"{getattr(link, name)}, but the robot uses the general convention: "
@@ -547,7 +543,7 @@ class Robot:
     def free_symbols(self) -> frozenset:
         """The sympy symbols among the robot's parameters."""
         syms: set = set()
-        for v in _walk(self._params()):
+        for v in walk(self._params()):
             if isinstance(v, sp.Basic):
                 syms |= v.free_symbols
         return frozenset(syms)
@@ -680,7 +676,7 @@ class Robot:
         """
         m = _scalar(m, "payload mass")
         p = _vector(p, 3, "payload position")
-        if not _is_symbolic(m) and m < 0:
+        if not is_symbolic(m) and m < 0:
             raise ValueError(f"payload mass is negative: {m}")
         last = self.links[-1]
         if not additive:
@@ -713,21 +709,13 @@ def _chain_parents_implicit(links: tuple, robot: str) -> tuple:
     return tuple(out)
 
 
-def _walk(x):
-    if isinstance(x, tuple):
-        for e in x:
-            yield from _walk(e)
-    else:
-        yield x
-
-
 def _transform(T: Sequence, what: str) -> tuple:
     T = _matrix(T, 4, 4, what)
-    if tuple(T[3]) != (0, 0, 0, 1) and not any(_is_symbolic(x) for x in T[3]):
+    if tuple(T[3]) != (0, 0, 0, 1) and not any(is_symbolic(x) for x in T[3]):
         if any(abs(float(x) - y) > 1e-12 for x, y in zip(T[3], (0, 0, 0, 1))):
             raise ValueError(f"{what} is not a homogeneous transform: last row is {T[3]}, expected (0, 0, 0, 1)")
     R = [row[:3] for row in T[:3]]
-    if not any(_is_symbolic(x) for row in R for x in row):
+    if not any(is_symbolic(x) for row in R for x in row):
         Rn = np.array(R, dtype=float)
         if np.abs(Rn @ Rn.T - np.eye(3)).max() > 1e-9 or np.linalg.det(Rn) < 0:
             raise ValueError(f"{what} rotation is not a proper rotation matrix (R·Rᵀ ≠ 1 or det < 0): {R}")
@@ -737,7 +725,7 @@ def _transform(T: Sequence, what: str) -> tuple:
 def _combine_mass(m1, r1, I1, m2, r2) -> dict:
     """Mass, COM and COM inertia of two bodies: (m1, r1, I1) plus a point mass m2 at r2."""
     mt = m1 + m2
-    if not _is_symbolic(mt) and mt == 0:
+    if not is_symbolic(mt) and mt == 0:
         return {"m": 0, "r": r1, "I": I1}
     c = tuple((m1 * a + m2 * b) / mt for a, b in zip(r1, r2))
 

@@ -142,6 +142,25 @@ class Compiled:
             tuple(tuple(upper[min(i, j), max(i, j)] for j in range(3)) for i in range(3)),
         )
 
+    def left_out_free(self, b: int, into: str, moves: bool, rides: str, way: str = "") -> bool:
+        """Whether body b hangs by a ball or free joint, and is then left out with its subtree
+        (recorded); refused where it rides on a body that moves.
+
+        Raises:
+            MJCFError: a ball or free joint riding on a moving body (`rides` `into`), naming `way` out.
+        """
+        free = [j for j in self.joints_of(b) if self.joint_type(j) in ("ball", "free")]
+        if not free:
+            return False
+        what = f"{self.joint_type(free[0])} joint {self.joint(free[0])!r} on body {self.body(b)!r}"
+        if moves:
+            raise MJCFError(
+                f"{self.where('joint', self.m.joint(free[0]).name)}: {what} is not supported yet (it rides on "
+                f"{rides} {into!r}): exclude= the body ({self.body(b)!r}){way}"
+            )
+        self.left_out.append(f"{self.body(b)!r} and its subtree ({what})")
+        return True
+
     def subtree(self, b: int, skip: set, into: str, moves: bool, seg: int = -1, at: tuple = IDENTITY) -> Body:
         """Body b with everything hanging off it except the bodies in `skip` (the chain), in b's
         frame; joints met are locked and recorded as merged into `into`, and each body's frame as
@@ -152,16 +171,7 @@ class Compiled:
             if child in skip:
                 continue
             T = self.placement(child)
-            free = [j for j in self.joints_of(child) if self.joint_type(j) in ("ball", "free")]
-            if free:
-                j = free[0]
-                what = f"{self.joint_type(j)} joint {self.joint(j)!r} on body {self.body(child)!r}"
-                if moves:
-                    raise MJCFError(
-                        f"{self.where('joint', self.m.joint(j).name)}: {what} is not supported yet (it rides on "
-                        f"the chain, on body {into!r}): exclude= the body ({self.body(child)!r}) or end the chain before it"
-                    )
-                self.left_out.append(f"{self.body(child)!r} and its subtree ({what})")
+            if self.left_out_free(child, into, moves, "the chain, on body", " or end the chain before it"):
                 continue
             for j in self.joints_of(child):
                 value, why = self.values[j]

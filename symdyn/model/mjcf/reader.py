@@ -475,15 +475,7 @@ def _walk(reader: Compiled, base: int, moving: set, held: set, base_moves: bool)
         into = reader.body(int(m.jnt_bodyid[carriers[seg][0]])) if seg >= 0 else reader.body(base)
         if b != base:
             T = compose(T, reader.placement(b))
-            free = [j for j in reader.joints_of(b) if reader.joint_type(j) in ("ball", "free")]
-            if free:
-                what = f"{reader.joint_type(free[0])} joint {reader.joint(free[0])!r} on body {reader.body(b)!r}"
-                if moves:
-                    raise MJCFError(
-                        f"{reader.where('joint', m.joint(free[0]).name)}: {what} is not supported yet (it rides on "
-                        f"body {into!r}, which moves): exclude= the body ({reader.body(b)!r})"
-                    )
-                reader.left_out.append(f"{reader.body(b)!r} and its subtree ({what})")
+            if reader.left_out_free(b, into, moves, "body"):
                 continue
             for j in reader.joints_of(b):
                 if j in moving:
