@@ -350,8 +350,7 @@ def markdown(results: list, command: str, cold: bool) -> str:
         "",
         "Where symdyn snapped the file's angles and axes (π/2 written 1.57079632679, 4.9e-12 rad off), "
         "Pinocchio reads a copy snapped by the same rule, so the errors measure the dynamics, not "
-        "the snap (against the file as written they were up to 4e-11, TIAGo's forward dynamics); "
-        "the `kinova_unsnapped` row reads the file's numbers on both sides (`snap=False`).",
+        "the snap; the `kinova_unsnapped` row reads the file's numbers on both sides (`snap=False`).",
         "",
         "| robot | chain base → tip | n | locked (non-zero) | snaps (largest change) | max error vs "
         "Pinocchio reduced | τ / M / G / fdyn ops | read | first load | cached load |",

@@ -42,14 +42,15 @@ def solo12() -> Robot:
     return robot.nofriction(all=True).with_frames(FEET)
 
 
-def jump_problem(robot: Robot) -> ocp_legged.LeggedProblem:
+def jump_problem(robot: Robot, gains: tuple = GAINS) -> ocp_legged.LeggedProblem:
+    """The jump (`solo_jump`); `gains`: the feet's Baumgarte (kp, kd), (0, 0) for none."""
     q0 = ocp_legged.standing(robot, STAND)
     phases = (
         ocp_legged.Phase(FEET, 10, 0.3),
         ocp_legged.Phase((), 6, 0.16),
         ocp_legged.Phase(FEET, 10, 0.3),
     )
-    return ocp_legged.LeggedProblem(robot, phases, q0, displacement=(0.15, 0.0, 0.0), mu=0.7, baumgarte=GAINS)
+    return ocp_legged.LeggedProblem(robot, phases, q0, displacement=(0.15, 0.0, 0.0), mu=0.7, baumgarte=gains)
 
 
 def replay(robot: Robot, problem: ocp_legged.LeggedProblem, sol: ocp_legged.LeggedSolution) -> np.ndarray:
@@ -196,9 +197,10 @@ def _slid(problem: ocp_legged.LeggedProblem, sol: ocp_legged.LeggedSolution, rob
     )
 
 
-def trot_problem(robot: Robot) -> ocp_legged.LeggedProblem:
+def trot_problem(robot: Robot, gains: tuple = GAINS) -> ocp_legged.LeggedProblem:
     """Two trot steps, 10 cm forward: the diagonal pairs swing in turn, each foot landing once on
-    its foothold (where it stood, moved 10 cm), 3 cm above the ground at mid-swing."""
+    its foothold (where it stood, moved 10 cm), 3 cm above the ground at mid-swing; `gains` as
+    `jump_problem`'s."""
     fl, fr, hl, hr = FEET
     phases = (
         ocp_legged.Phase(FEET, 4, 0.08),
@@ -209,7 +211,7 @@ def trot_problem(robot: Robot) -> ocp_legged.LeggedProblem:
     )
     q0 = ocp_legged.standing(robot, STAND)
     return ocp_legged.LeggedProblem(
-        robot, phases, q0, displacement=(0.1, 0.0, 0.0), mu=0.7, clearance=0.03, footholds=True, baumgarte=GAINS
+        robot, phases, q0, displacement=(0.1, 0.0, 0.0), mu=0.7, clearance=0.03, footholds=True, baumgarte=gains
     )
 
 
