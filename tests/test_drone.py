@@ -210,3 +210,23 @@ def test_the_command_line_prints_generates_and_draws_a_drone(tmp_path, capsys):
     assert (tmp_path / "quad.png").stat().st_size > 0
     assert main(["print", str(path), "--term", "M", "--no-cache"]) == 2
     assert "needs --base-joint free" in capsys.readouterr().err
+
+
+def test_hector_quadrotor_from_example_robot_data_equals_pinocchio():
+    """A drone nobody here wrote (example-robot-data's hector quadrotor: a URDF with no moving
+    joint) read on a free base: the reference and the generated C equal Pinocchio's model of the
+    same file on its free-flyer, at 200 states."""
+    from symdyn.model.example_robots import robots_folder
+
+    try:
+        path = robots_folder() / "hector_description" / "robots" / "quadrotor_base.urdf"
+    except FileNotFoundError as exc:
+        pytest.skip(str(exc))
+    robot = Robot.from_urdf(str(path), base_joint="free")
+    assert (robot.n, robot.nv) == (0, 6) and robot.base_body.m == pytest.approx(1.477)
+    model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    data = model.createData()
+    q, v, a = _states(robot)
+    want = np.array([pin.rnea(model, data, x, vi, ai).copy() for x, vi, ai in zip(q, v, a)])
+    _close(reference.rne(robot, q, v, a), want, "hector's reference τ")
+    _close(symdyn.load(robot, target="c").tau(q, v, a), want, "hector's generated τ")
