@@ -154,3 +154,27 @@ def test_bench_takes_a_whole_robot_from_the_command_line(capsys, monkeypatch):
     assert cli.main(argv) == 0
     out = capsys.readouterr().out
     assert "Pinocchio C++ not measured: no headers here (a test)" in out
+
+
+def test_bench_takes_a_lone_body_on_a_free_base(tmp_path, capsys, monkeypatch):
+    """A drone (no joint) on a free base: `symdyn bench` times it; its arm file for the C++ peer
+    has a free root and no joint (refused on a fixed base, where nothing would move)."""
+    from symdyn.bench import pin_peer
+
+    def unavailable(log=None):
+        raise pin_peer.PeerUnavailable("no headers here (a test)")
+
+    monkeypatch.setattr(pin_peer, "peer_binary", unavailable)
+    path = tmp_path / "drone.urdf"
+    path.write_text(
+        '<robot name="drone"><link name="body"><inertial><mass value="1.2"/>'
+        '<inertia ixx="0.01" iyy="0.012" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>'
+    )
+    argv = ["bench", "--model", str(path), "--base-joint", "free", "--reps", "1", "--rounds", "1"]
+    assert cli.main(argv) == 0
+    assert "Pinocchio C++ not measured: no headers here (a test)" in capsys.readouterr().out
+    body = (1.2, (0.0, 0.0, 0.0), ((0.01, 0, 0), (0, 0.012, 0), (0, 0, 0.02)))
+    text = pin_peer.write_arm(tmp_path / "arm.txt", [], (0, 0, -9.81), parents=[], root="free", base=body).read_text()
+    assert text.splitlines()[2] == "n 0"
+    with pytest.raises(ValueError, match="an arm on a fixed base needs at least one joint"):
+        pin_peer.write_arm(tmp_path / "arm.txt", [], (0, 0, -9.81))

@@ -157,8 +157,8 @@ static Model read_arm(const char *path)
         }
     }
     ++lineno;
-    if (!std::getline(in, line) || !(std::istringstream(line) >> word >> n) || word != "n" || n < 1)
-        bad(lineno, "expected 'n N' with N >= 1 joints");
+    if (!std::getline(in, line) || !(std::istringstream(line) >> word >> n) || word != "n" || n < (root == "none"))
+        bad(lineno, "expected 'n N' with N >= 1 joints (N >= 0 on a floating root: a lone body)");
     ++lineno;
     if (!std::getline(in, line) || !(std::istringstream(line) >> word >> gx >> gy >> gz) || word != "gravity")
         bad(lineno, "expected 'gravity GX GY GZ'");

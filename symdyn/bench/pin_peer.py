@@ -218,8 +218,8 @@ def write_arm(path: str | Path, joints: list[PeerJoint], gravity, *, parents=Non
     version 2: `parents` (one per joint: 0 the root, k the k-th joint), `root` "none", "free" or
     "planar" and, for a floating root, `base` = (mass, com, inertia) of its body (`tree_joints`).
     """
-    if not joints:
-        raise ValueError("an arm needs at least one joint")
+    if not joints and root == "none":
+        raise ValueError("an arm on a fixed base needs at least one joint")
     g = _numbers(gravity)
     if parents is None and root == "none":
         text = f"symdyn-pin-arm 1\nn {len(joints)}\ngravity {g}\n" + "".join(j.line() + "\n" for j in joints)
