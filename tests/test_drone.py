@@ -230,3 +230,24 @@ def test_hector_quadrotor_from_example_robot_data_equals_pinocchio():
     want = np.array([pin.rnea(model, data, x, vi, ai).copy() for x, vi, ai in zip(q, v, a)])
     _close(reference.rne(robot, q, v, a), want, "hector's reference τ")
     _close(symdyn.load(robot, target="c").tau(q, v, a), want, "hector's generated τ")
+
+
+@pytest.mark.parametrize("base_joint", ["free", "planar"])
+def test_a_lone_body_is_identified_from_its_base_wrench(base_joint, tmp_path):
+    """Identification of a drone: data with the base's pose, velocity, acceleration and wrench and no
+    joint column; noise-free data give the body back (its mass, COM and inertia on a free base)."""
+    from symdyn.identify import fit, simulate
+    from symdyn.identify.simulate import fourier
+
+    truth = _body(11)
+    robot = Robot(name="drone", links=(), base_joint=base_joint, base_body=truth, gravity=(0, 0, 9.81))
+    data = simulate(robot, fourier(robot), perturb=0.0)
+    assert data.q.shape[1] == robot.nq and data.n == 0 and "q1" not in data.columns("q")
+    from symdyn.identify.data import load_data, write_csv
+
+    data = load_data(write_csv(tmp_path / "flight.csv", data), joints=robot)  # through the file: no joint column
+    body = fit(robot, data).robot.base_body
+    assert float(body.m) == pytest.approx(float(truth.m), rel=1e-10)
+    if base_joint == "free":  # a planar base does not see every inertial parameter
+        np.testing.assert_allclose(np.array(body.r, dtype=float), truth.r, atol=1e-10)
+        np.testing.assert_allclose(np.array(body.I, dtype=float), np.array(truth.I), atol=1e-10)

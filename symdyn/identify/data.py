@@ -288,7 +288,8 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
     if "t" not in cols:
         raise ValueError(f"{source}: no column 't' (time in s); the columns are {', '.join(names)}")
     qs = _joint_columns(names, "q")
-    if not qs:
+    lone = getattr(joints, "base_joint", None) is not None and getattr(joints, "n", None) == 0  # a drone
+    if not qs and not lone:
         raise ValueError(f"{source}: no joint angle columns q1…qn; the columns are {', '.join(names)}")
     n = len(qs)
     for kind in ("q", "qd", "qdd", "tau", "i"):
@@ -338,6 +339,8 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
         if K.shape != (n,) or not np.all(np.isfinite(K)):
             raise ValueError(f"torque constant: expected one number or {n} (one per joint), got {torque_constant!r}")
         tau_cols = [f"i{j + 1}" for j in range(n)]
+    elif n == 0:  # a lone body: its base's wrench is all there is
+        K, tau_cols = np.ones(0), []
     else:
         if "tau1" not in cols:
             extra = " (or motor currents i1…: give their torque constant)" if "i1" in cols else ""
@@ -362,11 +365,11 @@ def _from_columns(cols: dict, *, source: str, joints, torque_constant, cutoff, o
             f"{_where(source, first_line, k)}, column t: time {t[k - 1]!r} does not come after "
             f"the previous row's {t[k - 2]!r} (time must increase)"
         )
-    stack = lambda kind: np.column_stack([cols[f"{kind}{j + 1}"] for j in range(n)]).astype(float)  # noqa: E731
-    q = stack("q")
-    qd = stack("qd") if "qd1" in cols else None
-    qdd = stack("qdd") if "qdd1" in cols else None
-    tau = np.column_stack([cols[c] for c in tau_cols]).astype(float) * K
+    stack = lambda names: np.column_stack([cols[c] for c in names]).astype(float) if names else np.zeros((len(t), 0))  # noqa: E731
+    q = stack([f"q{j + 1}" for j in range(n)])
+    qd = stack([f"qd{j + 1}" for j in range(n)]) if "qd1" in cols or lone else None
+    qdd = stack([f"qdd{j + 1}" for j in range(n)]) if "qdd1" in cols or lone else None
+    tau = stack(tau_cols) * K
     # a floating base: its pose, velocity, acceleration and wrench as given (a quaternion is not low-passed)
     bq, bv, ba, bf = (np.column_stack([cols[c] for c in base[k]]).astype(float) for k in base) if kind else [None] * 4
     notes = [f"{len(t)} samples of {n} joints{f' on a {kind} base' if kind else ''} from {source}"]
