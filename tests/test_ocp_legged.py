@@ -90,3 +90,97 @@ def test_solo12_trots_two_steps_onto_its_footholds(tmp_path):
     assert np.abs(replayed[:, :3] - sol.q[:, :3]).max() < 1e-6  # the base, m
     np.testing.assert_allclose(sol.q[-1, :3] - problem.q0[:3], [0.1, 0.0, 0.0], atol=1e-6)
     assert legged.slip(problem, sol, feet) < 1.5e-3  # the Baumgarte gains hold the feet in stance (8.3 mm without)
+
+
+# ---------------------------------------------------------------- flat soles (surface contacts)
+
+BIPED = "tests/urdf/sole_biped.urdf"
+SOLES = ("left_sole", "right_sole")
+
+
+def _biped():
+    from symdyn.model import Robot
+
+    robot = Robot.from_urdf(BIPED, tips="all", base_joint="free").nofriction(all=True).with_frames(SOLES)
+    bent = {
+        f"{s}_{j}": a for s in ("left", "right") for j, a in (("hip_pitch", -0.3), ("knee", 0.6), ("ankle_pitch", -0.3))
+    }
+    return robot, ocp_legged.standing(robot, bent)
+
+
+def test_a_soles_anchor_error_is_pinocchios_corrector_error():
+    """A surface's error from its anchor in the transcription is −R·log₆(M⁻¹M_anchor) (world axes),
+    what `with_contacts(kp=…)` and Pinocchio's corrector measure, at turns up to ~1 rad."""
+    import casadi as ca
+
+    pin = pytest.importorskip("pinocchio", reason="the peer (the test extra)")
+    rng = np.random.default_rng(3)
+    for scale in (0.0, 1e-6, 0.1, 0.5):
+        M = pin.SE3.Random()
+        anchor = M * pin.exp6(pin.Motion(rng.normal(size=6) * scale))
+        got = ocp_legged._anchor_error(ca.DM(M.homogeneous[:3, :]), ca.DM(anchor.homogeneous[:3, :]), 6)
+        log = pin.log6(M.inverse() * anchor).vector
+        want = -np.concatenate([M.rotation @ log[:3], M.rotation @ log[3:]])
+        np.testing.assert_allclose(ca.evalf(got).full().ravel(), want, rtol=0, atol=1e-12)
+
+
+def test_soles_are_checked_before_anything_is_built():
+    robot, q0 = _biped()
+    phases = (ocp_legged.Phase(SOLES, 2, 0.1),)
+    for soles, match in (
+        ({"left_foot": (0.1, 0.05)}, "'left_foot' is not among the feet"),
+        ({"left_sole": (0.1, 0)}, r"soles\['left_sole'\]: \(half-length, half-width\)"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            ocp_legged.solve(ocp_legged.LeggedProblem(robot, phases, q0, soles=soles))
+    problem = ocp_legged.LeggedProblem(robot, phases, q0, soles={"left_sole": (0.1, 0.05)}, baumgarte=(100.0, 20.0))
+    with pytest.raises(ValueError, match="point feet only"):
+        ocp_legged.solve(problem, source="plain")
+    with pytest.raises(ValueError, match="inverse transcription"):
+        ocp_legged.solve(problem, transcription="forward")
+
+
+@pytest.mark.slow
+def test_a_biped_steps_on_flat_soles_within_their_wrench_cones():
+    """Double support, the right foot swinging 2 cm clear for 0.25 s, double support again (an impact
+    at its touchdown): IPOPT converges; every sole's wrench lies in its rectangle's contact wrench
+    cone (in the sole's axes); the stance sole holds its place and stays flat (Baumgarte gains on
+    its 6-D error); the swinging sole lands flat on the ground."""
+    from symdyn import load
+    from symdyn.apps import wrench_cone
+
+    robot, q0 = _biped()
+    phases = (
+        ocp_legged.Phase(SOLES, 3, 0.06),
+        ocp_legged.Phase(("left_sole",), 10, 0.25),
+        ocp_legged.Phase(SOLES, 3, 0.06),
+    )
+    size = (0.1, 0.05)
+    problem = ocp_legged.LeggedProblem(
+        robot,
+        phases,
+        q0,
+        displacement=(0.04, 0.0, 0.0),
+        clearance=0.02,
+        baumgarte=(400.0, 40.0),
+        soles={foot: size for foot in SOLES},
+    )
+    sol = ocp_legged.solve(problem)
+    assert sol.status == "Solve_Succeeded", sol.status
+    pose = load(robot, "c").frame_pose(sol.q)
+    k, worst = 0, -np.inf
+    for phase in phases:
+        for _ in range(phase.nodes):
+            force = sol.forces[k]
+            assert force.shape == (6 * len(phase.contacts),)
+            for c, foot in enumerate(phase.contacts):
+                R = pose[k, SOLES.index(foot), :3, :3]
+                rows = wrench_cone.rows(R.T @ force[6 * c : 6 * c + 3], R.T @ force[6 * c + 3 : 6 * c + 6], *size, 0.7)
+                worst = max(worst, max(rows))
+            k += 1
+    assert worst <= 1e-6
+    left, right = pose[:, 0], pose[:, 1]
+    assert np.abs(left[:, :3, 3] - left[0, :3, 3]).max() < 5e-3 and np.abs(left[:, :2, 2]).max() < 5e-3
+    landed = phases[0].nodes + phases[1].nodes
+    assert np.abs(right[landed, 2, 3]) < 1e-6 and np.abs(right[landed, :2, 2]).max() < 1e-6
+    assert right[landed, 0, 3] - right[0, 0, 3] > 0.02  # it stepped forward

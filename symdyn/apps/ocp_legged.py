@@ -13,8 +13,10 @@ step h, its torques τ_k on the actuated joints, the base's zero):
 
 and at a phase's first node whose contact set adds feet (a touchdown) the velocity is first
 replaced by the inelastic impact's, v_k⁺ = contact_impulse(q_k, v_k), those feet at the ground's
-height.  Each contact force lies in the linearised friction pyramid |f_x|, |f_y| ≤ μ f_z (the
-world's axes: `LOCAL_WORLD_ALIGNED`), f_z ≥ 0; the feet not in contact stay above the ground;
+height.  Each point foot's force lies in the linearised friction pyramid |f_x|, |f_y| ≤ μ f_z (the
+world's axes: `LOCAL_WORLD_ALIGNED`), f_z ≥ 0; a flat sole's (`LeggedProblem.soles`: a surface
+contact) force and moment lie in its rectangle's contact wrench cone (`wrench_cone`, in the sole's
+axes), and it lands flat; the feet not in contact stay above the ground;
 torques within the joints' effort limits.  Cost: h Σ (‖τ‖² + w_v ‖v‖²) — the effort — plus the
 goal's own terms.  Solved by IPOPT (limited-memory Hessian: the contact dynamics' exact
 Hessians cost more per iteration than they save).
@@ -30,14 +32,15 @@ import casadi as ca
 import numpy as np
 
 from ..model import Robot
+from . import wrench_cone
 
 __all__ = ["Phase", "LeggedProblem", "LeggedSolution", "integrate_function", "solve", "standing"]
 
 
 @dataclass(frozen=True)
 class Phase:
-    """A phase of the schedule: the feet in contact (point contacts; () = flight), its nodes and
-    its duration (s)."""
+    """A phase of the schedule: the feet in contact (() = flight; points, or the problem's soles),
+    its nodes and its duration (s)."""
 
     contacts: tuple
     nodes: int
@@ -61,8 +64,11 @@ class LeggedProblem:
     None.  `footholds`: each touchdown puts its feet where they stood at q0 moved by the
     displacement (a footstep plan of one step per foot: a trot's), rather than anywhere on the
     ground.  `baumgarte`: (kp, kd) of the contacts (`Robot.with_contacts`): each foot in contact then
-    holds J a + γ = −kd J v − kp (p − p_anchor), its anchor where its stance began — what keeps
-    the feet from creeping under semi-implicit Euler steps, which hold the acceleration only."""
+    holds J a + γ = −kd J v − kp e, e its error from its anchor, where its stance began — what keeps
+    the feet from creeping under semi-implicit Euler steps, which hold the acceleration only.
+    `soles`: {foot: (half-length, half-width)} — the feet that are flat soles (surface contacts:
+    force and moment, within the rectangle's contact wrench cone, `symdyn.apps.wrench_cone`; the
+    frame at the sole's centre, z out of the sole); the other feet are points."""
 
     robot: Robot
     phases: tuple
@@ -75,6 +81,11 @@ class LeggedProblem:
     clearance: float | None = None
     footholds: bool = False
     baumgarte: tuple = (0.0, 0.0)
+    soles: dict = field(default_factory=dict)
+
+    def kind(self, foot: str) -> str:
+        """ "surface" for a foot in `soles`, else "point"."""
+        return "surface" if foot in self.soles else "point"
 
 
 @dataclass
@@ -148,8 +159,54 @@ def integrate_function(robot: Robot) -> ca.Function:
     return ca.Function("integrate", [q, w], [out], ["q", "w"], ["q_next"])
 
 
+def _check_soles(problem: LeggedProblem, feet: tuple, transcription: str, source: str) -> None:
+    """Soles named among the feet, each with a positive half-length and half-width; what takes them.
+
+    Raises:
+        ValueError: a sole that is not a foot, or whose sizes are not two positive numbers; soles
+            with the plain baseline (point feet only) or with kp in the forward transcription (its
+            anchors are positions).
+    """
+    for foot, size in problem.soles.items():
+        if foot not in feet:
+            raise ValueError(f"soles: {foot!r} is not among the feet (robot.frames) {feet}")
+        if len(tuple(size)) != 2 or not all(0 < float(x) < np.inf for x in size):
+            raise ValueError(f"soles[{foot!r}]: (half-length, half-width) in m, two positive numbers; got {size!r}")
+    if problem.soles and source == "plain":
+        raise ValueError("the plain baseline (source='plain') takes point feet only; soles need source='symdyn'")
+    if problem.soles and transcription == "forward" and problem.baumgarte[0]:
+        raise ValueError("soles with a position gain kp take the inverse transcription (or kp = 0)")
+
+
+def _anchor_error(now, anchor, rows: int):
+    """A contact frame's error from its anchor, world axes, as `with_contacts`' corrector measures it:
+    p − p_anchor for a point (rows 3); −R·log₆(M⁻¹M_anchor) for a surface (rows 6), M = (R | p)
+    — the generated contact functions' log₆ (`codegen.contact_functions`) written in CasADi."""
+    from ..codegen.contact_functions import log_series
+
+    R, p, Ra, pa = now[:, :3], now[:, 3], anchor[:, :3], anchor[:, 3]
+    if rows == 3:
+        return p - pa
+    h_terms, k_terms = ([float(c) for c in terms] for terms in log_series())
+    Rr, t = ca.mtimes(R.T, Ra), ca.mtimes(R.T, pa - p)
+    u = (3 - (Rr[0, 0] + Rr[1, 1] + Rr[2, 2])) / 2
+    h, k = _series(u, h_terms), _series(u, k_terms)
+    f = ca.sqrt(h / (1 - u / 2)) / 2
+    w = ca.vertcat(Rr[2, 1] - Rr[1, 2], Rr[0, 2] - Rr[2, 0], Rr[1, 0] - Rr[0, 1]) * f
+    g = k / (2 * h * (1 + ca.sqrt((1 - u / 2) * h)))
+    wt = ca.cross(w, t)
+    linear = t - wt / 2 + g * ca.cross(w, wt)
+    return -ca.vertcat(ca.mtimes(R, linear), ca.mtimes(R, w))
+
+
 def _functions(
-    robot: Robot, feet: tuple, contacts: tuple, transcription: str, gains: tuple = (0.0, 0.0), source: str = "symdyn"
+    robot: Robot,
+    feet: tuple,
+    contacts: tuple,
+    transcription: str,
+    gains: tuple = (0.0, 0.0),
+    source: str = "symdyn",
+    kinds: dict | None = None,
 ) -> dict:
     """The CasADi functions one contact set needs (its own model; the derivation is shared): the
     forward transcription's contact_fdyn (fdyn in flight), the inverse one's τ, the feet's
@@ -163,7 +220,7 @@ def _functions(
         return casadi_legged.functions(robot.with_frames(feet), contacts)
     model = robot.with_frames(feet)
     if contacts:
-        model = model.with_contacts({f: "point" for f in contacts}, kp=gains[0], kd=gains[1])
+        model = model.with_contacts({f: (kinds or {}).get(f, "point") for f in contacts}, kp=gains[0], kd=gains[1])
     dyns, origins = derivations(model)
     programs = Programs(dyns, None, origins)
     names = ["frame_pose"] + (["contact_impulse"] if contacts else [])
@@ -204,10 +261,12 @@ def solve(
         unknown = [f for f in phase.contacts if f not in feet]
         if unknown or phase.nodes < 1 or not phase.duration > 0:
             raise ValueError(f"phase {phase}: feet {unknown} not among robot.frames {feet}, or no nodes/duration")
-    start = time.perf_counter()
     gains = problem.baumgarte
+    _check_soles(problem, feet, transcription, source)
+    start = time.perf_counter()
     sets = {p.contacts for p in problem.phases}
-    funcs = {s: _functions(robot, feet, s, transcription, gains, source) for s in sets}
+    kinds = {foot: problem.kind(foot) for foot in feet}
+    funcs = {s: _functions(robot, feet, s, transcription, gains, source, kinds) for s in sets}
     step = integrate_function(robot)
     nq, nv, n = robot.nq, robot.nv, robot.n
     nb = nv - n
@@ -234,13 +293,16 @@ def solve(
         for j in range(phase.nodes):
             q, v, tau = Q[:, k], V[:, k], U[:, k]
             pose = f["frame_pose"](q)
-            for i, foot in enumerate(feet):  # a foot's anchor: where its stance began
+            for i, foot in enumerate(feet):  # a foot's anchor: its placement (R | p) where its stance began
                 if foot in phase.contacts and (j == 0 and foot not in (previous or ()) or k == 0):
-                    anchors[foot] = pose[4 * i : 4 * i + 3, 3]
+                    anchors[foot] = pose[4 * i : 4 * i + 3, :]
             heights = [pose[4 * i + 2, 3] for i in range(len(feet))]
             if j == 0 and touchdown:
                 landing = [feet.index(foot) for foot in phase.contacts if foot not in previous]
                 opti.subject_to(ca.vertcat(*(heights[i] for i in landing)) == problem.ground)
+                for i in landing:  # a sole lands flat: its z along the world's
+                    if kinds[feet[i]] == "surface":
+                        opti.subject_to(ca.vertcat(pose[4 * i, 2], pose[4 * i + 1, 2]) == 0)
                 if problem.footholds:
                     for i in landing:
                         opti.subject_to(pose[4 * i : 4 * i + 2, 3] == holds[i])
@@ -253,36 +315,47 @@ def solve(
             full = ca.vertcat(ca.DM.zeros(nb), tau)
             if transcription == "forward":
                 if phase.contacts:
-                    anchor = (ca.vertcat(*(anchors[foot] for foot in phase.contacts)),) if gains[0] else ()
+                    anchor = (ca.vertcat(*(anchors[foot][:, 3] for foot in phase.contacts)),) if gains[0] else ()
                     a, force = f["contact_fdyn"](q, v, full, *anchor)
                 else:
                     a, force = f["fdyn"](q, v, full), None
             else:
                 a = A[:, k]
                 rows = [feet.index(foot) for foot in phase.contacts]
-                force = opti.variable(3 * len(rows)) if rows else None
+                sizes = [6 if kinds[feet[i]] == "surface" else 3 for i in rows]
+                force = opti.variable(sum(sizes)) if rows else None
                 force_vars.append(force)
                 generalized = full
                 if rows:
                     J = f["frame_jacobian_aligned"](q)  # (6·m, nv): frame i's rows 6i … 6i + 5
                     drift = f["frame_drift"](q, v)  # (m, 6)
-                    Jc = ca.vertcat(*(J[6 * i : 6 * i + 3, :] for i in rows))
-                    gamma = ca.vertcat(*(drift[i, :3].T for i in rows))
+                    Jc = ca.vertcat(*(J[6 * i : 6 * i + r, :] for i, r in zip(rows, sizes)))
+                    gamma = ca.vertcat(*(drift[i, :r].T for i, r in zip(rows, sizes)))
                     generalized = full + ca.mtimes(Jc.T, force)
                     residual = ca.mtimes(Jc, a) + gamma
                     if gains[1]:  # Baumgarte (`with_contacts`' kd, kp): J a + γ = −kd J v − kp (p − p_anchor)
                         residual += gains[1] * ca.mtimes(Jc, v)
                     if gains[0]:
-                        held = ca.vertcat(*(pose[4 * i : 4 * i + 3, 3] for i in rows))
-                        residual += gains[0] * (held - ca.vertcat(*(anchors[feet[i]] for i in rows)))
+                        errors = [
+                            _anchor_error(pose[4 * i : 4 * i + 3, :], anchors[feet[i]], r) for i, r in zip(rows, sizes)
+                        ]
+                        residual += gains[0] * ca.vertcat(*errors)
                     opti.subject_to(residual == 0)
                 opti.subject_to(f["tau"](q, v, a) == generalized)
             if force is not None:
-                for c in range(len(phase.contacts)):
-                    fx, fy, fz = force[3 * c], force[3 * c + 1], force[3 * c + 2]
-                    opti.subject_to(fz >= 0)
-                    for side in (fx, -fx, fy, -fy):
-                        opti.subject_to(side <= problem.mu * fz)
+                at = 0
+                for foot in phase.contacts:
+                    if kinds[foot] == "point":
+                        fx, fy, fz = force[at], force[at + 1], force[at + 2]
+                        opti.subject_to(fz >= 0)
+                        for side in (fx, -fx, fy, -fy):
+                            opti.subject_to(side <= problem.mu * fz)
+                        at += 3
+                        continue
+                    R = pose[4 * feet.index(foot) : 4 * feet.index(foot) + 3, :3]  # the sole's axes: its cone's
+                    local = ca.mtimes(R.T, force[at : at + 3]), ca.mtimes(R.T, force[at + 3 : at + 6])
+                    opti.subject_to(ca.vertcat(*wrench_cone.rows(*local, *problem.soles[foot], problem.mu)) <= 0)
+                    at += 6
             elif problem.apex is not None and j == phase.nodes // 2:
                 opti.subject_to(q[2] >= problem.apex)
             forces.append(force)
@@ -347,7 +420,7 @@ def _holding(robot: Robot, problem: LeggedProblem) -> tuple[np.ndarray, np.ndarr
     first = problem.phases[0].contacts
     if not first:
         return np.zeros(robot.n), np.zeros(0)
-    wbid = WholeBodyInverseDynamics(robot.with_contacts({f: "point" for f in first}), "c")
+    wbid = WholeBodyInverseDynamics(robot.with_contacts({f: problem.kind(f) for f in first}), "c")
     tau, force = wbid(problem.q0, np.zeros(robot.nv), np.zeros(robot.nv))
     return tau[robot.nv - robot.n :], force
 

@@ -95,7 +95,7 @@ LOG_TERMS = 40
 
 
 @functools.cache
-def _log_series() -> tuple[tuple, tuple]:
+def log_series() -> tuple[tuple, tuple]:
     """The coefficients of h(u) = θ²/(2u) = Σ aₘ uᵐ (θ² = 4 arcsin²√(u/2) = Σₙ 2ⁿ⁺¹uⁿ/(n² C(2n, n)))
     and of k(u) = (1 − (1 − u/2) h(u))/u = Σ (aₘ₋₁/2 − aₘ) uᵐ⁻¹."""
     a = [sp.Rational(2 ** (m + 1), (m + 1) ** 2 * math.comb(2 * m + 2, m + 1)) for m in range(LOG_TERMS + 1)]
@@ -111,10 +111,10 @@ def _horner(coefficients: tuple, u: sp.Expr) -> sp.Expr:
 
 def _log6(R: sp.Matrix, t: sp.Matrix, name) -> tuple[list, list]:
     """SE(3)'s logarithm (linear, angular) of the placement (R, t), as Pinocchio's `log6`, without a
-    branch: with u = 1 − cos θ = (3 − tr R)/2 and h, k of `_log_series`, θ/(2 sin θ) = ½√(h/(1 − u/2))
+    branch: with u = 1 − cos θ = (3 − tr R)/2 and h, k of `log_series`, θ/(2 sin θ) = ½√(h/(1 − u/2))
     and (1 − (θ/2)cot(θ/2))/θ² = k/(2h(1 + √((1 − u/2)h))) — smooth at θ = 0, where the
     closed forms are 0/0; exact for θ ≤ 90° (`LOG_TERMS`).  `name(stem, expr)` names a term."""
-    h_terms, k_terms = _log_series()
+    h_terms, k_terms = log_series()
     u = name("u", (3 - R.trace()) / 2)
     h, k = name("h", _horner(h_terms, u)), name("k", _horner(k_terms, u))
     f = name("f", sp.sqrt(h / (1 - u / 2)) / 2)
