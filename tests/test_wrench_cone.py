@@ -11,6 +11,7 @@ import pytest
 from scipy.optimize import linprog
 
 from symdyn.apps.wrench_cone import rows
+from tests.conftest import tiered
 
 
 def _generators(X: float, Y: float, mu: float) -> np.ndarray:
@@ -29,7 +30,8 @@ def _spanned(w: np.ndarray, G: np.ndarray) -> bool:
     return res.status == 0
 
 
-@pytest.mark.parametrize("X, Y, mu", [(0.1, 0.05, 0.7), (0.05, 0.12, 0.3), (0.2, 0.2, 1.0)])
+# one sole in the main suite, two more shapes in make test-all
+@pytest.mark.parametrize("X, Y, mu", tiered([(0.1, 0.05, 0.7), (0.05, 0.12, 0.3), (0.2, 0.2, 1.0)], 1))
 def test_the_rows_are_the_cone_the_corner_rays_span(X, Y, mu):
     rng = np.random.default_rng(0)
     G = _generators(X, Y, mu)
