@@ -274,7 +274,7 @@ def solve(
     N = sum(p.nodes for p in problem.phases)
     stood = funcs[problem.phases[0].contacts]["frame_pose"](q0)
     holds = [
-        np.ravel(stood[4 * i : 4 * i + 2, 3]) + np.asarray(problem.displacement[:2], dtype=float)
+        stood[4 * i : 4 * i + 2, 3].full().ravel() + np.asarray(problem.displacement[:2], dtype=float)
         for i in range(len(feet))
     ]
     opti = ca.Opti()
