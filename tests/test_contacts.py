@@ -11,6 +11,7 @@ import pytest
 from symdyn.codegen.entry import load
 from symdyn.model import arms
 from symdyn.model.random_robots import random_tree_robot
+from tests.conftest import tiered
 from tests.test_task_space import states, with_random_frames
 
 pin = pytest.importorskip("pinocchio", reason="contact dynamics are checked against Pinocchio (the test extra)")
@@ -159,6 +160,38 @@ def test_derivatives_equal_pinocchios(legged):
             assert _relative(got[i], want) < RTOL
         for got, want in zip(impulse, want_impulse):
             assert _relative(got[i], want) < RTOL
+
+
+@pytest.mark.parametrize(
+    "base, kind", tiered([("free", "fdyn"), ("planar", "fdyn"), ("free", "impulse"), ("planar", "impulse")], 1)
+)
+def test_the_c_targets_derivatives_equal_pinocchios(base, kind):
+    """The C target's own derivatives (the KKT parts, then dense products: `emit.ckkt`) on a random
+    tree, free (a point and a surface contact) and planar (two points: its 8 velocities take no
+    surface besides) bases, whose position derivatives are exact zeros there: equal to Pinocchio's
+    at 40 states, a batch (the threaded kernel) equal to single calls, a NaN refused by the batch."""
+    robot = with_random_frames(random_tree_robot(5, n=5, base_joint=base), 5).nofriction(all=True)
+    robot = robot.with_frames(["f4", "f5"]).with_contacts(
+        {"f4": "point", "f5": "surface" if base == "free" else "point"}
+    )
+    f = load(robot, "c")
+    count = 40
+    q, v, _ = states(robot, count, seed=17)
+    tau = np.random.default_rng(17).uniform(-5, 5, (count, robot.nv))
+    function = getattr(f, f"contact_{kind}_derivatives")
+    args = (q, v, tau) if kind == "fdyn" else (q, v)
+    batch = function(*args)
+    setup = pinocchio_setup(robot)
+    for i in range(count):
+        single = function(*(x[i] for x in args))
+        want = pinocchio_derivatives(robot, q[i], v[i], tau[i], setup)[kind == "impulse"]
+        for got, many, expected in zip(single, batch, want):
+            assert np.array_equal(got, many[i])
+            assert _relative(got, expected) < RTOL
+    bad = q.copy()
+    bad[3, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN|finite"):
+        function(bad, *args[1:])
 
 
 def _central(f, robot, q, v, tau, h=1e-6):

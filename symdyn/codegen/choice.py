@@ -17,7 +17,7 @@ from ..derivation.program import Program, dag_size
 from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
-from .contact_functions import ContactSpecs, contact_names, derivatives_program
+from .contact_functions import ContactSpecs, contact_names, derivatives_program, parts_program
 from .task_functions import TaskPrograms
 
 __all__ = ["programs", "Programs", "derivations", "DERIVED"]
@@ -151,26 +151,56 @@ class Programs:
             return tau_derivatives_spec(self.chosen("tau")[0], self.base_joint).program()
         if name == "Minv":
             return self._minv().program()
-        shared = frozenset(s for s, _ in self._minv().definitions)  # M's terms and factor: fdyn's too
+        shared = self._shared_minv()  # M's terms and factor: fdyn's too
         return fdyn_derivatives_program(
             self.program("fdyn"), self.program("tau_derivatives"), self.program("Minv"), shared
         )
 
-    def _contact(self, name: str) -> Program:
-        """A contact function's program: the dynamics from the chosen M and bias, their derivatives
-        spliced from it, the residuals' Jacobians (from the chosen τ) and the KKT solve."""
+    def _contact_specs(self) -> ContactSpecs:
         if "contacts" not in self._specs:
             M, bias = self.chosen("M")[0], self.chosen("bias")[0]
             self._specs["contacts"] = ContactSpecs(self.dyns[0].robot, M, bias, tree=self.tree)
-        specs = self._specs["contacts"]
+        return self._specs["contacts"]
+
+    def _contact(self, name: str) -> Program:
+        """A contact function's program: the dynamics from the chosen M and bias, their derivatives
+        spliced from it, the residuals' Jacobians (from the chosen τ) and the KKT solve."""
+        specs = self._contact_specs()
         kind = "fdyn" if name.startswith("contact_fdyn") else "impulse"
         if not name.endswith("_derivatives"):
             return specs.dynamics(kind).program()
-        residual = specs.residual(kind, self.chosen("tau")[0], self.base_joint).program()
         solve = specs.solve(2 * specs.n, identity=kind == "fdyn").program()
         return derivatives_program(
-            kind, self.program(f"contact_{kind}"), residual, solve, specs.shared(), self.dyns[0].robot
+            kind, self.program(f"contact_{kind}"), self._residual(kind), solve, specs.shared(), self.dyns[0].robot
         )
+
+    def _residual(self, kind: str) -> Program:
+        key = f"residual_{kind}"
+        if key not in self._built:
+            with engine.use(self.engine):
+                residual = self._contact_specs().residual(kind, self.chosen("tau")[0], self.base_joint)
+                self._built[key] = residual.program()
+        return self._built[key]
+
+    def parts(self, name: str) -> Program:
+        """A contact derivatives function's KKT parts (`contact_functions.parts_program`): what the
+        C target's dense products start from, instead of `program(name)`'s unrolled solve."""
+        if not (name in self.contacts and name.endswith("_derivatives")):
+            raise KeyError(f"{name!r} is not a contact derivatives function of this model")
+        key = f"parts_{name}"
+        if key not in self._built:
+            specs = self._contact_specs()
+            kind = "fdyn" if name.startswith("contact_fdyn") else "impulse"
+            dynamics, residual, minv = self.program(f"contact_{kind}"), self._residual(kind), self.program("Minv")
+            with engine.use(self.engine):
+                blocks = specs.blocks().program()
+                self._built[key] = parts_program(
+                    kind, dynamics, residual, minv, blocks, specs.shared() | self._shared_minv(), self.dyns[0].robot
+                )
+        return self._built[key]
+
+    def _shared_minv(self) -> frozenset:
+        return frozenset(s for s, _ in self._minv().definitions)
 
     def _minv(self) -> FunctionSpec:
         if "Minv" not in self._specs:

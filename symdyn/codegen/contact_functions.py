@@ -35,7 +35,7 @@ from ..model.frames import CONTACT_KINDS
 from ..model.rotations import quaternion_entries
 from ..derivation.program import Program
 from .derivatives import Splice, jacobian, tangent_map
-from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor
+from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor, ldlt_inverse
 
 __all__ = [
     "CONTACT_NAMES",
@@ -45,6 +45,8 @@ __all__ = [
     "contact_count",
     "contact_signatures",
     "derivatives_program",
+    "PARTS",
+    "parts_program",
 ]
 
 CONTACT_NAMES = ("contact_fdyn", "contact_impulse", "contact_fdyn_derivatives", "contact_impulse_derivatives")
@@ -347,7 +349,10 @@ class ContactSpecs:
             names = ("v_before", "v_after", "impulse")
         r1 = [first[i] - sp.Add(*(rows[c][i] * lam[c] for c in range(nc))) for i in range(n)]
         edefs = list(self.edefs) if kind == "fdyn" else []
-        jdefs, jac = jacobian(defs + list(self.kdefs) + edefs, r1 + r2, list(q) + list(v), stem="Dk")
+        wrt = [s for s in list(q) + list(v) if s not in self._invariant(base_joint)]
+        jdefs, cols = jacobian(defs + list(self.kdefs) + edefs, r1 + r2, wrt, stem="Dk")
+        at = {s: k for k, s in enumerate(wrt)}
+        jac = [[row[at[s]] if s in at else sp.S.Zero for s in list(q) + list(v)] for row in cols]
         T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
 
         def block(r0: int, rs: int, c0: int, cs: int, tangent: bool) -> sp.ImmutableMatrix:
@@ -376,6 +381,36 @@ class ContactSpecs:
             "",
             f"contacts; tau: {tau.origin}",
             tuple(o for o, _ in outputs),
+        )
+
+    def _invariant(self, base_joint: str | None) -> tuple:
+        """The base's position coordinates when nothing depends on them: the dynamics, the rows J
+        (world-aligned, lever arms differences of positions) and γ are unchanged by a translation
+        of the whole robot in a uniform field, so their derivatives by it are exact zeros, not the
+        round-off of differences the program computes (Baumgarte's kp measures positions from an
+        anchor: then they count)."""
+        if self.robot.baumgarte[0] or base_joint not in ("free", "planar"):
+            return ()
+        return tuple(self.q[1][: 3 if base_joint == "free" else 2])
+
+    def blocks(self) -> FunctionSpec:
+        """Xᵀ = J M⁻¹ (nc × n) and A⁻¹ (nc × nc, from A's factor): the KKT inverse's blocks besides
+        M⁻¹ (`parts_program`)."""
+        defs, inv = ldlt_inverse(self.AL, self.AiD)
+        rename = {s: sp.Symbol(f"kkt_Ai{s.name}", real=True) for s, _ in defs}
+        defs = [(rename[s], e.xreplace(rename)) for s, e in defs]
+        local = _Namer(1)
+        return FunctionSpec(
+            "contact_blocks",
+            (self.q, *self.params),
+            (
+                ("XT", sp.ImmutableMatrix(self.nc, self.n, lambda c, k: self.X[c][k])),
+                ("Ainv", inv.xreplace(rename)),
+            ),
+            self._definitions(local) + tuple(defs),
+            "",
+            "contacts",
+            ("XT", "Ainv"),
         )
 
     def solve(self, columns: int, identity: bool) -> FunctionSpec:
@@ -411,6 +446,43 @@ def _set(robot: Robot) -> str:
     return ", ".join(f"{f} ({k})" for f, k in robot.contacts)
 
 
+def _labels(kind: str) -> tuple:
+    return (
+        ("a", "force", "da_dq", "da_dv", "da_dtau", "dforce_dq", "dforce_dv", "dforce_dtau")
+        if kind == "fdyn"
+        else ("v_after", "impulse", "dv_after_dq", "dv_after_dv", "dimpulse_dq", "dimpulse_dv")
+    )
+
+
+def _doc(kind: str, robot: Robot, n: int, nc: int) -> str:
+    return (
+        f"Contact dynamics of the set {_set(robot)} and their derivatives: "
+        + (
+            f"a ({n},), force ({nc},), da_dq, da_dv, da_dtau ({n}, {n}), dforce_dq, dforce_dv, dforce_dtau ({nc}, {n}); "
+            "Pinocchio's computeConstraintDynamicsDerivatives"
+            if kind == "fdyn"
+            else f"v_after ({n},), impulse ({nc},), dv_after_dq, dv_after_dv ({n}, {n}), dimpulse_dq, dimpulse_dv "
+            f"({nc}, {n}); d/dv is by v_before"
+        )
+        + ", d/dq in the tangent space of q."
+    )
+
+
+def _spliced(kind: str, dynamics: Program, residual: Program, shared: frozenset, extra: set) -> tuple:
+    """(splice, x, λ, [dr1_dq, dr1_dv, dr2_dq, dr2_dv]): the contact dynamics spliced, then the
+    residuals' Jacobians at its solution."""
+    inputs = {s.name for _, syms in dynamics.inputs for s in syms} | {a for a, _ in dynamics.inputs}
+    labels = _labels(kind)
+    splice = Splice(inputs | set(labels) | extra | {f"contact_{kind}_derivatives"})
+    x, lam = splice.append(dynamics, {}, "c_", shared)
+    x = [splice.name(e, f"c_{labels[0]}{i + 1}") for i, e in enumerate(x)]
+    lam = [splice.name(e, f"c_{labels[1]}{i + 1}") for i, e in enumerate(lam)]
+    q, v = dynamics.inputs[0][1], dynamics.inputs[1][1]
+    rq, rv, rx, rl = (syms for _, syms in residual.inputs[:4])
+    rename = {**dict(zip(rq, q)), **dict(zip(rv, v)), **dict(zip(rx, x)), **dict(zip(rl, lam))}
+    return splice, x, lam, splice.append(residual, rename, "r_")
+
+
 def derivatives_program(
     kind: str, dynamics: Program, residual: Program, solve: Program, shared: frozenset, robot: Robot
 ) -> Program:
@@ -418,21 +490,10 @@ def derivatives_program(
     contact dynamics, the residuals' Jacobians at its solution and the KKT solve of their columns,
     spliced (`derivatives.Splice`): ∂[x; λ]/∂z = −K⁻¹ ∂r/∂z with K = [M −Jᵀ; J 0], and for fdyn
     ∂[a; f]/∂τ = K⁻¹ [I; 0]."""
-    inputs = {s.name for _, syms in dynamics.inputs for s in syms} | {a for a, _ in dynamics.inputs}
-    labels = (
-        ("a", "force", "da_dq", "da_dv", "da_dtau", "dforce_dq", "dforce_dv", "dforce_dtau")
-        if kind == "fdyn"
-        else ("v_after", "impulse", "dv_after_dq", "dv_after_dv", "dimpulse_dq", "dimpulse_dv")
-    )
-    splice = Splice(inputs | set(labels) | {f"contact_{kind}_derivatives"})
-    x, lam = splice.append(dynamics, {}, "c_", shared)
-    n, nc = x.rows, lam.rows
-    x = [splice.name(e, f"c_{labels[0]}{i + 1}") for i, e in enumerate(x)]
-    lam = [splice.name(e, f"c_{labels[1]}{i + 1}") for i, e in enumerate(lam)]
-    q, v = dynamics.inputs[0][1], dynamics.inputs[1][1]
-    rq, rv, rx, rl = (syms for _, syms in residual.inputs[:4])
-    rename = {**dict(zip(rq, q)), **dict(zip(rv, v)), **dict(zip(rx, x)), **dict(zip(rl, lam))}
-    d1q, d1v, d2q, d2v = splice.append(residual, rename, "r_")
+    labels = _labels(kind)
+    splice, x, lam, (d1q, d1v, d2q, d2v) = _spliced(kind, dynamics, residual, shared, set())
+    n, nc = len(x), len(lam)
+    q = dynamics.inputs[0][1]
     u = [-e for row in (d1q.row_join(d1v)).tolist() for e in row]
     w = [-e for row in (d2q.row_join(d2v)).tolist() for e in row]
     u = [splice.name(e, f"c_u{k + 1}") for k, e in enumerate(u)]
@@ -445,25 +506,48 @@ def derivatives_program(
     pieces += [dlam[:, :n], dlam[:, n : 2 * n]] + ([dlam[:, 2 * n :]] if kind == "fdyn" else [])
     outputs = ((labels[0], sp.ImmutableMatrix(x)), (labels[1], sp.ImmutableMatrix(lam)))
     outputs += tuple((label, sp.ImmutableMatrix(m)) for label, m in zip(labels[2:], pieces))
-    doc = (
-        f"Contact dynamics of the set {_set(robot)} and their derivatives: "
-        + (
-            f"a ({n},), force ({nc},), da_dq, da_dv, da_dtau ({n}, {n}), dforce_dq, dforce_dv, dforce_dtau ({nc}, {n}); "
-            "Pinocchio's computeConstraintDynamicsDerivatives"
-            if kind == "fdyn"
-            else f"v_after ({n},), impulse ({nc},), dv_after_dq, dv_after_dv ({n}, {n}), dimpulse_dq, dimpulse_dv "
-            f"({nc}, {n}); d/dv is by v_before"
-        )
-        + ", d/dq in the tangent space of q."
+    return Program(
+        f"contact_{kind}_derivatives",
+        dynamics.inputs,
+        splice.live([m for _, m in outputs]),
+        outputs,
+        _doc(kind, robot, n, nc),
+        dynamics.origin,
+        frozenset(o for o, _ in outputs[2:]),
+    )
+
+
+#: The outputs of a KKT-parts program (`parts_program`) after the dynamics' two.
+PARTS = ("Minv", "XT", "Ainv", "R")
+
+
+def parts_program(
+    kind: str, dynamics: Program, residual: Program, minv: Program, blocks: Program, shared: frozenset, robot: Robot
+) -> Program:
+    """What the derivatives need before their dense products, in one straight-line program: the
+    dynamics' two outputs, M⁻¹, Xᵀ = J M⁻¹, A⁻¹ and R = [∂r1/∂q ∂r1/∂v; ∂r2/∂q ∂r2/∂v] ((n + nc) ×
+    2n, its exact zeros the tree's).  Then K⁻¹ = [P Gᵀ; −G A⁻¹] with G = A⁻¹Xᵀ, P = M⁻¹ − X G,
+    ∂[x; λ]/∂z = −K⁻¹R and for fdyn ∂[a; f]/∂τ = [P; −G]: products the C target runs as loops
+    the compiler vectorizes (`emit.ckkt`), the leg columns' zeros skipped."""
+    labels = _labels(kind)
+    splice, x, lam, (d1q, d1v, d2q, d2v) = _spliced(kind, dynamics, residual, shared, set(PARTS))
+    q = dynamics.inputs[0][1]
+    (inv,) = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
+    xt, ainv = splice.append(blocks, dict(zip(blocks.inputs[0][1], q)), "b_", shared)
+    R = d1q.row_join(d1v).col_join(d2q.row_join(d2v))
+    outputs = (
+        (labels[0], sp.ImmutableMatrix(x)),
+        (labels[1], sp.ImmutableMatrix(lam)),
+        *zip(PARTS, (inv, xt, ainv, sp.ImmutableMatrix(R))),
     )
     return Program(
         f"contact_{kind}_derivatives",
         dynamics.inputs,
         splice.live([m for _, m in outputs]),
         outputs,
-        doc,
+        _doc(kind, robot, len(x), len(lam)),
         dynamics.origin,
-        frozenset(o for o, _ in outputs[2:]),
+        frozenset(PARTS),
     )
 
 

@@ -603,10 +603,13 @@ def _stores(out: str, mat, device: bool = False) -> list[str]:
     return lines + [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat) if e != 0]
 
 
-def single_source(model: str, p: Program, split_above: int | None = None, qualifier: str = "") -> str:
+def single_source(
+    model: str, p: Program, split_above: int | None = None, qualifier: str = "", static: bool = False
+) -> str:
     """The single-state C function of one program (one of more than `split_above` assignments,
     default SPLIT_ABOVE, calls its parts), each function preceded by `qualifier` (the CUDA
-    target's `SYMDYN_HD `, whose device code has no memset)."""
+    target's `SYMDYN_HD `, whose device code has no memset); `static`: a helper of the public
+    function after it (`ckkt`'s KKT parts)."""
     split_above = SPLIT_ABOVE if split_above is None else split_above
     sig = signature(p)
     single, _ = _prototypes(model, sig)
@@ -625,7 +628,7 @@ def single_source(model: str, p: Program, split_above: int | None = None, qualif
     for o, mat in p.outputs:
         body += _stores(o, mat, device=bool(qualifier))
     doc = f"/* {p.doc} */\n" if p.doc else ""
-    return parts + f"{doc}{qualifier}{single}\n{{\n" + "\n".join(body) + "\n}\n"
+    return parts + f"{doc}{qualifier}{'static ' if static else ''}{single}\n{{\n" + "\n".join(body) + "\n}\n"
 
 
 def function_source(model: str, p: Program, split_above: int | None = None) -> str:

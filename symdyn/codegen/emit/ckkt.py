@@ -1,0 +1,195 @@
+"""The contact derivatives in C: a straight-line program for the KKT parts, then dense products.
+
+Part of the C target, beside `c`: `contact_fdyn_derivatives` and `contact_impulse_derivatives`
+are emitted from their KKT parts (`contact_functions.parts_program`: the dynamics, M⁻¹, Xᵀ = J M⁻¹,
+A⁻¹ and the residuals' Jacobians R) as a static function, then the KKT inverse
+K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and the derivatives −K⁻¹R as loops over
+contiguous columns that the compiler vectorizes, R's exact zeros (the tree's: a leg's joint
+moves neither the other legs' rows nor their contacts) skipped by a pattern fixed at
+generation.  The unrolled solve of each column (`contact_functions.derivatives_program`, what
+the other targets run) costs as many operations but runs them one at a time: on Solo 12 with
+four feet 90 k scalar operations against about 20 k and 6 k vector products here.  The batch
+kernel runs the scalar function over the states on every thread (its lanes would not vectorize
+the loops).
+"""
+
+from __future__ import annotations
+
+
+import sympy as sp
+
+from ...derivation.program import Program
+from ..contact_functions import PARTS
+from . import c as c_emit
+from . import seal
+
+__all__ = ["derivatives_source", "function_file", "products"]
+
+
+def _up(k: int) -> int:
+    """k rounded up to whole vectors of four doubles."""
+    return -(-k // 4) * 4
+
+
+def products(parts: Program) -> int:
+    """The multiply-adds of the dense products after the parts: G, P and −K⁻¹R."""
+    out = dict(parts.outputs)
+    n, nc = out["Minv"].rows, out["Ainv"].rows
+    return nc * nc * n + n * nc * n + (n + nc) ** 2 * out["R"].cols
+
+
+def _padded(m) -> sp.ImmutableMatrix:
+    """m with zero columns up to whole vectors (its rows then start on a vector's bound)."""
+    return sp.ImmutableMatrix(m.rows, _up(m.cols), lambda i, j: m[i, j] if j < m.cols else 0)
+
+
+def _kkt_program(parts: Program) -> Program:
+    """The parts as the static function's program, M⁻¹'s, Xᵀ's and R's rows padded to whole vectors."""
+    outputs = tuple((o, _padded(m) if o in ("Minv", "XT", "R") else m) for o, m in parts.outputs)
+    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in PARTS)
+    return Program(f"{parts.name}_kkt", parts.inputs, parts.assignments, outputs, "", parts.origin, frozenset(), shapes)
+
+
+def _rows(name: str, depth: int, width: int) -> str:
+    """`name`(w, B, init, out): out = init (or 0) + Σₖ w[k]·B[k] over `depth` rows of B, each
+    `width` vectors of four doubles: the accumulators stay in registers (GCC's and Clang's vector
+    types; plain loops elsewhere)."""
+    size = 4 * width
+    return "\n".join(
+        [
+            f"static void {name}(const double *w, const double *B, const double *init, double *out)",
+            "{",
+            "    int j, k;",
+            "    #if defined(__GNUC__)",
+            "    typedef double v_ __attribute__((vector_size(32)));",
+            f"    v_ acc[{width}];",
+            "    if (init)",
+            "        memcpy(acc, init, sizeof acc);",
+            "    else",
+            f"        for (j = 0; j < {width}; ++j)",
+            "            acc[j] = (v_){0.0, 0.0, 0.0, 0.0};",
+            f"    for (k = 0; k < {depth}; ++k) {{",
+            "        const double s = w[k];",
+            f"        for (j = 0; j < {width}; ++j) {{",
+            "            v_ x;",
+            f"            memcpy(&x, B + k * {size} + 4 * j, sizeof x);",
+            "            acc[j] += s * x;",
+            "        }",
+            "    }",
+            "    memcpy(out, acc, sizeof acc);",
+            "    #else",
+            f"    double acc[{size}];",
+            f"    for (j = 0; j < {size}; ++j)",
+            "        acc[j] = init ? init[j] : 0.0;",
+            f"    for (k = 0; k < {depth}; ++k)",
+            f"        for (j = 0; j < {size}; ++j)",
+            f"            acc[j] += w[k] * B[k * {size} + j];",
+            "    memcpy(out, acc, sizeof acc);",
+            "    #endif",
+            "}",
+            "",
+        ]
+    )
+
+
+def derivatives_source(model: str, parts: Program, sig: c_emit.Signature) -> str:
+    """The static KKT-parts function, the public single-state function `sig` (its doc the parts'),
+    its batch loop and its threaded kernel."""
+    out = dict(parts.outputs)
+    n, nc = out["Minv"].rows, out["Ainv"].rows
+    N, m = n + nc, out["R"].cols
+    kkt = _kkt_program(parts)
+    f = f"{model}_{sig.name}"
+    names = [o for o, _ in sig.outputs]
+    first, second = names[0], names[1]
+    dz = names[2:]  # d first/dq, d first/dv[, d first/dtau], d second/dq, d second/dv[, d second/dtau]
+    half = len(dz) // 2
+    single, batch = c_emit._prototypes(model, sig)
+    args = [a for a, _ in sig.inputs]
+    tau = half == 3  # fdyn: by tau, K^-1 [I; 0] = [P; -G]
+    wn, wm = _up(n), _up(m)
+    small, large = f"{f}_rows{wn // 4}x{nc}", f"{f}_rows{wm // 4}x{N}"
+    helpers = _rows(small, nc, wn // 4) + "\n" + _rows(large, N, wm // 4)
+    body = [
+        f"    double Minv_[{n * wn}], XT_[{nc * wn}], Ainv_[{nc * nc}], R_[{N * wm}];",
+        f"    double G_[{nc * wn}], p_[{wn}], w_[{N}], d_[{wm}];",
+        "    int i, j, c;",
+        f"    {f}_kkt({', '.join(args + [first, second, 'Minv_', 'XT_', 'Ainv_', 'R_'])});",
+        f"    for (c = 0; c < {nc}; ++c)  /* G = A^-1 X^T */",
+        f"        {small}(Ainv_ + c * {nc}, XT_, 0, G_ + c * {wn});",
+        f"    for (i = 0; i < {N}; ++i) {{  /* row i of -K^-1 R, K^-1 = [P G^T; -G A^-1] */",
+        f"        if (i < {n}) {{  /* P's row i = M^-1's less (X G)'s */",
+        f"            for (c = 0; c < {nc}; ++c)",
+        f"                w_[c] = -XT_[c * {wn} + i];",
+        f"            {small}(w_, G_, Minv_ + i * {wn}, p_);",
+        f"            for (j = 0; j < {n}; ++j)",
+        "                w_[j] = -p_[j];",
+        f"            for (c = 0; c < {nc}; ++c)",
+        f"                w_[{n} + c] = -G_[c * {wn} + i];",
+        "        } else {",
+        f"            c = i - {n};",
+        f"            for (j = 0; j < {n}; ++j)",
+        f"                w_[j] = G_[c * {wn} + j];",
+        f"            for (j = 0; j < {nc}; ++j)",
+        f"                w_[{n} + j] = -Ainv_[c * {nc} + j];",
+        "        }",
+        f"        {large}(w_, R_, 0, d_);",
+        f"        if (i < {n})",
+        f"            for (j = 0; j < {n}; ++j) {{",
+        f"                {dz[0]}[i * {n} + j] = d_[j];",
+        f"                {dz[1]}[i * {n} + j] = d_[{n} + j];",
+        *([f"                {dz[2]}[i * {n} + j] = p_[j];"] if tau else []),
+        "            }",
+        "        else",
+        f"            for (j = 0; j < {n}; ++j) {{",
+        f"                {dz[half]}[c * {n} + j] = d_[j];",
+        f"                {dz[half + 1]}[c * {n} + j] = d_[{n} + j];",
+        *([f"                {dz[5]}[c * {n} + j] = -w_[j];"] if tau else []),
+        "            }",
+        "    }",
+    ]
+    doc = f"/* {parts.doc} */\n" if parts.doc else ""
+    scalar = c_emit.single_source(model, kkt, c_emit.CACHE_SPLIT_ABOVE, static=True) + "\n" + helpers
+    scalar += f"\n{doc}{single}\n{{\n" + "\n".join(body) + "\n}\n"
+    calls = [f"{a} + {k}*k" for a, k in sig.inputs] + [f"{o} + {c_emit._size(s)}*k" for o, s in sig.outputs]
+    loop = f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n        {f}({', '.join(calls)});\n}}\n"
+    return scalar + "\n" + loop + "\n" + _threaded(model, sig)
+
+
+def _threaded(model: str, sig: c_emit.Signature) -> str:
+    """The batch kernel: the scalar function state after state, the states split over threads;
+    nonzero when an input is NaN or infinite (the kernels' contract)."""
+    f = f"{model}_{sig.name}"
+    nin = len(sig.inputs)
+    checks = [f"in[{a}][i * {k} + {j}] * 0.0" for a, (_, k) in enumerate(sig.inputs) for j in range(k)]
+    call = [f"in[{a}] + i * {k}" for a, (_, k) in enumerate(sig.inputs)]
+    call += [f"out[{o}] + i * {c_emit._size(s)}" for o, (_, s) in enumerate(sig.outputs)]
+    lines = [
+        f"static int {f}_range(const double *const *in, double *const *out, long i0, long i1)",
+        "{",
+        "    long i;",
+        "    for (i = i0; i < i1; ++i) {",
+        f"        if ({c_emit._balanced_sum(checks)} != 0.0)",
+        "            return 1;",
+        f"        {f}({', '.join(call)});",
+        "    }",
+        "    return 0;",
+        "}",
+        "",
+        c_emit._simd_prototype(model, sig),
+        "{",
+        f"    const double *const in[{nin}] = {{{', '.join(a for a, _ in sig.inputs)}}};",
+        f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
+        f"    return symdyn_parallel_({f}_range, in, out, n, threads);",
+        "}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def function_file(model: str, parts: Program, sig: c_emit.Signature, comment: list[str]) -> str:
+    """One contact derivatives function's C as a file of its own, sealed, as `c.function_file`."""
+    split = len(parts.assignments) > c_emit.CACHE_SPLIT_ABOVE
+    return seal(
+        "\n".join([c_emit._comment(comment), *c_emit._preamble(model, split), derivatives_source(model, parts, sig)])
+    )
