@@ -2,15 +2,14 @@
 
 Part of the C target, beside `c`: `contact_fdyn_derivatives` and `contact_impulse_derivatives`
 are emitted from their KKT parts (`contact_functions.parts_program`: the dynamics, M⁻¹, Xᵀ = J M⁻¹,
-A⁻¹ and the residuals' Jacobians R) as a static function, then the KKT inverse
-K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and the derivatives −K⁻¹R as loops over
-contiguous columns that the compiler vectorizes, R's exact zeros (the tree's: a leg's joint
-moves neither the other legs' rows nor their contacts) skipped by a pattern fixed at
-generation.  The unrolled solve of each column (`contact_functions.derivatives_program`, what
-the other targets run) costs as many operations but runs them one at a time: on Solo 12 with
-four feet 90 k scalar operations against about 20 k and 6 k vector products here.  The batch
-kernel runs the scalar function over the states on every thread (its lanes would not vectorize
-the loops).
+A⁻¹ and the residuals' Jacobians R) as a static function, then the rows of the KKT inverse
+K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and of the derivatives −K⁻¹R by row kernels
+whose accumulators stay in vector registers, R's vectors of exact zeros skipped.  The unrolled
+solve of each column (`contact_functions.derivatives_program`, what the other targets run) is
+one scalar operation after another: on Solo 12 with four feet 90 k of them against 33 k and
+38 k multiply-adds in vectors here (15.6 → 8.5 µs a call; Talos on two soles 69.8 → 26.7 µs:
+`symdyn bench --task-space solo12-contact-derivatives`, `talos-contact-derivatives`).  The
+batch kernel runs the scalar function state after state on every thread.
 """
 
 from __future__ import annotations
@@ -92,6 +91,38 @@ def _rows(name: str, depth: int, width: int) -> str:
     )
 
 
+def _sparse_rows(name: str, R) -> str:
+    """`name`(w, B, out): out = Σₖ w[k]·B[k] over the rows of R (padded to whole vectors), each
+    row's vectors of exact zeros skipped (a leg's joint moves neither another leg's rows nor its
+    contact), unrolled: one accumulator per vector of a row (plain loops without vector types)."""
+    width = R.cols // 4
+    lines = [
+        f"static void {name}(const double *w, const double *B, double *out)",
+        "{",
+        "    #if defined(__GNUC__)",
+        "    typedef double v_ __attribute__((vector_size(32)));",
+        "    v_ x, " + ", ".join(f"a{j} = {{0.0, 0.0, 0.0, 0.0}}" for j in range(width)) + ";",
+    ]
+    for k in range(R.rows):
+        blocks = [j for j in range(width) if any(R[k, 4 * j + t] != 0 for t in range(4))]
+        for j in blocks:
+            lines += [f"    memcpy(&x, B + {k * R.cols + 4 * j}, sizeof x);", f"    a{j} += w[{k}] * x;"]
+    lines += [f"    memcpy(out + {4 * j}, &a{j}, sizeof x);" for j in range(width)]
+    lines += [
+        "    #else",
+        "    int j, k;",
+        f"    for (j = 0; j < {R.cols}; ++j)",
+        "        out[j] = 0.0;",
+        f"    for (k = 0; k < {R.rows}; ++k)",
+        f"        for (j = 0; j < {R.cols}; ++j)",
+        f"            out[j] += w[k] * B[k * {R.cols} + j];",
+        "    #endif",
+        "}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
 def derivatives_source(model: str, parts: Program, sig: c_emit.Signature) -> str:
     """The static KKT-parts function, the public single-state function `sig` (its doc the parts'),
     its batch loop and its threaded kernel."""
@@ -108,8 +139,8 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature) -> str
     args = [a for a, _ in sig.inputs]
     tau = half == 3  # fdyn: by tau, K^-1 [I; 0] = [P; -G]
     wn, wm = _up(n), _up(m)
-    small, large = f"{f}_rows{wn // 4}x{nc}", f"{f}_rows{wm // 4}x{N}"
-    helpers = _rows(small, nc, wn // 4) + "\n" + _rows(large, N, wm // 4)
+    small, large = f"{f}_rows{wn // 4}x{nc}", f"{f}_rows_R"
+    helpers = _rows(small, nc, wn // 4) + "\n" + _sparse_rows(large, dict(kkt.outputs)["R"])
     body = [
         f"    double Minv_[{n * wn}], XT_[{nc * wn}], Ainv_[{nc * nc}], R_[{N * wm}];",
         f"    double G_[{nc * wn}], p_[{wn}], w_[{N}], d_[{wm}];",
@@ -133,7 +164,7 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature) -> str
         f"            for (j = 0; j < {nc}; ++j)",
         f"                w_[{n} + j] = -Ainv_[c * {nc} + j];",
         "        }",
-        f"        {large}(w_, R_, 0, d_);",
+        f"        {large}(w_, R_, d_);",
         f"        if (i < {n})",
         f"            for (j = 0; j < {n}; ++j) {{",
         f"                {dz[0]}[i * {n} + j] = d_[j];",
