@@ -11,7 +11,6 @@ import pytest
 from symdyn.codegen.entry import load
 from symdyn.model import arms
 from symdyn.model.random_robots import random_tree_robot
-from tests.conftest import tiered
 from tests.test_task_space import states, with_random_frames
 
 pin = pytest.importorskip("pinocchio", reason="contact dynamics are checked against Pinocchio (the test extra)")
@@ -185,7 +184,8 @@ def _c_derivatives_as_pinocchio(robot, kind):
         function(bad, *args[1:])
 
 
-@pytest.mark.parametrize("kind", tiered(["fdyn", "impulse"], 1))
+@pytest.mark.slow  # 9 s of generating and compiling: make test is at its three minutes
+@pytest.mark.parametrize("kind", ["fdyn", "impulse"])
 def test_the_c_targets_derivatives_equal_pinocchios(legged, kind):
     """The C target's own derivatives (the KKT parts, then dense products: `emit.ckkt`) on the
     random tree on a free base with a point and a surface contact, whose position derivatives are
