@@ -20,9 +20,9 @@ def tree():
 
 @pytest.fixture(scope="module")
 def standing(tree):
-    """The tree, its generated NumPy contact dynamics and its whole-body inverse dynamics (on the
-    default target, lazy C: τ and the contact Jacobians only are built)."""
-    return tree, load(tree, "numpy"), WholeBodyInverseDynamics(tree)
+    """The tree, its generated contact dynamics (the lazy C target: only contact_fdyn is built, not
+    every function as the NumPy target's whole file would) and its whole-body inverse dynamics."""
+    return tree, load(tree, "c"), WholeBodyInverseDynamics(tree)
 
 
 def _consistent(robot, f, count, seed):
