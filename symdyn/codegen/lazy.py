@@ -154,7 +154,7 @@ class _Sources:
             f"model-fingerprint: {self.robot.fingerprint()}",
             "content-sha256:  (of this file without this value: an edited file is refused)",
             f"operations after one joint CSE: {ops}"
-            + (f" + {ckkt.products(program)} multiply-adds in dense products" if kkt else "")
+            + (f" + {ckkt.products(program)} multiply-adds in vector products" if kkt else "")
             + f" [{program.origin}]",
         ]
         if kkt:

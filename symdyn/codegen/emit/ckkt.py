@@ -31,10 +31,13 @@ def _up(k: int) -> int:
 
 
 def products(parts: Program) -> int:
-    """The multiply-adds of the dense products after the parts: G, P and −K⁻¹R."""
+    """The multiply-adds of the products after the parts: G, P and −K⁻¹R (R's vectors of exact
+    zeros skipped, as `_sparse_rows` does)."""
     out = dict(parts.outputs)
     n, nc = out["Minv"].rows, out["Ainv"].rows
-    return nc * nc * n + n * nc * n + (n + nc) ** 2 * out["R"].cols
+    R = _padded(out["R"])
+    kept = sum(any(R[k, j + t] != 0 for t in range(4)) for k in range(R.rows) for j in range(0, R.cols, 4))
+    return nc * nc * n + n * nc * n + (n + nc) * 4 * kept
 
 
 def _padded(m) -> sp.ImmutableMatrix:
