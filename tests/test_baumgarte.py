@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from symdyn.codegen.entry import load
 from symdyn.model.random_robots import random_tree_robot
-from tests.test_contacts import RTOL, _relative, pinocchio_contacts
+from tests.test_contacts import RTOL, _relative, pinocchio_contacts, world_axes
 from tests.test_task_space import states, with_random_frames
 
 pin = pytest.importorskip("pinocchio", reason="the corrector is checked against Pinocchio (the test extra)")
@@ -16,18 +16,19 @@ KP, KD = 7.0, 3.0
 
 @pytest.fixture(scope="module")
 def tree():
-    """A random tree on a free base with frames f4 (a point contact below) and f5 (a surface)."""
+    """A random tree on a free base with frames f2 (a point contact below) and f5 (a surface); its
+    base frame is turned, so the anchors and forces are in a world that is not Pinocchio's."""
     return (
-        with_random_frames(random_tree_robot(3, n=5, base_joint="free"), 3)
+        with_random_frames(random_tree_robot(4, n=5, base_joint="free"), 4)
         .nofriction(all=True)
-        .with_frames(["f4", "f5"])
+        .with_frames(["f2", "f5"])
     )
 
 
 @pytest.fixture(scope="module")
 def corrected(tree):
     """The tree with a point and a surface contact and both gains, and its NumPy functions."""
-    robot = tree.with_contacts({"f4": "point", "f5": "surface"}, kp=KP, kd=KD)
+    robot = tree.with_contacts({"f2": "point", "f5": "surface"}, kp=KP, kd=KD)
     return robot, load(robot, "numpy")
 
 
@@ -40,10 +41,12 @@ def pinocchio_corrected(robot, peer_model, q, turn: float, shift: float, rng):
     """Pinocchio's model, data and rigid constraints with the robot's gains, each anchored at its
     frame's placement at q moved by a rotation of `turn` rad about a random axis and a random shift
     of norm ~`shift` (the anchor world frame is the constraint's joint2_placement), and the anchor
-    vector symdyn takes (XYZQUAT, position only for a point)."""
+    vector symdyn takes (XYZQUAT, position only for a point) — in the robot's world, which the
+    base's placement takes Pinocchio's to."""
     from symdyn.bench.reduced import pin_configuration
 
     model, ids = peer_model
+    base = pin.SE3(np.array(robot.base, dtype=float))
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin_configuration(model, np.atleast_2d(q))[0])
     models, datas, anchor = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData(), []
@@ -52,7 +55,7 @@ def pinocchio_corrected(robot, peer_model, q, turn: float, shift: float, rng):
         axis = rng.normal(size=3)
         rotation = placed.rotation @ pin.exp3(turn * axis / np.linalg.norm(axis))
         target = pin.SE3(rotation, placed.translation + shift * rng.normal(size=3))
-        anchor += list(pin.SE3ToXYZQUAT(target)[: 3 if kind == "point" else 7])
+        anchor += list(pin.SE3ToXYZQUAT(base * target)[: 3 if kind == "point" else 7])
         contact = pin.ContactType.CONTACT_3D if kind == "point" else pin.ContactType.CONTACT_6D
         cm = pin.RigidConstraintModel(
             contact, model, frame.parentJoint, frame.placement, 0, target, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -61,20 +64,21 @@ def pinocchio_corrected(robot, peer_model, q, turn: float, shift: float, rng):
         models.append(cm)
         datas.append(cm.createData())
     pin.initConstraintDynamics(model, data, models, datas)
-    return model, data, models, datas, np.array(anchor)
+    return model, data, models, datas, world_axes(robot), np.array(anchor)
 
 
 def pinocchio_fdyn(setup, q, v, tau, derivatives: bool = False):
-    """Pinocchio's (a, λ) — and with `derivatives` its six derivative blocks — at one state."""
+    """Pinocchio's (a, λ) — and with `derivatives` its six derivative blocks — at one state, the
+    forces turned into the robot's world axes."""
     from symdyn.bench.reduced import pin_configuration
 
-    model, data, models, datas, _ = setup
+    model, data, models, datas, W, _ = setup
     x = pin_configuration(model, np.atleast_2d(q))[0]
     a = pin.constraintDynamics(model, data, x, v, tau, models, datas, pin.ProximalSettings(1e-14, 0.0, 1)).copy()
-    out = [a, data.lambda_c.copy()]
+    out = [a, W @ data.lambda_c]
     if derivatives:
         pin.computeConstraintDynamicsDerivatives(model, data, models, datas)
-        out += [data.ddq_dq, data.ddq_dv, data.ddq_dtau, data.dlambda_dq, data.dlambda_dv, data.dlambda_dtau]
+        out += [data.ddq_dq, data.ddq_dv, data.ddq_dtau, W @ data.dlambda_dq, W @ data.dlambda_dv, W @ data.dlambda_dtau]
     return [np.array(x) for x in out]
 
 
@@ -90,14 +94,14 @@ def test_corrected_dynamics_equal_pinocchio_on_a_point_and_a_surface(tree, corre
         want = pinocchio_fdyn(setup, q[i], v[i], tau[i])
         got = f.contact_fdyn(q[i], v[i], tau[i], setup[-1])
         assert _relative(got[0], want[0]) < RTOL and _relative(got[1], want[1]) < RTOL
-    plain = pinocchio_contacts(tree.with_contacts({"f4": "point", "f5": "surface"}), q[0], v[0], tau[0])
+    plain = pinocchio_contacts(tree.with_contacts({"f2": "point", "f5": "surface"}), q[0], v[0], tau[0])
     assert _relative(plain[1], f.contact_fdyn(q[0], v[0], tau[0], setup[-1])[1]) > 1e-3  # the gains act
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "contacts, kp, kd",
-    [({"f4": "point"}, KP, KD), ({"f5": "surface"}, 0.0, KD)],
+    [({"f2": "point"}, KP, KD), ({"f5": "surface"}, 0.0, KD)],
     ids=["point-kp-kd", "surface-kd"],
 )
 def test_corrected_derivatives_equal_pinocchio(tree, contacts, kp, kd):
@@ -154,14 +158,14 @@ def test_the_anchor_is_required_with_a_position_gain_and_the_impact_has_no_gains
         f.contact_fdyn(q[0], v[0], tau[0])
     with pytest.raises(ValueError, match="anchor"):
         f.contact_fdyn(q[0], v[0], tau[0], np.zeros(9))
-    want = pinocchio_contacts(tree.with_contacts({"f4": "point", "f5": "surface"}), q[0], v[0], tau[0])[2:]
+    want = pinocchio_contacts(tree.with_contacts({"f2": "point", "f5": "surface"}), q[0], v[0], tau[0])[2:]
     for got, w in zip(f.contact_impulse(q[0], v[0]), want):
         assert _relative(got, w) < RTOL
 
 
 @pytest.mark.slow
 def test_a_damping_gain_alone_takes_no_anchor(tree):
-    only_kd = load(tree.with_contacts({"f4": "point", "f5": "surface"}, kd=KD), "numpy")
+    only_kd = load(tree.with_contacts({"f2": "point", "f5": "surface"}, kd=KD), "numpy")
     q, v, tau = states(tree, 1)
     a, force = only_kd.contact_fdyn(q[0], v[0], tau[0])
     assert a.shape == (tree.nv,) and force.shape == (9,)
@@ -169,12 +173,12 @@ def test_a_damping_gain_alone_takes_no_anchor(tree):
 
 def test_gains_are_checked_and_enter_the_model_not_the_derivation(tree):
     with pytest.raises(ValueError, match="kp .* finite and >= 0"):
-        tree.with_contacts({"f4": "point"}, kp=-1.0)
+        tree.with_contacts({"f2": "point"}, kp=-1.0)
     with pytest.raises(ValueError, match="kd .* finite and >= 0"):
-        tree.with_contacts({"f4": "point"}, kd=float("nan"))
+        tree.with_contacts({"f2": "point"}, kd=float("nan"))
     with pytest.raises(ValueError, match="need a contact set"):
         tree.with_contacts({}, kp=1.0)
-    plain, corrected = tree.with_contacts({"f4": "point"}), tree.with_contacts({"f4": "point"}, kp=KP)
+    plain, corrected = tree.with_contacts({"f2": "point"}), tree.with_contacts({"f2": "point"}, kp=KP)
     assert plain.fingerprint() != corrected.fingerprint()
     assert plain.dynamics_fingerprint() == corrected.dynamics_fingerprint() == tree.dynamics_fingerprint()
 

@@ -41,34 +41,46 @@ def pinocchio_setup(robot):
     return model, data, models, datas, pin.ProximalSettings(1e-14, 0.0, 1)
 
 
+def world_axes(robot) -> np.ndarray:
+    """The rotation that takes the contact forces from Pinocchio's world (the robot's base frame:
+    the peer model starts there) to the robot's world, where symdyn expresses them: the base's
+    rotation on each 3-row block (a point's force; a surface's force and moment)."""
+    rows = sum(3 if kind == "point" else 6 for _, kind in robot.contacts)
+    return np.kron(np.eye(rows // 3), np.array(robot.base, dtype=float)[:3, :3])
+
+
 def pinocchio_contacts(robot, q, v, tau, setup=None):
-    """Pinocchio's (a, λ, v⁺, Λ) at one state with the robot's contact set as rigid constraints."""
+    """Pinocchio's (a, λ, v⁺, Λ) at one state with the robot's contact set as rigid constraints,
+    the forces turned into the robot's world axes."""
     from symdyn.bench.reduced import pin_configuration
 
     model, data, models, datas, prox = setup or pinocchio_setup(robot)
+    W = world_axes(robot)
     x = pin_configuration(model, np.atleast_2d(q))[0]
     a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
-    force = data.lambda_c.copy()
+    force = W @ data.lambda_c
     v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
-    return a, force, v_after, data.impulse_c.copy()
+    return a, force, v_after, W @ data.impulse_c
 
 
 def pinocchio_derivatives(robot, q, v, tau, setup):
     """Pinocchio's computeConstraintDynamicsDerivatives and computeImpulseDynamicsDerivatives at one
     state, in the order of contact_fdyn_derivatives and contact_impulse_derivatives (Pinocchio's
-    impulse ddq_dv is d(v⁺ − v⁻)/dv⁻: the identity added here)."""
+    impulse ddq_dv is d(v⁺ − v⁻)/dv⁻: the identity added here), the forces' rows turned into the
+    robot's world axes."""
     from symdyn.bench.reduced import pin_configuration
 
     model, data, models, datas, prox = setup
+    W = world_axes(robot)
     x = pin_configuration(model, np.atleast_2d(q))[0]
     a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
     pin.computeConstraintDynamicsDerivatives(model, data, models, datas)
-    fdyn = [a, data.lambda_c, data.ddq_dq, data.ddq_dv, data.ddq_dtau, data.dlambda_dq, data.dlambda_dv]
-    fdyn = [x.copy() for x in fdyn] + [data.dlambda_dtau.copy()]
+    fdyn = [a, W @ data.lambda_c, data.ddq_dq.copy(), data.ddq_dv.copy(), data.ddq_dtau.copy()]
+    fdyn += [W @ data.dlambda_dq, W @ data.dlambda_dv, W @ data.dlambda_dtau]
     v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
     pin.computeImpulseDynamicsDerivatives(model, data, models, datas, 0.0, prox)
     dv = data.ddq_dv + np.eye(model.nv)
-    impulse = [v_after, data.impulse_c.copy(), data.ddq_dq.copy(), dv, data.dlambda_dq.copy(), data.dlambda_dv.copy()]
+    impulse = [v_after, W @ data.impulse_c, data.ddq_dq.copy(), dv, W @ data.dlambda_dq, W @ data.dlambda_dv]
     return fdyn, impulse
 
 
@@ -94,10 +106,29 @@ def assert_as_pinocchio(robot, f, q, v, tau, derivatives=()):
 
 @pytest.fixture(scope="module")
 def legged():
-    """A random tree on a free base, a point contact on one branch and a surface on another."""
-    robot = with_random_frames(random_tree_robot(3, n=5, base_joint="free"), 3).nofriction(all=True)
-    robot = robot.with_frames(["f4", "f5"]).with_contacts({"f4": "point", "f5": "surface"})
+    """A random tree on a free base, a point contact on one branch and a surface on another; its
+    base frame is turned (the forces' world axes are not Pinocchio's)."""
+    robot = with_random_frames(random_tree_robot(4, n=5, base_joint="free"), 4).nofriction(all=True)
+    assert not np.allclose(np.array(robot.base, dtype=float)[:3, :3], np.eye(3))
+    robot = robot.with_frames(["f2", "f5"]).with_contacts({"f2": "point", "f5": "surface"})
     return robot, load(robot, "numpy")
+
+
+@pytest.mark.slow  # 2 s of compiling per tree
+@pytest.mark.parametrize(
+    "seed, contacts",
+    [(seed, {"f1": "point", "f5": "point"}) for seed in (0, 1, 2, 7)]
+    + [(seed, {"f2": "point", "f5": "point"}) for seed in (8, 9, 11)]
+    + [(10, {"f2": "point", "f5": "surface"})],
+)
+def test_random_trees_contacts_equal_pinocchios(seed, contacts):
+    """Random trees on free bases — turned base frames, gravity along any axis — on the lazy C
+    target: contact_fdyn and contact_impulse equal Pinocchio's (a property test over trees)."""
+    robot = with_random_frames(random_tree_robot(seed, n=5, base_joint="free"), seed).nofriction(all=True)
+    robot = robot.with_frames(list(contacts)).with_contacts(contacts)
+    q, v, _ = states(robot, 20, seed=seed)
+    tau = np.random.default_rng(seed).uniform(-5, 5, (20, robot.nv))
+    assert_as_pinocchio(robot, load(robot, "c"), q, v, tau)
 
 
 def test_contact_dynamics_and_impulses_equal_pinocchios(legged):
