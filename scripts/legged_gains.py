@@ -1,7 +1,8 @@
 """Why the legged studies hold their feet with Baumgarte gains: Solo 12's jump and trot solved
-without gains, with the studies' (400, 40) (ω = 20 rad/s, critically damped) and stiffer ones.
+without gains, with the studies' (400, 40) (ω = 20 rad/s, critically damped) and stiffer ones —
+the gains alone: no bound on how far a foot in contact moves unless `--hold` gives one.
 
-Run: .venv/bin/python scripts/legged_gains.py [--gains KP,KD ...] [--problems jump trot]
+Run: .venv/bin/python scripts/legged_gains.py [--gains KP,KD ...] [--problems jump trot] [--hold M]
 Prints, per problem and gains: IPOPT's status, iterations and seconds, how far a foot in contact
 moves within its phase (`legged.slip`), the lowest foot (below 0: into the ground) and the base's
 highest rise above standing.  A few minutes on one core.
@@ -29,6 +30,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--gains", nargs="+", type=_gains, default=[(0.0, 0.0), legged.GAINS, (900.0, 60.0)])
     p.add_argument("--problems", nargs="+", choices=sorted(PROBLEMS), default=["jump", "trot"])
+    p.add_argument("--hold", type=float, default=None, help="the feet's hold (m, LeggedProblem.hold); default: none")
     args = p.parse_args(argv)
     robot = legged.solo12()
     poses = load(robot, "c")
@@ -38,7 +40,7 @@ def main(argv=None) -> int:
     print("|---|---|---|---:|---:|---:|---:|---:|")
     for name in args.problems:
         for gains in args.gains:
-            problem = PROBLEMS[name](robot, gains)
+            problem = PROBLEMS[name](robot, gains, args.hold)
             sol = ocp_legged.solve(problem)
             feet = poses.frame_pose(sol.q)[:, :, :3, 3]
             print(

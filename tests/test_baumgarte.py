@@ -78,7 +78,14 @@ def pinocchio_fdyn(setup, q, v, tau, derivatives: bool = False):
     out = [a, W @ data.lambda_c]
     if derivatives:
         pin.computeConstraintDynamicsDerivatives(model, data, models, datas)
-        out += [data.ddq_dq, data.ddq_dv, data.ddq_dtau, W @ data.dlambda_dq, W @ data.dlambda_dv, W @ data.dlambda_dtau]
+        out += [
+            data.ddq_dq,
+            data.ddq_dv,
+            data.ddq_dtau,
+            W @ data.dlambda_dq,
+            W @ data.dlambda_dv,
+            W @ data.dlambda_dtau,
+        ]
     return [np.array(x) for x in out]
 
 

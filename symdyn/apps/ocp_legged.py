@@ -68,7 +68,10 @@ class LeggedProblem:
     the feet from creeping under semi-implicit Euler steps, which hold the acceleration only.
     `soles`: {foot: (half-length, half-width)} — the feet that are flat soles (surface contacts:
     force and moment, within the rectangle's contact wrench cone, `symdyn.apps.wrench_cone`; the
-    frame at the sole's centre, z out of the sole); the other feet are points."""
+    frame at the sole's centre, z out of the sole); the other feet are points.  `hold`: the most a
+    foot in contact may move from its anchor (m, each world axis, at every node of its stance), or
+    None: the transcription's steps move a foot by h²·γ after a touchdown, which the optimum may
+    otherwise use (a foot sliding or sinking millimetres at a landing)."""
 
     robot: Robot
     phases: tuple
@@ -82,6 +85,7 @@ class LeggedProblem:
     footholds: bool = False
     baumgarte: tuple = (0.0, 0.0)
     soles: dict = field(default_factory=dict)
+    hold: float | None = None
 
     def kind(self, foot: str) -> str:
         """ "surface" for a foot in `soles`, else "point"."""
@@ -293,9 +297,13 @@ def solve(
         for j in range(phase.nodes):
             q, v, tau = Q[:, k], V[:, k], U[:, k]
             pose = f["frame_pose"](q)
+            anchored = [foot for foot in phase.contacts if j == 0 and foot not in (previous or ()) or k == 0]
             for i, foot in enumerate(feet):  # a foot's anchor: its placement (R | p) where its stance began
-                if foot in phase.contacts and (j == 0 and foot not in (previous or ()) or k == 0):
+                if foot in anchored:
                     anchors[foot] = pose[4 * i : 4 * i + 3, :]
+                elif problem.hold is not None and (foot in phase.contacts or j == 0 and foot in (previous or ())):
+                    moved = pose[4 * i : 4 * i + 3, 3] - anchors[foot][:, 3]
+                    opti.subject_to(opti.bounded(-problem.hold, moved, problem.hold))
             heights = [pose[4 * i + 2, 3] for i in range(len(feet))]
             if j == 0 and touchdown:
                 landing = [feet.index(foot) for foot in phase.contacts if foot not in previous]

@@ -5,10 +5,14 @@ robot's contact set (`Robot.with_contacts`) the constraint rows J (nc × nv) and
 from the task-space derivation of the contact frames, world-aligned at each frame (Pinocchio's
 LOCAL_WORLD_ALIGNED): a point contact holds its origin's classical acceleration (3 rows), a
 surface contact its spatial acceleration (6 rows; the linear part is the classical one less
-ω × v).  With M's unrolled LDLᵀ (`functions.ldlt_factor`) and X = M⁻¹Jᵀ, A = J X:
+ω × v).  With M's unrolled LDLᵀ (`functions.ldlt_factor`, M = L D Lᵀ in the tree's elimination
+order) and Z = L⁻¹Jᵀ — a forward substitution that keeps each contact's column on the joints
+above its frame — A = J M⁻¹Jᵀ = Zᵀ D⁻¹ Z, and M⁻¹Jᵀλ = L⁻ᵀ(D⁻¹Z λ), one backward substitution:
 
-    contact_fdyn(q, v, τ) → (a, λ):  λ = −A⁻¹(J M⁻¹(τ − b) + γ),  a = M⁻¹(τ − b) + X λ
-    contact_impulse(q, v⁻) → (v⁺, Λ): Λ = −A⁻¹ J v⁻,  v⁺ = v⁻ + X Λ  (restitution 0)
+    contact_fdyn(q, v, τ) → (a, λ):  λ = −A⁻¹(J M⁻¹(τ − b) + γ),  a = M⁻¹(τ − b) + M⁻¹Jᵀλ
+    contact_impulse(q, v⁻) → (v⁺, Λ): Λ = −A⁻¹ J v⁻,  v⁺ = v⁻ + M⁻¹JᵀΛ  (restitution 0)
+
+(the dense X = M⁻¹Jᵀ, nc backward substitutions, only where a program outputs it: `blocks`).
 
 — Pinocchio's `constraintDynamics` and `impulseDynamics` (M a = τ − b + Jᵀλ, J a + γ = 0;
 J v⁺ = 0).  One program each: M and the bias b = τ(q, v, 0) are the chosen ones (`choice`), and
@@ -161,13 +165,19 @@ def _anchor_errors(robot: Robot, poses: list) -> tuple[tuple, list, list]:
     return tuple(anchor), errors, defs
 
 
-def _solve(L: list, iD: list, order: list, rhs: list, name: _Namer, stem: str, col: int) -> list:
-    """x = M⁻¹ rhs by the factor (L, 1/D) of `ldlt_factor` taken in `order`, named kkt_{stem}{col}_{i}."""
-    n = len(iD)
+def _forward(L: list, iD: list, order: list, rhs: list, name: _Namer, stem: str, col: int) -> tuple[list, list]:
+    """(z, D⁻¹z) with L z = rhs taken in `order` (`ldlt_factor`'s), in elimination positions, named
+    kkt_{stem}z{col}_{i} and kkt_{stem}y{col}_{i}: zero where no entry of rhs reaches (a tree's
+    factor carries an entry only towards the root)."""
     z: list = []
-    for i in range(n):
+    for i in range(len(iD)):
         z.append(name(f"kkt_{stem}z{col}_", rhs[order[i]] - sp.Add(*(L[i][k] * z[k] for k in range(i))), order[i]))
-    y = [name(f"kkt_{stem}y{col}_", z[i] * iD[i], order[i]) for i in range(n)]
+    return z, [name(f"kkt_{stem}y{col}_", z[i] * iD[i], order[i]) for i in range(len(iD))]
+
+
+def _backward(L: list, order: list, y: list, name: _Namer, stem: str, col: int) -> list:
+    """x = L⁻ᵀ y (y in elimination positions), back in the joints' order, named kkt_{stem}{col}_{i}."""
+    n = len(y)
     x = [sp.S.Zero] * n
     for i in reversed(range(n)):
         x[i] = name(f"kkt_{stem}{col}_", y[i] - sp.Add(*(L[k][i] * x[k] for k in range(i + 1, n))), order[i])
@@ -175,6 +185,11 @@ def _solve(L: list, iD: list, order: list, rhs: list, name: _Namer, stem: str, c
     for i, k in enumerate(order):
         out[k] = x[i]
     return out
+
+
+def _solve(L: list, iD: list, order: list, rhs: list, name: _Namer, stem: str, col: int) -> list:
+    """x = M⁻¹ rhs by the factor (L, 1/D) of `ldlt_factor` taken in `order`, named kkt_{stem}{col}_{i}."""
+    return _backward(L, order, _forward(L, iD, order, rhs, name, stem, col)[1], name, stem, col)
 
 
 def _small_factor(A: sp.Matrix, name: _Namer) -> tuple[list, list, list]:
@@ -237,17 +252,18 @@ class ContactSpecs:
         self.mdefs, self.L, self.iD = ldlt_factor(Mmat, elimination_order(Mmat) if tree else None)
         self.order = elimination_order(Mmat) if tree else list(range(n))
         name = _Namer(max(n, nc))
-        rows = self.rows
-        self.X = [_solve(self.L, self.iD, self.order, rows[c], name, "X", c + 1) for c in range(nc)]  # M⁻¹Jᵀ
+        self.Z = [_forward(self.L, self.iD, self.order, self.rows[c], name, "X", c + 1) for c in range(nc)]
         A = sp.Matrix(
             nc,
             nc,
-            lambda i, j: name("kkt_A", sp.Add(*(rows[i][k] * self.X[j][k] for k in range(n))), i, j) if i >= j else 0,
+            lambda i, j: (
+                name("kkt_A", sp.Add(*(zi * yj for zi, yj in zip(self.Z[i][0], self.Z[j][1]))), i, j) if i >= j else 0
+            ),
         )
         A = sp.Matrix(nc, nc, lambda i, j: A[max(i, j), min(i, j)])
         self.adefs, self.AL, self.AiD = _small_factor(A, name)
         self.base = list(M.definitions) + list(bias.definitions) + self.kdefs + self.mdefs
-        self.named = name.defs
+        self.named, self._name, self._X = name.defs, name, None
         self.params = [a for a in M.inputs + bias.inputs if a[0] == "p"][:1]
 
     def _constraint(self, a: list, v: tuple) -> list:
@@ -289,7 +305,23 @@ class ContactSpecs:
         rhs = [local(f"kkt_g{col}_", w[i] - sp.Add(*(self.rows[i][k] * y[k] for k in range(n))), i) for i in range(nc)]
         lam = _solve(self.AL, self.AiD, list(range(nc)), rhs, local, f"lam{col}_", 0)
         x = [local(f"kkt_x{col}_", y[k] + sp.Add(*(self.X[c][k] * lam[c] for c in range(nc))), k) for k in range(n)]
-        return x, lam
+        return x, lam  # X once for every column (2n + n of them), not a backward substitution each
+
+    @property
+    def X(self) -> list:
+        """M⁻¹Jᵀ by columns (nc × n): the backward halves of Z's solves, made when first asked for."""
+        if self._X is None:
+            self._X = [_backward(self.L, self.order, y, self._name, "X", c + 1) for c, (_, y) in enumerate(self.Z)]
+        return self._X
+
+    def _plus_forces(self, y: list, lam: list, local: _Namer, stem: str) -> list:
+        """y + M⁻¹Jᵀλ = y + L⁻ᵀ(Σ λ_c D⁻¹z_c): one backward substitution of the forces' sum."""
+        w = [
+            local(f"kkt_{stem}w", sp.Add(*(lam[c] * self.Z[c][1][i] for c in range(self.nc))), self.order[i])
+            for i in range(self.n)
+        ]
+        dx = _backward(self.L, self.order, w, local, f"{stem}d", 0)
+        return [local(f"kkt_{stem}", y[k] + dx[k], k) for k in range(self.n)]
 
     def dynamics(self, kind: str) -> FunctionSpec:
         """contact_fdyn (kind "fdyn") or contact_impulse ("impulse")."""
@@ -308,7 +340,7 @@ class ContactSpecs:
             inputs, start = (self.q, ("v_before", v[1]), *self.params), list(v[1])
         lam = _solve(self.AL, self.AiD, list(range(nc)), rhs, local, "lam", 0)
         lam = [local("kkt_lam", -x, i) for i, x in enumerate(lam)]
-        out = [local("kkt_out", start[k] + sp.Add(*(self.X[c][k] * lam[c] for c in range(nc))), k) for k in range(n)]
+        out = self._plus_forces(start, lam, local, "out")
         label = ("a", "force") if kind == "fdyn" else ("v_after", "impulse")
         doc = f"Contact dynamics of the set {_set(robot)}: " + (
             f"a ({n},) and the contact forces ({nc},), world axes at each frame, of M a = tau - b + J^T f, "
