@@ -381,11 +381,17 @@ class ContactSpecs:
             names = ("v_before", "v_after", "impulse")
         r1 = [first[i] - sp.Add(*(rows[c][i] * lam[c] for c in range(nc))) for i in range(n)]
         edefs = list(self.edefs) if kind == "fdyn" else []
-        wrt = [s for s in list(q) + list(v) if s not in self._invariant(base_joint)]
+        invariant = self._invariant(base_joint)
+        wrt = [s for s in list(q) + list(v) if s not in invariant]
         jdefs, cols = jacobian(defs + list(self.kdefs) + edefs, r1 + r2, wrt, stem="Dk")
         at = {s: k for k, s in enumerate(wrt)}
         jac = [[row[at[s]] if s in at else sp.S.Zero for s in list(q) + list(v)] for row in cols]
         T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
+        turn = None
+        if q[3] in invariant:
+            known = dict(defs)
+            turn = self._turn(kind, q, lam, known)
+            defs = list(known.items())
 
         def block(r0: int, rs: int, c0: int, cs: int, tangent: bool) -> sp.ImmutableMatrix:
             if not tangent:
@@ -393,8 +399,12 @@ class ContactSpecs:
             return sp.ImmutableMatrix(
                 rs,
                 n,
-                lambda i, j: sp.Add(
-                    *(jac[r0 + i][k] * T[k, j] for k in range(len(q)) if jac[r0 + i][k] != 0 and T[k, j] != 0)
+                lambda i, j: (
+                    turn[i][j - 3]
+                    if turn is not None and 3 <= j < 6 and r0 == 0
+                    else sp.Add(
+                        *(jac[r0 + i][k] * T[k, j] for k in range(len(q)) if jac[r0 + i][k] != 0 and T[k, j] != 0)
+                    )
                 ),
             )
 
@@ -416,14 +426,52 @@ class ContactSpecs:
         )
 
     def _invariant(self, base_joint: str | None) -> tuple:
-        """The base's position coordinates when nothing depends on them: the dynamics, the rows J
-        (world-aligned, lever arms differences of positions) and γ are unchanged by a translation
-        of the whole robot in a uniform field, so their derivatives by it are exact zeros, not the
-        round-off of differences the program computes (Baumgarte's kp measures positions from an
-        anchor: then they count)."""
+        """The base's coordinates the residuals are not differentiated by, when only a rigid motion of
+        the whole robot depends on them (Baumgarte's kp measures positions from an anchor: then they
+        all count).  Its position: the dynamics, the rows J (world-aligned, lever arms differences of
+        positions) and γ are unchanged by a translation in a uniform field, so their derivatives by
+        it are exact zeros, not the round-off of differences the program computes.  A free base's
+        quaternion: turning the base turns the world-aligned terms and gravity in the base frame,
+        whose derivatives have a closed form (`_turn`) — the four directions of the quaternion
+        through the whole program were the costliest (Solo 12: ~4 000 operations each of 38 000)."""
         if self.robot.baumgarte[0] or base_joint not in ("free", "planar"):
             return ()
-        return tuple(self.q[1][: 3 if base_joint == "free" else 2])
+        return tuple(self.q[1][: 7 if base_joint == "free" else 2])
+
+    def _turn(self, kind: str, q: tuple, lam: tuple, defs: dict) -> list:
+        """∂r1/∂δ (n × 3) for a turn δ of a free base in its own frame (q ⊕ δ: R → R exp(δ×)).  Gravity
+        enters τ as the base's upward acceleration g_b = Rᵀg₀ (`newton_euler.gravity_in_base`),
+        so ∂τ/∂δ_k = M[:, :3](g_b × e_k) (for fdyn; M(v⁺ − v⁻) of the impact does not turn); a
+        world-aligned row block J_c = R_w J_c,b gives ∂(J_cᵀλ_c)/∂δ_k = J_cᵀ(λ_c × R_w e_k).  r2, a
+        world-aligned vector, turns as ∂r2/∂δ_k = R_w e_k × r2 = 0 at the solution, where r2 = 0."""
+        from ..derivation.floating import base_rotation
+        from ..derivation.newton_euler import gravity_in_base
+        from ..model.placement import exact
+
+        n, R = self.n, base_rotation("free", q[:7])
+        Rw = sp.Matrix([[exact(x) for x in row[:3]] for row in self.robot.base[:3]]) * R
+        gb = R.T * sp.Matrix(gravity_in_base(self.robot))
+        M = self.M.outputs[0][1]
+        if kind == "fdyn":  # M's terms, τ's where τ has them (one derivation: the same), added to defs
+            ours = dict(self.M.definitions)
+            clash = {s for s, e in ours.items() if s in defs and sp.sympify(defs[s]) != sp.sympify(e)}
+            rename = {s: sp.Symbol(f"turn_{s.name}", real=True) for s in clash}
+            for s, e in ours.items():
+                if s not in defs or s in clash:
+                    defs[rename.get(s, s)] = sp.sympify(e).xreplace(rename)
+            M = M.xreplace(rename)
+        out = [[sp.S.Zero] * 3 for _ in range(n)]
+        for k in range(3):
+            axis = Rw[:, k]
+            if kind == "fdyn":
+                turned = gb.cross(sp.Matrix([1 if m == k else 0 for m in range(3)]))
+                for i in range(n):
+                    out[i][k] += sp.Add(*(M[i, m] * turned[m] for m in range(3) if turned[m] != 0))
+            for c0 in range(0, self.nc, 3):
+                force = sp.Matrix(lam[c0 : c0 + 3]).cross(axis)
+                for i in range(n):
+                    out[i][k] -= sp.Add(*(self.rows[c0 + m][i] * force[m] for m in range(3) if self.rows[c0 + m][i] != 0))
+        return out
 
     def blocks(self) -> FunctionSpec:
         """Xᵀ = J M⁻¹ (nc × n) and A⁻¹ (nc × nc, from A's factor): the KKT inverse's blocks besides
