@@ -470,7 +470,9 @@ class ContactSpecs:
             for c0 in range(0, self.nc, 3):
                 force = sp.Matrix(lam[c0 : c0 + 3]).cross(axis)
                 for i in range(n):
-                    out[i][k] -= sp.Add(*(self.rows[c0 + m][i] * force[m] for m in range(3) if self.rows[c0 + m][i] != 0))
+                    out[i][k] -= sp.Add(
+                        *(self.rows[c0 + m][i] * force[m] for m in range(3) if self.rows[c0 + m][i] != 0)
+                    )
         return out
 
     def blocks(self) -> FunctionSpec:
