@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from symdyn.codegen.entry import load
 from symdyn.model.random_robots import random_tree_robot
-from tests.test_contacts import RTOL, _relative, pinocchio_contacts, world_axes
+from symdyn.bench.contact_peer import world_axes
+from tests.test_contacts import RTOL, _relative, pinocchio_contacts
 from tests.test_task_space import states, with_random_frames
 
 pin = pytest.importorskip("pinocchio", reason="the corrector is checked against Pinocchio (the test extra)")

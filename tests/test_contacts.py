@@ -15,6 +15,8 @@ from tests.test_task_space import states, with_random_frames
 
 pin = pytest.importorskip("pinocchio", reason="contact dynamics are checked against Pinocchio (the test extra)")
 peer = pytest.importorskip("symdyn.bench.task_space")
+from symdyn.bench import contact_peer  # noqa: E402
+
 RTOL = 1e-10
 
 
@@ -23,65 +25,18 @@ def _relative(got, want) -> float:
 
 
 def pinocchio_setup(robot):
-    """Pinocchio's model of the robot with its contact set as rigid constraints (RigidConstraintModel,
-    CONTACT_3D / CONTACT_6D, LOCAL_WORLD_ALIGNED), and the proximal settings of an exact solve."""
-    names = [name for name, _ in robot.contacts]
-    model, ids = peer.peer_model(robot.with_frames(names))
-    data = model.createData()
-    models, datas = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
-    for k, (_, kind) in enumerate(robot.contacts):
-        frame = model.frames[ids[k]]
-        contact = pin.ContactType.CONTACT_3D if kind == "point" else pin.ContactType.CONTACT_6D
-        cm = pin.RigidConstraintModel(
-            contact, model, frame.parentJoint, frame.placement, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        )
-        models.append(cm)
-        datas.append(cm.createData())
-    pin.initConstraintDynamics(model, data, models, datas)
-    return model, data, models, datas, pin.ProximalSettings(1e-14, 0.0, 1)
-
-
-def world_axes(robot) -> np.ndarray:
-    """The rotation that takes the contact forces from Pinocchio's world (the robot's base frame:
-    the peer model starts there) to the robot's world, where symdyn expresses them: the base's
-    rotation on each 3-row block (a point's force; a surface's force and moment)."""
-    rows = sum(3 if kind == "point" else 6 for _, kind in robot.contacts)
-    return np.kron(np.eye(rows // 3), np.array(robot.base, dtype=float)[:3, :3])
+    """Pinocchio's model of the robot (symdyn's description) with its contact set as rigid constraints."""
+    return contact_peer.setup(robot, *peer.peer_model(robot.with_frames([name for name, _ in robot.contacts])))
 
 
 def pinocchio_contacts(robot, q, v, tau, setup=None):
-    """Pinocchio's (a, λ, v⁺, Λ) at one state with the robot's contact set as rigid constraints,
-    the forces turned into the robot's world axes."""
-    from symdyn.bench.reduced import pin_configuration
-
-    model, data, models, datas, prox = setup or pinocchio_setup(robot)
-    W = world_axes(robot)
-    x = pin_configuration(model, np.atleast_2d(q))[0]
-    a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
-    force = W @ data.lambda_c
-    v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
-    return a, force, v_after, W @ data.impulse_c
+    """Pinocchio's (a, λ, v⁺, Λ) at one state, the forces in the robot's world axes."""
+    return contact_peer.contacts(robot, q, v, tau, setup or pinocchio_setup(robot))
 
 
 def pinocchio_derivatives(robot, q, v, tau, setup):
-    """Pinocchio's computeConstraintDynamicsDerivatives and computeImpulseDynamicsDerivatives at one
-    state, in the order of contact_fdyn_derivatives and contact_impulse_derivatives (Pinocchio's
-    impulse ddq_dv is d(v⁺ − v⁻)/dv⁻: the identity added here), the forces' rows turned into the
-    robot's world axes."""
-    from symdyn.bench.reduced import pin_configuration
-
-    model, data, models, datas, prox = setup
-    W = world_axes(robot)
-    x = pin_configuration(model, np.atleast_2d(q))[0]
-    a = pin.constraintDynamics(model, data, x, v, tau, models, datas, prox).copy()
-    pin.computeConstraintDynamicsDerivatives(model, data, models, datas)
-    fdyn = [a, W @ data.lambda_c, data.ddq_dq.copy(), data.ddq_dv.copy(), data.ddq_dtau.copy()]
-    fdyn += [W @ data.dlambda_dq, W @ data.dlambda_dv, W @ data.dlambda_dtau]
-    v_after = pin.impulseDynamics(model, data, x, v, models, datas, 0.0, prox).copy()
-    pin.computeImpulseDynamicsDerivatives(model, data, models, datas, 0.0, prox)
-    dv = data.ddq_dv + np.eye(model.nv)
-    impulse = [v_after, W @ data.impulse_c, data.ddq_dq.copy(), dv, W @ data.dlambda_dq, W @ data.dlambda_dv]
-    return fdyn, impulse
+    """Pinocchio's contact derivatives at one state, in symdyn's order and world."""
+    return contact_peer.derivatives(robot, q, v, tau, setup)
 
 
 def assert_as_pinocchio(robot, f, q, v, tau, derivatives=()):
