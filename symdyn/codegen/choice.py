@@ -191,12 +191,26 @@ class Programs:
         if key not in self._built:
             specs = self._contact_specs()
             kind = "fdyn" if name.startswith("contact_fdyn") else "impulse"
-            dynamics, residual, minv = self.program(f"contact_{kind}"), self._residual(kind), self.program("Minv")
+            vectors = self.tangents(name)
+            residual = vectors[0] if vectors else self._residual(kind)
+            dynamics, minv = self.program(f"contact_{kind}"), self.program("Minv")
             with engine.use(self.engine):
                 blocks = specs.blocks().program()
                 self._built[key] = parts_program(
                     kind, dynamics, residual, minv, blocks, specs.shared() | self._shared_minv(), self.dyns[0].robot
                 )
+        return self._built[key]
+
+    def tangents(self, name: str) -> tuple | None:
+        """(the partials' program, its `tangents.Plan`, {direction: column of R}) of a contact
+        derivatives function whose residuals' Jacobians the C target makes in vectors
+        (`ContactSpecs.tangents`); None where it cannot (then `parts` holds R itself)."""
+        key = f"tangents_{name}"
+        if key not in self._built:
+            kind = "fdyn" if name.startswith("contact_fdyn") else "impulse"
+            with engine.use(self.engine):
+                made = self._contact_specs().tangents(kind, self.chosen("tau")[0], self.base_joint)
+                self._built[key] = None if made is None else (made[0].program(), *made[1:])
         return self._built[key]
 
     def _shared_minv(self) -> frozenset:

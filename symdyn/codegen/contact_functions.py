@@ -40,6 +40,7 @@ from ..model.rotations import quaternion_entries
 from ..derivation.program import Program
 from .derivatives import Splice, jacobian, tangent_map
 from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor, ldlt_inverse
+from .tangents import plan
 
 __all__ = [
     "CONTACT_NAMES",
@@ -50,6 +51,7 @@ __all__ = [
     "contact_signatures",
     "derivatives_program",
     "PARTS",
+    "TANGENT_PARTS",
     "parts_program",
 ]
 
@@ -358,10 +360,10 @@ class ContactSpecs:
             f"contacts; M: {self.M.origin}, bias: {self.bias.origin}",
         )
 
-    def residual(self, kind: str, tau: FunctionSpec, base_joint: str | None) -> FunctionSpec:
-        """The KKT residuals' Jacobians in the tangent space of q: for "fdyn", r1 = τ(q, v, a) − Jᵀf,
-        r2 = J a + γ at (q, v, a, f), by (q, v); for "impulse", r1 = M(q)(v⁺ − v⁻) − JᵀΛ, r2 = J v⁺
-        at (q, v⁻, v⁺, Λ), by (q, v⁻).  Outputs dr1_dq, dr1_dv, dr2_dq, dr2_dv."""
+    def _residuals(self, kind: str, tau: FunctionSpec, base_joint: str | None) -> tuple:
+        """(inputs, definitions, [r1; r2], the directions wrt, the closed-form turn columns or None)
+        of the KKT residuals: for "fdyn", r1 = τ(q, v, a) − Jᵀf, r2 = J a + γ at (q, v, a, f); for
+        "impulse", r1 = M(q)(v⁺ − v⁻) − JᵀΛ, r2 = J v⁺ at (q, v⁻, v⁺, Λ)."""
         n, nc, rows = self.n, self.nc, self.rows
         q, v = self.q[1], self.v[1]
         second = tuple(sp.Symbol(f"{'qdd' if kind == 'fdyn' else 'vplus'}{i + 1}", real=True) for i in range(n))
@@ -383,15 +385,25 @@ class ContactSpecs:
         edefs = list(self.edefs) if kind == "fdyn" else []
         invariant = self._invariant(base_joint)
         wrt = [s for s in list(q) + list(v) if s not in invariant]
-        jdefs, cols = jacobian(defs + list(self.kdefs) + edefs, r1 + r2, wrt, stem="Dk")
-        at = {s: k for k, s in enumerate(wrt)}
-        jac = [[row[at[s]] if s in at else sp.S.Zero for s in list(q) + list(v)] for row in cols]
-        T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
         turn = None
         if q[3] in invariant:
             known = dict(defs)
             turn = self._turn(kind, q, lam, known)
             defs = list(known.items())
+        anchor = (("anchor", self.anchor),) if kind == "fdyn" and self.anchor else ()
+        inputs = (self.q, (names[0], v), (names[1], second), (names[2], lam), *anchor, *self.params)
+        return inputs, defs + list(self.kdefs) + edefs, r1 + r2, wrt, turn
+
+    def residual(self, kind: str, tau: FunctionSpec, base_joint: str | None) -> FunctionSpec:
+        """The KKT residuals' Jacobians in the tangent space of q (`_residuals`), by (q, v) for
+        "fdyn", by (q, v⁻) for "impulse".  Outputs dr1_dq, dr1_dv, dr2_dq, dr2_dv."""
+        n, nc = self.n, self.nc
+        q, v = self.q[1], self.v[1]
+        inputs, defs, residuals, wrt, turn = self._residuals(kind, tau, base_joint)
+        jdefs, cols = jacobian(defs, residuals, wrt, stem="Dk")
+        at = {s: k for k, s in enumerate(wrt)}
+        jac = [[row[at[s]] if s in at else sp.S.Zero for s in list(q) + list(v)] for row in cols]
+        T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
 
         def block(r0: int, rs: int, c0: int, cs: int, tangent: bool) -> sp.ImmutableMatrix:
             if not tangent:
@@ -414,16 +426,70 @@ class ContactSpecs:
             ("dr2_dq", block(n, nc, 0, len(q), True)),
             ("dr2_dv", block(n, nc, len(q), n, False)),
         )
-        anchor = (("anchor", self.anchor),) if kind == "fdyn" and self.anchor else ()
         return FunctionSpec(
             f"contact_{kind}_residual",
-            (self.q, (names[0], v), (names[1], second), (names[2], lam), *anchor, *self.params),
+            inputs,
             outputs,
-            tuple(dict([*defs, *self.kdefs, *edefs, *jdefs]).items()),
+            tuple(dict([*defs, *jdefs]).items()),
             "",
             f"contacts; tau: {tau.origin}",
             tuple(o for o, _ in outputs),
         )
+
+    def tangents(self, kind: str, tau: FunctionSpec, base_joint: str | None) -> tuple | None:
+        """The residuals' Jacobians for vectors of directions (`tangents.plan`): (a spec whose outputs
+        are the local partials the plan reads and the turn's columns (n × 3; zeros without a free
+        base), the plan, {direction: column of R = [∂r/∂q ∂r/∂v]}); None where a direction is not
+        one column of the tangent space (kp: the quaternion is differentiated, then mapped)."""
+        n = self.n
+        q, v = self.q[1], self.v[1]
+        inputs, defs, residuals, wrt, turn = self._residuals(kind, tau, base_joint)
+        T = tangent_map(q, n, base_joint) if base_joint is not None else sp.eye(n)
+        columns = {x: n + k for k, x in enumerate(v)}
+        for k, x in enumerate(q):
+            if x in wrt:
+                cols = [j for j in range(n) if T[k, j] != 0]
+                if len(cols) != 1 or T[k, cols[0]] != 1:
+                    return None
+                columns[x] = cols[0]
+        program = plan(defs, residuals, self._groups(wrt))
+        turned = sp.ImmutableMatrix(n, 3, lambda i, k: turn[i][k] if turn is not None else 0)
+        spec = FunctionSpec(
+            f"contact_{kind}_partials",
+            inputs,
+            (("partials", sp.ImmutableMatrix(len(program.values), 1, program.values)), ("turn", turned)),
+            tuple(dict(defs).items()),
+            "",
+            f"contacts; tau: {tau.origin}",
+            ("partials", "turn"),
+        )
+        return spec, program, columns
+
+    def _groups(self, wrt: list) -> list:
+        """The directions in vectors: the base's first, then each branch of the tree from the base
+        (its joints' coordinates, then their velocities), which moves no other branch."""
+        robot, n = self.robot, self.n
+        q, v = self.q[1], self.v[1]
+        joints = robot.n
+        top = []
+        for k in range(joints):
+            i = k
+            while robot.parents[i] >= 0:
+                i = robot.parents[i]
+            top.append(i)
+        chosen = set(wrt)
+        base = [x for x in list(q[: len(q) - joints]) + list(v[: n - joints]) if x in chosen]
+        groups = [base] if base else []
+        for root in dict.fromkeys(top):
+            members = [k for k in range(joints) if top[k] == root]
+            groups.append(
+                [
+                    x
+                    for x in [q[len(q) - joints + k] for k in members] + [v[n - joints + k] for k in members]
+                    if x in chosen
+                ]
+            )
+        return groups
 
     def _invariant(self, base_joint: str | None) -> tuple:
         """The base's coordinates the residuals are not differentiated by, when only a rigid motion of
@@ -601,6 +667,8 @@ def derivatives_program(
 
 #: The outputs of a KKT-parts program (`parts_program`) after the dynamics' two.
 PARTS = ("Minv", "XT", "Ainv", "R")
+#: What replaces R where it is made in vectors (`ContactSpecs.tangents`): the partials and the turn.
+TANGENT_PARTS = ("partials", "turn")
 
 
 def parts_program(
@@ -610,17 +678,25 @@ def parts_program(
     dynamics' two outputs, M⁻¹, Xᵀ = J M⁻¹, A⁻¹ and R = [∂r1/∂q ∂r1/∂v; ∂r2/∂q ∂r2/∂v] ((n + nc) ×
     2n, its exact zeros the tree's).  Then K⁻¹ = [P Gᵀ; −G A⁻¹] with G = A⁻¹Xᵀ, P = M⁻¹ − X G,
     ∂[x; λ]/∂z = −K⁻¹R and for fdyn ∂[a; f]/∂τ = [P; −G]: products the C target runs as loops
-    the compiler vectorizes (`emit.ckkt`), the leg columns' zeros skipped."""
+    the compiler vectorizes (`emit.ckkt`), the leg columns' zeros skipped.  Given the partials'
+    program of `ContactSpecs.tangents` as `residual`, R's place takes the local partials and the
+    turn's columns (`TANGENT_PARTS`), from which the C makes R in vectors (`tangents.Plan`)."""
     labels = _labels(kind)
-    splice, x, lam, (d1q, d1v, d2q, d2v) = _spliced(kind, dynamics, residual, shared, set(PARTS))
+    vectors = residual.name.endswith("_partials")  # `ContactSpecs.tangents`: R made in vectors
+    splice, x, lam, terms = _spliced(kind, dynamics, residual, shared, set(PARTS) | set(TANGENT_PARTS))
     q = dynamics.inputs[0][1]
     (inv,) = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
     xt, ainv = splice.append(blocks, dict(zip(blocks.inputs[0][1], q)), "b_", shared)
-    R = d1q.row_join(d1v).col_join(d2q.row_join(d2v))
+    if vectors:
+        last = tuple(zip(TANGENT_PARTS, terms))
+    else:
+        d1q, d1v, d2q, d2v = terms
+        last = (("R", sp.ImmutableMatrix(d1q.row_join(d1v).col_join(d2q.row_join(d2v)))),)
     outputs = (
         (labels[0], sp.ImmutableMatrix(x)),
         (labels[1], sp.ImmutableMatrix(lam)),
-        *zip(PARTS, (inv, xt, ainv, sp.ImmutableMatrix(R))),
+        *zip(PARTS[:3], (inv, xt, ainv)),
+        *last,
     )
     return Program(
         f"contact_{kind}_derivatives",
@@ -629,7 +705,7 @@ def parts_program(
         outputs,
         _doc(kind, robot, len(x), len(lam)),
         dynamics.origin,
-        frozenset(PARTS),
+        frozenset(o for o, _ in outputs[2:]),
     )
 
 

@@ -136,11 +136,13 @@ class _Sources:
 
     def _build(self, function: str) -> str:
         kkt = function in CONTACT_NAMES and function.endswith("_derivatives")
+        tangents = None
         try:
             if function in self.task.names:  # the task space needs no joint-space derivation
                 program = self.task.program(function)
-            elif kkt:  # the KKT parts, then dense products (`ckkt`)
+            elif kkt:  # the KKT parts, then dense products (`ckkt`); R in vectors where it can
                 program = self.programs().parts(function)
+                tangents = self.programs().tangents(function)
             else:
                 program = self.programs().program(function)
         except ValueError as exc:
@@ -154,11 +156,11 @@ class _Sources:
             f"model-fingerprint: {self.robot.fingerprint()}",
             "content-sha256:  (of this file without this value: an edited file is refused)",
             f"operations after one joint CSE: {ops}"
-            + (f" + {ckkt.products(program)} multiply-adds in vector products" if kkt else "")
+            + (f" + {ckkt.products(program, tangents)} multiply-adds in vector products" if kkt else "")
             + f" [{program.origin}]",
         ]
         if kkt:
-            return ckkt.function_file(self.name, program, self.sigs[function], comment)
+            return ckkt.function_file(self.name, program, self.sigs[function], comment, tangents)
         return c_emit.function_file(self.name, program, comment)
 
 

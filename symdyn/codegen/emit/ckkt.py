@@ -18,7 +18,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ...derivation.program import Program
-from ..contact_functions import PARTS
+from ..contact_functions import PARTS, TANGENT_PARTS
 from . import c as c_emit
 from . import seal
 
@@ -36,12 +36,24 @@ def _up(k: int) -> int:
     return -(-k // LANES) * LANES
 
 
-def products(parts: Program) -> int:
+def _residual_pattern(parts: Program, tangents) -> sp.ImmutableMatrix:
+    """R, or where the plan makes it in vectors (`tangents`: (program, plan, columns)) its pattern:
+    1 where an entry may be nonzero (the plan's directions, the turn's columns), 0 elsewhere."""
+    out = dict(parts.outputs)
+    if tangents is None:
+        return out["R"]
+    _, plan, columns = tangents
+    n, nc = out["Minv"].rows, out["Ainv"].rows
+    nonzero = plan.pattern(columns) | {(i, 3 + k) for i in range(n) for k in range(3) if out["turn"][i, k] != 0}
+    return sp.ImmutableMatrix(n + nc, 2 * n, lambda i, j: 1 if (i, j) in nonzero else 0)
+
+
+def products(parts: Program, tangents=None) -> int:
     """The multiply-adds of the products after the parts: G, P and −K⁻¹R (R's vectors of exact
     zeros skipped, as `_sparse_rows` does)."""
     out = dict(parts.outputs)
     n, nc = out["Minv"].rows, out["Ainv"].rows
-    R = _padded(out["R"])
+    R = _padded(_residual_pattern(parts, tangents))
     kept = sum(any(R[k, j + t] != 0 for t in range(LANES)) for k in range(R.rows) for j in range(0, R.cols, LANES))
     return nc * nc * n + n * nc * n + (n + nc) * LANES * kept
 
@@ -54,7 +66,7 @@ def _padded(m) -> sp.ImmutableMatrix:
 def _kkt_program(parts: Program) -> Program:
     """The parts as the static function's program, M⁻¹'s, Xᵀ's and R's rows padded to whole vectors."""
     outputs = tuple((o, _padded(m) if o in ("Minv", "XT", "R") else m) for o, m in parts.outputs)
-    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in PARTS)
+    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in PARTS + TANGENT_PARTS)
     return Program(f"{parts.name}_kkt", parts.inputs, parts.assignments, outputs, "", parts.origin, frozenset(), shapes)
 
 
@@ -134,12 +146,14 @@ def _sparse_rows(name: str, R) -> str:
     return "\n".join(lines)
 
 
-def derivatives_source(model: str, parts: Program, sig: c_emit.Signature) -> str:
+def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangents=None) -> str:
     """The static KKT-parts function, the public single-state function `sig` (its doc the parts'),
-    its batch loop and its threaded kernel."""
+    its batch loop and its threaded kernel; with `tangents` ((program, plan, columns) of
+    `choice.Programs.tangents`) R is made from the parts' partials by the plan's vectors."""
     out = dict(parts.outputs)
     n, nc = out["Minv"].rows, out["Ainv"].rows
-    N, m = n + nc, out["R"].cols
+    pattern = _residual_pattern(parts, tangents)
+    N, m = n + nc, pattern.cols
     kkt = _kkt_program(parts)
     f = f"{model}_{sig.name}"
     names = [o for o, _ in sig.outputs]
@@ -151,12 +165,26 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature) -> str
     tau = half == 3  # fdyn: by tau, K^-1 [I; 0] = [P; -G]
     wn, wm = _up(n), _up(m)
     small, large = f"{f}_rows{wn // LANES}x{nc}", f"{f}_rows_R"
-    helpers = _rows(small, nc, wn // LANES) + "\n" + _sparse_rows(large, dict(kkt.outputs)["R"])
+    helpers = _rows(small, nc, wn // LANES) + "\n" + _sparse_rows(large, _padded(pattern))
     body = [
         f"    double Minv_[{n * wn}], XT_[{nc * wn}], Ainv_[{nc * nc}], R_[{N * wm}];",
         f"    double G_[{nc * wn}], p_[{wn}], w_[{N}], d_[{wm}];",
         "    int i, j, c;",
-        f"    {f}_kkt({', '.join(args + [first, second, 'Minv_', 'XT_', 'Ainv_', 'R_'])});",
+    ]
+    if tangents is None:
+        body.append(f"    {f}_kkt({', '.join(args + [first, second, 'Minv_', 'XT_', 'Ainv_', 'R_'])});")
+    else:
+        _, plan, columns = tangents
+        turned = [(i, k) for i in range(n) for k in range(3) if out["turn"][i, k] != 0]
+        helpers += "\n" + plan.c_source(f"{f}_tangents", columns, wm)
+        body += [
+            f"    double P_[{max(1, len(plan.values))}], turn_[{3 * n}];",
+            f"    {f}_kkt({', '.join(args + [first, second, 'Minv_', 'XT_', 'Ainv_', 'P_', 'turn_'])});",
+            "    memset(R_, 0, sizeof R_);",
+            f"    {f}_tangents(P_, R_);  /* R's columns by the directions, in vectors */",
+            *(f"    R_[{i * wm + 3 + k}] = turn_[{3 * i + k}];" for i, k in turned),
+        ]
+    body += [
         f"    for (c = 0; c < {nc}; ++c)  /* G = A^-1 X^T */",
         f"        {small}(Ainv_ + c * {nc}, XT_, 0, G_ + c * {wn});",
         f"    for (i = 0; i < {N}; ++i) {{  /* row i of -K^-1 R, K^-1 = [P G^T; -G A^-1] */",
@@ -229,9 +257,8 @@ def _threaded(model: str, sig: c_emit.Signature) -> str:
     return "\n".join(lines)
 
 
-def function_file(model: str, parts: Program, sig: c_emit.Signature, comment: list[str]) -> str:
+def function_file(model: str, parts: Program, sig: c_emit.Signature, comment: list[str], tangents=None) -> str:
     """One contact derivatives function's C as a file of its own, sealed, as `c.function_file`."""
     split = len(parts.assignments) > c_emit.CACHE_SPLIT_ABOVE
-    return seal(
-        "\n".join([c_emit._comment(comment), *c_emit._preamble(model, split), derivatives_source(model, parts, sig)])
-    )
+    source = derivatives_source(model, parts, sig, tangents)
+    return seal("\n".join([c_emit._comment(comment), *c_emit._preamble(model, split), source]))
