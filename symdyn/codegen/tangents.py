@@ -34,60 +34,77 @@ class Plan:
     `seeds`, (slot, lane) of the directions' unit vectors; `steps`, in order, ("set", slot,
     [(coefficient, operand slot)]) — a coefficient ("p", k) or a number — and ("store", output
     row, slot, block); `slots`, the vectors held at once (a slot is reused once its value is
-    dead, so that the tangents stay in the first level of the cache)."""
+    dead, so that the tangents stay in the first level of the cache); `support`, per output the
+    directions it depends on (its other lanes are exact zeros)."""
 
     values: tuple
     lanes: dict
     slots: int
     seeds: tuple
     steps: tuple
+    support: tuple  # per output, the directions its tangent depends on
 
     def pattern(self, columns: dict) -> set:
         """{(output row, column)} of the structurally nonzero entries (`columns`: direction → column)."""
-        out = set()
-        for step in self.steps:
-            if step[0] == "store":
-                _, i, _, b = step
-                out |= {(i, columns[x]) for x, lane in self.lanes.items() if lane // LANES == b}
-        return out
+        return {(i, columns[x]) for i, directions in enumerate(self.support) for x in directions}
 
     def c_source(self, name: str, columns: dict, stride: int) -> str:
         """`static void name(const double *p, double *R)`: the tangents from the partials p, output
         row i's written to R[i·stride + columns[x]] for every direction x (R's other entries
-        untouched).  GCC's and Clang's vector types (the C target's compilers)."""
-        zero = ", ".join(["0.0"] * LANES)
+        untouched).  GCC's and Clang's vector types; elsewhere the same statements in a loop over
+        the lanes.  Its preprocessing lines are indented: `cunits` splits a file into units at
+        column 0."""
         lines = [
             f"static void {name}(const double *p, double *R)",
             "{",
+            "    #if defined(__GNUC__)",
             f"    typedef double v_ __attribute__((vector_size({8 * LANES})));",
             f"    v_ T[{max(1, self.slots)}];",
-            f"    const v_ zero_ = {{{zero}}};",
+            f"    const v_ zero_ = {{{', '.join(['0.0'] * LANES)}}};",
+            "    #define SYMDYN_L_",
+            "    #define SYMDYN_SEED_(s, l) (T[s] = zero_, T[s][l] = 1.0)",
+            "    #define SYMDYN_STORE_(s, l, k) (R[k] = T[s][l])",
+            "    #else",
+            f"    double T[{max(1, self.slots)}][{LANES}];",
+            "    int l_;",
+            f"    for (l_ = 0; l_ < {LANES}; ++l_) {{",
+            "    #define SYMDYN_L_ [l_]",
+            "    #define SYMDYN_SEED_(s, l) (T[s][l_] = l_ == (l) ? 1.0 : 0.0)",
+            "    #define SYMDYN_STORE_(s, l, k) (l_ == (l) ? (void)(R[k] = T[s][l_]) : (void)0)",
+            "    #endif",
         ]
-        for slot, lane in self.seeds:
-            lines.append(f"    T[{slot}] = zero_;")
-            lines.append(f"    T[{slot}][{lane % LANES}] = 1.0;")
+        lines += [f"    SYMDYN_SEED_({slot}, {lane % LANES});" for slot, lane in self.seeds]
         by_block: dict = {}
         for x, lane in self.lanes.items():
             by_block.setdefault(lane // LANES, []).append((lane % LANES, columns[x]))
         for step in self.steps:
             if step[0] == "set":
                 _, slot, terms = step
-                lines.append(f"    T[{slot}] = " + " + ".join(_term(c, u) for c, u in terms) + ";")
+                lines.append(f"    T[{slot}] SYMDYN_L_ = " + " + ".join(_term(c, u) for c, u in terms) + ";")
             else:
                 _, i, slot, b = step
-                lines += [f"    R[{i * stride + col}] = T[{slot}][{lane}];" for lane, col in by_block[b]]
-        lines.append("}")
+                lines += [f"    SYMDYN_STORE_({slot}, {lane}, {i * stride + col});" for lane, col in by_block[b]]
+        lines += [
+            "    #if !defined(__GNUC__)",
+            "    }",
+            "    #endif",
+            "    #undef SYMDYN_L_",
+            "    #undef SYMDYN_SEED_",
+            "    #undef SYMDYN_STORE_",
+            "}",
+        ]
         return "\n".join(lines) + "\n"
 
 
 def _term(coefficient, slot: int) -> str:
+    operand = f"T[{slot}] SYMDYN_L_"
     if isinstance(coefficient, tuple):
-        return f"p[{coefficient[1]}] * T[{slot}]"
+        return f"p[{coefficient[1]}] * {operand}"
     if coefficient == 1:
-        return f"T[{slot}]"
+        return operand
     if coefficient == -1:
-        return f"-T[{slot}]"
-    return f"{float(coefficient)!r} * T[{slot}]"
+        return f"-{operand}"
+    return f"{float(coefficient)!r} * {operand}"
 
 
 def plan(definitions: Sequence, outputs: Sequence, groups: Sequence[Sequence]) -> Plan:
@@ -105,6 +122,7 @@ def plan(definitions: Sequence, outputs: Sequence, groups: Sequence[Sequence]) -
         slots[x, lane // LANES] = len(slots)
         seeds.append((slots[x, lane // LANES], lane))
     blocks = {x: {lane // LANES} for x, lane in lanes.items()}
+    support = {x: frozenset([x]) for x in lanes}
     values: dict = {}
     steps: list = []
 
@@ -112,27 +130,33 @@ def plan(definitions: Sequence, outputs: Sequence, groups: Sequence[Sequence]) -
         """[(block, [(coefficient, slot)])] of an expression's tangent."""
         active = sorted((u for u in expr.free_symbols if u in blocks), key=str)
         terms: dict = {}
+        reached.clear()
         for u, pe in zip(active, partials(expr, active)):
             if pe == 0:
                 continue
+            reached.update(support[u])
             coefficient = pe if pe.is_Number else ("p", values.setdefault(pe, len(values)))
             for b in blocks[u]:
                 terms.setdefault(b, []).append((coefficient, slots[u, b]))
         return sorted(terms.items())
 
+    reached: set = set()  # the directions of the last `tangent`
     for s, e in _reachable(dict(definitions), outputs):
         parts = tangent(sp.sympify(e))
         if parts:
             blocks[s] = {b for b, _ in parts}
+            support[s] = frozenset(reached)
             for b, terms in parts:
                 slots[s, b] = len(slots)
                 steps.append(("set", slots[s, b], tuple(terms)))
+    rows = []
     for i, o in enumerate(outputs):
         for b, terms in tangent(sp.sympify(o)):
             slot = len(slots)
             slots[("out", i), b] = slot
             steps += [("set", slot, tuple(terms)), ("store", i, slot, b)]
-    return _reused(Plan(tuple(values), lanes, len(slots), tuple(seeds), tuple(steps)))
+        rows.append(frozenset(reached))
+    return _reused(Plan(tuple(values), lanes, len(slots), tuple(seeds), tuple(steps), tuple(rows)))
 
 
 def _reused(p: Plan) -> Plan:
@@ -170,4 +194,4 @@ def _reused(p: Plan) -> Plan:
             steps.append(("store", i, where[slot], b))
             if last.get(slot) == k:
                 free.append(where[slot])
-    return Plan(p.values, p.lanes, count, seeds, tuple(steps))
+    return Plan(p.values, p.lanes, count, seeds, tuple(steps), p.support)
