@@ -14,7 +14,13 @@ from ..derivation import engine, progress
 from ..derivation.dynamics import Dynamics
 from ..model import Robot
 from ..derivation.program import Program, dag_size
-from .derivatives import christoffel_spec, fdyn_derivatives_program, minv_spec, tau_derivatives_spec
+from .derivatives import (
+    christoffel_spec,
+    fdyn_derivatives_program,
+    minv_factors_spec,
+    minv_spec,
+    tau_derivatives_spec,
+)
 from .shipped import is_shipped
 from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
 from .contact_functions import ContactSpecs, contact_names, derivatives_program, parts_program
@@ -193,7 +199,7 @@ class Programs:
             kind = "fdyn" if name.startswith("contact_fdyn") else "impulse"
             vectors = self.tangents(name)
             residual = vectors[0] if vectors else self._residual(kind)
-            dynamics, minv = self.program(f"contact_{kind}"), self.program("Minv")
+            dynamics, minv = self.program(f"contact_{kind}"), self._minv_factors() if vectors else self.program("Minv")
             with engine.use(self.engine):
                 blocks = specs.blocks().program()
                 self._built[key] = parts_program(
@@ -212,6 +218,13 @@ class Programs:
                 made = self._contact_specs().tangents(kind, self.chosen("tau")[0], self.base_joint)
                 self._built[key] = None if made is None else (made[0].program(), *made[1:])
         return self._built[key]
+
+    def _minv_factors(self) -> Program:
+        """M⁻¹'s factors L⁻¹ and D⁻¹L⁻¹ (`minv_factors_spec`), for the C target's vector products."""
+        if "Minv_factors" not in self._built:
+            with engine.use(self.engine):
+                self._built["Minv_factors"] = minv_factors_spec(self.chosen("M")[0], tree=self.tree).program()
+        return self._built["Minv_factors"]
 
     def _shared_minv(self) -> frozenset:
         return frozenset(s for s, _ in self._minv().definitions)

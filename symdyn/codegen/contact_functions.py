@@ -52,6 +52,7 @@ __all__ = [
     "derivatives_program",
     "PARTS",
     "TANGENT_PARTS",
+    "INVERSE_FACTORS",
     "parts_program",
 ]
 
@@ -669,6 +670,8 @@ def derivatives_program(
 PARTS = ("Minv", "XT", "Ainv", "R")
 #: What replaces R where it is made in vectors (`ContactSpecs.tangents`): the partials and the turn.
 TANGENT_PARTS = ("partials", "turn")
+#: What replaces M⁻¹ where the C multiplies out its factors (`derivatives.minv_factors_spec`).
+INVERSE_FACTORS = ("Linv", "DLinv")
 
 
 def parts_program(
@@ -680,12 +683,16 @@ def parts_program(
     ∂[x; λ]/∂z = −K⁻¹R and for fdyn ∂[a; f]/∂τ = [P; −G]: products the C target runs as loops
     the compiler vectorizes (`emit.ckkt`), the leg columns' zeros skipped.  Given the partials'
     program of `ContactSpecs.tangents` as `residual`, R's place takes the local partials and the
-    turn's columns (`TANGENT_PARTS`), from which the C makes R in vectors (`tangents.Plan`)."""
+    turn's columns (`TANGENT_PARTS`), from which the C makes R in vectors (`tangents.Plan`); given
+    `derivatives.minv_factors_spec`'s program as `minv`, M⁻¹'s place takes its factors L⁻¹ and
+    D⁻¹L⁻¹ (`INVERSE_FACTORS`), which the C multiplies out in vectors."""
     labels = _labels(kind)
     vectors = residual.name.endswith("_partials")  # `ContactSpecs.tangents`: R made in vectors
-    splice, x, lam, terms = _spliced(kind, dynamics, residual, shared, set(PARTS) | set(TANGENT_PARTS))
+    splice, x, lam, terms = _spliced(
+        kind, dynamics, residual, shared, set(PARTS) | set(TANGENT_PARTS) | set(INVERSE_FACTORS)
+    )
     q = dynamics.inputs[0][1]
-    (inv,) = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
+    inverse = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
     xt, ainv = splice.append(blocks, dict(zip(blocks.inputs[0][1], q)), "b_", shared)
     if vectors:
         last = tuple(zip(TANGENT_PARTS, terms))
@@ -695,7 +702,8 @@ def parts_program(
     outputs = (
         (labels[0], sp.ImmutableMatrix(x)),
         (labels[1], sp.ImmutableMatrix(lam)),
-        *zip(PARTS[:3], (inv, xt, ainv)),
+        *zip([o for o, _ in minv.outputs], inverse),
+        *zip(PARTS[1:3], (xt, ainv)),
         *last,
     )
     return Program(

@@ -23,7 +23,7 @@ import sympy as sp
 from ..derivation.engine import partials
 from ..derivation.floating import bracket_term
 from ..derivation.program import Program
-from .functions import FunctionSpec, elimination_order, ldlt_factor, ldlt_inverse
+from .functions import FunctionSpec, elimination_order, ldlt_factor, ldlt_inverse, ldlt_inverse_factors
 
 __all__ = [
     "forward",
@@ -32,6 +32,7 @@ __all__ = [
     "tau_derivatives_spec",
     "fdyn_derivatives_program",
     "minv_spec",
+    "minv_factors_spec",
     "christoffel_spec",
     "Splice",
 ]
@@ -291,6 +292,24 @@ def christoffel_spec(cqd: FunctionSpec, M: FunctionSpec, base_joint: str | None 
         + cqd.doc.partition(".")[2],
         f"{cqd.origin}, C = d(C qd)/d qd / 2" + (" + M ad(v_base) / 2" if base_joint else ""),
         ("C",),
+    )
+
+
+def minv_factors_spec(M: FunctionSpec, *, tree: bool = False) -> FunctionSpec:
+    """M(q)⁻¹ as its factors L⁻¹ and D⁻¹L⁻¹ (`functions.ldlt_inverse_factors`: outputs "Linv",
+    "DLinv"), M's factor named as `minv_spec`'s: what the C target's contact derivatives multiply
+    out in vectors."""
+    order = elimination_order(M.outputs[0][1]) if tree else None
+    factor, L, iD = ldlt_factor(M.outputs[0][1], order)
+    inv_defs, (A, B) = ldlt_inverse_factors(L, iD, order)
+    return FunctionSpec(
+        "Minv_factors",
+        M.inputs,
+        (("Linv", A), ("DLinv", B)),
+        tuple(M.definitions) + tuple(factor + inv_defs),
+        "",
+        M.origin,
+        ("Linv", "DLinv"),
     )
 
 

@@ -172,11 +172,7 @@ def ldlt_inverse(L: list, iD: list, order: Sequence[int] | None = None) -> tuple
     n = len(iD)
     order = list(range(n)) if order is None else list(order)
     name = _Namer(n)
-    Li = [[sp.S.One if i == j else sp.S.Zero for j in range(n)] for i in range(n)]
-    for i in range(n):
-        for j in range(i):
-            Li[i][j] = name("Li", -sp.Add(*(L[i][k] * Li[k][j] for k in range(j, i))), order[i], order[j])
-    P = [[name("P", iD[k] * Li[k][j], order[k], order[j]) for j in range(k + 1)] for k in range(n)]
+    Li, P = _inverse_factor(L, iD, order, name)
     inv = [[sp.S.Zero] * n for _ in range(n)]
     for i in range(n):
         for j in range(i + 1):
@@ -184,6 +180,34 @@ def ldlt_inverse(L: list, iD: list, order: Sequence[int] | None = None) -> tuple
             value = name("Minv", sp.Add(*(Li[k][i] * P[k][j] for k in range(i, n))), max(a, b), min(a, b))
             inv[a][b] = inv[b][a] = value
     return name.defs, sp.ImmutableMatrix(inv)
+
+
+def _inverse_factor(L: list, iD: list, order: list, name: _Namer) -> tuple[list, list]:
+    """(L⁻¹, D⁻¹L⁻¹) of the factor, in elimination positions, their entries named Li…, P…"""
+    n = len(iD)
+    Li = [[sp.S.One if i == j else sp.S.Zero for j in range(n)] for i in range(n)]
+    for i in range(n):
+        for j in range(i):
+            Li[i][j] = name("Li", -sp.Add(*(L[i][k] * Li[k][j] for k in range(j, i))), order[i], order[j])
+    P = [[name("P", iD[k] * Li[k][j], order[k], order[j]) for j in range(k + 1)] for k in range(n)]
+    return Li, P
+
+
+def ldlt_inverse_factors(L: list, iD: list, order: Sequence[int] | None = None) -> tuple[list, tuple]:
+    """M⁻¹ = L⁻ᵀ D⁻¹ L⁻¹ left as its two factors (`ldlt_inverse`'s names): (definitions, (A, B)),
+    both n × n with row k the elimination position and the columns M's indices, A = L⁻¹ and
+    B = D⁻¹L⁻¹, so that row a of M⁻¹ is Σₖ A[k, a]·B[k, :] — products a caller runs in vectors."""
+    n = len(iD)
+    order = list(range(n)) if order is None else list(order)
+    name = _Namer(n)
+    Li, P = _inverse_factor(L, iD, order, name)
+    A = sp.zeros(n, n)
+    B = sp.zeros(n, n)
+    for k in range(n):
+        for j in range(k + 1):
+            A[k, order[j]] = Li[k][j]
+            B[k, order[j]] = P[k][j]
+    return name.defs, (sp.ImmutableMatrix(A), sp.ImmutableMatrix(B))
 
 
 def _params(dyn: Dynamics) -> list:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ...derivation.program import Program
-from ..contact_functions import PARTS, TANGENT_PARTS
+from ..contact_functions import INVERSE_FACTORS, PARTS, TANGENT_PARTS
 from . import c as c_emit
 from . import seal
 
@@ -43,19 +43,24 @@ def _residual_pattern(parts: Program, tangents) -> sp.ImmutableMatrix:
     if tangents is None:
         return out["R"]
     _, plan, columns = tangents
-    n, nc = out["Minv"].rows, out["Ainv"].rows
+    n, nc = out["XT"].cols, out["Ainv"].rows
     nonzero = plan.pattern(columns) | {(i, 3 + k) for i in range(n) for k in range(3) if out["turn"][i, k] != 0}
     return sp.ImmutableMatrix(n + nc, 2 * n, lambda i, j: 1 if (i, j) in nonzero else 0)
 
 
 def products(parts: Program, tangents=None) -> int:
-    """The multiply-adds of the products after the parts: G, P and −K⁻¹R (R's vectors of exact
-    zeros skipped, as `_sparse_rows` does)."""
+    """The multiply-adds of the products after the parts: M⁻¹ from its factors where the parts hold
+    them, G, P and −K⁻¹R (R's vectors of exact zeros skipped, as `_sparse_rows` does)."""
     out = dict(parts.outputs)
-    n, nc = out["Minv"].rows, out["Ainv"].rows
+    n, nc = out["XT"].cols, out["Ainv"].rows
     R = _padded(_residual_pattern(parts, tangents))
     kept = sum(any(R[k, j + t] != 0 for t in range(LANES)) for k in range(R.rows) for j in range(0, R.cols, LANES))
-    return nc * nc * n + n * nc * n + (n + nc) * LANES * kept
+    inverse = 0
+    if "Linv" in out:  # M⁻¹ multiplied out (`_minv_rows`)
+        A, B = out["Linv"], _padded(out["DLinv"])
+        vectors = [sum(any(B[k, j + t] != 0 for t in range(LANES)) for j in range(0, B.cols, LANES)) for k in range(n)]
+        inverse = LANES * sum(vectors[k] for a in range(n) for k in range(n) if A[k, a] != 0)
+    return nc * nc * n + n * nc * n + (n + nc) * LANES * kept + inverse
 
 
 def _padded(m) -> sp.ImmutableMatrix:
@@ -65,8 +70,8 @@ def _padded(m) -> sp.ImmutableMatrix:
 
 def _kkt_program(parts: Program) -> Program:
     """The parts as the static function's program, M⁻¹'s, Xᵀ's and R's rows padded to whole vectors."""
-    outputs = tuple((o, _padded(m) if o in ("Minv", "XT", "R") else m) for o, m in parts.outputs)
-    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in PARTS + TANGENT_PARTS)
+    outputs = tuple((o, _padded(m) if o in ("Minv", "XT", "R", "DLinv") else m) for o, m in parts.outputs)
+    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in PARTS + TANGENT_PARTS + INVERSE_FACTORS)
     return Program(f"{parts.name}_kkt", parts.inputs, parts.assignments, outputs, "", parts.origin, frozenset(), shapes)
 
 
@@ -113,6 +118,49 @@ def _rows(name: str, depth: int, width: int) -> str:
     )
 
 
+def _minv_rows(name: str, A, B) -> str:
+    """`name`(A, B, out): M⁻¹'s rows from its factors (`derivatives.minv_factors_spec`), row a =
+    Σₖ A[k, a]·B[k] over the k where A[k, a] is not an exact zero (a tree's L⁻¹ keeps a joint's
+    column on the joints between it and the root), B's rows padded to whole vectors and their
+    vectors of exact zeros skipped; out's rows as B's."""
+    n, width = A.rows, B.cols // LANES
+    zero = ", ".join(["0.0"] * LANES)
+    lines = [
+        f"static void {name}(const double *A, const double *B, double *out)",
+        "{",
+        "    #if defined(__GNUC__)",
+        f"    typedef double v_ __attribute__((vector_size({8 * LANES})));",
+        "    v_ x, " + ", ".join(f"a{j}" for j in range(width)) + ";",
+    ]
+    for a in range(n):
+        lines += [f"    a{j} = (v_){{{zero}}};" for j in range(width)]
+        for k in range(n):
+            if A[k, a] == 0:
+                continue
+            for j in range(width):
+                if any(B[k, LANES * j + t] != 0 for t in range(LANES)):
+                    lines += [
+                        f"    memcpy(&x, B + {k * B.cols + LANES * j}, sizeof x);",
+                        f"    a{j} += A[{k * n + a}] * x;",
+                    ]
+        lines += [f"    memcpy(out + {a * B.cols + LANES * j}, &a{j}, sizeof x);" for j in range(width)]
+    lines += [
+        "    #else",
+        "    int a, j, k;",
+        f"    for (a = 0; a < {n}; ++a) {{",
+        f"        for (j = 0; j < {B.cols}; ++j)",
+        f"            out[a * {B.cols} + j] = 0.0;",
+        f"        for (k = 0; k < {n}; ++k)",
+        f"            for (j = 0; j < {B.cols}; ++j)",
+        f"                out[a * {B.cols} + j] += A[k * {n} + a] * B[k * {B.cols} + j];",
+        "    }",
+        "    #endif",
+        "}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
 def _sparse_rows(name: str, R) -> str:
     """`name`(w, B, out): out = Σₖ w[k]·B[k] over the rows of R (padded to whole vectors), each
     row's vectors of exact zeros skipped (a leg's joint moves neither another leg's rows nor its
@@ -151,10 +199,11 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     its batch loop and its threaded kernel; with `tangents` ((program, plan, columns) of
     `choice.Programs.tangents`) R is made from the parts' partials by the plan's vectors."""
     out = dict(parts.outputs)
-    n, nc = out["Minv"].rows, out["Ainv"].rows
+    n, nc = out["XT"].cols, out["Ainv"].rows
     pattern = _residual_pattern(parts, tangents)
     N, m = n + nc, pattern.cols
     kkt = _kkt_program(parts)
+    kkt_out = dict(kkt.outputs)
     f = f"{model}_{sig.name}"
     names = [o for o, _ in sig.outputs]
     first, second = names[0], names[1]
@@ -166,22 +215,25 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     wn, wm = _up(n), _up(m)
     small, large = f"{f}_rows{wn // LANES}x{nc}", f"{f}_rows_R"
     helpers = _rows(small, nc, wn // LANES) + "\n" + _sparse_rows(large, _padded(pattern))
+    produced = [o for o, _ in kkt.outputs[2:]]  # the parts' outputs after the dynamics' two
+    sizes = {o: m.rows * m.cols for o, m in kkt.outputs[2:]}
     body = [
-        f"    double Minv_[{n * wn}], XT_[{nc * wn}], Ainv_[{nc * nc}], R_[{N * wm}];",
+        f"    double Minv_[{n * wn}], R_[{N * wm}];",
+        *(f"    double {o}_[{max(1, sizes[o])}];" for o in produced if o not in ("Minv", "R")),
         f"    double G_[{nc * wn}], p_[{wn}], w_[{N}], d_[{wm}];",
         "    int i, j, c;",
+        f"    {f}_kkt({', '.join(args + [first, second] + [f'{o}_' for o in produced])});",
     ]
-    if tangents is None:
-        body.append(f"    {f}_kkt({', '.join(args + [first, second, 'Minv_', 'XT_', 'Ainv_', 'R_'])});")
-    else:
+    if "Linv" in out:
+        helpers += "\n" + _minv_rows(f"{f}_minv", out["Linv"], kkt_out["DLinv"])
+        body.append(f"    {f}_minv(Linv_, DLinv_, Minv_);  /* M^-1 = L^-T D^-1 L^-1, in vectors */")
+    if tangents is not None:
         _, plan, columns = tangents
         turned = [(i, k) for i in range(n) for k in range(3) if out["turn"][i, k] != 0]
         helpers += "\n" + plan.c_source(f"{f}_tangents", columns, wm)
         body += [
-            f"    double P_[{max(1, len(plan.values))}], turn_[{3 * n}];",
-            f"    {f}_kkt({', '.join(args + [first, second, 'Minv_', 'XT_', 'Ainv_', 'P_', 'turn_'])});",
             "    memset(R_, 0, sizeof R_);",
-            f"    {f}_tangents(P_, R_);  /* R's columns by the directions, in vectors */",
+            f"    {f}_tangents(partials_, R_);  /* R's columns by the directions, in vectors */",
             *(f"    R_[{i * wm + 3 + k}] = turn_[{3 * i + k}];" for i, k in turned),
         ]
     body += [
