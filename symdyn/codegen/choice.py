@@ -201,7 +201,7 @@ class Programs:
             residual = vectors[0] if vectors else self._residual(kind)
             dynamics, minv = self.program(f"contact_{kind}"), self._minv_factors() if vectors else self.program("Minv")
             with engine.use(self.engine):
-                blocks = specs.blocks().program()
+                blocks = specs.blocks(rows=vectors is not None).program()
                 self._built[key] = parts_program(
                     kind, dynamics, residual, minv, blocks, specs.shared() | self._shared_minv(), self.dyns[0].robot
                 )

@@ -542,24 +542,27 @@ class ContactSpecs:
                     )
         return out
 
-    def blocks(self) -> FunctionSpec:
+    def blocks(self, rows: bool = False) -> FunctionSpec:
         """Xᵀ = J M⁻¹ (nc × n) and A⁻¹ (nc × nc, from A's factor): the KKT inverse's blocks besides
-        M⁻¹ (`parts_program`)."""
+        M⁻¹ (`parts_program`); `rows`: the rows J in Xᵀ's place, for a target that multiplies
+        them with M⁻¹ itself (the C's vectors)."""
         defs, inv = ldlt_inverse(self.AL, self.AiD)
         rename = {s: sp.Symbol(f"kkt_Ai{s.name}", real=True) for s, _ in defs}
         defs = [(rename[s], e.xreplace(rename)) for s, e in defs]
         local = _Namer(1)
+        first = (
+            ("J", sp.ImmutableMatrix(self.nc, self.n, lambda c, k: self.rows[c][k]))
+            if rows
+            else ("XT", sp.ImmutableMatrix(self.nc, self.n, lambda c, k: self.X[c][k]))
+        )
         return FunctionSpec(
             "contact_blocks",
             (self.q, *self.params),
-            (
-                ("XT", sp.ImmutableMatrix(self.nc, self.n, lambda c, k: self.X[c][k])),
-                ("Ainv", inv.xreplace(rename)),
-            ),
+            (first, ("Ainv", inv.xreplace(rename))),
             self._definitions(local) + tuple(defs),
             "",
             "contacts",
-            ("XT", "Ainv"),
+            (first[0], "Ainv"),
         )
 
     def solve(self, columns: int, identity: bool) -> FunctionSpec:
@@ -685,15 +688,16 @@ def parts_program(
     program of `ContactSpecs.tangents` as `residual`, R's place takes the local partials and the
     turn's columns (`TANGENT_PARTS`), from which the C makes R in vectors (`tangents.Plan`); given
     `derivatives.minv_factors_spec`'s program as `minv`, M⁻¹'s place takes its factors L⁻¹ and
-    D⁻¹L⁻¹ (`INVERSE_FACTORS`), which the C multiplies out in vectors."""
+    D⁻¹L⁻¹ (`INVERSE_FACTORS`), which the C multiplies out in vectors, and given the blocks with
+    the rows J (`ContactSpecs.blocks(rows=True)`) the C makes Xᵀ = J M⁻¹ in vectors too."""
     labels = _labels(kind)
     vectors = residual.name.endswith("_partials")  # `ContactSpecs.tangents`: R made in vectors
     splice, x, lam, terms = _spliced(
-        kind, dynamics, residual, shared, set(PARTS) | set(TANGENT_PARTS) | set(INVERSE_FACTORS)
+        kind, dynamics, residual, shared, set(PARTS) | set(TANGENT_PARTS) | set(INVERSE_FACTORS) | {"J"}
     )
     q = dynamics.inputs[0][1]
     inverse = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
-    xt, ainv = splice.append(blocks, dict(zip(blocks.inputs[0][1], q)), "b_", shared)
+    kkt_blocks = splice.append(blocks, dict(zip(blocks.inputs[0][1], q)), "b_", shared)
     if vectors:
         last = tuple(zip(TANGENT_PARTS, terms))
     else:
@@ -703,7 +707,7 @@ def parts_program(
         (labels[0], sp.ImmutableMatrix(x)),
         (labels[1], sp.ImmutableMatrix(lam)),
         *zip([o for o, _ in minv.outputs], inverse),
-        *zip(PARTS[1:3], (xt, ainv)),
+        *zip([o for o, _ in blocks.outputs], kkt_blocks),
         *last,
     )
     return Program(

@@ -296,7 +296,7 @@ def christoffel_spec(cqd: FunctionSpec, M: FunctionSpec, base_joint: str | None 
 
 
 def minv_factors_spec(M: FunctionSpec, *, tree: bool = False) -> FunctionSpec:
-    """M(q)⁻¹ as its factors L⁻¹ and D⁻¹L⁻¹ (`functions.ldlt_inverse_factors`: outputs "Linv",
+    """M(q)⁻¹ as its factors (L⁻¹)ᵀ and D⁻¹L⁻¹ (`functions.ldlt_inverse_factors`: outputs "Linv",
     "DLinv"), M's factor named as `minv_spec`'s: what the C target's contact derivatives multiply
     out in vectors."""
     order = elimination_order(M.outputs[0][1]) if tree else None

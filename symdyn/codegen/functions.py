@@ -195,8 +195,9 @@ def _inverse_factor(L: list, iD: list, order: list, name: _Namer) -> tuple[list,
 
 def ldlt_inverse_factors(L: list, iD: list, order: Sequence[int] | None = None) -> tuple[list, tuple]:
     """M⁻¹ = L⁻ᵀ D⁻¹ L⁻¹ left as its two factors (`ldlt_inverse`'s names): (definitions, (A, B)),
-    both n × n with row k the elimination position and the columns M's indices, A = L⁻¹ and
-    B = D⁻¹L⁻¹, so that row a of M⁻¹ is Σₖ A[k, a]·B[k, :] — products a caller runs in vectors."""
+    n × n, A = (L⁻¹)ᵀ with its rows M's indices and its columns the elimination positions, B = D⁻¹L⁻¹
+    with its rows the elimination positions and its columns M's indices, so that row a of M⁻¹ is
+    Σₖ A[a, k]·B[k, :] — products a caller runs in vectors."""
     n = len(iD)
     order = list(range(n)) if order is None else list(order)
     name = _Namer(n)
@@ -205,7 +206,7 @@ def ldlt_inverse_factors(L: list, iD: list, order: Sequence[int] | None = None) 
     B = sp.zeros(n, n)
     for k in range(n):
         for j in range(k + 1):
-            A[k, order[j]] = Li[k][j]
+            A[order[j], k] = Li[k][j]
             B[k, order[j]] = P[k][j]
     return name.defs, (sp.ImmutableMatrix(A), sp.ImmutableMatrix(B))
 

@@ -1,14 +1,16 @@
 """The contact derivatives in C: a straight-line program for the KKT parts, then dense products.
 
 Part of the C target, beside `c`: `contact_fdyn_derivatives` and `contact_impulse_derivatives`
-are emitted from their KKT parts (`contact_functions.parts_program`: the dynamics, M⁻¹, Xᵀ = J M⁻¹,
-A⁻¹ and the residuals' Jacobians R) as a static function, then the rows of the KKT inverse
-K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and of the derivatives −K⁻¹R by row kernels
-whose accumulators stay in vector registers, R's vectors of exact zeros skipped.  The unrolled
-solve of each column (`contact_functions.derivatives_program`, what the other targets run) is
-one scalar operation after another: on Solo 12 with four feet 90 k of them against 33 k and
-38 k multiply-adds in vectors here (15.6 → 8.5 µs a call; Talos on two soles 69.8 → 26.7 µs:
-`symdyn bench --task-space solo12-contact-derivatives`, `talos-contact-derivatives`).  The
+are emitted from their KKT parts (`contact_functions.parts_program`: the dynamics, M⁻¹ or its
+factors L⁻¹ and D⁻¹L⁻¹, Xᵀ = J M⁻¹, A⁻¹, and R = the residuals' Jacobians or the local partials
+they are made from) as a static function; then M⁻¹ multiplied out from its factors and Xᵀ = J M⁻¹ (`_combined_rows`),
+R made by forward mode in vectors of directions (`tangents.Plan.c_source`), and the rows of the KKT
+inverse K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and of the derivatives −K⁻¹R by row
+kernels whose accumulators stay in vector registers, the vectors of exact zeros skipped.  The
+unrolled solve of each column (`contact_functions.derivatives_program`, what the other targets run)
+is one scalar operation after another: on Solo 12 with four feet 90 k of them, against 15.6 k
+scalar operations, 3.8 k vector multiply-adds of the tangents and 38 k multiply-adds of products
+here (`symdyn bench --task-space solo12-contact-derivatives`, `talos-contact-derivatives`).  The
 batch kernel runs the scalar function state after state on every thread.
 """
 
@@ -43,7 +45,7 @@ def _residual_pattern(parts: Program, tangents) -> sp.ImmutableMatrix:
     if tangents is None:
         return out["R"]
     _, plan, columns = tangents
-    n, nc = out["XT"].cols, out["Ainv"].rows
+    n, nc = out["XT" if "XT" in out else "J"].cols, out["Ainv"].rows
     nonzero = plan.pattern(columns) | {(i, 3 + k) for i in range(n) for k in range(3) if out["turn"][i, k] != 0}
     return sp.ImmutableMatrix(n + nc, 2 * n, lambda i, j: 1 if (i, j) in nonzero else 0)
 
@@ -52,15 +54,12 @@ def products(parts: Program, tangents=None) -> int:
     """The multiply-adds of the products after the parts: M⁻¹ from its factors where the parts hold
     them, G, P and −K⁻¹R (R's vectors of exact zeros skipped, as `_sparse_rows` does)."""
     out = dict(parts.outputs)
-    n, nc = out["XT"].cols, out["Ainv"].rows
+    n, nc = out["XT" if "XT" in out else "J"].cols, out["Ainv"].rows
     R = _padded(_residual_pattern(parts, tangents))
     kept = sum(any(R[k, j + t] != 0 for t in range(LANES)) for k in range(R.rows) for j in range(0, R.cols, LANES))
-    inverse = 0
-    if "Linv" in out:  # M⁻¹ multiplied out (`_minv_rows`)
-        A, B = out["Linv"], _padded(out["DLinv"])
-        vectors = [sum(any(B[k, j + t] != 0 for t in range(LANES)) for j in range(0, B.cols, LANES)) for k in range(n)]
-        inverse = LANES * sum(vectors[k] for a in range(n) for k in range(n) if A[k, a] != 0)
-    return nc * nc * n + n * nc * n + (n + nc) * LANES * kept + inverse
+    inverse = _combined_macs(out["Linv"], out["DLinv"]) if "Linv" in out else 0  # M⁻¹ multiplied out
+    rows = _combined_macs(out["J"], sp.ones(n, n)) if "J" in out else 0  # Xᵀ = J M⁻¹
+    return nc * nc * n + n * nc * n + (n + nc) * LANES * kept + inverse + rows
 
 
 def _padded(m) -> sp.ImmutableMatrix:
@@ -118,12 +117,12 @@ def _rows(name: str, depth: int, width: int) -> str:
     )
 
 
-def _minv_rows(name: str, A, B) -> str:
-    """`name`(A, B, out): M⁻¹'s rows from its factors (`derivatives.minv_factors_spec`), row a =
-    Σₖ A[k, a]·B[k] over the k where A[k, a] is not an exact zero (a tree's L⁻¹ keeps a joint's
-    column on the joints between it and the root), B's rows padded to whole vectors and their
-    vectors of exact zeros skipped; out's rows as B's."""
-    n, width = A.rows, B.cols // LANES
+def _combined_rows(name: str, A, B) -> str:
+    """`name`(A, B, out): out's row a = Σₖ A[a, k]·B[k] (A row-major, rows × K) over the k where
+    A[a, k] is not an exact zero, B's rows padded to whole vectors and their vectors of exact zeros
+    skipped; out's rows as B's.  M⁻¹ from its factors (`derivatives.minv_factors_spec`: A = (L⁻¹)ᵀ,
+    whose row keeps a joint on the joints between it and the root; B = D⁻¹L⁻¹), and Xᵀ = J M⁻¹."""
+    rows, depth, width = A.rows, A.cols, B.cols // LANES
     zero = ", ".join(["0.0"] * LANES)
     lines = [
         f"static void {name}(const double *A, const double *B, double *out)",
@@ -132,33 +131,40 @@ def _minv_rows(name: str, A, B) -> str:
         f"    typedef double v_ __attribute__((vector_size({8 * LANES})));",
         "    v_ x, " + ", ".join(f"a{j}" for j in range(width)) + ";",
     ]
-    for a in range(n):
+    for a in range(rows):
         lines += [f"    a{j} = (v_){{{zero}}};" for j in range(width)]
-        for k in range(n):
-            if A[k, a] == 0:
+        for k in range(depth):
+            if A[a, k] == 0:
                 continue
             for j in range(width):
                 if any(B[k, LANES * j + t] != 0 for t in range(LANES)):
                     lines += [
                         f"    memcpy(&x, B + {k * B.cols + LANES * j}, sizeof x);",
-                        f"    a{j} += A[{k * n + a}] * x;",
+                        f"    a{j} += A[{a * depth + k}] * x;",
                     ]
         lines += [f"    memcpy(out + {a * B.cols + LANES * j}, &a{j}, sizeof x);" for j in range(width)]
     lines += [
         "    #else",
         "    int a, j, k;",
-        f"    for (a = 0; a < {n}; ++a) {{",
+        f"    for (a = 0; a < {rows}; ++a) {{",
         f"        for (j = 0; j < {B.cols}; ++j)",
         f"            out[a * {B.cols} + j] = 0.0;",
-        f"        for (k = 0; k < {n}; ++k)",
+        f"        for (k = 0; k < {depth}; ++k)",
         f"            for (j = 0; j < {B.cols}; ++j)",
-        f"                out[a * {B.cols} + j] += A[k * {n} + a] * B[k * {B.cols} + j];",
+        f"                out[a * {B.cols} + j] += A[a * {depth} + k] * B[k * {B.cols} + j];",
         "    }",
         "    #endif",
         "}",
         "",
     ]
     return "\n".join(lines)
+
+
+def _combined_macs(A, B) -> int:
+    """The multiply-adds `_combined_rows` runs."""
+    B = _padded(B)
+    vectors = [sum(any(B[k, j + t] != 0 for t in range(LANES)) for j in range(0, B.cols, LANES)) for k in range(B.rows)]
+    return LANES * sum(vectors[k] for a in range(A.rows) for k in range(A.cols) if A[a, k] != 0)
 
 
 def _sparse_rows(name: str, R) -> str:
@@ -199,7 +205,7 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     its batch loop and its threaded kernel; with `tangents` ((program, plan, columns) of
     `choice.Programs.tangents`) R is made from the parts' partials by the plan's vectors."""
     out = dict(parts.outputs)
-    n, nc = out["XT"].cols, out["Ainv"].rows
+    n, nc = out["XT" if "XT" in out else "J"].cols, out["Ainv"].rows
     pattern = _residual_pattern(parts, tangents)
     N, m = n + nc, pattern.cols
     kkt = _kkt_program(parts)
@@ -220,13 +226,17 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     body = [
         f"    double Minv_[{n * wn}], R_[{N * wm}];",
         *(f"    double {o}_[{max(1, sizes[o])}];" for o in produced if o not in ("Minv", "R")),
+        *([f"    double XT_[{nc * wn}];"] if "J" in out else []),
         f"    double G_[{nc * wn}], p_[{wn}], w_[{N}], d_[{wm}];",
         "    int i, j, c;",
         f"    {f}_kkt({', '.join(args + [first, second] + [f'{o}_' for o in produced])});",
     ]
     if "Linv" in out:
-        helpers += "\n" + _minv_rows(f"{f}_minv", out["Linv"], kkt_out["DLinv"])
+        helpers += "\n" + _combined_rows(f"{f}_minv", out["Linv"], kkt_out["DLinv"])
         body.append(f"    {f}_minv(Linv_, DLinv_, Minv_);  /* M^-1 = L^-T D^-1 L^-1, in vectors */")
+    if "J" in out:
+        helpers += "\n" + _combined_rows(f"{f}_xt", out["J"], sp.ones(n, wn))
+        body.append(f"    {f}_xt(J_, Minv_, XT_);  /* X^T = J M^-1, in vectors */")
     if tangents is not None:
         _, plan, columns = tangents
         turned = [(i, k) for i in range(n) for k in range(3) if out["turn"][i, k] != 0]
