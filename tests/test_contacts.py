@@ -293,5 +293,5 @@ def test_talos_on_its_soles_through_generated_c(soles):
     q, v, _ = states(robot, 10, seed=21)
     tau = np.random.default_rng(21).uniform(-5, 5, (10, robot.nv))
     assert_as_pinocchio(robot, f, q, v, tau)
-    if len(soles) == 2:  # the derivatives too (~3 min to generate and compile), at three states
+    if len(soles) == 2:  # the derivatives too (under a minute to generate and compile), at three states
         assert_as_pinocchio(robot, f, q[:3], v[:3], tau[:3], derivatives=("fdyn", "impulse"))
