@@ -117,6 +117,18 @@ def _rows(name: str, depth: int, width: int) -> str:
     )
 
 
+def _vector_head(signature: str, accumulators: list[str]) -> list[str]:
+    """A row kernel's first lines: its signature, then (GCC's and Clang's vector types) the vector
+    type, a load register x and the accumulators."""
+    return [
+        f"static void {signature}",
+        "{",
+        "    #if defined(__GNUC__)",
+        f"    typedef double v_ __attribute__((vector_size({8 * LANES})));",
+        "    v_ x, " + ", ".join(accumulators) + ";",
+    ]
+
+
 def _combined_rows(name: str, A, B) -> str:
     """`name`(A, B, out): out's row a = Σₖ A[a, k]·B[k] (A row-major, rows × K) over the k where
     A[a, k] is not an exact zero, B's rows padded to whole vectors and their vectors of exact zeros
@@ -124,13 +136,7 @@ def _combined_rows(name: str, A, B) -> str:
     whose row keeps a joint on the joints between it and the root; B = D⁻¹L⁻¹), and Xᵀ = J M⁻¹."""
     rows, depth, width = A.rows, A.cols, B.cols // LANES
     zero = ", ".join(["0.0"] * LANES)
-    lines = [
-        f"static void {name}(const double *A, const double *B, double *out)",
-        "{",
-        "    #if defined(__GNUC__)",
-        f"    typedef double v_ __attribute__((vector_size({8 * LANES})));",
-        "    v_ x, " + ", ".join(f"a{j}" for j in range(width)) + ";",
-    ]
+    lines = _vector_head(f"{name}(const double *A, const double *B, double *out)", [f"a{j}" for j in range(width)])
     for a in range(rows):
         lines += [f"    a{j} = (v_){{{zero}}};" for j in range(width)]
         for k in range(depth):
@@ -173,13 +179,9 @@ def _sparse_rows(name: str, R) -> str:
     contact), unrolled: one accumulator per vector of a row (plain loops without vector types)."""
     width = R.cols // LANES
     zero = ", ".join(["0.0"] * LANES)
-    lines = [
-        f"static void {name}(const double *w, const double *B, double *out)",
-        "{",
-        "    #if defined(__GNUC__)",
-        f"    typedef double v_ __attribute__((vector_size({8 * LANES})));",
-        "    v_ x, " + ", ".join(f"a{j} = {{{zero}}}" for j in range(width)) + ";",
-    ]
+    lines = _vector_head(
+        f"{name}(const double *w, const double *B, double *out)", [f"a{j} = {{{zero}}}" for j in range(width)]
+    )
     for k in range(R.rows):
         blocks = [j for j in range(width) if any(R[k, LANES * j + t] != 0 for t in range(LANES))]
         for j in blocks:
