@@ -121,11 +121,13 @@ def test_the_contacts_hold_after_the_solve(legged):
 
 
 def test_a_fixed_arm_with_its_hand_on_a_surface():
+    """The Panda's hand on a surface through the lazy C target, the derivatives too: a fixed base,
+    one chain (its directions in two vectors of the C's forward mode, `symdyn.codegen.tangents`)."""
     robot = arms.load("panda").nofriction(all=True).with_contacts({"panda_hand": "surface"})
-    f = load(robot, "c")  # the lazy C target: only the two functions called are built
+    f = load(robot, "c")  # the lazy C target: only the functions called are built
     q, v, _ = states(robot, 5, seed=7)
     tau = np.random.default_rng(7).uniform(-10, 10, (5, robot.nv))
-    assert_as_pinocchio(robot, f, q, v, tau)
+    assert_as_pinocchio(robot, f, q, v, tau, derivatives=("fdyn", "impulse"))
 
 
 def test_derivatives_equal_pinocchios(legged):
