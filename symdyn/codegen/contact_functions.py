@@ -53,6 +53,7 @@ __all__ = [
     "PARTS",
     "TANGENT_PARTS",
     "INVERSE_FACTORS",
+    "ALL_PARTS",
     "parts_program",
 ]
 
@@ -675,6 +676,8 @@ PARTS = ("Minv", "XT", "Ainv", "R")
 TANGENT_PARTS = ("partials", "turn")
 #: What replaces M⁻¹ where the C multiplies out its factors (`derivatives.minv_factors_spec`).
 INVERSE_FACTORS = ("Linv", "DLinv")
+#: Every output a KKT-parts program may have after the dynamics' two (J: `ContactSpecs.blocks(rows=True)`).
+ALL_PARTS = PARTS + TANGENT_PARTS + INVERSE_FACTORS + ("J",)
 
 
 def parts_program(
@@ -692,9 +695,7 @@ def parts_program(
     the rows J (`ContactSpecs.blocks(rows=True)`) the C makes Xᵀ = J M⁻¹ in vectors too."""
     labels = _labels(kind)
     vectors = residual.name.endswith("_partials")  # `ContactSpecs.tangents`: R made in vectors
-    splice, x, lam, terms = _spliced(
-        kind, dynamics, residual, shared, set(PARTS) | set(TANGENT_PARTS) | set(INVERSE_FACTORS) | {"J"}
-    )
+    splice, x, lam, terms = _spliced(kind, dynamics, residual, shared, set(ALL_PARTS))
     q = dynamics.inputs[0][1]
     inverse = splice.append(minv, dict(zip(minv.inputs[0][1], q)), "m_", shared)
     kkt_blocks = splice.append(blocks, dict(zip(blocks.inputs[0][1], q)), "b_", shared)

@@ -210,7 +210,7 @@ def _reused(p: Plan) -> Plan:
                 if last.get(u) == k:
                     free.append(where[u])
             steps.append(("set", place(slot), terms))
-            if slot not in last:  # never read (cannot happen for a reachable value): free at once
+            if slot not in last:  # never read (each reader's partial by it is zero): free at once
                 free.append(where[slot])
         else:
             _, i, slot, b = step

@@ -20,7 +20,7 @@ from __future__ import annotations
 import sympy as sp
 
 from ...derivation.program import Program
-from ..contact_functions import INVERSE_FACTORS, PARTS, TANGENT_PARTS
+from ..contact_functions import ALL_PARTS
 from . import c as c_emit
 from . import seal
 
@@ -70,7 +70,7 @@ def _padded(m) -> sp.ImmutableMatrix:
 def _kkt_program(parts: Program) -> Program:
     """The parts as the static function's program, M⁻¹'s, Xᵀ's and R's rows padded to whole vectors."""
     outputs = tuple((o, _padded(m) if o in ("Minv", "XT", "R", "DLinv") else m) for o, m in parts.outputs)
-    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in PARTS + TANGENT_PARTS + INVERSE_FACTORS)
+    shapes = tuple((o, (m.rows, m.cols)) for o, m in outputs if o in ALL_PARTS)
     return Program(f"{parts.name}_kkt", parts.inputs, parts.assignments, outputs, "", parts.origin, frozenset(), shapes)
 
 
