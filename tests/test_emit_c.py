@@ -76,9 +76,9 @@ def test_compile_error_shows_the_compiler_message(tmp_path, monkeypatch):
     c_path, h_path = _copy_model(tmp_path)
     c_path.write_text(c_path.read_text() + "\nthis is not C;\n")  # in the last function's kernel
     lib = load_library(c_path, h_path, CompileOptions(binding="ctypes"))
-    last = list(lib.functions)[-1]
-    with pytest.raises(RuntimeError, match=rf"(?s)compiling twolink's {last} \(batch kernel\) failed.*error"):
-        lib.functions[last](np.zeros((2, 2)), np.zeros((2, 2)))
+    last = c_emit.read_signatures(h_path.read_text())[-1]
+    with pytest.raises(RuntimeError, match=rf"(?s)compiling twolink's {last.name} \(batch kernel\) failed.*error"):
+        lib.functions[last.name](*(np.zeros((2, k)) for _, k in last.inputs))
 
 
 def test_header_signatures_round_trip():

@@ -111,6 +111,8 @@ def test_loaded_model_lists_its_functions():
         "com_drift",
         "centroidal_map",
         "centroidal_drift",
+        "frame_kinematics",
+        "centroidal",
     ]
     with pytest.raises(AttributeError, match="'aba'"):
         m.aba

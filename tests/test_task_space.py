@@ -17,7 +17,7 @@ import pytest
 from symdyn import models
 from symdyn.codegen.emit import Bundle, numpy as numpy_emit
 from symdyn.codegen.task_functions import task_names, task_spec
-from symdyn.derivation.task_space import task_space
+from symdyn.derivation.task_space import arguments, parts, task_space
 from symdyn.model import Robot
 from symdyn.model.frames import Frame
 from symdyn.model.random_arms import _rotation
@@ -64,23 +64,20 @@ def assert_close(got, want, what: str, rtol: float = RTOL) -> None:
 
 def evaluate(functions: dict, q, v, a) -> dict:
     """Every task-space function at the states (batched)."""
-    args = {"q": (q,), "v": (q, v), "a": (q, v, a)}
-    kind = {
-        "frame_velocity": "v",
-        "frame_acceleration": "a",
-        "frame_drift": "v",
-        "com_drift": "v",
-        "centroidal_drift": "v",
-    }
-    return {name: f(*args[kind.get(name, "q")]) for name, f in functions.items()}
+    given = {"q": q, "v": v, "a": a}
+    return {name: f(*(given[x] for x in arguments(name))) for name, f in functions.items()}
 
 
 def assert_pinocchio(robot: Robot, functions: dict, model, ids, count: int = STATES, seed: int = 0) -> None:
+    """Every function's output against Pinocchio's; one of several outputs (`TOGETHER`) part by part."""
     q, v, a = states(robot, count, seed)
     want = peer.evaluate(robot, model, ids, q, v, a)
     got = evaluate(functions, q, v, a)
     for name, value in got.items():
-        assert_close(value, want[name], f"{robot.name} {name}")
+        values = value if len(parts(name)) > 1 else (value,)
+        assert len(values) == len(parts(name)), f"{name}: {len(values)} outputs, expected {parts(name)}"
+        for part, x in zip(parts(name), values):
+            assert_close(x, want[part], f"{robot.name} {name}" + (f" ({part})" if part != name else ""))
 
 
 def with_random_frames(robot: Robot, seed: int) -> Robot:

@@ -1,11 +1,12 @@
 """The task space's speed at the C level, side by side with Pinocchio's C++ in one run.
 
 The cases a legged or manipulation controller calls each step: Solo 12's four feet (pose,
-world-aligned Jacobian and drift of each: Pinocchio's forwardKinematics(q, v, 0) +
-computeJointJacobians + updateFramePlacements + getFrameJacobian and
-getFrameClassicalAcceleration per foot), the Panda's hand (pose + LOCAL Jacobian:
-computeJointJacobians(q) + updateFramePlacements + getFrameJacobian) and Talos' centre of mass
-(com_jacobian + centroidal_map: jacobianCenterOfMass + computeCentroidalMap); and the contact
+world-aligned Jacobian and drift of each, by `frame_kinematics`'s one pass, and by the three
+functions called in turn: Pinocchio's forwardKinematics(q, v, 0) + computeJointJacobians +
+updateFramePlacements + getFrameJacobian and getFrameClassicalAcceleration per foot), the
+Panda's hand (pose + LOCAL Jacobian: computeJointJacobians(q) + updateFramePlacements +
+getFrameJacobian) and Talos' centre of mass (its Jacobian and A_G, by `centroidal` and by
+com_jacobian + centroidal_map: jacobianCenterOfMass + computeCentroidalMap); and the contact
 dynamics of Solo 12 on four feet and Talos on two soles (contact_fdyn: constraintDynamics;
 contact_fdyn_derivatives: + computeConstraintDynamicsDerivatives; both without friction, which
 Pinocchio's model has not).  symdyn's side is
@@ -53,12 +54,19 @@ class Case:
     target: float = 5.0  # the issue's per-call goal (×): 5 for the task space, 3 for the contacts
 
 
+_SOLO = ("solo_description/robots/solo12.urdf", {"tips": "all", "base_joint": "free"})
+_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
+_TALOS = (
+    "talos_data/robots/talos_full_v2.urdf",
+    {"tips": "all", "base_joint": "free", "locked": {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}},
+)
+
 CASES = {
-    "solo12": Case(
-        "Solo 12, four feet",
-        "solo_description/robots/solo12.urdf",
-        {"tips": "all", "base_joint": "free"},
-        ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"),
+    "solo12": Case("Solo 12, four feet", *_SOLO, _FEET, ("frame_kinematics",), "frames_drift"),
+    "solo12-separate": Case(
+        "Solo 12, four feet, three calls",
+        *_SOLO,
+        _FEET,
         ("frame_pose", "frame_jacobian_aligned", "frame_drift"),
         "frames_drift",
     ),
@@ -70,19 +78,14 @@ CASES = {
         ("frame_pose", "frame_jacobian"),
         "frames_jacobian",
     ),
-    "talos": Case(
-        "Talos, centre of mass",
-        "talos_data/robots/talos_full_v2.urdf",
-        {"tips": "all", "base_joint": "free", "locked": {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}},
-        (),
-        ("com_jacobian", "centroidal_map"),
-        "com_centroidal",
+    "talos": Case("Talos, centre of mass", *_TALOS, (), ("centroidal",), "com_centroidal"),
+    "talos-separate": Case(
+        "Talos, centre of mass, two calls", *_TALOS, (), ("com_jacobian", "centroidal_map"), "com_centroidal"
     ),
     "solo12-contacts": Case(
         "Solo 12, four feet in contact",
-        "solo_description/robots/solo12.urdf",
-        {"tips": "all", "base_joint": "free"},
-        ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"),
+        *_SOLO,
+        _FEET,
         ("contact_fdyn",),
         "contact_fdyn",
         ("point",) * 4,
@@ -90,9 +93,8 @@ CASES = {
     ),
     "solo12-contact-derivatives": Case(
         "Solo 12, four feet in contact, derivatives",
-        "solo_description/robots/solo12.urdf",
-        {"tips": "all", "base_joint": "free"},
-        ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"),
+        *_SOLO,
+        _FEET,
         ("contact_fdyn_derivatives",),
         "contact_fdyn_derivatives",
         ("point",) * 4,
@@ -100,8 +102,7 @@ CASES = {
     ),
     "talos-contacts": Case(
         "Talos, two soles in contact",
-        "talos_data/robots/talos_full_v2.urdf",
-        {"tips": "all", "base_joint": "free", "locked": {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}},
+        *_TALOS,
         ("left_sole_link", "right_sole_link"),
         ("contact_fdyn",),
         "contact_fdyn",
@@ -110,8 +111,7 @@ CASES = {
     ),
     "talos-contact-derivatives": Case(
         "Talos, two soles in contact, derivatives",
-        "talos_data/robots/talos_full_v2.urdf",
-        {"tips": "all", "base_joint": "free", "locked": {"gripper_left_joint": 0.0, "gripper_right_joint": 0.0}},
+        *_TALOS,
         ("left_sole_link", "right_sole_link"),
         ("contact_fdyn_derivatives",),
         "contact_fdyn_derivatives",
@@ -161,12 +161,13 @@ def _peer_arm(robot: Robot, path: Path, folder: Path, contacts: tuple = ()) -> P
 
 def _check_lines(case: Case, sigs: dict, m: int) -> str:
     """The C that prints the case's outputs at one state in pin_peer.cpp's layout."""
+    buf = {o: f"o_{f}_{o}" for f in case.functions for o, _ in sigs[f].outputs}  # output → its buffer
     if case.algorithm == "com_centroidal":
-        check = 'for (i = 0; i < 3 * NV; ++i) printf(" %.17g", o_com_jacobian_Jcom[i]);\n'
-        return check + '    for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_centroidal_map_Ag[i]);\n'
+        check = f'for (i = 0; i < 3 * NV; ++i) printf(" %.17g", {buf["Jcom"]}[i]);\n'
+        return check + f'    for (i = 0; i < 6 * NV; ++i) printf(" %.17g", {buf["Ag"]}[i]);\n'
     if case.algorithm == "contact_fdyn":
-        return 'for (i = 0; i < NV; ++i) printf(" %.17g", o_contact_fdyn_a[i]);\n' + (
-            '    for (i = 0; i < NC; ++i) printf(" %.17g", o_contact_fdyn_force[i]);\n'
+        return f'for (i = 0; i < NV; ++i) printf(" %.17g", {buf["a"]}[i]);\n' + (
+            f'    for (i = 0; i < NC; ++i) printf(" %.17g", {buf["force"]}[i]);\n'
         )
     if case.algorithm == "contact_fdyn_derivatives":  # [da_dq da_dv da_dtau; dforce_dq dforce_dv dforce_dtau], by rows
         f = "o_contact_fdyn_derivatives_"
@@ -176,13 +177,11 @@ def _check_lines(case: Case, sigs: dict, m: int) -> str:
             "    for (i = 0; i < NC; ++i) for (f = 0; f < 3 * NV; ++f)\n"
             f'        printf(" %.17g", (f < NV ? {f}dforce_dq : f < 2 * NV ? {f}dforce_dv : {f}dforce_dtau)[i * NV + f % NV]);\n'
         )
-    jac = case.functions[1]
     check = f"for (f = 0; f < {m}; ++f) {{\n"
-    check += '        for (i = 0; i < 16; ++i) printf(" %.17g", o_frame_pose_pose[16 * f + i]);\n'
-    out = sigs[jac].outputs[0][0]
-    check += f'        for (i = 0; i < 6 * NV; ++i) printf(" %.17g", o_{jac}_{out}[6 * NV * f + i]);\n'
-    if "frame_drift" in case.functions:
-        check += '        for (i = 0; i < 6; ++i) printf(" %.17g", o_frame_drift_drift[6 * f + i]);\n'
+    check += f'        for (i = 0; i < 16; ++i) printf(" %.17g", {buf["pose"]}[16 * f + i]);\n'
+    check += f'        for (i = 0; i < 6 * NV; ++i) printf(" %.17g", {buf["J"]}[6 * NV * f + i]);\n'
+    if "drift" in buf:
+        check += f'        for (i = 0; i < 6; ++i) printf(" %.17g", {buf["drift"]}[6 * f + i]);\n'
     return check + "    }\n"
 
 

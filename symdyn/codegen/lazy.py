@@ -56,8 +56,8 @@ def signatures(robot: Robot) -> list[c_emit.Signature]:
     frames = len(robot.task_frames)
     sizes = {"q": nq, "v": nv, "a": nv}
     for name in task_space.functions(robot):
-        out, args = task_space.OUTPUTS[name]
-        table[name] = (tuple((a, sizes[a]) for a in args), ((out, task_space.shape(name, frames, nv)),))
+        outs = tuple((task_space.OUTPUTS[p][0], task_space.shape(p, frames, nv)) for p in task_space.parts(name))
+        table[name] = (tuple((a, sizes[a]) for a in task_space.arguments(name)), outs)
     table.update(contact_signatures(robot) if robot.contacts else {})
     return [c_emit.Signature(f, *table[f]) for f in (*FUNCTIONS, *task_space.functions(robot), *contact_names(robot))]
 

@@ -13,7 +13,7 @@ import sympy as sp
 
 from ..derivation.program import Program
 from ..derivation import engine
-from ..derivation.task_space import DRIFTS, OUTPUTS, TaskSpace, derive_task_space, functions
+from ..derivation.task_space import DRIFTS, OUTPUTS, TOGETHER, TaskSpace, derive_task_space, functions, parts
 from ..model import Robot
 from .functions import FunctionSpec
 from .shipped import is_shipped
@@ -21,7 +21,7 @@ from .shipped import is_shipped
 __all__ = ["TASK_NAMES", "task_names", "task_spec", "task_doc", "TaskPrograms"]
 
 #: Every task-space function, in the order of a model's list (the centroidal ones need mass).
-TASK_NAMES = tuple(OUTPUTS)
+TASK_NAMES = (*OUTPUTS, *TOGETHER)
 
 _DOCS = {
     "frame_pose": "World pose of each frame ({m}, 4, 4) (Pinocchio's data.oMf)",
@@ -38,18 +38,22 @@ _DOCS = {
     "[linear; angular] (computeCentroidalMap)",
     "centroidal_drift": "dA_G/dt v (6,): the rate of the centroidal momentum at a = 0 "
     "(computeCentroidalMomentumTimeVariation at a = 0)",
+    "frame_kinematics": "(pose, J, drift) of each frame from one pass: frame_pose, frame_jacobian_aligned and "
+    "frame_drift together, what they share computed once",
+    "centroidal": "(com, Jcom, Ag) from one pass: com, com_jacobian and centroidal_map together, what they share "
+    "computed once",
 }
 
 
 def task_names(ts: TaskSpace) -> tuple[str, ...]:
     """The task-space functions the derivation gives (no centroidal ones for a massless robot)."""
-    return tuple(name for name in TASK_NAMES if name in ts.outputs)
+    return tuple(name for name in TASK_NAMES if all(part in ts.outputs for part in parts(name)))
 
 
 def task_doc(ts: TaskSpace, name: str, params=()) -> str:
     """A function's docstring: what it returns, for which frames, and what q, v, a hold."""
     doc = _DOCS[name].format(m=len(ts.frames), nv=len(ts.v)) + "."
-    if name.startswith("frame_"):
+    if "frame" in parts(name)[0]:
         doc += f" Frames: {', '.join(f.name for f in ts.frames)}."
     if ts.robot.base_joint is not None:
         doc += f" q: ({len(ts.q)},), the {ts.robot.base_joint} base's coordinates first; v, a: ({len(ts.v)},), its body-frame velocity first."
@@ -57,25 +61,26 @@ def task_doc(ts: TaskSpace, name: str, params=()) -> str:
 
 
 def task_spec(ts: TaskSpace, name: str, params=()) -> FunctionSpec:
-    """The spec of one task-space function; `params` the symbols of a symbolic model (argument p)."""
-    out, _ = OUTPUTS[name]
-    expr = ts.outputs[name]
-    defs = ts.definitions
-    if name in DRIFTS:
-        zero = ts.at_rest()
-        expr = expr.xreplace(zero)
-        defs = tuple((s, sp.sympify(e).xreplace(zero)) for s, e in defs)
+    """The spec of one task-space function (of `OUTPUTS`, or several of them `TOGETHER`); `params`
+    the symbols of a symbolic model (argument p)."""
+    zero = ts.at_rest()
+    drifts = any(part in DRIFTS for part in parts(name))
+    outputs, shapes = [], []
+    for part in parts(name):
+        expr = ts.outputs[part]
+        outputs.append((OUTPUTS[part][0], expr.xreplace(zero) if part in DRIFTS else expr))
+        shapes.append((OUTPUTS[part][0], ts.shape(part)))
+    defs = tuple((s, sp.sympify(e).xreplace(zero)) for s, e in ts.definitions) if drifts else ts.definitions
     inputs = ts.inputs(name) + ((("p", tuple(params)),) if params else ())
-    shape = ts.shape(name)
     return FunctionSpec(
         name,
         inputs,
-        ((out, expr),),
+        tuple(outputs),
         defs,
         task_doc(ts, name, params),
         "task space",
-        (out,) if len(shape) > 1 else (),
-        ((out, shape),),
+        tuple(out for out, shape in shapes if len(shape) > 1),
+        tuple(shapes),
     )
 
 

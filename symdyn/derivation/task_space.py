@@ -28,7 +28,18 @@ from .kinematics import ancestors, link_frames
 from .symbols import exact, joint_symbols
 from .tape import Tape
 
-__all__ = ["TaskSpace", "task_space", "derive_task_space", "functions", "shape", "OUTPUTS", "DRIFTS"]
+__all__ = [
+    "TaskSpace",
+    "task_space",
+    "derive_task_space",
+    "functions",
+    "parts",
+    "arguments",
+    "shape",
+    "OUTPUTS",
+    "TOGETHER",
+    "DRIFTS",
+]
 
 #: Each task-space function: (its output's name, the inputs it takes).
 OUTPUTS = {
@@ -44,6 +55,25 @@ OUTPUTS = {
     "centroidal_map": ("Ag", ("q",)),
     "centroidal_drift": ("dAg_v", ("q", "v")),
 }
+
+#: Functions returning several of `OUTPUTS` from one pass, the recursion they share computed once:
+#: what a contact or operational-space controller calls each step (each frame's pose, Jacobian
+#: and J̇·v) and a whole-body one (the centre of mass, its Jacobian and A_G).
+TOGETHER = {
+    "frame_kinematics": ("frame_pose", "frame_jacobian_aligned", "frame_drift"),
+    "centroidal": ("com", "com_jacobian", "centroidal_map"),
+}
+
+
+def parts(function: str) -> tuple[str, ...]:
+    """The functions of `OUTPUTS` that `function` returns, in order (itself when it is one)."""
+    return TOGETHER.get(function, (function,))
+
+
+def arguments(function: str) -> tuple[str, ...]:
+    """The inputs a task-space function takes, in the order q, v, a."""
+    used = {arg for part in parts(function) for arg in OUTPUTS[part][1]}
+    return tuple(arg for arg in ("q", "v", "a") if arg in used)
 
 
 @dataclass(frozen=True)
@@ -70,7 +100,7 @@ class TaskSpace:
     def inputs(self, function: str) -> tuple:
         """((argname, symbols), …) of a function."""
         given = {"q": self.q, "v": self.v, "a": self.a}
-        return tuple((arg, given[arg]) for arg in OUTPUTS[function][1])
+        return tuple((arg, given[arg]) for arg in arguments(function))
 
     def at_rest(self) -> dict:
         """The substitution a = 0 (the drifts)."""
@@ -116,10 +146,10 @@ def _total_mass(robot: Robot):
 
 
 def functions(robot: Robot) -> tuple[str, ...]:
-    """The task-space functions of `robot`, in `OUTPUTS`' order: every one, less the centroidal
-    ones when the robot carries no mass (its centre of mass is undefined)."""
+    """The task-space functions of `robot`, in `OUTPUTS`' order then `TOGETHER`'s: every one, less
+    those of the centre of mass when the robot carries no mass (its centre of mass is undefined)."""
     massless = _total_mass(robot) == 0
-    return tuple(name for name in OUTPUTS if not (massless and name in CENTROIDAL))
+    return tuple(name for name in (*OUTPUTS, *TOGETHER) if not (massless and any(p in CENTROIDAL for p in parts(name))))
 
 
 # --------------------------------------------------------------------------- small vector algebra
