@@ -6,7 +6,8 @@ factors L⁻¹ and D⁻¹L⁻¹, Xᵀ = J M⁻¹, A⁻¹, and R = the residuals'
 they are made from) as a static function; then M⁻¹ multiplied out from its factors and Xᵀ = J M⁻¹ (`_combined_rows`),
 R made by forward mode in vectors of directions (`tangents.Plan.c_source`), and the rows of the KKT
 inverse K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and of the derivatives −K⁻¹R by row
-kernels whose accumulators stay in vector registers, the vectors of exact zeros skipped.  The
+kernels whose accumulators stay in vector registers (two rows of −K⁻¹R at a time), the vectors of
+exact zeros skipped.  The
 unrolled solve of each column (`contact_functions.derivatives_program`, what the other targets run)
 is one scalar operation after another: on Solo 12 with four feet 90 k of them, against 15.6 k
 scalar operations, 3.8 k vector multiply-adds of the tangents and 38 k multiply-adds of products
@@ -31,6 +32,13 @@ __all__ = ["derivatives_source", "function_file", "products"]
 #: split into two halves on a machine with 256-bit vectors.  Talos on two soles, products 5.4 →
 #: 3.7 µs a call against four (AMD Zen 5); Solo 12 1.4 → 1.0 µs, its 18 columns padded to 24.
 LANES = 8
+
+
+#: Rows of −K⁻¹R made at once (`_sparse_rows`): each vector of R loaded once for both, the loads
+#: that bound one row shared.  Talos on two soles (R 9 vectors wide): −K⁻¹R 4.7 → 2.6 µs a call at
+#: two rows, 3.6 at three and 4.0 at four (their accumulators spill: AMD Zen 5, 32 vector
+#: registers); Solo 12 (5 wide) the same at two and four.
+ROWS = 2
 
 
 def _up(k: int) -> int:
@@ -174,27 +182,32 @@ def _combined_macs(A, B) -> int:
 
 
 def _sparse_rows(name: str, R) -> str:
-    """`name`(w, B, out): out = Σₖ w[k]·B[k] over the rows of R (padded to whole vectors), each
-    row's vectors of exact zeros skipped (a leg's joint moves neither another leg's rows nor its
-    contact), unrolled: one accumulator per vector of a row (plain loops without vector types)."""
-    width = R.cols // LANES
+    """`name`(w, B, out): ROWS rows at once, out[r] = Σₖ w[r·R.rows + k]·B[k] for r < ROWS over the
+    rows of R (padded to whole vectors), each row's vectors of exact zeros skipped (a leg's joint
+    moves neither another leg's rows nor its contact), unrolled: each vector of B loaded once for
+    all the rows, one accumulator per vector of each (plain loops without vector types)."""
+    width, depth = R.cols // LANES, R.rows
     zero = ", ".join(["0.0"] * LANES)
-    lines = _vector_head(
-        f"{name}(const double *w, const double *B, double *out)", [f"a{j} = {{{zero}}}" for j in range(width)]
-    )
-    for k in range(R.rows):
+    accumulators = [f"a{r}_{j} = {{{zero}}}" for r in range(ROWS) for j in range(width)]
+    lines = _vector_head(f"{name}(const double *w, const double *B, double *out)", accumulators)
+    for k in range(depth):
         blocks = [j for j in range(width) if any(R[k, LANES * j + t] != 0 for t in range(LANES))]
         for j in blocks:
-            lines += [f"    memcpy(&x, B + {k * R.cols + LANES * j}, sizeof x);", f"    a{j} += w[{k}] * x;"]
-    lines += [f"    memcpy(out + {LANES * j}, &a{j}, sizeof x);" for j in range(width)]
+            lines.append(f"    memcpy(&x, B + {k * R.cols + LANES * j}, sizeof x);")
+            lines += [f"    a{r}_{j} += w[{r * depth + k}] * x;" for r in range(ROWS)]
+    lines += [
+        f"    memcpy(out + {r * R.cols + LANES * j}, &a{r}_{j}, sizeof x);" for r in range(ROWS) for j in range(width)
+    ]
     lines += [
         "    #else",
-        "    int j, k;",
-        f"    for (j = 0; j < {R.cols}; ++j)",
-        "        out[j] = 0.0;",
-        f"    for (k = 0; k < {R.rows}; ++k)",
+        "    int j, k, r;",
+        f"    for (r = 0; r < {ROWS}; ++r) {{",
         f"        for (j = 0; j < {R.cols}; ++j)",
-        f"            out[j] += w[k] * B[k * {R.cols} + j];",
+        f"            out[r * {R.cols} + j] = 0.0;",
+        f"        for (k = 0; k < {depth}; ++k)",
+        f"            for (j = 0; j < {R.cols}; ++j)",
+        f"                out[r * {R.cols} + j] += w[r * {depth} + k] * B[k * {R.cols} + j];",
+        "    }",
         "    #endif",
         "}",
         "",
@@ -229,8 +242,8 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
         f"    double Minv_[{n * wn}], R_[{N * wm}];",
         *(f"    double {o}_[{max(1, sizes[o])}];" for o in produced if o not in ("Minv", "R")),
         *([f"    double XT_[{nc * wn}];"] if "J" in out else []),
-        f"    double G_[{nc * wn}], p_[{wn}], w_[{N}], d_[{wm}];",
-        "    int i, j, c;",
+        f"    double G_[{nc * wn}], p_[{ROWS * wn}], w_[{ROWS * N}], d_[{ROWS * wm}], *w;",
+        "    int i, j, c, k, r;",
         f"    {f}_kkt({', '.join(args + [first, second] + [f'{o}_' for o in produced])});",
     ]
     if "Linv" in out:
@@ -251,35 +264,42 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     body += [
         f"    for (c = 0; c < {nc}; ++c)  /* G = A^-1 X^T */",
         f"        {small}(Ainv_ + c * {nc}, XT_, 0, G_ + c * {wn});",
-        f"    for (i = 0; i < {N}; ++i) {{  /* row i of -K^-1 R, K^-1 = [P G^T; -G A^-1] */",
-        f"        if (i < {n}) {{  /* P's row i = M^-1's less (X G)'s */",
-        f"            for (c = 0; c < {nc}; ++c)",
-        f"                w_[c] = -XT_[c * {wn} + i];",
-        f"            {small}(w_, G_, Minv_ + i * {wn}, p_);",
-        f"            for (j = 0; j < {n}; ++j)",
-        "                w_[j] = -p_[j];",
-        f"            for (c = 0; c < {nc}; ++c)",
-        f"                w_[{n} + c] = -G_[c * {wn} + i];",
-        "        } else {",
-        f"            c = i - {n};",
-        f"            for (j = 0; j < {n}; ++j)",
-        f"                w_[j] = G_[c * {wn} + j];",
-        f"            for (j = 0; j < {nc}; ++j)",
-        f"                w_[{n} + j] = -Ainv_[c * {nc} + j];",
+        f"    for (i = 0; i < {N}; i += {ROWS}) {{  /* rows i, i + 1, ... of -K^-1 R, K^-1 = [P G^T; -G A^-1] */",
+        f"        for (r = 0; r < {ROWS}; ++r) {{  /* w: each row's weights of R's rows */",
+        f"            k = i + r, w = w_ + r * {N};",
+        f"            if (k < {n}) {{  /* P's row k = M^-1's less (X G)'s */",
+        f"                for (c = 0; c < {nc}; ++c)",
+        f"                    w[c] = -XT_[c * {wn} + k];",
+        f"                {small}(w, G_, Minv_ + k * {wn}, p_ + r * {wn});",
+        f"                for (j = 0; j < {n}; ++j)",
+        f"                    w[j] = -p_[r * {wn} + j];",
+        f"                for (c = 0; c < {nc}; ++c)",
+        f"                    w[{n} + c] = -G_[c * {wn} + k];",
+        f"            }} else if (k < {N}) {{",
+        f"                c = k - {n};",
+        f"                for (j = 0; j < {n}; ++j)",
+        f"                    w[j] = G_[c * {wn} + j];",
+        f"                for (j = 0; j < {nc}; ++j)",
+        f"                    w[{n} + j] = -Ainv_[c * {nc} + j];",
+        "            } else",
+        f"                memset(w, 0, {N} * sizeof *w);",
         "        }",
         f"        {large}(w_, R_, d_);",
-        f"        if (i < {n})",
-        f"            for (j = 0; j < {n}; ++j) {{",
-        f"                {dz[0]}[i * {n} + j] = d_[j];",
-        f"                {dz[1]}[i * {n} + j] = d_[{n} + j];",
-        *([f"                {dz[2]}[i * {n} + j] = p_[j];"] if tau else []),
-        "            }",
-        "        else",
-        f"            for (j = 0; j < {n}; ++j) {{",
-        f"                {dz[half]}[c * {n} + j] = d_[j];",
-        f"                {dz[half + 1]}[c * {n} + j] = d_[{n} + j];",
-        *([f"                {dz[5]}[c * {n} + j] = -w_[j];"] if tau else []),
-        "            }",
+        f"        for (r = 0; r < {ROWS} && i + r < {N}; ++r) {{",
+        "            k = i + r;",
+        f"            if (k < {n})",
+        f"                for (j = 0; j < {n}; ++j) {{",
+        f"                    {dz[0]}[k * {n} + j] = d_[r * {wm} + j];",
+        f"                    {dz[1]}[k * {n} + j] = d_[r * {wm} + {n} + j];",
+        *([f"                    {dz[2]}[k * {n} + j] = p_[r * {wn} + j];"] if tau else []),
+        "                }",
+        "            else",
+        f"                for (j = 0; j < {n}; ++j) {{",
+        f"                    {dz[half]}[(k - {n}) * {n} + j] = d_[r * {wm} + j];",
+        f"                    {dz[half + 1]}[(k - {n}) * {n} + j] = d_[r * {wm} + {n} + j];",
+        *([f"                    {dz[5]}[(k - {n}) * {n} + j] = -w_[r * {N} + j];"] if tau else []),
+        "                }",
+        "        }",
         "    }",
     ]
     doc = f"/* {parts.doc} */\n" if parts.doc else ""
