@@ -309,7 +309,9 @@ _LAUNCHER = (
 def _with_parent() -> list[str]:
     """The launcher's command before the compiler's (none off Linux); this process's pid now (a
     forked child's own)."""
-    return [sys.executable, "-c", _LAUNCHER, str(os.getpid())] if sys.platform.startswith("linux") else []
+    # -S -I: no site-packages, no user environment (the launcher needs only the standard library):
+    # its start 20 → 10 ms, once per unit compiled
+    return [sys.executable, "-S", "-I", "-c", _LAUNCHER, str(os.getpid())] if sys.platform.startswith("linux") else []
 
 
 class Units:
