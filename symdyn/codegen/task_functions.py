@@ -53,7 +53,7 @@ def task_names(ts: TaskSpace) -> tuple[str, ...]:
 def task_doc(ts: TaskSpace, name: str, params=()) -> str:
     """A function's docstring: what it returns, for which frames, and what q, v, a hold."""
     doc = _DOCS[name].format(m=len(ts.frames), nv=len(ts.v)) + "."
-    if "frame" in parts(name)[0]:
+    if parts(name)[0].startswith("frame_"):
         doc += f" Frames: {', '.join(f.name for f in ts.frames)}."
     if ts.robot.base_joint is not None:
         doc += f" q: ({len(ts.q)},), the {ts.robot.base_joint} base's coordinates first; v, a: ({len(ts.v)},), its body-frame velocity first."
