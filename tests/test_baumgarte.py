@@ -124,6 +124,22 @@ def test_corrected_derivatives_equal_pinocchio(tree, contacts, kp, kd):
             assert _relative(got, want) < RTOL
 
 
+@pytest.mark.slow  # 3 s of generating and compiling
+def test_corrected_c_derivatives_equal_pinocchio(tree):
+    """The C target's derivatives with a position gain, whose residuals are differentiated in the
+    program (the quaternion's directions too, no vectors of directions: M⁻¹ and Xᵀ are parts and
+    the top rows X df − M⁻¹R1, `emit.ckkt._top`), equal to Pinocchio's."""
+    robot = tree.with_contacts({"f2": "point"}, kp=KP, kd=KD)
+    f, model = load(robot, "c"), pinocchio_model(robot)
+    rng = np.random.default_rng(9)
+    q, v, tau = states(robot, 10, seed=8)
+    for i in range(len(q)):
+        setup = pinocchio_corrected(robot, model, q[i], 0.4, 0.05, rng)
+        got = f.contact_fdyn_derivatives(q[i], v[i], tau[i], setup[-1])
+        for g, want in zip(got, pinocchio_fdyn(setup, q[i], v[i], tau[i], True)):
+            assert _relative(g, want) < RTOL
+
+
 def _central(robot, f, q, v, tau, anchor, h=1e-6):
     """Central differences of contact_fdyn's (a, f) along the tangent space of q."""
     da, df = [], []

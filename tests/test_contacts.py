@@ -297,3 +297,36 @@ def test_talos_on_its_soles_through_generated_c(soles):
     assert_as_pinocchio(robot, f, q, v, tau)
     if len(soles) == 2:  # the derivatives too (under a minute to generate and compile), at three states
         assert_as_pinocchio(robot, f, q[:3], v[:3], tau[:3], derivatives=("fdyn", "impulse"))
+
+
+@pytest.mark.slow  # 4 s of generating and compiling
+@pytest.mark.parametrize("kind", ["fdyn", "impulse"])
+def test_the_c_derivatives_plain_loops_equal_the_numpy_targets(tmp_path, legged, kind):
+    """The C target's derivatives as a compiler without GCC's vector types runs them (the tangents'
+    lane loop, every product kernel's plain loops), equal to the NumPy target's at 5 states."""
+    import ctypes
+    import shutil
+    import subprocess
+
+    from symdyn.codegen import lazy
+    from symdyn.codegen.emit import identifier
+
+    if shutil.which("cc") is None:
+        pytest.skip("needs a C compiler (cc)")
+    robot, f = legged
+    name = f"contact_{kind}_derivatives"
+    source = lazy.scalar_units(robot, [name])[name].replace("defined(__GNUC__)", "defined(SYMDYN_NO_VECTORS_)")
+    (tmp_path / "plain.c").write_text(source)
+    subprocess.run(
+        ["cc", "-O1", "-shared", "-fPIC", "-o", str(tmp_path / "plain.so"), str(tmp_path / "plain.c")], check=True
+    )
+    function = getattr(ctypes.CDLL(str(tmp_path / "plain.so")), f"{identifier(robot.name)}_{name}")
+    q, v, tau = states(robot, 5, seed=23)
+    for i in range(len(q)):
+        args = (q[i], v[i], tau[i]) if kind == "fdyn" else (q[i], v[i])
+        want = getattr(f, name)(*args)
+        got = [np.zeros_like(w) for w in want]
+        pointers = [np.ascontiguousarray(x, dtype=float) for x in args] + got
+        function(*(x.ctypes.data_as(ctypes.c_void_p) for x in pointers))
+        for g, w in zip(got, want):
+            assert _relative(g, w) < 1e-12

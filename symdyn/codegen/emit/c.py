@@ -544,7 +544,10 @@ def _parts(model: str, p: Program, sig: Signature, qualifier: str = "") -> tuple
         loop, reads = _trig_loop(block, p.inputs)
         statements = [line for i, item in enumerate(block) for line in (reads[i] if i in reads else _statements(item))]
         reads = [
-            f"    const double {sym.name} = {a}[{j}];" for a, syms in p.inputs for j, sym in enumerate(syms) if sym in used
+            f"    const double {sym.name} = {a}[{j}];"
+            for a, syms in p.inputs
+            for j, sym in enumerate(syms)
+            if sym in used
         ]
         reads += [
             f"    const double {sym.name} = w_[{slot[sym]}];"
@@ -557,7 +560,9 @@ def _parts(model: str, p: Program, sig: Signature, qualifier: str = "") -> tuple
         source.append(f"{qualifier}static SYMDYN_NOINLINE void {name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
         calls.append(f"    {name}({', '.join([a for a, _ in p.inputs] + ['w_'])});")
     used = set().union(*(mat.free_symbols for _, mat in p.outputs))
-    reads = [f"    const double {sym.name} = {a}[{j}];" for a, syms in p.inputs for j, sym in enumerate(syms) if sym in used]
+    reads = [
+        f"    const double {sym.name} = {a}[{j}];" for a, syms in p.inputs for j, sym in enumerate(syms) if sym in used
+    ]
     reads += [f"    const double {sym.name} = w_[{slot[sym]}];" for sym in sorted(used & set(slot), key=str)]
     return "\n".join(source) + "\n", [f"    double w_[{max(1, len(slot))}];", *calls], reads
 

@@ -2,12 +2,13 @@
 
 Part of the C target, beside `c`: `contact_fdyn_derivatives` and `contact_impulse_derivatives`
 are emitted from their KKT parts (`contact_functions.parts_program`: the dynamics, M⁻¹ or its
-factors L⁻¹ and D⁻¹L⁻¹, Xᵀ = J M⁻¹, A⁻¹, and R = the residuals' Jacobians or the local partials
-they are made from) as a static function; then M⁻¹ multiplied out from its factors and Xᵀ = J M⁻¹ (`_combined_rows`),
-R made by forward mode in vectors of directions (`tangents.Plan.c_source`), and the rows of the KKT
-inverse K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ, P = M⁻¹ − X G) and of the derivatives −K⁻¹R by row
-kernels whose accumulators stay in vector registers (two rows of −K⁻¹R at a time), the vectors of
-exact zeros skipped.  The
+factors L⁻¹ and D⁻¹L⁻¹, Xᵀ = J M⁻¹ or the rows J, A⁻¹, and R = the residuals' Jacobians or the
+local partials they are made from) as a static function; then M⁻¹ multiplied out from its factors
+and Xᵀ = J M⁻¹ (`_combined_rows`), R made by forward mode in vectors of directions
+(`tangents.Plan.c_source`), and the derivatives −K⁻¹R, K⁻¹ = [P Gᵀ; −G A⁻¹] (G = A⁻¹Xᵀ,
+P = M⁻¹ − X G): the forces' rows df = [G −A⁻¹] R two at a time, then the accelerations'
+da = M⁻¹(Jᵀdf − R1) through M⁻¹'s factors (`_top`), by kernels whose accumulators stay in vector
+registers, the vectors of exact zeros and the tree's zeros of the factors skipped.  The
 unrolled solve of each column (`contact_functions.derivatives_program`, what the other targets run)
 is one scalar operation after another: on Solo 12 with four feet 90 k of them, against 15.6 k
 scalar operations, 3.8 k vector multiply-adds of the tangents and 38 k multiply-adds of products
@@ -17,6 +18,7 @@ batch kernel runs the scalar function state after state on every thread.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 
 import sympy as sp
 
@@ -60,14 +62,16 @@ def _residual_pattern(parts: Program, tangents) -> sp.ImmutableMatrix:
 
 def products(parts: Program, tangents=None) -> int:
     """The multiply-adds of the products after the parts: M⁻¹ from its factors where the parts hold
-    them, G, P and −K⁻¹R (R's vectors of exact zeros skipped, as `_sparse_rows` does)."""
+    them, G, P, df = [G −A⁻¹] R and da = M⁻¹(Jᵀdf − R1) (`_top`), R's vectors of exact zeros
+    skipped as the kernels skip them."""
     out = dict(parts.outputs)
     n, nc = out["XT" if "XT" in out else "J"].cols, out["Ainv"].rows
-    R = _padded(_residual_pattern(parts, tangents))
-    kept = sum(any(R[k, j + t] != 0 for t in range(LANES)) for k in range(R.rows) for j in range(0, R.cols, LANES))
-    inverse = _combined_macs(out["Linv"], out["DLinv"]) if "Linv" in out else 0  # M⁻¹ multiplied out
-    rows = _combined_macs(out["J"], sp.ones(n, n)) if "J" in out else 0  # Xᵀ = J M⁻¹
-    return nc * nc * n + n * nc * n + (n + nc) * LANES * kept + inverse + rows
+    R = _vectors(_padded(_residual_pattern(parts, tangents)))
+    kept = sum(len(r) for r in R)
+    inverse = _macs(out["Linv"], _vectors(_padded(out["DLinv"]))) if "Linv" in out else 0  # M⁻¹ multiplied out
+    rows = _macs(out["J"], [set(range(_up(n) // LANES))] * n) if "J" in out else 0  # Xᵀ = J M⁻¹
+    top = sum(_macs(step.A, step.B) for step in _top(out, R))
+    return nc * nc * n + n * nc * n + nc * LANES * kept + top + inverse + rows
 
 
 def _padded(m) -> sp.ImmutableMatrix:
@@ -137,35 +141,99 @@ def _vector_head(signature: str, accumulators: list[str]) -> list[str]:
     ]
 
 
-def _combined_rows(name: str, A, B) -> str:
-    """`name`(A, B, out): out's row a = Σₖ A[a, k]·B[k] (A row-major, rows × K) over the k where
-    A[a, k] is not an exact zero, B's rows padded to whole vectors and their vectors of exact zeros
-    skipped; out's rows as B's.  M⁻¹ from its factors (`derivatives.minv_factors_spec`: A = (L⁻¹)ᵀ,
-    whose row keeps a joint on the joints between it and the root; B = D⁻¹L⁻¹), and Xᵀ = J M⁻¹."""
-    rows, depth, width = A.rows, A.cols, B.cols // LANES
+def _vectors(m) -> list:
+    """Per row of m (columns whole vectors), the vectors holding an entry that may be nonzero."""
+    return [frozenset(j // LANES for j in range(m.cols) if m[i, j] != 0) for i in range(m.rows)]
+
+
+def _times(A, B: list, C: list | None = None) -> list:
+    """The vectors (`_vectors`) of A·B, or of A·B − C, per row."""
+    return [
+        frozenset().union(*(B[k] for k in range(A.cols) if A[a, k] != 0), *([C[a]] if C else [])) for a in range(A.rows)
+    ]
+
+
+@dataclass(frozen=True)
+class _Step:
+    """One `_combined_rows` kernel, out = A·B (− C): A's pattern and its buffer's layout (A[a, k] at
+    a·stride + k, or k·stride + a where `transposed`), B's and C's vectors per row, the buffers."""
+
+    name: str
+    A: sp.ImmutableMatrix
+    stride: int
+    transposed: bool
+    B: list
+    C: list | None
+    args: tuple  # the buffers: A, B[, C], out
+    note: str
+
+
+def _top(out: dict, R: list) -> list:
+    """The kernels of da = M⁻¹(Jᵀdf − R1) from df = [G −A⁻¹] R (−K⁻¹R's last nc rows, made first
+    in F_): with M⁻¹'s factors, W = Jᵀdf − R1 in R1's place, then D⁻¹L⁻¹W and L⁻ᵀ of that (the
+    tree's zeros of both factors and of J skipped: Talos on two soles 5.6 k fewer vector
+    multiply-adds than −K⁻¹R's first n rows by P's and Gᵀ's); without them, X df − M⁻¹R1."""
+    n, nc = out["XT" if "XT" in out else "J"].cols, out["Ainv"].rows
+    wn = _up(n)
+    F = [frozenset().union(*R)] * nc  # df's rows: every row of R weighted
+    R1 = R[:n]
+    if "Linv" in out:
+        Jt = out["J"].T
+        W = _times(Jt, F, R1)
+        DL = out["DLinv"]
+        Y = _times(DL, W)
+        return [
+            _Step("jtf", Jt, n, True, F, R1, ("J_", "F_", "R_", "R_"), "W = J^T df - R1, in R1's place"),
+            _Step("dl", DL, wn, False, W, None, ("DLinv_", "R_", "Y_"), "D^-1 L^-1 W"),
+            _Step("lt", out["Linv"], n, False, Y, None, ("Linv_", "Y_", "R_"), "da = L^-T (D^-1 L^-1 W)"),
+        ]
+    Minv = out["Minv"]
+    Y = _times(Minv, R1)
+    return [
+        _Step("m", Minv, wn, False, R1, None, ("Minv_", "R_", "Y_"), "M^-1 R1"),
+        _Step("xf", out["XT"].T, wn, True, F, Y, ("XT_", "F_", "Y_", "R_"), "da = X df - M^-1 R1"),
+    ]
+
+
+def _combined_rows(
+    name: str, A, B: list, width: int, stride: int, transposed: bool = False, C: list | None = None
+) -> str:
+    """`name`(A, B[, C], out): out's row a = Σₖ A[a, k]·B[k] (− C[a]) over the k where A[a, k] is not
+    an exact zero, B's vectors of exact zeros (`B`, `C`: `_vectors`) skipped; B's, C's and out's rows
+    `width` vectors, A's buffer as `_Step` says.  M⁻¹ from its factors (`derivatives.minv_factors_spec`:
+    A = (L⁻¹)ᵀ, whose row keeps a joint on the joints between it and the root; B = D⁻¹L⁻¹),
+    Xᵀ = J M⁻¹ and the derivatives' top rows (`_top`)."""
+    rows, depth, size = A.rows, A.cols, width * LANES
     zero = ", ".join(["0.0"] * LANES)
-    lines = _vector_head(f"{name}(const double *A, const double *B, double *out)", [f"a{j}" for j in range(width)])
+    at = (lambda a, k: k * stride + a) if transposed else (lambda a, k: a * stride + k)
+    minus = ", const double *C" if C is not None else ""
+    lines = _vector_head(
+        f"{name}(const double *A, const double *B{minus}, double *out)", [f"a{j}" for j in range(width)]
+    )
     for a in range(rows):
-        lines += [f"    a{j} = (v_){{{zero}}};" for j in range(width)]
+        for j in range(width):
+            if C is not None and j in C[a]:
+                lines += [f"    memcpy(&x, C + {a * size + LANES * j}, sizeof x);", f"    a{j} = -x;"]
+            else:
+                lines.append(f"    a{j} = (v_){{{zero}}};")
         for k in range(depth):
             if A[a, k] == 0:
                 continue
-            for j in range(width):
-                if any(B[k, LANES * j + t] != 0 for t in range(LANES)):
-                    lines += [
-                        f"    memcpy(&x, B + {k * B.cols + LANES * j}, sizeof x);",
-                        f"    a{j} += A[{a * depth + k}] * x;",
-                    ]
-        lines += [f"    memcpy(out + {a * B.cols + LANES * j}, &a{j}, sizeof x);" for j in range(width)]
+            for j in sorted(B[k]):
+                lines += [f"    memcpy(&x, B + {k * size + LANES * j}, sizeof x);", f"    a{j} += A[{at(a, k)}] * x;"]
+        lines += [f"    memcpy(out + {a * size + LANES * j}, &a{j}, sizeof x);" for j in range(width)]
+    index = "k * %d + a" % stride if transposed else "a * %d + k" % stride
     lines += [
         "    #else",
         "    int a, j, k;",
+        f"    double row[{size}];",
         f"    for (a = 0; a < {rows}; ++a) {{",
-        f"        for (j = 0; j < {B.cols}; ++j)",
-        f"            out[a * {B.cols} + j] = 0.0;",
+        f"        for (j = 0; j < {size}; ++j)",
+        f"            row[j] = {'-C[a * %d + j]' % size if C is not None else '0.0'};",
         f"        for (k = 0; k < {depth}; ++k)",
-        f"            for (j = 0; j < {B.cols}; ++j)",
-        f"                out[a * {B.cols} + j] += A[a * {depth} + k] * B[k * {B.cols} + j];",
+        f"            for (j = 0; j < {size}; ++j)",
+        f"                row[j] += A[{index}] * B[k * {size} + j];",
+        f"        memcpy(out + a * {size}, row, sizeof row);",
         "    }",
         "    #endif",
         "}",
@@ -174,11 +242,9 @@ def _combined_rows(name: str, A, B) -> str:
     return "\n".join(lines)
 
 
-def _combined_macs(A, B) -> int:
-    """The multiply-adds `_combined_rows` runs."""
-    B = _padded(B)
-    vectors = [sum(any(B[k, j + t] != 0 for t in range(LANES)) for j in range(0, B.cols, LANES)) for k in range(B.rows)]
-    return LANES * sum(vectors[k] for a in range(A.rows) for k in range(A.cols) if A[a, k] != 0)
+def _macs(A, B: list) -> int:
+    """The multiply-adds `_combined_rows` runs (`B`: `_vectors`)."""
+    return LANES * sum(len(B[k]) for a in range(A.rows) for k in range(A.cols) if A[a, k] != 0)
 
 
 def _sparse_rows(name: str, R) -> str:
@@ -235,22 +301,24 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     tau = half == 3  # fdyn: by tau, K^-1 [I; 0] = [P; -G]
     wn, wm = _up(n), _up(m)
     small, large = f"{f}_rows{wn // LANES}x{nc}", f"{f}_rows_R"
+    R = _vectors(_padded(pattern))
     helpers = _rows(small, nc, wn // LANES) + "\n" + _sparse_rows(large, _padded(pattern))
     produced = [o for o, _ in kkt.outputs[2:]]  # the parts' outputs after the dynamics' two
     sizes = {o: m.rows * m.cols for o, m in kkt.outputs[2:]}
+    fn = -(-nc // ROWS) * ROWS  # df's rows, whole turns of the row kernel
     body = [
-        f"    double Minv_[{n * wn}], R_[{N * wm}];",
+        f"    double Minv_[{n * wn}], R_[{N * wm}], F_[{fn * wm}], Y_[{n * wm}];",
         *(f"    double {o}_[{max(1, sizes[o])}];" for o in produced if o not in ("Minv", "R")),
         *([f"    double XT_[{nc * wn}];"] if "J" in out else []),
-        f"    double G_[{nc * wn}], p_[{ROWS * wn}], w_[{ROWS * N}], d_[{ROWS * wm}], *w;",
+        f"    double G_[{nc * wn}], p_[{wn}], w_[{ROWS * N}], *w;",
         "    int i, j, c, k, r;",
         f"    {f}_kkt({', '.join(args + [first, second] + [f'{o}_' for o in produced])});",
     ]
     if "Linv" in out:
-        helpers += "\n" + _combined_rows(f"{f}_minv", out["Linv"], kkt_out["DLinv"])
+        helpers += "\n" + _combined_rows(f"{f}_minv", out["Linv"], _vectors(kkt_out["DLinv"]), wn // LANES, n)
         body.append(f"    {f}_minv(Linv_, DLinv_, Minv_);  /* M^-1 = L^-T D^-1 L^-1, in vectors */")
     if "J" in out:
-        helpers += "\n" + _combined_rows(f"{f}_xt", out["J"], sp.ones(n, wn))
+        helpers += "\n" + _combined_rows(f"{f}_xt", out["J"], [set(range(wn // LANES))] * n, wn // LANES, n)
         body.append(f"    {f}_xt(J_, Minv_, XT_);  /* X^T = J M^-1, in vectors */")
     if tangents is not None:
         _, plan, columns = tangents
@@ -264,43 +332,47 @@ def derivatives_source(model: str, parts: Program, sig: c_emit.Signature, tangen
     body += [
         f"    for (c = 0; c < {nc}; ++c)  /* G = A^-1 X^T */",
         f"        {small}(Ainv_ + c * {nc}, XT_, 0, G_ + c * {wn});",
-        f"    for (i = 0; i < {N}; i += {ROWS}) {{  /* rows i, i + 1, ... of -K^-1 R, K^-1 = [P G^T; -G A^-1] */",
-        f"        for (r = 0; r < {ROWS}; ++r) {{  /* w: each row's weights of R's rows */",
+        f"    for (i = 0; i < {nc}; i += {ROWS}) {{  /* df = [G -A^-1] R, rows i, i + 1, ... (K^-1 = [P G^T; -G A^-1]) */",
+        f"        for (r = 0; r < {ROWS}; ++r) {{",
         f"            k = i + r, w = w_ + r * {N};",
-        f"            if (k < {n}) {{  /* P's row k = M^-1's less (X G)'s */",
-        f"                for (c = 0; c < {nc}; ++c)",
-        f"                    w[c] = -XT_[c * {wn} + k];",
-        f"                {small}(w, G_, Minv_ + k * {wn}, p_ + r * {wn});",
+        f"            if (k < {nc}) {{",
         f"                for (j = 0; j < {n}; ++j)",
-        f"                    w[j] = -p_[r * {wn} + j];",
-        f"                for (c = 0; c < {nc}; ++c)",
-        f"                    w[{n} + c] = -G_[c * {wn} + k];",
-        f"            }} else if (k < {N}) {{",
-        f"                c = k - {n};",
-        f"                for (j = 0; j < {n}; ++j)",
-        f"                    w[j] = G_[c * {wn} + j];",
+        f"                    w[j] = G_[k * {wn} + j];",
         f"                for (j = 0; j < {nc}; ++j)",
-        f"                    w[{n} + j] = -Ainv_[c * {nc} + j];",
+        f"                    w[{n} + j] = -Ainv_[k * {nc} + j];",
         "            } else",
         f"                memset(w, 0, {N} * sizeof *w);",
         "        }",
-        f"        {large}(w_, R_, d_);",
-        f"        for (r = 0; r < {ROWS} && i + r < {N}; ++r) {{",
-        "            k = i + r;",
-        f"            if (k < {n})",
-        f"                for (j = 0; j < {n}; ++j) {{",
-        f"                    {dz[0]}[k * {n} + j] = d_[r * {wm} + j];",
-        f"                    {dz[1]}[k * {n} + j] = d_[r * {wm} + {n} + j];",
-        *([f"                    {dz[2]}[k * {n} + j] = p_[r * {wn} + j];"] if tau else []),
-        "                }",
-        "            else",
-        f"                for (j = 0; j < {n}; ++j) {{",
-        f"                    {dz[half]}[(k - {n}) * {n} + j] = d_[r * {wm} + j];",
-        f"                    {dz[half + 1]}[(k - {n}) * {n} + j] = d_[r * {wm} + {n} + j];",
-        *([f"                    {dz[5]}[(k - {n}) * {n} + j] = -w_[r * {N} + j];"] if tau else []),
-        "                }",
+        f"        {large}(w_, R_, F_ + i * {wm});",
+        "    }",
+    ]
+    for step in _top(out, R):
+        kernel = f"{f}_{step.name}"
+        helpers += "\n" + _combined_rows(kernel, step.A, step.B, wm // LANES, step.stride, step.transposed, step.C)
+        body.append(f"    {kernel}({', '.join(step.args)});  /* {step.note} */")
+    body += [
+        f"    for (k = 0; k < {n}; ++k) {{",
+        *(
+            [
+                f"        for (c = 0; c < {nc}; ++c)  /* P's row k = M^-1's less (X G)'s */",
+                f"            w_[c] = -XT_[c * {wn} + k];",
+                f"        {small}(w_, G_, Minv_ + k * {wn}, p_);",
+            ]
+            if tau
+            else []
+        ),
+        f"        for (j = 0; j < {n}; ++j) {{",
+        f"            {dz[0]}[k * {n} + j] = R_[k * {wm} + j];",
+        f"            {dz[1]}[k * {n} + j] = R_[k * {wm} + {n} + j];",
+        *([f"            {dz[2]}[k * {n} + j] = p_[j];"] if tau else []),
         "        }",
         "    }",
+        f"    for (c = 0; c < {nc}; ++c)",
+        f"        for (j = 0; j < {n}; ++j) {{",
+        f"            {dz[half]}[c * {n} + j] = F_[c * {wm} + j];",
+        f"            {dz[half + 1]}[c * {n} + j] = F_[c * {wm} + {n} + j];",
+        *([f"            {dz[5]}[c * {n} + j] = -G_[c * {wn} + j];"] if tau else []),
+        "        }",
     ]
     doc = f"/* {parts.doc} */\n" if parts.doc else ""
     scalar = c_emit.single_source(model, kkt, c_emit.CACHE_SPLIT_ABOVE, static=True) + "\n" + helpers
