@@ -468,29 +468,38 @@ class ContactSpecs:
         return spec, program, columns
 
     def _groups(self, wrt: list) -> list:
-        """The directions in vectors: the base's first, then each branch of the tree from the base
-        (its joints' coordinates, then their velocities), which moves no other branch."""
+        """The directions in vectors: the base's, then each chain of the tree (a joint and the joints
+        below it up to a branching, which start chains of their own) — its joints' coordinates, then
+        their velocities; a chain moves no other branch — the chains of at most LANES directions
+        packed together first fit (Talos' torso and head in one vector: its residuals' tangents
+        12 028 → 10 758 vector multiply-adds)."""
+        from .tangents import LANES
+
         robot, n = self.robot, self.n
         q, v = self.q[1], self.v[1]
         joints = robot.n
-        top = []
+        children: dict = {}
         for k in range(joints):
-            i = k
-            while robot.parents[i] >= 0:
-                i = robot.parents[i]
-            top.append(i)
+            children.setdefault(robot.parents[k], []).append(k)
+        chains, stack = [], list(reversed(children.get(-1, [])))
+        while stack:
+            chain = [stack.pop()]
+            while len(children.get(chain[-1], [])) == 1:
+                chain.append(children[chain[-1]][0])
+            chains.append(chain)
+            stack += reversed(children.get(chain[-1], []))
         chosen = set(wrt)
         base = [x for x in list(q[: len(q) - joints]) + list(v[: n - joints]) if x in chosen]
-        groups = [base] if base else []
-        for root in dict.fromkeys(top):
-            members = [k for k in range(joints) if top[k] == root]
-            groups.append(
-                [
-                    x
-                    for x in [q[len(q) - joints + k] for k in members] + [v[n - joints + k] for k in members]
-                    if x in chosen
-                ]
-            )
+        groups: list = [base] if base else []
+        for chain in chains:
+            group = [
+                x for x in [q[len(q) - joints + k] for k in chain] + [v[n - joints + k] for k in chain] if x in chosen
+            ]
+            fit = next((g for g in groups if len(group) <= LANES and len(g) + len(group) <= LANES), None)
+            if fit is None:
+                groups.append(group)
+            else:
+                fit += group
         return groups
 
     def _invariant(self, base_joint: str | None) -> tuple:
