@@ -523,12 +523,13 @@ def _used(item) -> set:
     return (b if x is None else x).free_symbols
 
 
-def _parts(model: str, p: Program, sig: Signature, qualifier: str = "") -> tuple[str, list[str]]:
-    """A large program's single-state body as parts: (the part functions' source, the body's
-    statements that call them and write the outputs); `qualifier` precedes each part (CUDA's
-    `SYMDYN_HD`)."""
+def _parts(model: str, p: Program, sig: Signature, qualifier: str = "", size: int | None = None) -> tuple:
+    """A large program's single-state body as parts of `size` assignments: (the part functions'
+    source, the body's statements that call them, the reads the outputs need); `qualifier`
+    precedes each part (CUDA's `SYMDYN_HD`); `size` defaults to PART_SIZE."""
+    size = size or PART_SIZE
     items = list(_paired(p.assignments))
-    blocks = [items[i : i + PART_SIZE] for i in range(0, len(items), PART_SIZE)]
+    blocks = [items[i : i + size] for i in range(0, len(items), size)]
     inputs = {s for _, syms in p.inputs for s in syms}
     home = {sym: k for k, block in enumerate(blocks) for item in block for sym in _defined(item)}
     later: set = set()  # values a later part (or an output) reads
@@ -613,19 +614,24 @@ def _stores(out: str, mat, device: bool = False) -> list[str]:
 
 
 def single_source(
-    model: str, p: Program, split_above: int | None = None, qualifier: str = "", static: bool = False
+    model: str,
+    p: Program,
+    split_above: int | None = None,
+    qualifier: str = "",
+    static: bool = False,
+    part_size: int | None = None,
 ) -> str:
     """The single-state C function of one program (one of more than `split_above` assignments,
-    default SPLIT_ABOVE, calls its parts), each function preceded by `qualifier` (the CUDA
-    target's `SYMDYN_HD `, whose device code has no memset); `static`: a helper of the public
-    function after it (`ckkt`'s KKT parts)."""
+    default SPLIT_ABOVE, calls its parts of `part_size`, default PART_SIZE), each function
+    preceded by `qualifier` (the CUDA target's `SYMDYN_HD `, whose device code has no memset);
+    `static`: a helper of the public function after it (`ckkt`'s KKT parts)."""
     split_above = SPLIT_ABOVE if split_above is None else split_above
     sig = signature(p)
     single, _ = _prototypes(model, sig)
     used = p.used_inputs()
     parts, reads = "", None
     if len(p.assignments) > split_above:
-        parts, body, reads = _parts(model, p, sig, qualifier)
+        parts, body, reads = _parts(model, p, sig, qualifier, part_size)
     else:
         body = []
         program = _assignments(p.assignments, p.inputs) + _output_lines(p)
