@@ -81,13 +81,20 @@ static void check(const char *name, const double *out, int size)
     printf("\n");
 }
 
+/* Bytes that shift the stack in repetition r, spread over a page: where a generated function's
+   stack arrays fall beside its outputs modulo 4 kB changes its time by up to 2x (stores and
+   loads 4 kB apart wait on each other), so each repetition runs at another placement and the
+   median is over placements, not one placement's luck. */
+#define PLACEMENT(r) (1 + 64 * ((r) * 37 % 64))
+
 /* Time CALL (which writes out[]) over the state pool; then its outputs at state 3. */
 #define TIME(NAME, SIZE, CALL)                                                  \
     if (wanted(argc, argv, NAME)) {                                             \
         int r;                                                                  \
         long i, k;                                                              \
         for (r = 0; r < reps; ++r) {                                            \
-            double t0 = now_ns();                                               \
+            volatile char pad[PLACEMENT(r)]; /* each repetition's stack apart */ \
+            double t0 = (pad[0] = 0, now_ns());                                 \
             for (i = 0; i < ncalls; ++i) {                                      \
                 k = i & (K - 1);                                                \
                 CALL;                                                           \
