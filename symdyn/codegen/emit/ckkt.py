@@ -44,8 +44,9 @@ ROWS = 2
 
 
 #: Assignments per part of the KKT parts' program (`c.PART_SIZE` elsewhere): fewer values pass
-#: between parts through memory.  Talos on two soles, a call (the benchmark's harness, best of 8
-#: alternating runs): 11.1 µs at 100, 10.8 at 150, 10.4 at 200, 10.6 at 250 and 300, 11.9 at 400;
+#: between parts through memory.  Talos on two soles, a call in the benchmark's harness: 11.1 µs
+#: at 100, 10.8 at 150, 10.4 at 200, 10.6 at 250 and 300, 11.9 at 400 (best of 8, one stack
+#: placement); 12.2–12.4 → 11.1–11.3 µs from 100 to 200 over 16 placements (two comparisons);
 #: compiling its unit 9.0 s at 100, 9.5 s at 200.
 PART_SIZE = 200
 
