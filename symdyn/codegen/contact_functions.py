@@ -40,7 +40,7 @@ from ..model.rotations import quaternion_entries
 from ..derivation.program import Program
 from .derivatives import Splice, jacobian, tangent_map
 from .functions import FunctionSpec, _Namer, elimination_order, ldlt_factor, ldlt_inverse
-from .tangents import plan
+from .tangents import LANES, plan
 
 __all__ = [
     "CONTACT_NAMES",
@@ -473,8 +473,6 @@ class ContactSpecs:
         their velocities; a chain moves no other branch — the chains of at most LANES directions
         packed together first fit (Talos' torso and head in one vector: its residuals' tangents
         12 028 → 10 758 vector multiply-adds)."""
-        from .tangents import LANES
-
         robot, n = self.robot, self.n
         q, v = self.q[1], self.v[1]
         joints = robot.n
