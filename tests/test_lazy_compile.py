@@ -155,6 +155,31 @@ def test_a_compiler_error_names_the_function_and_spares_the_others(twolink, bind
     assert lib.functions["M"](np.zeros(2))[1, 1] == 0.25
 
 
+def test_small_units_built_together_share_a_compiler_run_and_a_broken_one_is_named_alone(
+    twolink, tmp_path, monkeypatch
+):
+    runs = []
+    start = cunits._start
+    monkeypatch.setattr(cunits, "_start", lambda cc, job, *a: runs.append(len(job)) or start(cc, job, *a))
+    lib = load_library(*twolink)
+    lib.build(["tau", "M", "G", "F"], batch=False)
+    assert _built(tmp_path) == ["F.scalar", "G.scalar", "M.scalar", "tau.scalar"] and max(runs) > 1
+    assert len(runs) < 4
+    for unit in (tmp_path / "cache" / "c" / "units").glob("*.so"):
+        assert cbuild.intact(unit)  # each under its own name, its own hash
+    for name in ("tau", "M", "G"):
+        args, want = cases("twolink")[name]
+        assert_close(lib.functions[name](*args), want, name)
+    c_path, h_path = twolink
+    c_path.write_text(c_path.read_text().replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, "))
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "other"))
+    broken = load_library(c_path, h_path)
+    with pytest.raises(RuntimeError, match=r"compiling twolink's Minv \(scalar code\) failed") as failed:
+        broken.build(["Minv", "Cqd", "G"], batch=False)
+    assert "Cqd" not in str(failed.value) and "G " not in str(failed.value)
+    assert_close(broken.functions["Cqd"](*cases("twolink")["Cqd"][0]), cases("twolink")["Cqd"][1], "Cqd")
+
+
 def _wait_for_kernel(lib, function: str, seconds: float = 60.0) -> None:
     import time
 

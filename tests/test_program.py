@@ -9,7 +9,7 @@ import pytest
 import sympy as sp
 
 from symdyn.codegen.emit import Infix
-from symdyn.derivation.program import lower, make_program
+from symdyn.derivation.program import lower, make_program, make_programs
 from symdyn.derivation.symbols import joint_symbols
 
 q, qd, qdd = joint_symbols(3)
@@ -141,6 +141,32 @@ def test_definitions_keep_their_names_and_unused_ones_are_dropped():
     assert "unused" not in names and "alias" not in names  # trivial definitions are inlined
     assert names.index("w2_z") < names.index("v3_x")
     assert run(p, VALUES) == pytest.approx([(0.7 - 0.4) ** 2 * math.cos(-1.1) - 0.0, 0.3 * math.cos(-1.1)])
+
+
+def test_functions_cse_d_together_each_compute_their_own_outputs_from_what_they_need():
+    w = sp.Symbol("w2_z", real=True)
+    defs = [(w, sp.sin(q[0]) * qd[1] + sp.cos(q[1] + q[2]))]
+    f = sp.Matrix([w * q[2] + sp.cos(q[1] + q[2]) * q[0], (q[0] * q[1] + q[2]) ** 2])
+    g = sp.Matrix([(q[0] * q[1] + q[2]) * sp.sin(q[2]), sp.cos(q[1] + q[2])])
+    together = make_programs(
+        [
+            dict(name="f", inputs=[("q", q), ("qd", qd)], outputs=[("y", f)]),
+            dict(name="g", inputs=[("q", q)], outputs=[("y", g)]),
+        ],
+        defs,
+    )
+    alone = [
+        make_program("f", [("q", q), ("qd", qd)], [("y", f)], defs),
+        make_program("g", [("q", q)], [("y", g)], defs),
+    ]
+    full = [f.xreplace(dict(defs)), g]
+    for made, single, outs in zip(together, alone, full):
+        assert run(made, VALUES) == pytest.approx([_exact(e) for e in outs], rel=1e-14)
+        assert made.op_count()["total"] <= single.op_count()["total"]
+    # g reads only q: nothing of f's (its definition w2_z, qd) is among its assignments
+    assert not together[1].used_inputs() & set(qd) and "w2_z" not in {s.name for s, _ in together[1].assignments}
+    with pytest.raises(ValueError, match="'g' uses symbols that are neither inputs nor definitions: qd1"):
+        make_programs([dict(name="g", inputs=[("q", q)], outputs=[("y", g + sp.Matrix([qd[0], 0]))])])
 
 
 def test_unknown_symbol_is_a_clear_error():

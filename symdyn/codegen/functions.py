@@ -67,6 +67,18 @@ class FunctionSpec:
             self.name, self.inputs, self.outputs, self.definitions, self.doc, self.origin, self.matrices, self.shapes
         )
 
+    def fields(self) -> dict:
+        """The function's arguments of `make_programs` (all but the definitions)."""
+        return dict(
+            name=self.name,
+            inputs=self.inputs,
+            outputs=self.outputs,
+            doc=self.doc,
+            origin=self.origin,
+            matrices=self.matrices,
+            shapes=self.shapes,
+        )
+
 
 def _label(*indices: int, n: int) -> str:
     return ("_" if n > 9 else "").join(str(i + 1) for i in indices)

@@ -20,7 +20,7 @@ import sympy as sp
 
 from . import engine
 
-__all__ = ["Program", "make_program", "lower", "Algebra", "OpCounter", "format_ops", "FUNCTIONS"]
+__all__ = ["Program", "make_program", "make_programs", "lower", "Algebra", "OpCounter", "format_ops", "FUNCTIONS"]
 
 #: sympy function → emitted primitive name (each counted as one "fun").
 FUNCTIONS = {sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.sign: "sign", sp.Abs: "abs"}
@@ -306,13 +306,33 @@ def make_program(
     x1, x2, … in evaluation order, so output is reproducible byte for byte.
     `doc` and `origin` (which derivation) are carried along for the emitters.
     """
-    inputs = tuple((str(a), tuple(syms)) for a, syms in inputs)
-    outputs = tuple((str(o), sp.ImmutableMatrix(m)) for o, m in outputs)
-    input_syms = [s for _, syms in inputs for s in syms]
-    defs = _needed(dict(definitions), [e for _, m in outputs for e in m])
-    _check_free(name, inputs, outputs, defs)
+    function = dict(name=name, inputs=inputs, outputs=outputs, doc=doc, origin=origin, matrices=matrices, shapes=shapes)
+    return make_programs([function], definitions)[0]
 
-    defs, flat = _lower_trig(defs, [e for _, m in outputs for e in m], input_syms)
+
+def make_programs(functions: Sequence[dict], definitions: Sequence = ()) -> tuple[Program, ...]:
+    """The programs of several functions over the same `definitions` from ONE joint CSE over all
+    their outputs, each program keeping only the assignments its own outputs need (named in its
+    own evaluation order): a family of functions that share a derivation's intermediates (the
+    task space's thirteen) is CSE'd once instead of once each.  `functions`: dicts of
+    `make_program`'s arguments but `definitions` (name, inputs, outputs; doc, origin, matrices,
+    shapes optional)."""
+    functions = [
+        dict(
+            f,
+            inputs=tuple((str(a), tuple(syms)) for a, syms in f["inputs"]),
+            outputs=tuple((str(o), sp.ImmutableMatrix(m)) for o, m in f["outputs"]),
+        )
+        for f in functions
+    ]
+    given = dict(definitions)
+    input_syms = list(dict.fromkeys(s for f in functions for _, syms in f["inputs"] for s in syms))
+    flat = [e for f in functions for _, m in f["outputs"] for e in m]
+    for f in functions:
+        _check_free(f["name"], f["inputs"], f["outputs"], _needed(given, [e for _, m in f["outputs"] for e in m]))
+    defs = _needed(given, flat)
+
+    defs, flat = _lower_trig(defs, flat, input_syms)
     defs, trivial = _inline_trivial(_needed(defs, flat))
     flat = [e.xreplace(trivial) for e in flat] if trivial else flat
     def_syms = list(defs)
@@ -321,12 +341,23 @@ def make_program(
     replacements, reduced = engine.cse(exprs, temps, _cse_cost) if exprs else ([], [])
     nodes = dict(replacements)
     nodes.update(zip(def_syms, reduced[: len(def_syms)]))
-    out_exprs = reduced[len(def_syms) :]
-    nodes, out_exprs = _drop_aliases(nodes, out_exprs, set(def_syms))
+    nodes, out_exprs = _drop_aliases(nodes, reduced[len(def_syms) :], set(def_syms))
 
+    programs, at = [], 0
+    for f in functions:
+        size = sum(len(m) for _, m in f["outputs"])
+        own, at = out_exprs[at : at + size], at + size
+        programs.append(_program(f, nodes, own, def_syms))
+    return tuple(programs)
+
+
+def _program(f: dict, nodes: dict, out_exprs: list, def_syms: list) -> Program:
+    """One function's program from the shared CSE's `nodes`: the assignments its outputs
+    `out_exprs` need, in evaluation order, the new intermediates named."""
+    inputs, outputs, name = f["inputs"], f["outputs"], f["name"]
     order = _evaluation_order(nodes, out_exprs)
     taken = (
-        {s.name for s in input_syms}
+        {s.name for _, syms in inputs for s in syms}
         | {s.name for s in def_syms}
         | {a for a, _ in inputs}
         | {o for o, _ in outputs}
@@ -343,10 +374,10 @@ def make_program(
         inputs=inputs,
         assignments=assignments,
         outputs=out,
-        doc=doc,
-        origin=origin,
-        matrices=frozenset(matrices),
-        shapes=tuple((str(o), tuple(shape)) for o, shape in shapes),
+        doc=f.get("doc", ""),
+        origin=f.get("origin", ""),
+        matrices=frozenset(f.get("matrices", ())),
+        shapes=tuple((str(o), tuple(shape)) for o, shape in f.get("shapes", ())),
     )
 
 

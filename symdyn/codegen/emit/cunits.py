@@ -16,6 +16,7 @@ import ctypes
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import threading
@@ -90,8 +91,8 @@ def function_units(model: str, c_text: str, h_text: str, names: list[str]) -> di
     """The translation units of a generated model's C: {(function, "scalar"): text,
     (function, "simd"): text} for every function name.
 
-    A scalar unit is the file's preamble (its includes and static helpers, the
-    header's include replaced by the function's own prototypes) and the function's
+    A scalar unit is the file's preamble (its includes and static helpers, without the
+    header's include), the function's own prototypes and the function's
     chunk: the public `void <model>_<f>(` with the static functions before it (a large
     function's parts) and its `_batch` loop.  A SIMD unit is the preamble and the
     kernel `<model>_<f>_simd` with its static `_lanes` and `_range`; the scalar function
@@ -127,18 +128,25 @@ def function_units(model: str, c_text: str, h_text: str, names: list[str]) -> di
     head, chunks = layout
     if head.startswith("/*"):
         head = head[head.index("*/") + 2 :].lstrip("\n")
+    head = include.sub("", head)
     units = {}
     for f in names:
         own = "".join(protos[f, s][0] + "\n" for s in ("", "_batch", "_simd"))
-        scalar = f"/* {model}_{f}: scalar code, from {model}.h */\n{own}"
+        scalar = f"{_scalar_mark(model, f)}{own}\n"
         simd = (
             f"/* {model}_{f}: batch kernel; the scalar function it calls for the states it cannot\n"
             f"   take is a pointer, set when the kernel is loaded */\n"
-            f"#define {model}_{f} (*{model}_{f}_scalar_)\n{own}"
+            f"#define {model}_{f} (*{model}_{f}_scalar_)\n{own}\n"
         )
-        units[f, "scalar"] = include.sub(lambda _: scalar, head) + chunks[f"{model}_{f}"] + chunks[f"{model}_{f}_batch"]
-        units[f, "simd"] = include.sub(lambda _: simd, head) + chunks[f"{model}_{f}_simd"]
+        units[f, "scalar"] = head + scalar + chunks[f"{model}_{f}"] + chunks[f"{model}_{f}_batch"]
+        units[f, "simd"] = head + simd + chunks[f"{model}_{f}_simd"]
     return units
+
+
+def _scalar_mark(model: str, function: str) -> str:
+    """The line that opens a scalar unit's own part (its prototypes, then its functions), after
+    the preamble every unit of its file shares."""
+    return f"/* {model}_{function}: scalar code, from {model}.h */\n"
 
 
 #: A SIMD kernel's unit of at least this many bytes is compiled at -O2 instead of -O3, and
@@ -213,6 +221,56 @@ class _Unit:
 HEAVIEST_FIRST = ("tau_derivatives", "fdyn_derivatives", "Y", "C", "fdyn")
 
 
+#: Scalar units of less C of their own (past the preamble they share) than this that are built at
+#: once share a compiler run (`_jobs`), each run taking units until it has GROUP_BYTES of it: gcc's start, its link and symdyn's launcher cost about 40 ms a run on
+#: this machine whatever the unit, as much as a small function's own code (the Panda's thirteen
+#: task-space units, 1.22 s of gcc one by one, 0.75 s as one file).  Larger units, SIMD kernels
+#: and units of another preamble or other flags are compiled alone.
+GROUP_BELOW = 32_000
+GROUP_BYTES = 24_000
+
+
+def _jobs(units: list[_Unit]) -> list[list[_Unit]]:
+    """The compiler runs that build `units`, in their order: each small scalar unit with those
+    of the same flags and preamble (`GROUP_BELOW`, `GROUP_BYTES`), every other unit alone."""
+    jobs: list[list[_Unit]] = []
+    open_: dict[tuple, list[_Unit]] = {}
+    for u in units:
+        if not _groupable(u):
+            jobs.append([u])
+            continue
+        group = open_.get((u.flags, _preamble(u)))
+        if group is None or sum(_own(v) for v in group) >= GROUP_BYTES:
+            group = open_[u.flags, _preamble(u)] = []
+            jobs.append(group)
+        group.append(u)
+    return jobs
+
+
+def _groupable(u: _Unit) -> bool:
+    """Whether a unit may share a compiler run: a small scalar unit laid out by `function_units`."""
+    return u.kind == "scalar" and _own(u) < GROUP_BELOW
+
+
+def _preamble(u: _Unit) -> str | None:
+    """The preamble of a scalar unit (what comes before its own part), None if it has none."""
+    at = u.text.find(_scalar_mark(u.model, u.function))
+    return None if at < 0 else u.text[:at]
+
+
+def _own(u: _Unit) -> int:
+    """The bytes of C of a unit's own part (all of it when it has no preamble of its own)."""
+    head = _preamble(u)
+    return len(u.text) - (0 if head is None else len(head))
+
+
+def _source(job: list[_Unit]) -> str:
+    """The C of one compiler run: a unit's text, or the group's preamble once and each unit's own
+    part after it."""
+    head = _preamble(job[0]) if len(job) > 1 else ""
+    return head + "".join(u.text[len(head) :] for u in job)
+
+
 def _build_units(units: list[_Unit]) -> None:
     """Build the units whose library is missing or not intact, `cbuild.jobs()` compilers at a
     time, each under its build lock (another process building one: wait for it), each
@@ -240,29 +298,34 @@ def _build_units(units: list[_Unit]) -> None:
 
 
 def _compile_units(cc: str, units: list[_Unit]) -> None:
-    """cc each unit into its library, in parallel; on Ctrl-C or an error the compilers
-    are stopped and no partial file is left."""
-    pending, running, failure = list(units), [], None
+    """cc each unit into its library, in parallel, the small ones in groups (`_jobs`: a group's
+    library is linked, or copied, to each unit's name; a group that does not compile is compiled
+    unit by unit); on Ctrl-C or an error the compilers are stopped and no partial file is left."""
+    pending, running, failure = _jobs(units), [], None
     try:
         while (pending or running) and failure is None:
             while pending and len(running) < cbuild.jobs():
-                u = pending.pop(0)
-                source = write_atomic(u.path.with_suffix(".c"), u.text)
-                running.append(_start(cc, u, source, u.flags))
-            u, proc, cmd, tmp = running.pop(0)
+                job = pending.pop(0)
+                running.append(_start(cc, job, write_atomic(_source_path(job), _source(job)), job[0].flags))
+            job, proc, cmd, tmp = running.pop(0)
             _, err = proc.communicate()
-            if proc.returncode != 0 and "-march=native" in u.flags and "native" in err:
-                flags = tuple(f for f in u.flags if f != "-march=native")
-                running.insert(0, _start(cc, u, u.path.with_suffix(".c"), flags))
+            if proc.returncode != 0 and "-march=native" in job[0].flags and "native" in err:
+                flags = tuple(f for f in job[0].flags if f != "-march=native")
+                running.insert(0, _start(cc, job, _source_path(job), flags))
                 continue
             if proc.returncode != 0:
-                failure = f"compiling {u.label} failed ({' '.join(cmd)}):\n{err[-2000:]}"
                 tmp.unlink(missing_ok=True)
+                if len(job) > 1:  # each on its own: the error names the culprit, the others are built
+                    pending[:0] = [[u] for u in job]
+                    continue
+                failure = f"compiling {job[0].label} failed ({' '.join(cmd)}):\n{err[-2000:]}"
                 continue
-            os.replace(tmp, u.path)
-            cbuild.record(u.path)
+            for u in job[1:]:
+                _place(tmp, u.path)
+            os.replace(tmp, job[0].path)
+            cbuild.record(job[0].path)
     finally:
-        for u, proc, cmd, tmp in running:
+        for job, proc, cmd, tmp in running:
             proc.kill()
             proc.wait()
             tmp.unlink(missing_ok=True)
@@ -270,14 +333,36 @@ def _compile_units(cc: str, units: list[_Unit]) -> None:
         raise RuntimeError(failure)
 
 
-def _start(cc: str, u: _Unit, source: Path, flags: tuple):
-    """(unit, compiler process, command, temporary output) of one unit's compile; the compiler is
+def _source_path(job: list[_Unit]) -> Path:
+    """Where a compiler run's C is written: beside the unit's library, or for a group beside its
+    first unit's, named by its units' keys."""
+    if len(job) == 1:
+        return job[0].path.with_suffix(".c")
+    key = cbuild.digest(*(u.path.name for u in job))[:20]
+    return job[0].path.with_name(f"{job[0].model}.group.{key}.c")
+
+
+def _place(built: Path, path: Path) -> None:
+    """A group's library under one of its units' names (a hard link, or a copy where the file
+    system has none), written atomically, its sha256 recorded."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    try:
+        os.link(built, tmp)
+    except OSError:
+        shutil.copyfile(built, tmp)
+    os.replace(tmp, path)
+    cbuild.record(path)
+
+
+def _start(cc: str, job: list[_Unit], source: Path, flags: tuple):
+    """(units, compiler process, command, temporary output) of one compiler run; the compiler is
     ended when this process exits (`_RUNNING`), however it exits."""
-    tmp = u.path.with_name(f".{u.path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    path = job[0].path
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     cmd = [cc, *flags, str(source), "-o", str(tmp), "-lm"]
     proc = subprocess.Popen([*_with_parent(), *cmd], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     _RUNNING.add(proc)
-    return u, proc, cmd, tmp
+    return job, proc, cmd, tmp
 
 
 #: The compilers running now: killed at the interpreter's exit (a background kernel's compile
@@ -369,14 +454,27 @@ class Units:
                 # xArm7 6.2 s → 5.0 s on two cores), every core compiles once they are all made
                 gate = threading.Semaphore(max(1, cbuild.jobs() - 1))
 
-                def build(unit: _Unit) -> None:
+                def build(job: list[_Unit]) -> None:
                     with gate:
-                        _build_units([unit])
+                        _build_units(job)
 
                 with concurrent.futures.ThreadPoolExecutor(max_workers=cbuild.jobs()) as pool:
+                    group: list[_Unit] = []  # small scalar units waiting to share a compiler run
+
+                    def submit(job: list[_Unit]) -> None:
+                        builds.extend([pool.submit(build, job)] * len(job))
+
                     for u in need:
                         units.append(self.unit(*u))
-                        builds.append(pool.submit(build, units[-1]))
+                        if cbuild.intact(units[-1].path) or not _groupable(units[-1]):
+                            submit([units[-1]])
+                            continue
+                        group.append(units[-1])
+                        if sum(_own(g) for g in group) >= GROUP_BYTES:
+                            submit(group)
+                            group = []
+                    if group:
+                        submit(group)
                     if cbuild.jobs() > 1:
                         gate.release()
                     for (f, kind), b in zip(need, builds):
