@@ -163,6 +163,8 @@ def test_functions_cse_d_together_each_compute_their_own_outputs_from_what_they_
     for made, single, outs in zip(together, alone, full):
         assert run(made, VALUES) == pytest.approx([_exact(e) for e in outs], rel=1e-14)
         assert made.op_count()["total"] <= single.op_count()["total"]
+        # q1·q2 + q3, once in each: the group's CSE names it, each function computes it in place
+        assert [s.name for s, _ in made.assignments] == [s.name for s, _ in single.assignments]
     # g reads only q: nothing of f's (its definition w2_z, qd) is among its assignments
     assert not together[1].used_inputs() & set(qd) and "w2_z" not in {s.name for s, _ in together[1].assignments}
     with pytest.raises(ValueError, match="'g' uses symbols that are neither inputs nor definitions: qd1"):

@@ -353,8 +353,10 @@ def make_programs(functions: Sequence[dict], definitions: Sequence = ()) -> tupl
 
 def _program(f: dict, nodes: dict, out_exprs: list, def_syms: list) -> Program:
     """One function's program from the shared CSE's `nodes`: the assignments its outputs
-    `out_exprs` need, in evaluation order, the new intermediates named."""
+    `out_exprs` need, in evaluation order, the new intermediates named; a CSE temporary that
+    only another function shares is written where this one uses it (`_inline_single_uses`)."""
     inputs, outputs, name = f["inputs"], f["outputs"], f["name"]
+    nodes, out_exprs = _inline_single_uses(nodes, out_exprs, set(def_syms))
     order = _evaluation_order(nodes, out_exprs)
     taken = (
         {s.name for _, syms in inputs for s in syms}
@@ -379,6 +381,30 @@ def _program(f: dict, nodes: dict, out_exprs: list, def_syms: list) -> Program:
         matrices=frozenset(f.get("matrices", ())),
         shapes=tuple((str(o), tuple(shape)) for o, shape in f.get("shapes", ())),
     )
+
+
+def _inline_single_uses(nodes: dict, out_exprs: list, named: set) -> tuple[dict, list]:
+    """(nodes, outputs) of one function with each CSE temporary it uses once put back into its
+    use: what its own CSE would have left in place (a group's CSE names the terms other functions
+    share, and each such name held across the function costs a register: Talos' `centroidal`
+    1 201 assignments and 613 live values at most, 983 and 507 by its own CSE, 30 % slower)."""
+    order = _evaluation_order(nodes, out_exprs)
+    uses = dict.fromkeys(order, 0)
+    for e in [nodes[s] for s in order] + list(out_exprs):
+        for node in sp.preorder_traversal(e):
+            if node in uses:
+                uses[node] += 1
+    once = {s for s in order if uses[s] == 1 and s not in named}
+    if not once:
+        return nodes, out_exprs
+    mapping: dict = {}
+    for s in order:  # operands first: each inlined value already has its own operands inlined
+        if s in once:
+            mapping[s] = _substitute([nodes[s]], mapping)[0]
+    kept = {s: e for s, e in nodes.items() if s not in once}
+    done = _substitute([kept[s] for s in order if s in kept] + list(out_exprs), mapping)
+    k = sum(1 for s in order if s in kept)
+    return dict(zip([s for s in order if s in kept], done[:k])), done[k:]
 
 
 def _renamer(mapping: dict):
