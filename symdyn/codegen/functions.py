@@ -11,6 +11,7 @@ regressor Y (τ = Y·π) is one more spec; the derivatives are in `derivatives`.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -69,15 +70,7 @@ class FunctionSpec:
 
     def fields(self) -> dict:
         """The function's arguments of `make_programs` (all but the definitions)."""
-        return dict(
-            name=self.name,
-            inputs=self.inputs,
-            outputs=self.outputs,
-            doc=self.doc,
-            origin=self.origin,
-            matrices=self.matrices,
-            shapes=self.shapes,
-        )
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "definitions"}
 
 
 def _label(*indices: int, n: int) -> str:
