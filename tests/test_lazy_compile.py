@@ -170,6 +170,11 @@ def test_small_units_built_together_share_a_compiler_run_and_a_broken_one_is_nam
     for name in ("tau", "M", "G"):
         args, want = cases("twolink")[name]
         assert_close(lib.functions[name](*args), want, name)
+    runs.clear()
+    again = load_library(*twolink)  # another library of the same code: each unit found by its own name
+    assert_close(again.functions["F"](cases("twolink")["F"][0][0][3]), cases("twolink")["F"][1][3], "F")
+    again.build(["tau", "M", "G", "F"], batch=False)
+    assert runs == []
     c_path, h_path = twolink
     c_path.write_text(c_path.read_text().replace("void twolink_Minv(", "void twolink_Minv(undeclared_type x, "))
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "other"))
