@@ -114,8 +114,10 @@ class TaskPrograms:
         the shipped models, pinned byte for byte in generated/, SymEngine for any other).  Any
         other model's is made with every function of its group (`_groups`) by one CSE over all
         their outputs (the Panda's thirteen: 0.25 → 0.15 s, the same operations ±2 in 30 000 on
-        Talos); a shipped model's by a CSE of its own, as people read it (sympy's CSE over a group
-        names terms another function shares, x2 = −c1)."""
+        Talos), by SymEngine alone (sympy's CSE of the small group, frame_acceleration, tried as
+        for any small program, gave the same operations on the Panda, Solo 12, Talos and five
+        arms, in 0.03-0.1 s more); a shipped model's by a CSE of its own, as people read it
+        (sympy's CSE over a group names terms another function shares, x2 = −c1)."""
         if name not in self._built:
             if name not in self.names:
                 raise KeyError(f"{self.robot.name} has no task-space function {name!r}")
@@ -127,8 +129,8 @@ class TaskPrograms:
             specs = [task_spec(self.derivation(), n, self.params) for n in group]
             # the group's definitions: at a = 0 where it has a drift (the others there do not read a)
             defs = next((s.definitions for s in specs if set(parts(s.name)) & set(DRIFTS)), specs[0].definitions)
-            with engine.use("symengine"):
-                self._built.update(zip(group, make_programs([s.fields() for s in specs], defs)))
+            with engine.use("symengine"):  # sympy's CSE of a small group is no leaner: not tried
+                self._built.update(zip(group, make_programs([s.fields() for s in specs], defs, choose=False)))
         return self._built[name]
 
 

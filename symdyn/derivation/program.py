@@ -310,13 +310,14 @@ def make_program(
     return make_programs([function], definitions)[0]
 
 
-def make_programs(functions: Sequence[dict], definitions: Sequence = ()) -> tuple[Program, ...]:
+def make_programs(functions: Sequence[dict], definitions: Sequence = (), *, choose: bool = True) -> tuple[Program, ...]:
     """The programs of several functions over the same `definitions` from ONE joint CSE over all
     their outputs, each program keeping only the assignments its own outputs need (named in its
     own evaluation order): a family of functions that share a derivation's intermediates (the
     task space's thirteen) is CSE'd once instead of once each.  `functions`: dicts of
     `make_program`'s arguments but `definitions` (name, inputs, outputs; doc, origin, matrices,
-    shapes optional)."""
+    shapes optional).  `choose`: a small input is CSE'd by sympy too under SymEngine, the
+    leaner kept (`engine.cse`); False: SymEngine's alone."""
     functions = [
         dict(
             f,
@@ -338,7 +339,7 @@ def make_programs(functions: Sequence[dict], definitions: Sequence = ()) -> tupl
     def_syms = list(defs)
     exprs = [defs[s] for s in def_syms] + flat
     temps = sp.numbered_symbols("_cse", real=True)
-    replacements, reduced = engine.cse(exprs, temps, _cse_cost) if exprs else ([], [])
+    replacements, reduced = engine.cse(exprs, temps, _cse_cost if choose else None) if exprs else ([], [])
     nodes = dict(replacements)
     nodes.update(zip(def_syms, reduced[: len(def_syms)]))
     nodes, out_exprs = _drop_aliases(nodes, reduced[len(def_syms) :], set(def_syms))

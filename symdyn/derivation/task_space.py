@@ -257,7 +257,8 @@ def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpa
     tape = Tape()
     base, columns, qb, vb, ab = _base(tape, robot)
     bodies: list[_Body] = []
-    for k, f in enumerate(link_frames(robot, q)):
+    links = link_frames(robot, q)  # once: each call rebuilds every joint's transform
+    for k, f in enumerate(links):
         p = base if f.parent < 0 else bodies[f.parent]
         tag = k + 1
         R = _rot(tape, _matmul(p.R, _rows(f.R)), f"R{tag}")
@@ -280,11 +281,10 @@ def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpa
 
     outputs = {}
     outputs.update(_frames(tape, frames, base, bodies, columns, moves))
-    links = link_frames(robot, q)
     outputs["frame_jacobian"] = sp.ImmutableMatrix.vstack(
         *(_local_jacobian(tape, frame, j, links, robot.base_joint, len(columns)) for j, frame in enumerate(frames))
     )
-    outputs.update(_centroidal(tape, robot, base, bodies, columns))
+    outputs.update(_centroidal(tape, robot, links, base, bodies, columns))
     v = tuple(vb) + tuple(qd)
     return TaskSpace(
         robot=robot,
@@ -387,12 +387,11 @@ def _local_jacobian(tape: Tape, frame: Frame, j: int, links, kind: str | None, n
     return sp.ImmutableMatrix(6, nv, lambda r, c: cols[c][r])
 
 
-def _composites(tape: Tape, robot: Robot) -> tuple[list, tuple]:
+def _composites(tape: Tape, robot: Robot, links) -> tuple[list, tuple]:
     """Each link's subtree — mass, first moment and inertia about the link's origin, in the link's
     own frame — accumulated from the leaves in (Khalil's composite links: a child's
     R·J·Rᵀ + M(|P|²1 − PPᵀ) + 2(P·S)1 − S·Pᵀ − P·Sᵀ with S = R·H, its first moment R·H + M·P),
     and the whole robot's in the base's frame (a floating base's body included)."""
-    links = link_frames(robot, joint_symbols(robot.n)[0])
 
     def own(link) -> list:
         m, r, Ic = _inertia(link)
@@ -437,14 +436,13 @@ def _momentum(composite, lin, ang) -> tuple[list, list]:
     return _plus(_scale(lin, m), _cross(ang, H)), _plus(_cross(H, lin), _times(J, ang))
 
 
-def _columns(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], columns: list[_Column], total) -> tuple:
+def _columns(tape: Tape, robot: Robot, links, base: _Body, bodies: list[_Body], columns: list[_Column], total) -> tuple:
     """The centre of mass G (the whole robot's first moment over its mass) and the columns of its
     Jacobian and of A_G, from the composites: a joint moves
     its link's subtree with the joint's twist; the momentum in the link's frame, turned into the
     world's axes, is P (and M·J_c = P) and L about the link's origin, moved to the centre of mass
     G: L_G = L + (o − G) × P.  The base's columns move the whole robot."""
-    links = link_frames(robot, joint_symbols(robot.n)[0])
-    subtrees, whole = _composites(tape, robot)
+    subtrees, whole = _composites(tape, robot, links)
     G = tape.vector(_plus(base.o, _scale(_times(base.R, whole[1]), 1 / total)), "G")
     nb = len(columns) - robot.n
     Jcom, Ag = [], []
@@ -474,7 +472,7 @@ def _inertia(link) -> tuple:
     return m, r, Ic
 
 
-def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], columns: list[_Column]) -> dict:
+def _centroidal(tape: Tape, robot: Robot, links, base: _Body, bodies: list[_Body], columns: list[_Column]) -> dict:
     """Centre of mass, its Jacobian and drift, the centroidal map A_G and Ȧ_G·v (about the centre
     of mass, world axes), every body counted (a floating base's body too), rotors not.  Moments
     are taken about the base's origin o₀ (well-conditioned far from the world's origin)."""
@@ -504,7 +502,7 @@ def _centroidal(tape: Tape, robot: Robot, base: _Body, bodies: list[_Body], colu
                 )
         ac = tape.vector(_plus(b.ao, _cross(b.dw, rw), _cross(b.w, _cross(b.w, rw))), f"ac{tag}")
         per.append((k, m, d, Iw, ac, b))
-    com, Jcom, Ag = _columns(tape, robot, base, bodies, columns, total)
+    com, Jcom, Ag = _columns(tape, robot, links, base, bodies, columns, total)
     g = tape.vector(_plus(com, _scale(o0, -1)), "cg")  # G − o₀
     # Ȧ_G·v = d/dt h_G at a = 0: Σ m a_c and Σ [I ω̇ + ω × I ω + m (c − G) × a_c]
     force = tape.vector(_plus(*[_scale(ac, m) for _, m, _, _, ac, _ in per]), "mac")
