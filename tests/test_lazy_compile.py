@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -165,8 +166,10 @@ def test_small_units_built_together_share_a_compiler_run_and_a_broken_one_is_nam
     lib.build(["tau", "M", "G", "F"], batch=False)
     assert _built(tmp_path) == ["F.scalar", "G.scalar", "M.scalar", "tau.scalar"] and max(runs) > 1
     assert len(runs) < 4
-    for unit in (tmp_path / "cache" / "c" / "units").glob("*.so"):
+    folder = tmp_path / "cache" / "c" / "units"
+    for unit in folder.glob("*.so"):
         assert cbuild.intact(unit)  # each under its own name, its own hash
+    assert not list(folder.glob("*.group.*")) and not list(folder.glob(".*.tmp"))  # nothing left over
     for name in ("tau", "M", "G"):
         args, want = cases("twolink")[name]
         assert_close(lib.functions[name](*args), want, name)
@@ -183,6 +186,19 @@ def test_small_units_built_together_share_a_compiler_run_and_a_broken_one_is_nam
         broken.build(["Minv", "Cqd", "G"], batch=False)
     assert "Cqd" not in str(failed.value) and "G " not in str(failed.value)
     assert_close(broken.functions["Cqd"](*cases("twolink")["Cqd"][0]), cases("twolink")["Cqd"][1], "Cqd")
+
+
+def test_placing_a_group_s_library_never_writes_into_a_file_a_killed_process_left_linked(tmp_path):
+    built, placed, other = tmp_path / "group.tmp", tmp_path / "twolink_M.scalar.x.so", tmp_path / "in_use.so"
+    built.write_bytes(b"new library")
+    other.write_bytes(b"a library another process has loaded")
+    cbuild.record(other)
+    stale = placed.with_name(f".{placed.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    os.link(other, stale)  # what a process killed between placing and renaming leaves
+    cunits._place(built, placed)
+    assert placed.read_bytes() == b"new library" and cbuild.intact(placed)
+    assert other.read_bytes() == b"a library another process has loaded" and cbuild.intact(other)
+    assert not stale.exists()
 
 
 def _wait_for_kernel(lib, function: str, seconds: float = 60.0) -> None:

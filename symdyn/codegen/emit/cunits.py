@@ -249,7 +249,7 @@ def _jobs(units: list[_Unit]) -> list[list[_Unit]]:
 
 def _groupable(u: _Unit) -> bool:
     """Whether a unit may share a compiler run: a small scalar unit laid out by `function_units`."""
-    return u.kind == "scalar" and _own(u) < GROUP_BELOW
+    return u.kind == "scalar" and _preamble(u) is not None and _own(u) < GROUP_BELOW
 
 
 def _preamble(u: _Unit) -> str | None:
@@ -313,6 +313,8 @@ def _compile_units(cc: str, units: list[_Unit]) -> None:
                 flags = tuple(f for f in job[0].flags if f != "-march=native")
                 running.insert(0, _start(cc, job, _source_path(job), flags))
                 continue
+            if len(job) > 1:  # a group's source is its units' texts: not kept
+                _source_path(job).unlink(missing_ok=True)
             if proc.returncode != 0:
                 tmp.unlink(missing_ok=True)
                 if len(job) > 1:  # each on its own: the error names the culprit, the others are built
@@ -320,15 +322,21 @@ def _compile_units(cc: str, units: list[_Unit]) -> None:
                     continue
                 failure = f"compiling {job[0].label} failed ({' '.join(cmd)}):\n{err[-2000:]}"
                 continue
-            for u in job[1:]:
-                _place(tmp, u.path)
-            os.replace(tmp, job[0].path)
+            try:
+                for u in job[1:]:
+                    _place(tmp, u.path)
+                os.replace(tmp, job[0].path)
+            except BaseException:
+                tmp.unlink(missing_ok=True)
+                raise
             cbuild.record(job[0].path)
     finally:
         for job, proc, cmd, tmp in running:
             proc.kill()
             proc.wait()
             tmp.unlink(missing_ok=True)
+            if len(job) > 1:
+                _source_path(job).unlink(missing_ok=True)
     if failure:
         raise RuntimeError(failure)
 
@@ -346,11 +354,16 @@ def _place(built: Path, path: Path) -> None:
     """A group's library under one of its units' names (a hard link, or a copy where the file
     system has none), written atomically, its sha256 recorded."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    tmp.unlink(missing_ok=True)  # a killed process's, maybe linked to a library in use: never written into
     try:
-        os.link(built, tmp)
-    except OSError:
-        shutil.copyfile(built, tmp)
-    os.replace(tmp, path)
+        try:
+            os.link(built, tmp)
+        except OSError:
+            shutil.copyfile(built, tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     cbuild.record(path)
 
 
@@ -448,7 +461,8 @@ class Units:
                 units = [self.unit(*u) for u in need]
                 _build_units(units)
             else:  # texts made when first read (a program each): make the next while the last compiles
-                units, builds = [], []
+                units: list[_Unit] = []
+                futures: dict[tuple[str, str], concurrent.futures.Future] = {}
                 bar = progress.Progress(f"symdyn: building {self.model}", len(need), after=progress.REPORT_AFTER_S)
                 # one core stays with the programs while they are made (they are the critical path:
                 # xArm7 6.2 s → 5.0 s on two cores), every core compiles once they are all made
@@ -462,7 +476,9 @@ class Units:
                     group: list[_Unit] = []  # small scalar units waiting to share a compiler run
 
                     def submit(job: list[_Unit]) -> None:
-                        builds.extend([pool.submit(build, job)] * len(job))
+                        future = pool.submit(build, job)
+                        for u in job:
+                            futures[u.function, u.kind] = future
 
                     for u in need:
                         units.append(self.unit(*u))
@@ -477,8 +493,8 @@ class Units:
                         submit(group)
                     if cbuild.jobs() > 1:
                         gate.release()
-                    for (f, kind), b in zip(need, builds):
-                        b.result()
+                    for f, kind in need:
+                        futures[f, kind].result()
                         bar.step(f"{f} ({KINDS[kind]})")
                 bar.done()
             for u in units:  # scalar ones first
