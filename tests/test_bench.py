@@ -498,7 +498,7 @@ def test_the_batched_section_times_checked_variants_and_bounds_them_by_the_ceili
     from symdyn.codegen.emit.c import read_signatures
 
     ceil = batched.ceilings(2, copy_bytes=8e6, iters=20_000, rounds=1)
-    assert all(x > 0 for x in (*ceil.ops, *ceil.bandwidth))
+    assert all(x > 0 for x in (*ceil.ops, *ceil.bandwidth, *ceil.store))  # NaN would fail too
     robot = models.load("twolink")
     result = batched.run(
         robot, sizes=(10, 1001), functions=("tau", "M"), threads=2, log=lambda m: None, rounds=1, budget=0.002

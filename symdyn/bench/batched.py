@@ -66,12 +66,14 @@ VARIANTS = ("loop", "simd/1", "simd/T", "pin/1", "pin/T", "casadi/T", "rtb")
 
 @dataclass(frozen=True)
 class Ceilings:
-    """Measured ceilings: operations per second (a mul-add is 2) and bytes per second
-    (a copied double is 16: read and written), on 1 and `threads` threads."""
+    """Measured ceilings: operations per second (a mul-add is 2), bytes per second
+    (a copied double is 16: read and written) and bytes written per second with plain stores
+    (`store`, a double is 8), on 1 and `threads` threads."""
 
     threads: int
     ops: tuple[float, float]
     bandwidth: tuple[float, float]
+    store: tuple[float, float] = (float("nan"), float("nan"))
 
     def bound_ns(self, ops: float, nbytes: float) -> tuple[float, float]:
         """(compute, memory) bounds in ns per state at `threads` threads."""
@@ -97,12 +99,15 @@ def _ceilings_library() -> ctypes.CDLL:
     dll.ceiling_muladd.argtypes, dll.ceiling_muladd.restype = [ctypes.c_int, ctypes.c_long], ctypes.c_double
     dll.ceiling_copy.argtypes = [ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_long, ctypes.c_long]
     dll.ceiling_copy.restype = ctypes.c_double
+    dll.ceiling_store.argtypes = [ctypes.c_int, ctypes.c_void_p, ctypes.c_long, ctypes.c_long]
+    dll.ceiling_store.restype = ctypes.c_double
     return dll
 
 
 def ceilings(threads: int, *, copy_bytes: float = 2e8, iters: int = 2_000_000, rounds: int = 5) -> Ceilings:
-    """The mul-add peak and the copy bandwidth of this machine on 1 and `threads` threads (`iters`
-    rounds of 64 mul-adds per thread; `copy_bytes` copied, well beyond the caches by default)."""
+    """The mul-add peak, the copy bandwidth and the plain-store bandwidth of this machine on 1 and
+    `threads` threads (`iters` rounds of 64 mul-adds per thread; `copy_bytes` copied, and
+    written, well beyond the caches by default)."""
     dll = _ceilings_library()
     chains = 64
     n = int(copy_bytes / 8)
@@ -117,11 +122,12 @@ def ceilings(threads: int, *, copy_bytes: float = 2e8, iters: int = 2_000_000, r
             times.append(time.perf_counter() - t0)
         return min(times)
 
-    ops, bandwidth = [], []
+    ops, bandwidth, store = [], [], []
     for t in (1, threads):
         ops.append(2 * chains * iters * t / best(lambda: dll.ceiling_muladd(t, iters)))
         bandwidth.append(16 * n / best(lambda: dll.ceiling_copy(t, src.ctypes.data, dst.ctypes.data, n, 1)))
-    return Ceilings(threads, tuple(ops), tuple(bandwidth))
+        store.append(8 * n / best(lambda: dll.ceiling_store(t, dst.ctypes.data, n, 1)))
+    return Ceilings(threads, tuple(ops), tuple(bandwidth), tuple(store))
 
 
 def function_costs(c_path: Path, signatures) -> dict[str, tuple[int, int]]:

@@ -8,6 +8,11 @@
    ceiling_copy    `threads` threads copy their share of n doubles from src to dst,
                    `rounds` times: 16 bytes moved per element (read and write, as
                    STREAM counts a copy) — the memory bandwidth of a batch.
+   ceiling_store   `threads` threads write their share of n doubles with plain
+                   stores, as the generated kernels write their outputs (each line
+                   read before it is written, where memcpy's large copies bypass
+                   the caches): 8 bytes per element — the bandwidth of a batch's
+                   outputs.
 
    Both return a checksum so that the compiler keeps the work. */
 #include <pthread.h>
@@ -53,6 +58,17 @@ static void *copy_job(void *p)
     return NULL;
 }
 
+static void *store_job(void *p)
+{
+    job_t *j = (job_t *)p;
+    long r, i;
+    for (r = 0; r < j->rounds; ++r)
+        for (i = 0; i < j->n; ++i)
+            j->dst[i] = (double)(i + r);  /* not a constant: no memset, whose large sizes bypass the caches */
+    j->sum = j->dst[j->n - 1];
+    return NULL;
+}
+
 static double run(void *(*f)(void *), job_t *job, int threads)
 {
     pthread_t tid[MAXTHREADS];
@@ -91,4 +107,18 @@ double ceiling_copy(int threads, const double *src, double *dst, long n, long ro
         job[t].rounds = rounds;
     }
     return run(copy_job, job, threads);
+}
+
+double ceiling_store(int threads, double *dst, long n, long rounds)
+{
+    job_t job[MAXTHREADS];
+    int t;
+    threads = threads < 1 ? 1 : threads > MAXTHREADS ? MAXTHREADS : threads;
+    for (t = 0; t < threads; ++t) {
+        const long i0 = n * t / threads, i1 = n * (t + 1) / threads;
+        job[t].dst = dst + i0;
+        job[t].n = i1 - i0;
+        job[t].rounds = rounds;
+    }
+    return run(store_job, job, threads);
 }
