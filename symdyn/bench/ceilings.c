@@ -94,31 +94,29 @@ double ceiling_muladd(int threads, long iters)
     return run(muladd_job, job, threads);
 }
 
-double ceiling_copy(int threads, const double *src, double *dst, long n, long rounds)
+/* f on `threads` threads (clamped to 1 … MAXTHREADS), each over its share of the n doubles of
+   src (NULL: none) and dst, `rounds` times. */
+static double shared(void *(*f)(void *), int threads, const double *src, double *dst, long n, long rounds)
 {
     job_t job[MAXTHREADS];
     int t;
     threads = threads < 1 ? 1 : threads > MAXTHREADS ? MAXTHREADS : threads;
     for (t = 0; t < threads; ++t) {
         const long i0 = n * t / threads, i1 = n * (t + 1) / threads;
-        job[t].src = src + i0;
+        job[t].src = src ? src + i0 : NULL;
         job[t].dst = dst + i0;
         job[t].n = i1 - i0;
         job[t].rounds = rounds;
     }
-    return run(copy_job, job, threads);
+    return run(f, job, threads);
+}
+
+double ceiling_copy(int threads, const double *src, double *dst, long n, long rounds)
+{
+    return shared(copy_job, threads, src, dst, n, rounds);
 }
 
 double ceiling_store(int threads, double *dst, long n, long rounds)
 {
-    job_t job[MAXTHREADS];
-    int t;
-    threads = threads < 1 ? 1 : threads > MAXTHREADS ? MAXTHREADS : threads;
-    for (t = 0; t < threads; ++t) {
-        const long i0 = n * t / threads, i1 = n * (t + 1) / threads;
-        job[t].dst = dst + i0;
-        job[t].n = i1 - i0;
-        job[t].rounds = rounds;
-    }
-    return run(store_job, job, threads);
+    return shared(store_job, threads, NULL, dst, n, rounds);
 }
