@@ -191,7 +191,7 @@ def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, mo
         assert_close(lib.functions[function](*args), expected, f"parts, batched {function}")
 
 
-def _compiled(tmp_path, name: str, program):
+def _compiled(tmp_path, name: str, program, flags: tuple = ()):
     from symdyn.codegen.emit import Bundle
 
     bundle = Bundle(name, 1, "test", "none", (program,))
@@ -199,7 +199,8 @@ def _compiled(tmp_path, name: str, program):
     folder.mkdir()
     (folder / f"{name}.c").write_text(c_emit.c_source(bundle))
     (folder / f"{name}.h").write_text(c_emit.h_source(bundle))
-    return (folder / f"{name}.c").read_text(), load_library(folder / f"{name}.c", folder / f"{name}.h")
+    options = CompileOptions(flags=cbuild.DEFAULT_FLAGS + flags)
+    return (folder / f"{name}.c").read_text(), load_library(folder / f"{name}.c", folder / f"{name}.h", options)
 
 
 def test_the_coordinates_sines_in_one_loop_are_sincos_bits_and_zeros_are_one_memset(tmp_path, monkeypatch):
@@ -229,7 +230,27 @@ def test_the_coordinates_sines_in_one_loop_are_sincos_bits_and_zeros_are_one_mem
     states[:3, 1:] = [[3e5, -1e7, 1e5, 2.5], [np.pi / 2, -np.pi, 99999.9, 0.0], [1e-300, 7.0, -3e5, 1e6]]
     a, b = looped.functions["sc"](states), calls.functions["sc"](states)
     assert np.array_equal(a[:, :8], b[:, :8])  # the sines and cosines: the same bits
+    monkeypatch.undo()
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    # the loop called, not inlined, as in a translation unit of several small functions (cunits)
+    _, called = _compiled(tmp_path, "called", program, ("-DSYMDYN_TRIG_LOOP_CALLED",))
+    assert np.array_equal(called.functions["sc"](states)[:, :8], a[:, :8])
     assert np.abs(a - b).max() <= 4.5e-16  # what uses them: as the compiler contracts it (fused multiply-adds)
     assert not a[:, 12:].any()
     want = np.column_stack([f(states[:, j]) for j in range(1, 5) for f in (np.sin, np.cos)])
     assert np.abs(a[:, :8] - want).max() <= 2.3e-16
+
+
+def test_an_input_only_the_trigonometric_loop_reads_is_not_called_unused():
+    """A function that reads q only through the sines of its coordinates (the loop over q) does not
+    say that it does not depend on q; one that ignores an input says so."""
+    import sympy as sp
+
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    q, qd, _ = joint_symbols(4)
+    out = sp.Matrix([e for x in q for e in (sp.sin(x), sp.cos(x), sp.sin(x) * sp.cos(x))])
+    text = c_emit.single_source("m", make_program("f", [("q", q), ("v", qd)], [("y", out)]))
+    assert "sincos_loop_(q + 0, 4," in text
+    assert "does not depend on q" not in text and "(void)v;  /* unused: this f does not depend on v */" in text

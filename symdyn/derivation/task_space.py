@@ -10,8 +10,10 @@ u + z × (p − o) of the joints it hangs from; exact zeros elsewhere), never a 
 matrices.  Conventions are Pinocchio's: spatial vectors [linear; angular]; `LOCAL` the
 frame's own axes; the classical acceleration for `frame_acceleration` and the drift J̇·v
 (the same at a = 0); A_G about the centre of mass with world axes; a floating base's
-velocity in its body frame (free-flyer q, v).  The Khalil recursion of τ holds no positions
-and carries gravity in its accelerations, so the task space keeps a recursion of its own.
+velocity in its body frame (free-flyer q, v).  Ȧ_G·v and the centre of mass's drift come
+from Newton–Euler's two passes in the links' own axes instead (`_rest_wrench`).  The Khalil
+recursion of τ holds no positions and carries gravity in its accelerations, so the task space
+keeps a recursion of its own.
 """
 
 from __future__ import annotations
@@ -472,44 +474,65 @@ def _inertia(link) -> tuple:
     return m, r, Ic
 
 
+def _rest_wrench(tape: Tape, robot: Robot, links) -> tuple[list, list]:
+    """The total force and moment (about the base's origin, in the base's axes) that the bodies'
+    motion takes at a = 0, without gravity: Newton–Euler in each link's own axes, outward (link k
+    on parent p, Rᵀ turning p's axes into k's, joint axis S = (S_ω, S_v) in k's)
+    ωₖ = Rᵀωₚ + S_ω q̇, ω̇ₖ = Rᵀω̇ₚ + Rᵀωₚ × S_ω q̇,
+    aₖ = Rᵀ(aₚ + ω̇ₚ × p + ωₚ × (ωₚ × p)) + (Rᵀωₚ + ωₖ) × S_v q̇ (its origin's classical
+    acceleration), each body's f = m a_c and n = I ω̇ + ω × I ω + c × f about its origin; then
+    inward, each subtree's wrench turned into its parent's axes.  No body's world rotation or
+    world inertia is formed: against the world-aligned sum it replaced, the Panda's Ȧ_G·v takes
+    1 170 operations, not 1 552, and its com_drift 490, not 668 (generated/panda)."""
+    _, qd, _ = joint_symbols(robot.n)
+    zero = [sp.S.Zero] * 3
+    kind = robot.base_joint
+    if kind is None:
+        state = {-1: (zero, zero, zero)}
+    else:  # the base's body-frame twist; at a = 0 its origin accelerates by ω × v
+        lin, ang = floating.spatial(kind, floating.base_symbols(kind)[1])
+        state = {-1: (list(ang), zero, _cross(ang, lin))}
+    for k, f in enumerate(links):
+        wp, dwp, ap = state[f.parent]
+        R, p, tag = _rows(f.R), list(f.p), k + 1
+        spin, slide = _scale(f.S[:3], qd[k]), _scale(f.S[3:], qd[k])
+        wr = tape.vector(_times_t(R, wp), f"wr{tag}")
+        w = tape.vector(_plus(wr, spin), f"wl{tag}")
+        dw = tape.vector(_plus(_times_t(R, dwp), _cross(wr, spin)), f"dwl{tag}")
+        ao = _plus(_times_t(R, _plus(ap, _cross(dwp, p), _cross(wp, _cross(wp, p)))), _cross(_plus(wr, w), slide))
+        state[k] = (w, dw, tape.vector(ao, f"al{tag}"))
+
+    def own(link, w, dw, ao) -> list:
+        m, r, Ic = _inertia(link)
+        f = _scale(_plus(ao, _cross(dw, r), _cross(w, _cross(w, r))), m)
+        return [f, _plus(_times(Ic, dw), _cross(w, _times(Ic, w)), _cross(r, f))]
+
+    total = {k: own(link, *state[k]) for k, link in enumerate(robot.links)}
+    body = robot.base_body if kind is not None else None
+    total[-1] = own(body, *state[-1]) if body is not None else [zero, zero]
+    for k in range(robot.n - 1, -1, -1):
+        f, n = total.pop(k)
+        f, n = tape.vector(f, f"Fl{k + 1}"), tape.vector(n, f"Nl{k + 1}")
+        R, p = _rows(links[k].R), list(links[k].p)
+        Rf = _times(R, f)
+        parent = total[links[k].parent]
+        total[links[k].parent] = [_plus(parent[0], Rf), _plus(parent[1], _times(R, n), _cross(p, Rf))]
+    return total[-1]
+
+
 def _centroidal(tape: Tape, robot: Robot, links, base: _Body, bodies: list[_Body], columns: list[_Column]) -> dict:
     """Centre of mass, its Jacobian and drift, the centroidal map A_G and Ȧ_G·v (about the centre
     of mass, world axes), every body counted (a floating base's body too), rotors not.  Moments
     are taken about the base's origin o₀ (well-conditioned far from the world's origin)."""
-    items = list(enumerate(robot.links))
-    if robot.base_joint is not None and robot.base_body is not None:
-        items.append((-1, robot.base_body))
-    nv = len(columns)
-    total = _total_mass(robot)
+    nv, total = len(columns), _total_mass(robot)
     if total == 0:
         return {}
-    o0 = base.o
-    per = []  # (body index, m, d = c − o₀, world inertia about the COM, COM classical acceleration, its body)
-    for k, link in items:
-        m, r, Ic = _inertia(link)
-        if m == 0 and all(x == 0 for row in Ic for x in row):
-            continue
-        b = base if k < 0 else bodies[k]
-        tag = "b0" if k < 0 else f"b{k + 1}"
-        rw = tape.vector(_times(b.R, r), f"rc{tag}")
-        d = tape.vector(_plus(b.o, rw, _scale(o0, -1)), f"dc{tag}")
-        RI = _matmul(b.R, Ic)
-        Iw = [[sp.S.Zero] * 3 for _ in range(3)]
-        for i in range(3):
-            for j in range(i, 3):
-                Iw[i][j] = Iw[j][i] = tape.name(
-                    sp.Add(*(RI[i][x] * b.R[j][x] for x in range(3))), f"Iw{tag}_{i + 1}{j + 1}"
-                )
-        ac = tape.vector(_plus(b.ao, _cross(b.dw, rw), _cross(b.w, _cross(b.w, rw))), f"ac{tag}")
-        per.append((k, m, d, Iw, ac, b))
     com, Jcom, Ag = _columns(tape, robot, links, base, bodies, columns, total)
-    g = tape.vector(_plus(com, _scale(o0, -1)), "cg")  # G − o₀
+    g = tape.vector(_plus(com, _scale(base.o, -1)), "cg")  # G − o₀
     # Ȧ_G·v = d/dt h_G at a = 0: Σ m a_c and Σ [I ω̇ + ω × I ω + m (c − G) × a_c]
-    force = tape.vector(_plus(*[_scale(ac, m) for _, m, _, _, ac, _ in per]), "mac")
-    moment = _plus(
-        *[_plus(_times(Iw, b.dw), _cross(b.w, _times(Iw, b.w)), _cross(d, _scale(ac, m))) for _, m, d, Iw, ac, b in per]
-    )
-    moment = _plus(moment, _scale(_cross(g, force), -1))
+    f, n = _rest_wrench(tape, robot, links)
+    force = tape.vector(_times(base.R, f), "mac")
+    moment = _plus(_times(base.R, n), _scale(_cross(g, force), -1))
     return {
         "com": sp.ImmutableMatrix(com),
         "com_jacobian": sp.ImmutableMatrix(3, nv, lambda i, c: Jcom[c][i]),

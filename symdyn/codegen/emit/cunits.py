@@ -266,9 +266,11 @@ def _own(u: _Unit) -> int:
 
 def _source(job: list[_Unit]) -> str:
     """The C of one compiler run: a unit's text, or the group's preamble once and each unit's own
-    part after it."""
-    head = _preamble(job[0]) if len(job) > 1 else ""
-    return head + "".join(u.text[len(head) :] for u in job)
+    part after it, calling one copy of the trigonometric loop (SYMDYN_TRIG_LOOP_CALLED)."""
+    if len(job) == 1:
+        return job[0].text
+    head = _preamble(job[0])
+    return "#define SYMDYN_TRIG_LOOP_CALLED\n" + head + "".join(u.text[len(head) :] for u in job)
 
 
 def _build_units(units: list[_Unit]) -> None:
