@@ -298,3 +298,22 @@ def test_a_million_states_take_no_memory_beyond_the_inputs_and_outputs():
         tracemalloc.stop()
     assert out.nbytes <= allocated <= out.nbytes + 64_000
     assert into_out <= 64_000
+
+
+def test_the_lane_loop_computes_a_jacobian_column_by_column_storing_each_entry_when_ready():
+    """A kernel computes its outputs column after column, each stored as soon as its operands are:
+    a column's values die with it (Talos' centroidal kernel 166 → 131 ns a state in the caches),
+    and nothing is computed twice or left out (the kernels' values: the tests above)."""
+    import sympy as sp
+
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    q = joint_symbols(3)[0]
+    J = sp.Matrix(2, 3, lambda i, j: (q[j] ** 2 + 1) ** (i + 2) + q[j] ** 3)  # column j: its own values
+    lines = c_emit._lane_statements(make_program("jac", [("q", q)], [("J", J)]))
+    stores = [i for i, line in enumerate(lines) if line.strip().startswith("J_[")]
+    order = [int(lines[i].split("J_[")[1].split("]")[0]) for i in stores]
+    assert order == [0, 3, 1, 4, 2, 5]  # (row 0, col 0), (row 1, col 0), (0, 1) …: column by column
+    reads = [i for i, line in enumerate(lines) if "q3" in line and not line.strip().startswith("J_[")]
+    assert min(reads) > stores[3], "column 2's values are computed after column 1 is stored"

@@ -20,7 +20,17 @@ import sympy as sp
 
 from . import engine
 
-__all__ = ["Program", "make_program", "make_programs", "lower", "Algebra", "OpCounter", "format_ops", "FUNCTIONS"]
+__all__ = [
+    "Program",
+    "make_program",
+    "make_programs",
+    "evaluation_order",
+    "lower",
+    "Algebra",
+    "OpCounter",
+    "format_ops",
+    "FUNCTIONS",
+]
 
 #: sympy function → emitted primitive name (each counted as one "fun").
 FUNCTIONS = {sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.sign: "sign", sp.Abs: "abs"}
@@ -358,7 +368,7 @@ def _program(f: dict, nodes: dict, out_exprs: list, def_syms: list) -> Program:
     only another function shares is written where this one uses it (`_inline_single_uses`)."""
     inputs, outputs, name = f["inputs"], f["outputs"], f["name"]
     nodes, out_exprs = _inline_single_uses(nodes, out_exprs, set(def_syms))
-    order = _evaluation_order(nodes, out_exprs)
+    order = evaluation_order(nodes, out_exprs)
     taken = (
         {s.name for _, syms in inputs for s in syms}
         | {s.name for s in def_syms}
@@ -389,7 +399,7 @@ def _inline_single_uses(nodes: dict, out_exprs: list, named: set) -> tuple[dict,
     use: what its own CSE would have left in place (a group's CSE names the terms other functions
     share, and each such name held across the function costs a register: Talos' `centroidal`
     1 201 assignments and 613 live values at most, 983 and 507 by its own CSE, 30 % slower)."""
-    order = _evaluation_order(nodes, out_exprs)
+    order = evaluation_order(nodes, out_exprs)
     uses = dict.fromkeys(order, 0)
     stack = [nodes[s] for s in order] + list(out_exprs)
     while stack:  # every occurrence, a subtree used twice counted twice
@@ -634,9 +644,11 @@ def _drop_aliases(nodes: dict, outs: list, named: set) -> tuple[dict, list]:
     return kept, [e.xreplace(alias) for e in outs]
 
 
-def _evaluation_order(nodes: dict, roots: list) -> list:
-    """Depth-first post-order from the outputs: every symbol after its operands,
-    each computed just before its first use (deterministic: operands in print order)."""
+def evaluation_order(nodes: dict, roots: list, ends: list | None = None) -> list:
+    """Depth-first post-order from the roots (the outputs), in their order: every symbol after
+    its operands, each computed just before its first use (deterministic: operands in print
+    order).  `ends`, when given, receives for each root the length of the order once its
+    operands are all in it."""
     order, done = [], set()
 
     def operands(expr):
@@ -655,6 +667,8 @@ def _evaluation_order(nodes: dict, roots: list) -> list:
                 if node is not None and node not in done:
                     done.add(node)
                     order.append(node)
+        if ends is not None:
+            ends.append(len(order))
     return order
 
 

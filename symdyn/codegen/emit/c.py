@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from ...derivation.program import Program, lower
+from ...derivation.program import Program, evaluation_order, lower
 from . import Bundle, Infix, header_lines, seal
 
 __all__ = ["c_source", "h_source", "function_file", "prototypes", "Signature", "read_signatures", "signature"]
@@ -457,6 +457,35 @@ def _vector_assignments(assignments) -> list[str]:
     return lines
 
 
+def _lane_statements(p: Program) -> list[str]:
+    """The lane loop's statements (`_vector_assignments`) computed output by output, the outputs
+    taken column by column (a Jacobian's joint after joint), each stored into its block as soon
+    as its last operand is computed: a column's values then die with it, not at the loop's end.
+    Talos' centroidal kernel holds 269 values live at most instead of 493 and runs 166 → 131 ns
+    a state in the caches on one thread (either change alone: 171 or 196 ns)."""
+    nodes = dict(p.assignments)
+    outs = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
+    outs.sort(key=lambda t: t[:3])
+    ends: list[int] = []
+    order = evaluation_order(nodes, [e for *_, e in outs], ends)
+    stores: dict[int, list[str]] = {}
+    for at, (*_, o, k, e) in zip(ends, outs):
+        stores.setdefault(at, []).append(f"        {o}_[{k}][k] = {_vector_text(e)};")
+    item = {}
+    for x, a, b in _paired([(s, nodes[s]) for s in order]):  # a sin/cos pair: where the first stood
+        if x is None:
+            item[a] = [(a, b)]
+        else:
+            item[a] = item[b] = [(a, nodes[a]), (b, nodes[b])]
+    lines, done = stores.pop(0, []), set()
+    for at, s in enumerate(order, 1):
+        if s not in done:
+            done.update(a for a, _ in item[s])
+            lines += _vector_assignments(item[s])
+        lines += stores.pop(at, [])
+    return lines
+
+
 def _balanced_sum(terms: list[str]) -> str:
     """The terms' sum as a balanced tree (depth log2 of their count, not a chain)."""
     while len(terms) > 1:
@@ -494,9 +523,7 @@ def simd_source(model: str, p: Program) -> str:
     )
     for a, syms in ins:
         body += [f"        const double {s.name} = {a}_[{k}][k];" for k, s in enumerate(syms) if s in used]
-    body += _vector_assignments(p.assignments)
-    for o, mat in p.outputs:
-        body += [f"        {o}_[{k}][k] = {_vector_text(e)};" for k, e in enumerate(mat)]
+    body += _lane_statements(p)
     body += ["        bad_[k] = bad;", "    }"]
     body += ["    for (k = 0; k < SYMDYN_W; ++k)", "        if (nonfinite_[k] != 0.0)", "            return 1;"]
     args = [f"{a} + i * {len(syms)}" for a, syms in ins] + [f"{o} + i * {_size(sh)}" for o, sh in sig.outputs]
