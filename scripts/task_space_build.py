@@ -23,8 +23,9 @@ import subprocess
 import sys
 
 _BUILD = r"""
-import json, os, resource, sys, tempfile, time
+import atexit, json, os, resource, shutil, sys, tempfile, time
 os.environ["SYMDYN_CACHE_DIR"] = tempfile.mkdtemp(prefix="symdyn-task-build-")
+atexit.register(shutil.rmtree, os.environ["SYMDYN_CACHE_DIR"], True)
 from symdyn.bench import task_bench
 from symdyn.codegen.entry import load
 from symdyn.codegen.lazy import FUNCTIONS, signatures
@@ -49,8 +50,11 @@ print(json.dumps(out))
 
 
 def _run(name: str, kind: str) -> dict:
-    """One build in a fresh process and cache: {step: (wall, Python CPU, compilers' CPU)}."""
-    done = subprocess.run([sys.executable, "-c", _BUILD, name, kind], capture_output=True, text=True, check=True)
+    """One build in a fresh process and cache (removed after): {step: (wall, Python CPU,
+    compilers' CPU)}; a build that fails stops the script with its error."""
+    done = subprocess.run([sys.executable, "-c", _BUILD, name, kind], capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"the {kind} build of {name} failed:\n{done.stderr[-3000:]}")
     return {int(k): v for k, v in json.loads(done.stdout.splitlines()[-1]).items()}
 
 

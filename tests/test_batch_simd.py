@@ -131,6 +131,34 @@ def test_a_state_with_a_huge_angle_is_computed_by_the_scalar_function():
     np.testing.assert_allclose(model.G(q), np.array([model.G(x) for x in q]), rtol=RTOL, atol=0)
 
 
+def test_an_output_s_own_sines_send_a_huge_angle_to_the_scalar_function(tmp_path, monkeypatch):
+    """sin/cos written in an output itself (not in an assignment) is checked as an assignment's
+    is: a lane beyond the vector range is computed again by the scalar function (libm), in a
+    kernel of vectors and in one of matrices (each stores where it is ready)."""
+    import sympy as sp
+
+    from symdyn.codegen.emit import Bundle
+    from symdyn.codegen.emit.clib import load_library
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    q, qd, _ = joint_symbols(2)
+    terms = [sp.sin(q[0]) * qd[0], sp.cos(q[0]) * qd[1]]
+    rng = np.random.default_rng(4)
+    qs, vs = rng.uniform(-3, 3, (17, 2)), rng.uniform(-2, 2, (17, 2))
+    qs[5, 0], qs[9, 0] = 1e22, -3e5
+    for name, out in (("column", sp.Matrix(terms)), ("row", sp.Matrix([terms]))):
+        folder = tmp_path / name
+        folder.mkdir()
+        bundle = Bundle(name, 2, "test", "none", (make_program("f", [("q", q), ("v", qd)], [("y", out)]),))
+        (folder / f"{name}.c").write_text(c_emit.c_source(bundle))
+        (folder / f"{name}.h").write_text(c_emit.h_source(bundle))
+        f = load_library(folder / f"{name}.c", folder / f"{name}.h").functions["f"]
+        single = np.array([f(a, b) for a, b in zip(qs, vs)])
+        np.testing.assert_allclose(f(qs, vs), single, rtol=RTOL, atol=0, err_msg=name)
+
+
 @pytest.fixture(scope="module")
 def sincos(tmp_path_factory):
     """The kernels' sincosv_ over an array (SYMDYN_W lanes at a time) and the scalar sincos_, via ctypes."""

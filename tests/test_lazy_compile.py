@@ -159,13 +159,21 @@ def test_a_compiler_error_names_the_function_and_spares_the_others(twolink, bind
 def test_small_units_built_together_share_a_compiler_run_and_a_broken_one_is_named_alone(
     twolink, tmp_path, monkeypatch
 ):
-    runs = []
+    runs, sources = [], []
     start = cunits._start
-    monkeypatch.setattr(cunits, "_start", lambda cc, job, *a: runs.append(len(job)) or start(cc, job, *a))
+
+    def spy(cc, job, source, *a):
+        runs.append(len(job))
+        sources.append(source.read_text())
+        return start(cc, job, source, *a)
+
+    monkeypatch.setattr(cunits, "_start", spy)
     lib = load_library(*twolink)
     lib.build(["tau", "M", "G", "F"], batch=False)
     assert _built(tmp_path) == ["F.scalar", "G.scalar", "M.scalar", "tau.scalar"] and max(runs) > 1
     assert len(runs) < 4
+    for size, text in zip(runs, sources):  # a group calls one copy of the trigonometric loop
+        assert text.startswith("#define SYMDYN_TRIG_LOOP_CALLED\n") == (size > 1)
     folder = tmp_path / "cache" / "c" / "units"
     for unit in folder.glob("*.so"):
         assert cbuild.intact(unit)  # each under its own name, its own hash

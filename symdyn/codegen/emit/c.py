@@ -191,7 +191,7 @@ static inline double cosv_(double x) { double s, c; sincosv_(x, &s, &c); return 
    translation unit (SYMDYN_TRIG_LOOP_CALLED: one copy, the Panda's task space compiles 12 %
    faster, runs as fast). */
 #if defined(SYMDYN_TRIG_LOOP_CALLED) && defined(__GNUC__)
-#define SYMDYN_TRIG_LOOP_ static __attribute__((noinline))
+#define SYMDYN_TRIG_LOOP_ static __attribute__((noinline, unused))
 #else
 #define SYMDYN_TRIG_LOOP_ static inline
 #endif
@@ -446,8 +446,7 @@ def _vector_assignments(assignments) -> list[str]:
     lines = []
     for x, a, b in _paired(assignments):
         if x is None:
-            for t in sorted({u.args[0] for u in b.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key):
-                lines.append(f"        bad += outside_({_vector_text(t)});")
+            lines += _trig_checks(b)
             lines.append(f"        const double {a.name} = {_vector_text(b)};")
         else:
             x = _vector_text(x)
@@ -455,6 +454,20 @@ def _vector_assignments(assignments) -> list[str]:
             lines.append(f"        bad += outside_({x});")
             lines.append(f"        sincosv_({x}, &{a.name}, &{b.name});")
     return lines
+
+
+def _trig_checks(e) -> list[str]:
+    """`bad += outside_(x)` for each sin/cos argument x of an expression: a lane whose angle the
+    vector sin/cos cannot take is computed again by the scalar function (libm)."""
+    return [
+        f"        bad += outside_({_vector_text(t)});"
+        for t in sorted({u.args[0] for u in e.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key)
+    ]
+
+
+def _vector_store(o: str, k: int, e) -> list[str]:
+    """The lane loop's store of one output entry (its own sines checked, as an assignment's are)."""
+    return _trig_checks(e) + [f"        {o}_[{k}][k] = {_vector_text(e)};"]
 
 
 def _lane_statements(p: Program) -> list[str]:
@@ -466,7 +479,7 @@ def _lane_statements(p: Program) -> list[str]:
     alone: 171 or 196 ns).  Vectors keep the program's order, their stores at the end (in this
     order Talos' τ kernel ran 147 → 176 ns)."""
     if all(m.cols == 1 for _, m in p.outputs):
-        stores = [f"        {o}_[{k}][k] = {_vector_text(e)};" for o, m in p.outputs for k, e in enumerate(m)]
+        stores = [line for o, m in p.outputs for k, e in enumerate(m) for line in _vector_store(o, k, e)]
         return _vector_assignments(p.assignments) + stores
     nodes = dict(p.assignments)
     outs = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
@@ -475,7 +488,7 @@ def _lane_statements(p: Program) -> list[str]:
     order = evaluation_order(nodes, [e for *_, e in outs], ends)
     stores: dict[int, list[str]] = {}
     for at, (*_, o, k, e) in zip(ends, outs):
-        stores.setdefault(at, []).append(f"        {o}_[{k}][k] = {_vector_text(e)};")
+        stores.setdefault(at, []).extend(_vector_store(o, k, e))
     item = {}
     for x, a, b in _paired([(s, nodes[s]) for s in order]):  # a sin/cos pair: where the first stood
         if x is None:
