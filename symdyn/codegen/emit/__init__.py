@@ -15,6 +15,8 @@ import hashlib
 import re
 from dataclasses import dataclass
 
+import sympy as sp
+
 from ...derivation.cache import write_atomic
 from ...derivation.program import Program, format_ops
 
@@ -28,6 +30,7 @@ __all__ = [
     "is_intact",
     "write_atomic",
     "identifier",
+    "sincos_pairs",
 ]
 
 
@@ -195,3 +198,20 @@ _FIELD = re.compile(r"^\W*(symdyn-version|model-fingerprint): (\S+)", re.M)
 def read_header(text: str) -> dict[str, str]:
     """{"symdyn-version": …, "model-fingerprint": …} from a generated file's head."""
     return dict(_FIELD.findall(text[:4000]))
+
+
+def sincos_pairs(assignments):
+    """The assignments with s = sin(x) and c = cos(x) of the same x joined where the first
+    of them stood: yields (None, s, e) for a plain one, (x, sin_s, cos_s) for a pair."""
+    trig = {}
+    for s, e in assignments:
+        if isinstance(e, (sp.sin, sp.cos)):
+            trig.setdefault(e.args[0], {})[e.func] = s
+    done = set()
+    for s, e in assignments:
+        pair = trig.get(e.args[0], {}) if isinstance(e, (sp.sin, sp.cos)) else {}
+        if len(pair) != 2:
+            yield None, s, e
+        elif s not in done:
+            done |= {pair[sp.sin], pair[sp.cos]}
+            yield e.args[0], pair[sp.sin], pair[sp.cos]

@@ -23,17 +23,12 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-import sympy as sp
 
-from ...derivation.program import Program, evaluation_order, lower
-from . import Bundle, Infix, header_lines, seal
+from ...derivation.program import Program, lower
+from . import Bundle, Infix, header_lines, seal, sincos_pairs
+from .csimd import simd_source
 
 __all__ = ["c_source", "h_source", "function_file", "prototypes", "Signature", "read_signatures", "signature"]
-
-#: The SIMD kernels' spelling: sin/cos/sign without branches, so that a loop over lanes vectorizes.
-VECTOR_ALGEBRA = Infix(
-    {"sin": "sinv_", "cos": "cosv_", "tan": "tan", "sqrt": "sqrt", "sign": "signv_", "abs": "fabs"}, power="pow"
-)
 
 ALGEBRA = Infix(
     {"sin": "sin_", "cos": "cos_", "tan": "tan", "sqrt": "sqrt", "sign": "sign_", "abs": "fabs"}, power="pow"
@@ -103,6 +98,24 @@ _SIMD_HELPERS = r"""
 #define SYMDYN_MAX_THREADS 256
 /* Fewest blocks of SYMDYN_W states worth a thread of their own (starting one costs ~10 us). */
 #define SYMDYN_MIN_BLOCKS 512
+/* A thread whose run writes at least this many bytes of outputs (more than the last-level cache
+   keeps) asks for each block's output lines before the block's arithmetic, with write intent:
+   their reads from memory overlap the lane loop instead of stalling its stores (Talos'
+   centroidal kernel at 10^5 states on two threads 126-128 -> 119-120 ns a state; 3 % slower in
+   the caches, where it is not done). */
+#define SYMDYN_AHEAD_BYTES 16000000L
+static inline void symdyn_ahead_(const double *dst, long bytes)
+{
+#if defined(__GNUC__)
+    const char *p = (const char *)dst;
+    long j;
+    for (j = 0; j < bytes; j += 64)
+        __builtin_prefetch(p + j, 1, 0);
+#else
+    (void)dst;
+    (void)bytes;
+#endif
+}
 
 /* A block's output (size rows of SYMDYN_W lanes, src) to m states' rows of size doubles (dst):
    with 8 lanes, eight rows at a time transposed in registers (GCC 12+, Clang), not one double
@@ -378,23 +391,6 @@ def _text(expr) -> str:
     return lower(expr, ALGEBRA)[0]
 
 
-def _paired(assignments):
-    """The assignments with s = sin(x) and c = cos(x) of the same x joined where the first
-    of them stood: yields (None, s, e) for a plain one, (x, sin_s, cos_s) for a pair."""
-    trig = {}
-    for s, e in assignments:
-        if isinstance(e, (sp.sin, sp.cos)):
-            trig.setdefault(e.args[0], {})[e.func] = s
-    done = set()
-    for s, e in assignments:
-        pair = trig.get(e.args[0], {}) if isinstance(e, (sp.sin, sp.cos)) else {}
-        if len(pair) != 2:
-            yield None, s, e
-        elif s not in done:
-            done |= {pair[sp.sin], pair[sp.cos]}
-            yield e.args[0], pair[sp.sin], pair[sp.cos]
-
-
 #: Sine/cosine pairs of the joint coordinates, at least this many in a function, are computed
 #: in one loop over q that gcc vectorizes (`_trig_loop`); fewer stay sincos_ calls where they stand.
 TRIG_LOOP_MIN = 4
@@ -429,156 +425,11 @@ def _trig_loop(items: list, inputs) -> tuple[list[str], dict]:
 def _assignments(assignments, inputs=()) -> list[str]:
     """C statements of the assignments; a sin/cos pair of one argument is one sincos_ call (those of
     q's coordinates one vectorized loop, `_trig_loop`)."""
-    items = list(_paired(assignments))
+    items = list(sincos_pairs(assignments))
     lines, reads = _trig_loop(items, inputs)
     for i, item in enumerate(items):
         lines += reads[i] if i in reads else _statements(item)
     return lines
-
-
-def _vector_text(expr) -> str:
-    return lower(expr, VECTOR_ALGEBRA)[0]
-
-
-def _vector_assignments(assignments) -> list[str]:
-    """The lane loop's statements: as `_assignments`, with the vector sin/cos/sign,
-    and `bad += outside_(x)` for every sin/cos argument x."""
-    lines = []
-    for x, a, b in _paired(assignments):
-        if x is None:
-            lines += _trig_checks(b)
-            lines.append(f"        const double {a.name} = {_vector_text(b)};")
-        else:
-            x = _vector_text(x)
-            lines.append(f"        double {a.name}, {b.name};")
-            lines.append(f"        bad += outside_({x});")
-            lines.append(f"        sincosv_({x}, &{a.name}, &{b.name});")
-    return lines
-
-
-def _trig_checks(e) -> list[str]:
-    """`bad += outside_(x)` for each sin/cos argument x of an expression: a lane whose angle the
-    vector sin/cos cannot take is computed again by the scalar function (libm)."""
-    return [
-        f"        bad += outside_({_vector_text(t)});"
-        for t in sorted({u.args[0] for u in e.atoms(sp.sin, sp.cos)}, key=sp.default_sort_key)
-    ]
-
-
-def _vector_store(o: str, k: int, e) -> list[str]:
-    """The lane loop's store of one output entry (its own sines checked, as an assignment's are)."""
-    return _trig_checks(e) + [f"        {o}_[{k}][k] = {_vector_text(e)};"]
-
-
-def _lane_statements(p: Program) -> list[str]:
-    """The lane loop's statements (`_vector_assignments`).  With a matrix among the outputs, they
-    are computed output by output, the outputs taken column by column (a Jacobian's joint after
-    joint), each stored into its block as soon as its last operand is computed: a column's values
-    then die with it, not at the loop's end.  Talos' centroidal kernel holds 269 values live at
-    most instead of 493 and runs 166 → 131 ns a state in the caches on one thread (either change
-    alone: 171 or 196 ns).  Vectors keep the program's order, their stores at the end (in this
-    order Talos' τ kernel ran 147 → 176 ns)."""
-    if all(m.cols == 1 for _, m in p.outputs):
-        stores = [line for o, m in p.outputs for k, e in enumerate(m) for line in _vector_store(o, k, e)]
-        return _vector_assignments(p.assignments) + stores
-    nodes = dict(p.assignments)
-    outs = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
-    outs.sort(key=lambda t: t[:3])
-    ends: list[int] = []
-    order = evaluation_order(nodes, [e for *_, e in outs], ends)
-    stores: dict[int, list[str]] = {}
-    for at, (*_, o, k, e) in zip(ends, outs):
-        stores.setdefault(at, []).extend(_vector_store(o, k, e))
-    item = {}
-    for x, a, b in _paired([(s, nodes[s]) for s in order]):  # a sin/cos pair: where the first stood
-        if x is None:
-            item[a] = [(a, b)]
-        else:
-            item[a] = item[b] = [(a, nodes[a]), (b, nodes[b])]
-    lines, done = stores.pop(0, []), set()
-    for at, s in enumerate(order, 1):
-        if s not in done:
-            done.update(a for a, _ in item[s])
-            lines += _vector_assignments(item[s])
-        lines += stores.pop(at, [])
-    return lines
-
-
-def _balanced_sum(terms: list[str]) -> str:
-    """The terms' sum as a balanced tree (depth log2 of their count, not a chain)."""
-    while len(terms) > 1:
-        terms = [f"({a} + {b})" for a, b in zip(terms[::2], terms[1::2])] + terms[len(terms) - len(terms) % 2 :]
-    return terms[0]
-
-
-def simd_source(model: str, p: Program) -> str:
-    """The SIMD kernel of one program: a block of SYMDYN_W states gathered into
-    structure-of-arrays, the program once per lane in a loop the compiler
-    vectorizes, scattered back (a short last block repeats its last state);
-    then the range and threaded entry points.  Each lane also sums x·0 over its
-    inputs (0 unless one is NaN or infinite) in a balanced tree, so that the
-    contract's check costs a few vector operations, not a pass of its own."""
-    sig = signature(p)
-    used = p.used_inputs()
-    f = f"{model}_{p.name}"
-    ins = [(a, syms) for a, syms in p.inputs]
-    body = [
-        f"static int {f}_lanes(long i0, int m, "
-        + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs])
-        + ")",
-        "{",
-    ]
-    body += [f"    double {a}_[{len(syms)}][SYMDYN_W];" for a, syms in ins]
-    body += [f"    double {o}_[{_size(sh)}][SYMDYN_W];" for o, sh in sig.outputs]
-    body += ["    double bad_[SYMDYN_W], nonfinite_[SYMDYN_W];", "    int k, j;"]
-    body += ["    for (k = 0; k < SYMDYN_W; ++k) {", "        const long i = i0 + (k < m ? k : m - 1);"]
-    for a, syms in ins:
-        body += [f"        for (j = 0; j < {len(syms)}; ++j)", f"            {a}_[j][k] = {a}[i * {len(syms)} + j];"]
-    body += ["    }"]
-    body += ["    SYMDYN_SIMD", "    for (k = 0; k < SYMDYN_W; ++k) {", "        double bad = 0.0;"]
-    body.append(
-        f"        nonfinite_[k] = {_balanced_sum([f'{a}_[{j}][k] * 0.0' for a, syms in ins for j in range(len(syms))])};"
-    )
-    for a, syms in ins:
-        body += [f"        const double {s.name} = {a}_[{k}][k];" for k, s in enumerate(syms) if s in used]
-    body += _lane_statements(p)
-    body += ["        bad_[k] = bad;", "    }"]
-    body += ["    for (k = 0; k < SYMDYN_W; ++k)", "        if (nonfinite_[k] != 0.0)", "            return 1;"]
-    args = [f"{a} + i * {len(syms)}" for a, syms in ins] + [f"{o} + i * {_size(sh)}" for o, sh in sig.outputs]
-    body += [f"    symdyn_scatter_({o}_[0], {_size(sh)}, {o} + i0 * {_size(sh)}, m);" for o, sh in sig.outputs]
-    body += [
-        "    for (k = 0; k < m; ++k) {  /* a lane sincosv_ could not take: the scalar function's */",
-        "        const long i = i0 + k;",
-        "        if (bad_[k] != 0.0)",
-        f"            {f}({', '.join(args)});",
-        "    }",
-        "    return 0;",
-        "}",
-        "",
-    ]
-    nin = len(ins)
-    lanes_args = [f"in[{i}]" for i in range(nin)] + [f"out[{j}]" for j in range(len(sig.outputs))]
-    body += [
-        f"static int {f}_range(const double *const *in, double *const *out, long i0, long i1)",
-        "{",
-        "    long i;",
-        "    int nonfinite = 0;",
-        "    for (i = i0; i < i1 && !nonfinite; i += SYMDYN_W)",
-        f"        nonfinite = {f}_lanes(i, (int)(i1 - i < SYMDYN_W ? i1 - i : SYMDYN_W), {', '.join(lanes_args)});",
-        "    return nonfinite;",
-        "}",
-        "",
-    ]
-    body += [
-        _simd_prototype(model, sig),
-        "{",
-        f"    const double *const in[{nin}] = {{{', '.join(a for a, _ in ins)}}};",
-        f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
-        f"    return symdyn_parallel_({f}_range, in, out, n, threads);",
-        "}",
-        "",
-    ]
-    return "\n".join(body)
 
 
 #: A single-state function of more assignments than this is emitted as parts of PART_SIZE
@@ -603,7 +454,7 @@ _NOINLINE = (
 
 
 def _statements(item) -> list[str]:
-    """The C statements of one `_paired` item."""
+    """The C statements of one `sincos_pairs` item."""
     x, a, b = item
     if x is None:
         return [f"    const double {a.name} = {_text(b)};"]
@@ -625,7 +476,7 @@ def _parts(model: str, p: Program, sig: Signature, qualifier: str = "", size: in
     source, the body's statements that call them, the reads the outputs need); `qualifier`
     precedes each part (CUDA's `SYMDYN_HD`); `size` defaults to PART_SIZE."""
     size = size or PART_SIZE
-    items = list(_paired(p.assignments))
+    items = list(sincos_pairs(p.assignments))
     blocks = [items[i : i + size] for i in range(0, len(items), size)]
     inputs = {s for _, syms in p.inputs for s in syms}
     home = {sym: k for k, block in enumerate(blocks) for item in block for sym in _defined(item)}
@@ -753,7 +604,8 @@ def function_source(model: str, p: Program, split_above: int | None = None) -> s
     _, batch = _prototypes(model, sig)
     calls = [f"{a} + {k}*k" for a, k in sig.inputs] + [f"{o} + {_size(s)}*k" for o, s in sig.outputs]
     loop = f"{batch}\n{{\n    for (long k = 0; k < n; ++k)\n        {model}_{p.name}({', '.join(calls)});\n}}\n"
-    return single_source(model, p, split_above) + "\n" + loop + "\n" + simd_source(model, p)
+    simd = simd_source(model, p, sig, _simd_prototype(model, sig))
+    return single_source(model, p, split_above) + "\n" + loop + "\n" + simd
 
 
 def _preamble(model: str, split: bool) -> list[str]:

@@ -24,7 +24,7 @@ import sympy as sp
 
 from ...derivation.program import Program
 from ..contact_functions import ALL_PARTS
-from . import c as c_emit
+from . import c as c_emit, csimd
 from . import seal
 
 __all__ = ["derivatives_source", "function_file", "products"]
@@ -405,7 +405,7 @@ def _threaded(model: str, sig: c_emit.Signature) -> str:
         "{",
         "    long i;",
         "    for (i = i0; i < i1; ++i) {",
-        f"        if ({c_emit._balanced_sum(checks)} != 0.0)",
+        f"        if ({csimd._balanced_sum(checks)} != 0.0)",
         "            return 1;",
         f"        {f}({', '.join(call)});",
         "    }",
