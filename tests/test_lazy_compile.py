@@ -307,3 +307,21 @@ def test_a_kernel_too_large_to_compile_at_a_call_is_left_to_the_scalar_code(twol
     lib.build(["C"])  # ahead, on request: the kernel after all
     assert _built(tmp_path) == ["C.scalar", "C.simd"]
     assert_close(lib.functions["C"](q, qd), C, "C by its kernel")
+
+
+def test_a_build_pauses_full_collections_and_gives_the_process_its_thresholds_back(twolink, monkeypatch):
+    """No full collection of the cyclic GC while units are made and compiled (it walks every sympy
+    expression alive); the process's own thresholds are back after, a failed build's too."""
+    import gc
+
+    seen = []
+    build = cunits._build_units
+    monkeypatch.setattr(cunits, "_build_units", lambda units: seen.append(gc.get_threshold()) or build(units))
+    before = gc.get_threshold()
+    lib = load_library(*twolink)
+    lib.build(["G"], batch=False)
+    assert seen == [(before[0], before[1], 10**6)] and gc.get_threshold() == before
+    monkeypatch.setattr(cunits, "_build_units", lambda units: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        lib.build(["M"], batch=False)
+    assert gc.get_threshold() == before and gc.isenabled()
