@@ -12,6 +12,7 @@ bitwise where it does not, and bitwise whatever the thread count.
 
 import ctypes
 import math
+import re
 import shutil
 import subprocess
 
@@ -360,3 +361,56 @@ def test_a_batch_that_asks_for_its_output_lines_ahead_gives_the_small_batches_bi
     pieces = np.concatenate([model.M(q[i : i + 1000], threads=1) for i in range(0, len(q), 1000)])
     for threads in (1, 2):
         assert np.array_equal(model.M(q, threads=threads), pieces)
+
+
+def _is_gcc(cc: str) -> bool:
+    done = subprocess.run([cc, "--version"], capture_output=True, text=True)
+    return "Free Software Foundation" in done.stdout and "clang" not in done.stdout
+
+
+def test_a_kernel_of_more_than_a_thousand_outputs_is_vectorized_and_equals_the_single_calls(tmp_path, monkeypatch):
+    """gcc leaves a loop of more than 1000 memory references scalar unless told otherwise: a lane
+    loop stores each output, so Talos' M (1296 outputs) ran its lanes one by one, 2.6× slower than
+    the scalar function in a loop.  A SIMD unit is compiled with the limit raised
+    (`cunits.WIDE_LOOPS`): gcc's report names the lane loop of a 1 100-output kernel vectorized
+    under the unit's own flags, and the batch is the single calls."""
+    import sympy as sp
+
+    from symdyn.codegen.emit import Bundle, cunits
+    from symdyn.codegen.emit.clib import load_library
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    q, qd, _ = joint_symbols(2)
+    wide = sp.Matrix(11, 100, lambda i, j: (i + 1) * sp.sin(q[0]) * qd[0] + (j + 1) * sp.cos(q[1]) * qd[1])
+    bundle = Bundle("wide", 2, "test", "none", (make_program("f", [("q", q), ("v", qd)], [("y", wide)]),))
+    (tmp_path / "wide.c").write_text(c_emit.c_source(bundle))
+    (tmp_path / "wide.h").write_text(c_emit.h_source(bundle))
+    lib = load_library(tmp_path / "wide.c", tmp_path / "wide.h")
+    rng = np.random.default_rng(5)
+    qs, vs = rng.uniform(-3, 3, (37, 2)), rng.uniform(-2, 2, (37, 2))
+    f = lib.functions["f"]
+    single = np.array([f(a, b) for a, b in zip(qs, vs)])  # a sum that cancels: rounding of its terms' size
+    np.testing.assert_allclose(f(qs, vs), single, rtol=RTOL, atol=RTOL * np.abs(single).max())
+
+    cc = cbuild.compiler()
+    if not _is_gcc(cc):
+        pytest.skip(f"{cc} is not gcc: the limit is gcc's")
+    unit = lib.units.unit("f", "simd")
+    assert cunits.WIDE_LOOPS in unit.flags
+    lines = unit.text.splitlines()
+    lanes = next(i for i, line in enumerate(lines) if line.startswith("static int wide_f_lanes("))
+    start = next(i for i in range(lanes, len(lines)) if lines[i].strip() == "SYMDYN_SIMD") + 2  # 1-based
+    end = next(i for i in range(start, len(lines)) if lines[i].strip() == "bad_[k] = bad;") + 1
+    source = tmp_path / "unit.c"
+    source.write_text(unit.text)
+    flags = [f for f in unit.flags if f != "-shared"]
+    done = subprocess.run(
+        [cc, *flags, "-c", str(source), "-o", str(tmp_path / "unit.o"), "-fopt-info-vec-optimized"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    vectorized = [int(line) for line in re.findall(r"unit\.c:(\d+):\d+: optimized: loop vectorized", done.stderr)]
+    assert any(start <= line <= end for line in vectorized), (start, end, done.stderr[-2000:])

@@ -325,3 +325,26 @@ def test_a_build_pauses_full_collections_and_gives_the_process_its_thresholds_ba
     with pytest.raises(ZeroDivisionError):
         lib.build(["M"], batch=False)
     assert gc.get_threshold() == before and gc.isenabled()
+
+
+def test_a_compiler_that_rejects_an_optional_flag_builds_without_it(twolink, tmp_path, monkeypatch):
+    """A compiler without gcc's --param or -march=native (`cunits.OPTIONAL_FLAGS`) still builds
+    every unit: each flag its message names is dropped in turn and the unit compiled again; the
+    values are the reference's.  A fake compiler that rejects both, in that order, logs its runs."""
+    log = tmp_path / "runs.log"
+    fake = tmp_path / "picky-cc"
+    fake.write_text(
+        "#!/bin/sh\n"
+        f'echo "$*" >> {log}\n'
+        'case " $* " in *" --param="*) echo "error: unrecognized option --param=loop-max-datarefs-for-datadeps" >&2; exit 1;; esac\n'
+        'case " $* " in *" -march=native "*) echo "error: bad value (native) for -march" >&2; exit 1;; esac\n'
+        f'exec {cbuild.compiler()} "$@"\n'
+    )
+    fake.chmod(0o755)
+    monkeypatch.setenv("CC", str(fake))
+    lib = load_library(*twolink)
+    (q, qd, qdd), tau = cases("twolink")["tau"]
+    assert_close(lib.functions["tau"](q, qd, qdd), tau, "tau by its kernel")
+    assert _built(tmp_path) == ["tau.scalar", "tau.simd"]
+    runs = [line for line in log.read_text().splitlines() if "tau.simd" in line]
+    assert [("--param=" in r, "-march=native" in r) for r in runs] == [(True, True), (False, True), (False, False)]
