@@ -122,6 +122,26 @@ def test_the_pandas_hand_equals_pinocchios_reading_of_the_file():
     assert_pinocchio(panda, task_module(panda), model, ids)
 
 
+def test_a_link_named_as_a_joint_is_compared_at_the_link_s_frame(tmp_path):
+    """A URDF may give a link and a joint one name (the Unitree Z1's `gripperStator`): Pinocchio's
+    `getFrameId` alone refuses it; the peer takes the link's (BODY) frame, a frame the name
+    names both ways is where Pinocchio's parser puts the link."""
+    inertial = '<inertial><mass value="1"/><origin xyz="0.1 0 0.05"/><inertia ixx="0.02" iyy="0.03" izz="0.04" ixy="0" ixz="0" iyz="0"/></inertial>'
+    text = (
+        f'<robot name="same_names"><link name="base"/><link name="l1">{inertial}</link><link name="tip">{inertial}</link>'
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>'
+        '<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>'
+        '<joint name="tip" type="revolute"><parent link="l1"/><child link="tip"/><origin xyz="0.3 0 0.1" rpy="0.2 0 0"/>'
+        '<axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint></robot>'
+    )
+    path = tmp_path / "same_names.urdf"
+    path.write_text(text)
+    robot = Robot.from_urdf(str(path)).with_frames(["tip", "l1"])
+    model, ids = peer.file_model(robot, str(path))
+    assert [model.frames[i].name for i in ids] == ["tip", "l1"]
+    assert_pinocchio(robot, task_module(robot), model, ids)
+
+
 def _solo_file() -> Path:
     try:
         dist = importlib.metadata.distribution("example-robot-data")

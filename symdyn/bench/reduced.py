@@ -108,10 +108,7 @@ def reduced_model(path, robot: Robot):
         file = _balanced(file, repaired, Path(folder)) if repaired else file
         full = pin.buildModelFromUrdf(str(file), *roots[robot.base_joint])
     first = 1 if robot.base_joint is None else 2  # Pinocchio's first joint that is one of the file's
-    if (
-        record.base_link != full.frames[full.getFrameId(record.base_link)].name
-        or full.frames[full.getFrameId(record.base_link)].parentJoint != first - 1
-    ):
+    if full.frames[link_frame(full, record.base_link)].parentJoint != first - 1:
         raise ValueError(f"base_link {record.base_link!r} is not fixed to Pinocchio's world")
     q0 = pin.neutral(full)
     values = {lock.joint: lock.value for lock in record.locked}
@@ -131,6 +128,19 @@ def reduced_model(path, robot: Robot):
     if names != list(record.joints):
         raise AssertionError(f"Pinocchio's reduced model moves {names}, symdyn {list(record.joints)}")
     return reduced
+
+
+def link_frame(model, name: str) -> int:
+    """The id of the frame of the URDF link `name` in Pinocchio's `model`: its BODY frame, where a
+    joint or another frame has the same name too (the Unitree Z1's `gripperStator` is a link and a
+    joint, and `getFrameId` alone refuses the name)."""
+    import pinocchio as pin
+
+    if model.existFrame(name, pin.FrameType.BODY):
+        return model.getFrameId(name, pin.FrameType.BODY)
+    if not model.existFrame(name):
+        raise ValueError(f"Pinocchio's model has no frame {name!r}")
+    return model.getFrameId(name)
 
 
 def pin_configuration(model, q: np.ndarray) -> np.ndarray:
@@ -241,7 +251,7 @@ def compare(robot: Robot, path, *, count: int = 200, seed: int = 0, functions=No
         "Christoffel": relative_error(ref.christoffel(robot, q), peer["Gamma"], scale),
         "fdyn": relative_error(ref.accel(bare, q, qd, tau), peer["ddq"]),
     }
-    data, frame = model.createData(), model.getFrameId(robot.urdf.tip_link)
+    data, frame = model.createData(), link_frame(model, robot.urdf.tip_link)
     poses = []
     for xi in x:
         pin.framesForwardKinematics(model, data, xi)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..model import Robot
 from .peers import pinocchio_model
-from .reduced import pin_configuration, reduced_model
+from .reduced import link_frame, pin_configuration, reduced_model
 
 __all__ = ["peer_model", "file_model", "evaluate", "FUNCTIONS"]
 
@@ -61,7 +61,7 @@ def file_model(robot: Robot, path):
     for frame in robot.task_frames:
         if not model.existFrame(frame.name):
             raise ValueError(f"Pinocchio's model of {path} has no frame {frame.name!r}")
-        ids.append(model.getFrameId(frame.name))
+        ids.append(link_frame(model, frame.name))
     return model, ids
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import __version__
-from ..model import Link, Robot, exact_cos_sin
+from ..model import Link, Robot, exact_cos_sin, inertia
 
 __all__ = ["BaseMap", "base_map", "robot_names", "standard_names", "standard_vector", "with_standard", "PER_LINK"]
 
@@ -149,7 +149,7 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
             m=float(m),
             r=tuple(float(x) for x in r),
             I=tuple(tuple(float(x) for x in row) for row in Ic),
-            physical=bool(eig[0] + eig[1] >= eig[2] * (1 - 1e-9)),
+            physical=inertia.obeys_triangle(eig),
         )
         pi = pi[BODY:]
     links = []
@@ -173,7 +173,7 @@ def with_standard(robot: Robot, pi, *, name: str | None = None) -> Robot:
                 r=tuple(float(x) for x in r_own),
                 I=tuple(tuple(float(x) for x in row) for row in I_own),
                 G=link.G if G == float(link.G) else G,
-                physical=bool(eig[0] + eig[1] >= eig[2] * (1 - 1e-9)),
+                physical=inertia.obeys_triangle(eig),
                 **motor,
             )
         )

@@ -20,6 +20,7 @@ import numpy as np
 import sympy as sp
 
 from . import frames
+from . import inertia
 from . import reframe
 from .placement import exact_cos_sin, is_symbolic, rotx, roty, rotz, transl, walk  # noqa: F401 (the model's exact transforms)
 
@@ -234,9 +235,9 @@ def _check_link_physics(link: Link, i: int) -> None:
             raise ValueError(f"inertia of {label} is not symmetric: I[{a},{b}]={x}, I[{b},{a}]={y}")
     if not any(is_symbolic(x) for row in I for x in row):
         eig = np.linalg.eigvalsh(np.array(I, dtype=float))
-        if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
+        if not inertia.semidefinite(eig):
             raise ValueError(f"inertia of {label} is not positive semidefinite: eigenvalues {eig.tolist()}")
-        if link.physical and eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+        if link.physical and not inertia.obeys_triangle(eig):
             raise ValueError(
                 f"inertia of {label} is physically impossible: its principal moments "
                 f"{eig.tolist()} violate the triangle inequality (I1 + I2 ≥ I3); "

@@ -14,6 +14,7 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
+from .. import inertia
 from ..placement import exact
 from .xml import Element, URDFError, numbers, where
 
@@ -62,9 +63,9 @@ def _inertia_defect(I: tuple) -> str | None:
     """Why an inertia is impossible (not positive semidefinite, or the triangle
     inequality violated; the tolerances of the `Link` checks), or None."""
     eig = np.linalg.eigvalsh(np.array(I, dtype=float))
-    if eig.min() < -1e-12 * max(1.0, abs(eig).max()):
+    if not inertia.semidefinite(eig):
         return f"is not positive semidefinite: principal moments {eig.tolist()}"
-    if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+    if not inertia.obeys_triangle(eig):
         return (
             f"is physically impossible: its principal moments {eig.tolist()} "
             "violate the triangle inequality (I1 + I2 >= I3)"
@@ -98,7 +99,7 @@ def nearest_physical(moments) -> np.ndarray:
         for rows in itertools.combinations(range(3), k):
             A = _TRIANGLE[list(rows)]
             x = lam - A.T @ np.linalg.solve(A @ A.T, A @ lam) if rows else lam.copy()
-            if (_TRIANGLE @ x >= -1e-12 * max(1.0, np.abs(lam).max())).all():
+            if (_TRIANGLE @ x >= -inertia.tolerance(lam)).all():
                 d = float(np.linalg.norm(x - lam))
                 if d < best_d:
                     best, best_d = x, d

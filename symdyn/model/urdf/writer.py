@@ -39,6 +39,7 @@ from xml.parsers import expat
 
 import numpy as np
 
+from .. import inertia
 from ..placement import exact_cos_sin
 from ..robot import IDENTITY, Robot
 from .bodies import balanced
@@ -75,9 +76,8 @@ def _about_com(body: tuple) -> tuple:
 
 def _physical(body: tuple) -> bool:
     m, _, I = _about_com(body)
-    scale = max(1.0, float(np.abs(I).max()))
     eig = np.linalg.eigvalsh((I + I.T) / 2)
-    return m >= 0 and eig[0] >= -1e-12 * scale and eig[0] + eig[1] >= eig[2] * (1 - 1e-9)
+    return m >= 0 and inertia.semidefinite(eig) and inertia.obeys_triangle(eig)
 
 
 def _inertial_xml(m, r, I, indent: str) -> str:
