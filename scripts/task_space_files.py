@@ -105,6 +105,11 @@ def _states(robot, count: int, seed: int = 0):
     return q, rng.uniform(-2, 2, (count, robot.nv)), rng.uniform(-5, 5, (count, robot.nv))
 
 
+def _reason(error: Exception) -> str:
+    """An error's first line, the robots' folder left out of its paths."""
+    return str(error).splitlines()[0].replace(f"{robots_folder()}/", "")[:300]
+
+
 def compare(relative: str, free: bool, count: int) -> dict:
     """One file: how it was read, its frames, build seconds and each group's largest error."""
     import warnings
@@ -126,8 +131,11 @@ def compare(relative: str, free: bool, count: int) -> dict:
             robot, how = Robot.from_urdf(str(path), **options), "as it is"
         except URDFError as refused:
             if "inertia='balance'" not in str(refused):
-                return {"refused": str(refused).splitlines()[0][-200:]}
-            robot, how = Robot.from_urdf(str(path), inertia="balance", **options), "inertia='balance'"
+                return {"refused": _reason(refused)}
+            try:
+                robot, how = Robot.from_urdf(str(path), inertia="balance", **options), "inertia='balance'"
+            except URDFError as still:
+                return {"refused": "with inertia='balance': " + _reason(still)}
     robot = robot.with_frames(_frames(robot, path))
     model, ids = peer.file_model(robot, path)
     start = time.perf_counter()
