@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The task space of every URDF example-robot-data ships, against Pinocchio's own reading of each
-file (slow: about an hour for all of them; name some to run fewer).
+file (slow: 22 minutes for all of them here; name some to run fewer).
 
 Run: .venv/bin/python scripts/task_space_files.py [FILE …] [--states 20] [--timeout 400]
 

@@ -139,23 +139,25 @@ def test_balance_repairs_and_reports_each_body(tmp_path):
 
 def test_an_exporter_s_numerical_zeros_are_a_point_mass_by_default_and_under_balance(tmp_path):
     """iCub's URDF gives seven links inertias of ±5e-20 (an exporter's zeros), which Pinocchio reads
-    as a point mass.  Every check takes them within one tolerance (`symdyn.model.inertia`): the
-    file loads as it is, the same with inertia='balance' (nothing to repair), and the link's
+    as a point mass.  Every check takes them within the same tolerances (`symdyn.model.inertia`):
+    the file loads as it is, the same with inertia='balance' (nothing to repair), and the link's
     inertia is what the file says.  The triangle test had no absolute floor, the semidefinite
-    test and the repair had: the file was refused, and the repair it suggested failed."""
-    zeros = (-5.42101e-20, -5.42101e-20, 0.0)
-    path = _file(tmp_path, _arm(l1=_inertial(), l2=_inertial(0.5, zeros)))
-    for options in ({}, {"inertia": "balance"}):
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")
-            robot = Robot.from_urdf(path, **options)
-        assert np.array_equal(np.diag(np.array(robot.links[1].I, dtype=float)), zeros), options
-        assert not robot.urdf.repairs
-    tiny = _file(tmp_path, _arm(l1=_inertial(), l2=_inertial(0.5, (1e-13, 1e-13, 2.5e-13))), "tiny.urdf")
-    Robot.from_urdf(tiny)  # off by 5e-14 < 1e-12: within the tolerance
-    clear = _file(tmp_path, _arm(l1=_inertial(), l2=_inertial(0.5, (1e-13, 1e-13, 2e-12))), "clear.urdf")
-    with pytest.raises(URDFError, match="violate the triangle inequality"):
-        Robot.from_urdf(clear)  # off by 1.8e-12: a real defect, however small
+    test and the repair had: the file was refused, and the repair it suggested failed.  A small
+    body's real defect is still refused, however small its moments."""
+    for k, zeros in enumerate([(-5.42101e-20, -5.42101e-20, 0.0), (-1.8e-22, 0.0, 4.08e-18), (1e-20, -3e-20, 2e-20)]):
+        path = _file(tmp_path, _arm(l1=_inertial(), l2=_inertial(0.5, zeros)), f"zeros{k}.urdf")
+        for options in ({}, {"inertia": "balance"}):
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                robot = Robot.from_urdf(path, **options)
+            assert np.array_equal(np.diag(np.array(robot.links[1].I, dtype=float)), zeros), options
+            assert not robot.urdf.repairs
+    for k, small in enumerate([(2e-13, 2e-13, 1e-12), (1e-13, 1e-13, 2.5e-13), (0.0, 0.0, 1e-14)]):
+        path = _file(tmp_path, _arm(l1=_inertial(), l2=_inertial(0.5, small)), f"small{k}.urdf")
+        with pytest.raises(URDFError, match="violate the triangle inequality"):
+            Robot.from_urdf(path)
+        repaired = Robot.from_urdf(path, inertia="balance")  # the repair's result passes the same test
+        assert [r.link for r in repaired.urdf.repairs] == ["l2"]
 
 
 def _physical(moments, tol=1e-12) -> bool:

@@ -337,7 +337,7 @@ def test_a_compiler_that_rejects_an_optional_flag_builds_without_it(twolink, tmp
         "#!/bin/sh\n"
         f'echo "$*" >> {log}\n'
         'case " $* " in *" --param="*) echo "error: unrecognized option --param=loop-max-datarefs-for-datadeps" >&2; exit 1;; esac\n'
-        'case " $* " in *" -march=native "*) echo "error: bad value (native) for -march" >&2; exit 1;; esac\n'
+        'case " $* " in *" -march=native "*) echo "error: bad value \'native\' for \'-march=\' switch" >&2; exit 1;; esac\n'
         f'exec {cbuild.compiler()} "$@"\n'
     )
     fake.chmod(0o755)
@@ -348,3 +348,12 @@ def test_a_compiler_that_rejects_an_optional_flag_builds_without_it(twolink, tmp
     assert _built(tmp_path) == ["tau.scalar", "tau.simd"]
     runs = [line for line in log.read_text().splitlines() if "tau.simd" in line]
     assert [("--param=" in r, "-march=native" in r) for r in runs] == [(True, True), (False, True), (False, False)]
+
+
+def test_flags_that_set_gcc_s_limit_on_a_loop_s_references_are_kept():
+    """A user's own --param=loop-max-datarefs-for-datadeps (its compile cost grows with the square
+    of the references) is not overridden by `cunits.WIDE_LOOPS`; a scalar unit never gets it."""
+    own = ("-O3", "--param=loop-max-datarefs-for-datadeps=1000")
+    assert cunits._unit_flags(own, "", "simd") == own
+    assert cunits._unit_flags(("-O3",), "", "simd") == ("-O3", cunits.WIDE_LOOPS)
+    assert cunits._unit_flags(("-O3",), "", "scalar") == ("-O3",)

@@ -138,7 +138,12 @@ def test_a_link_named_as_a_joint_is_compared_at_the_link_s_frame(tmp_path):
     path.write_text(text)
     robot = Robot.from_urdf(str(path)).with_frames(["tip", "l1"])
     model, ids = peer.file_model(robot, str(path))
-    assert [model.frames[i].name for i in ids] == ["tip", "l1"]
+    import pinocchio as pin
+
+    assert [(model.frames[i].name, model.frames[i].type) for i in ids] == [
+        ("tip", pin.FrameType.BODY),
+        ("l1", pin.FrameType.BODY),
+    ]
     assert_pinocchio(robot, task_module(robot), model, ids)
 
 

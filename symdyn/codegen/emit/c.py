@@ -87,7 +87,8 @@ _SIMD_HELPERS = r"""
 /* Build with -fopenmp-simd -DSYMDYN_OPENMP_SIMD (or -fopenmp) to vectorize each
    lane loop for certain; without it, -O3 usually vectorizes it anyway.  gcc leaves
    a loop of over 1000 memory references scalar (a kernel of over ~1000 outputs)
-   unless given --param=loop-max-datarefs-for-datadeps=1000000 too. */
+   unless given --param=loop-max-datarefs-for-datadeps=3000 too (symdyn's own
+   builds do; its cost grows with the square of the references). */
 #if defined(_OPENMP) || defined(SYMDYN_OPENMP_SIMD)
 #define SYMDYN_SIMD _Pragma("omp simd")
 #else

@@ -192,25 +192,30 @@ SIMD_O1_BYTES = 256_000
 #: gcc builds a loop's data dependences only up to 1000 memory references
 #: (--param loop-max-datarefs-for-datadeps) and leaves a larger loop unvectorized, `omp simd` or
 #: not.  A lane loop stores each output once, so every kernel of more than about a thousand
-#: outputs ran its lanes one at a time: Talos' M (1296) 1 480 ns a state on one thread against
-#: its scalar loop's 560, and C, M⁻¹ and Solo 12's fdyn_derivatives alike.  With the limit
-#: raised, Talos' M runs 410 ns and its kernel compiles in 3.5 s instead of 2.3 (M⁻¹ and Solo's
-#: fdyn_derivatives compile faster); a kernel under the limit gives the same code.  gcc 12.2,
-#: this 2-core machine, timed by hand.
-WIDE_LOOPS = "--param=loop-max-datarefs-for-datadeps=1000000"
+#: outputs ran its lanes one at a time: Talos' M (1296) 1 509 ns a state on one thread against
+#: its scalar loop's 582, and C, M⁻¹, ∂τ and Solo 12's fdyn_derivatives alike
+#: (scripts/batch_vs_loop.py).  SIMD units raise the limit to 3000: Talos' M then runs 366 ns,
+#: its ∂τ (2 628 outputs) 3 406 against the loop's 8 148.  The analysis grows with the square of
+#: the references: at 3000 a kernel's compile takes up to ~0.5 GB more (a 3 000-output kernel
+#: 4.1 → 7.0 s, 84 → 522 MB; Talos' ∂τ 104 → 63 s, the same 1.5 GB), while Talos' regressor
+#: (15 480 outputs) would take 146 s and 12.7 GB instead of 16 s and 0.4 GB: wider kernels keep
+#: gcc's limit.  A kernel under 1000 gives the same code.  gcc 12.2, timed by hand.
+WIDE_LOOPS = "--param=loop-max-datarefs-for-datadeps=3000"
 
-#: Flags a compiler may reject, each with the word its message then contains: dropped and the
-#: unit compiled again (clang has no gcc --param; an old compiler may not know -march=native).
-OPTIONAL_FLAGS = {"-march=native": "native", WIDE_LOOPS: "loop-max-datarefs-for-datadeps"}
+#: Flags a compiler may reject, each with the words its message then contains: dropped and the
+#: unit compiled again (clang ignores gcc's --param with a warning, which -Werror makes an error;
+#: an old compiler may not know -march=native).
+OPTIONAL_FLAGS = {"-march=native": "-march=", WIDE_LOOPS: "loop-max-datarefs-for-datadeps"}
 
 
 def _unit_flags(flags: tuple, text: str, kind: str) -> tuple:
     """The flags a unit is compiled with: `flags`; for a SIMD kernel (or a whole file, which has
-    them) gcc's limit on a vectorized loop's memory references raised (`WIDE_LOOPS`), and -O3
-    lowered for a large kernel."""
+    them) gcc's limit on a vectorized loop's memory references raised (`WIDE_LOOPS`) unless the
+    flags set it, and -O3 lowered for a large kernel."""
     if kind == "scalar":
         return flags
-    flags = (*flags, WIDE_LOOPS)
+    if not any("loop-max-datarefs-for-datadeps" in f for f in flags):
+        flags = (*flags, WIDE_LOOPS)
     if kind != "simd" or "-O3" not in flags or len(text) < SIMD_O2_BYTES:
         return flags
     level = "-O1" if len(text) >= SIMD_O1_BYTES else "-O2"

@@ -99,7 +99,7 @@ def nearest_physical(moments) -> np.ndarray:
         for rows in itertools.combinations(range(3), k):
             A = _TRIANGLE[list(rows)]
             x = lam - A.T @ np.linalg.solve(A @ A.T, A @ lam) if rows else lam.copy()
-            if (_TRIANGLE @ x >= -inertia.tolerance(lam)).all():
+            if inertia.semidefinite(x) and inertia.obeys_triangle(x):
                 d = float(np.linalg.norm(x - lam))
                 if d < best_d:
                     best, best_d = x, d
