@@ -414,3 +414,40 @@ def test_a_kernel_of_more_than_a_thousand_outputs_is_vectorized_and_equals_the_s
     )
     vectorized = [int(line) for line in re.findall(r"unit\.c:(\d+):\d+: optimized: loop vectorized", done.stderr)]
     assert any(start <= line <= end for line in vectorized), (start, end, done.stderr[-2000:])
+
+
+def test_a_kernel_wider_than_a_vectorized_lane_loop_runs_the_scalar_function_over_the_threads(tmp_path, monkeypatch):
+    """Past `csimd.LANE_REFERENCES` (a state's inputs and outputs; 3000, lowered here to 10) gcc
+    leaves the lane loop scalar and the kernel would run slower than the scalar function in a
+    loop (Solo 12's regressor): the batch entry calls the scalar function state after state over
+    the threads, the single calls' bits, a NaN still the contract's error naming the argument."""
+    import sympy as sp
+
+    from symdyn.codegen.emit import Bundle
+    from symdyn.codegen.emit.clib import load_library
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(csimd, "LANE_REFERENCES", 10)
+    q, qd, _ = joint_symbols(2)
+    y = sp.Matrix(3, 3, lambda i, j: (i + 1) * sp.sin(q[0]) * qd[j % 2] + (j + 1) * sp.cos(q[1]))
+    programs = (
+        make_program("wide", [("q", q), ("v", qd)], [("y", y)]),  # 4 + 9 references: the loop
+        make_program("narrow", [("q", q)], [("z", sp.Matrix([sp.sin(q[0]), q[1]]))]),  # 2 + 2: a lane loop
+    )
+    bundle = Bundle("loops", 2, "test", "none", programs)
+    (tmp_path / "loops.c").write_text(c_emit.c_source(bundle))
+    (tmp_path / "loops.h").write_text(c_emit.h_source(bundle))
+    lib = load_library(tmp_path / "loops.c", tmp_path / "loops.h")
+    assert "_lanes(" not in lib.units.unit("wide", "simd").text
+    assert "loops_narrow_lanes(" in lib.units.unit("narrow", "simd").text
+    rng = np.random.default_rng(6)
+    qs, vs = rng.uniform(-3, 3, (1001, 2)), rng.uniform(-2, 2, (1001, 2))
+    f = lib.functions["wide"]
+    single = np.array([f(a, b) for a, b in zip(qs, vs)])
+    for threads in (1, 2):
+        assert np.array_equal(f(qs, vs, threads=threads), single)
+    vs[700, 1] = np.nan
+    with pytest.raises(ValueError, match="v contains NaN or infinity"):
+        f(qs, vs)

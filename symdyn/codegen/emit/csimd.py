@@ -4,7 +4,8 @@ A block of SYMDYN_W states is gathered into structure-of-arrays, the program run
 in a loop the compiler vectorizes (`VECTOR_ALGEBRA`: sin/cos/sign without branches), and the
 block is scattered back; the range and threaded entry points split the blocks over threads.  A
 kernel of matrix outputs computes them column by column and asks for its blocks' output lines
-ahead in large batches (`_lane_statements`, `symdyn_ahead_` in the preamble of `c`).
+ahead in large batches (`_lane_statements`, `symdyn_ahead_` in the preamble of `c`).  A kernel
+too wide for a vectorized lane loop (`LANE_REFERENCES`) runs the scalar function instead.
 """
 
 from __future__ import annotations
@@ -105,6 +106,46 @@ def _balanced_sum(terms: list[str]) -> str:
     return terms[0]
 
 
+#: The memory references (a state's inputs and outputs) a lane loop may have: gcc vectorizes a
+#: loop only up to its --param loop-max-datarefs-for-datadeps, which symdyn's builds raise to this
+#: (`cunits.WIDE_LOOPS`; the analysis grows with the square of the references).  A wider kernel's
+#: lanes would run one at a time, slower than the scalar function in a loop (Solo 12's regressor,
+#: 3 204 outputs: 2 120 ns a state against 1 240), so it runs the scalar function state after
+#: state over the threads (`_loop_source`).
+LANE_REFERENCES = 3000
+
+
+def _loop_source(f: str, ins, sig, prototype: str) -> str:
+    """The batch entry of a kernel wider than `LANE_REFERENCES`: each thread's states by the scalar
+    function, an input that is NaN or infinite stopping it (nonzero) before its state is computed."""
+    body = [
+        f"/* {f}: wider than a vectorized lane loop: the scalar function state after state */",
+        f"static int {f}_range(const double *const *in, double *const *out, long i0, long i1)",
+        "{",
+        "    long i, j;",
+        "    for (i = i0; i < i1; ++i) {",
+    ]
+    for k, (_, syms) in enumerate(ins):
+        body += [
+            f"        for (j = 0; j < {len(syms)}; ++j)",
+            f"            if (!isfinite(in[{k}][i * {len(syms)} + j]))",
+            "                return 1;",
+        ]
+    args = [f"in[{k}] + i * {len(syms)}" for k, (_, syms) in enumerate(ins)]
+    args += [f"out[{k}] + i * {math.prod(sh)}" for k, (_, sh) in enumerate(sig.outputs)]
+    body += [f"        {f}({', '.join(args)});", "    }", "    return 0;", "}", ""]
+    body += [
+        prototype,
+        "{",
+        f"    const double *const in[{len(ins)}] = {{{', '.join(a for a, _ in ins)}}};",
+        f"    double *const out[{len(sig.outputs)}] = {{{', '.join(o for o, _ in sig.outputs)}}};",
+        f"    return symdyn_parallel_({f}_range, in, out, n, threads);",
+        "}",
+        "",
+    ]
+    return "\n".join(body)
+
+
 def simd_source(model: str, p: Program, sig, prototype: str) -> str:
     """The SIMD kernel of one program: a block of SYMDYN_W states gathered into
     structure-of-arrays, the program once per lane in a loop the compiler
@@ -115,6 +156,8 @@ def simd_source(model: str, p: Program, sig, prototype: str) -> str:
     used = p.used_inputs()
     f = f"{model}_{p.name}"
     ins = [(a, syms) for a, syms in p.inputs]
+    if sum(len(syms) for _, syms in ins) + sum(math.prod(sh) for _, sh in sig.outputs) > LANE_REFERENCES:
+        return _loop_source(f, ins, sig, prototype)
     ahead = _by_columns(p)  # a kernel of matrix outputs: its blocks' output lines asked for ahead
     body = [
         f"static int {f}_lanes(long i0, int m, "

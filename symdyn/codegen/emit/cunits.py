@@ -28,7 +28,7 @@ from pathlib import Path
 
 from ...derivation import progress
 from ...derivation.cache import build_lock, cache_dir, fork_safe, writable
-from . import cbuild, write_atomic
+from . import cbuild, csimd, write_atomic
 
 __all__ = ["KINDS", "BACKGROUND_BYTES", "SCALAR_ONLY_BYTES", "HEAVIEST_FIRST", "Units", "function_units"]
 
@@ -198,9 +198,10 @@ SIMD_O1_BYTES = 256_000
 #: its ∂τ (2 628 outputs) 3 406 against the loop's 8 148.  The analysis grows with the square of
 #: the references: at 3000 a kernel's compile takes up to ~0.5 GB more (a 3 000-output kernel
 #: 4.1 → 7.0 s, 84 → 522 MB; Talos' ∂τ 104 → 63 s, the same 1.5 GB), while Talos' regressor
-#: (15 480 outputs) would take 146 s and 12.7 GB instead of 16 s and 0.4 GB: wider kernels keep
-#: gcc's limit.  A kernel under 1000 gives the same code.  gcc 12.2, timed by hand.
-WIDE_LOOPS = "--param=loop-max-datarefs-for-datadeps=3000"
+#: (15 480 outputs) would take 146 s and 12.7 GB instead of 16 s and 0.4 GB: a wider kernel runs
+#: the scalar function instead (`csimd.LANE_REFERENCES`).  A kernel under 1000 gives the same
+#: code.  gcc 12.2, timed by hand.
+WIDE_LOOPS = f"--param=loop-max-datarefs-for-datadeps={csimd.LANE_REFERENCES}"
 
 #: Flags a compiler may reject, each with the words its message then contains: dropped and the
 #: unit compiled again (clang ignores gcc's --param with a warning, which -Werror makes an error;
