@@ -89,22 +89,6 @@ def _frames(robot, path) -> list[str]:
     return list(dict.fromkeys(chosen))[:6]
 
 
-def _states(robot, count: int, seed: int = 0):
-    """Random (q, v, a): the joints within their limits (and ±3), a floating base moved by a random
-    twist from its neutral pose."""
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    lo, hi = robot.qlim.T
-    q = robot.neutral() + np.zeros((count, 1))
-    q[:, robot.nq - robot.n :] = rng.uniform(np.maximum(lo, -3), np.minimum(hi, 3), (count, robot.n))
-    if robot.base_joint is not None:
-        twist = np.zeros((count, robot.nv))
-        twist[:, : robot.nv - robot.n] = rng.normal(size=(count, robot.nv - robot.n))
-        q = robot.integrate(q, twist)
-    return q, rng.uniform(-2, 2, (count, robot.nv)), rng.uniform(-5, 5, (count, robot.nv))
-
-
 def _reason(error: Exception) -> str:
     """An error's first line, the robots' folder left out of its paths."""
     return str(error).splitlines()[0].replace(f"{robots_folder()}/", "")[:300]
@@ -141,7 +125,9 @@ def compare(relative: str, free: bool, count: int) -> dict:
     start = time.perf_counter()
     f = load(robot, "numpy")
     names = task_names(task_space(robot))
-    q, v, a = _states(robot, count)
+    from task_space_robots import states  # beside this script
+
+    q, v, a = states(robot, count)
     given = {"q": q, "v": v, "a": a}
     calls = {name: [getattr(f, name)(*(given[x][i] for x in arguments(name))) for i in range(count)] for name in names}
     built = time.perf_counter() - start

@@ -38,13 +38,16 @@ ROBOTS = {
 
 
 def states(robot: Robot, count: int, seed: int = 0):
+    """Random (q, v, a): the joints within their limits (and ±3), a floating base moved by a random
+    twist from its neutral pose."""
     rng = np.random.default_rng(seed)
     lo, hi = robot.qlim.T
     q = robot.neutral() + np.zeros((count, 1))
     q[:, robot.nq - robot.n :] = rng.uniform(np.maximum(lo, -3), np.minimum(hi, 3), (count, robot.n))
-    twist = np.zeros((count, robot.nv))
-    twist[:, :6] = rng.normal(size=(count, 6))
-    q = robot.integrate(q, twist)
+    if robot.base_joint is not None:
+        twist = np.zeros((count, robot.nv))
+        twist[:, : robot.nv - robot.n] = rng.normal(size=(count, robot.nv - robot.n))
+        q = robot.integrate(q, twist)
     return q, rng.uniform(-2, 2, (count, robot.nv)), rng.uniform(-5, 5, (count, robot.nv))
 
 
