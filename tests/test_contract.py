@@ -114,3 +114,30 @@ def test_leading_shapes_that_do_not_broadcast_are_an_error_naming_them(model):
     q, qd, qdd, _ = _states(6)
     with pytest.raises(ValueError, match=r"^tau\(\): the leading shapes .* q \(6,\), qd \(4,\), qdd \(6,\)"):
         model.tau(q, qd[:4], qdd)
+
+
+@pytest.mark.parametrize("binding", ["extension", "ctypes"])
+def test_an_out_array_sharing_memory_with_an_input_is_refused(binding):
+    """The C stores a matrix's entries as it computes them, before it has read every input: an
+    out= that overlaps an input is a ValueError naming that input (both bindings, one state and a
+    batch), and an out= of its own is written."""
+    model = codegen.load("puma560", "c", options=CompileOptions(binding=binding))
+    q, qd, qdd, _ = _states(4)
+    store = np.zeros(40)
+    store[2:8] = q[0]
+    with pytest.raises(ValueError, match=r"M\(\): out shares memory with the input q"):
+        model.M(store[2:8], out=store[4:40].reshape(6, 6))
+    batch = np.zeros(4 * 36)
+    batch[100:124] = q.ravel()
+    with pytest.raises(ValueError, match="shares memory with the input q"):
+        model.M(batch[100:124].reshape(4, 6), out=batch.reshape(4, 6, 6))
+    joint = np.zeros(36)
+    joint[30:] = qd[0]
+    with pytest.raises(ValueError, match=r"C\(\): out shares memory with the input qd"):
+        model.C(q[0], joint[30:], out=joint.reshape(6, 6))
+    apart = np.zeros(42)  # side by side, not overlapping: accepted
+    apart[:6] = q[0]
+    assert_close(model.M(apart[:6], out=apart[6:].reshape(6, 6)), model.M(q[0]), "M beside q")
+    own = np.full((6, 6), np.nan)
+    assert model.M(q[0], out=own) is own
+    assert_close(own, model.M(q[0]), "M into out=")

@@ -172,8 +172,9 @@ def test_a_split_build_equals_the_reference_and_names_a_failing_part(tmp_path, m
 
 def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, monkeypatch):
     """Above SPLIT_ABOVE assignments a function is written as noinline parts passing values
-    through an array (gcc's register allocation is superlinear in a function's size): the
-    Puma's functions forced into parts of 17 give the reference's values."""
+    through an array (gcc's register allocation is superlinear in a function's size), a matrix's
+    parts storing the entries they complete, a vector's stored at the end: the Puma's functions
+    forced into parts of 17 give the reference's values."""
     monkeypatch.setattr(c_emit, "SPLIT_ABOVE", 40)
     monkeypatch.setattr(c_emit, "PART_SIZE", 17)
     bundle = codegen.bundle(codegen._robot("puma560"))
@@ -181,7 +182,9 @@ def test_a_large_function_is_emitted_as_parts_that_compute_the_same(tmp_path, mo
     (tmp_path / "puma560.c").write_text(c_emit.c_source(bundle))
     (tmp_path / "puma560.h").write_text(c_emit.h_source(bundle))
     text = (tmp_path / "puma560.c").read_text()
-    assert "static SYMDYN_NOINLINE void puma560_M_part2(const double *q, double *w_)" in text
+    assert "static SYMDYN_NOINLINE void puma560_M_part2(const double *q, double *M, double *w_)" in text
+    tau_part = "static SYMDYN_NOINLINE void puma560_tau_part2(const double *q, const double *qd, const double *qdd, double *w_)"
+    assert tau_part in text
     quick = CompileOptions(flags=("-O1", "-fPIC", "-shared", "-pthread"))
     lib = load_library(tmp_path / "puma560.c", tmp_path / "puma560.h", quick)
     for function, (args, expected) in cases("puma560").items():
@@ -205,13 +208,16 @@ def _compiled(tmp_path, name: str, program, flags: tuple = ()):
 
 def test_the_coordinates_sines_in_one_loop_are_sincos_bits_and_zeros_are_one_memset(tmp_path, monkeypatch):
     """q's sin/cos pairs computed in one vectorizable loop (libm beyond |q| ≥ 1e5) give the bits of
-    one sincos_ call each (what the sines feed may differ by the compiler's fused multiply-adds); an output of many exact zeros is zeroed by memset, whatever the buffer held."""
+    one sincos_ call each (what the sines feed may differ by the compiler's fused multiply-adds); an output of
+    many exact zeros (here over a lowered MEMSET_MIN) is zeroed by memset, of fewer zero by zero, whatever the
+    buffer held."""
     import sympy as sp
 
     from symdyn.derivation.program import make_program
     from symdyn.derivation.symbols import joint_symbols
 
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(c_emit, "MEMSET_MIN", 16)
     q = joint_symbols(5)[0]
     values = [e for x in q[1:] for e in (sp.sin(x), sp.cos(x))]  # each pair also in a product: named once
     out = sp.Matrix(values + [sp.sin(x) * sp.cos(x) + q[0] for x in q[1:]] + [0] * 20)
@@ -233,8 +239,10 @@ def test_the_coordinates_sines_in_one_loop_are_sincos_bits_and_zeros_are_one_mem
     monkeypatch.undo()
     monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
     # the loop called, not inlined, as in a translation unit of several small functions (cunits)
-    _, called = _compiled(tmp_path, "called", program, ("-DSYMDYN_TRIG_LOOP_CALLED",))
+    text, called = _compiled(tmp_path, "called", program, ("-DSYMDYN_TRIG_LOOP_CALLED",))
+    assert "memset" not in text and "y[31] = 0.0;" in text  # 20 zeros, under MEMSET_MIN
     assert np.array_equal(called.functions["sc"](states)[:, :8], a[:, :8])
+    assert not called.functions["sc"](states[5], out=np.full(32, np.nan))[12:].any()
     assert np.abs(a - b).max() <= 4.5e-16  # what uses them: as the compiler contracts it (fused multiply-adds)
     assert not a[:, 12:].any()
     want = np.column_stack([f(states[:, j]) for j in range(1, 5) for f in (np.sin, np.cos)])
@@ -254,3 +262,31 @@ def test_an_input_only_the_trigonometric_loop_reads_is_not_called_unused():
     text = c_emit.single_source("m", make_program("f", [("q", q), ("v", qd)], [("y", out)]))
     assert "sincos_loop_(q + 0, 4," in text
     assert "does not depend on q" not in text and "(void)v;  /* unused: this f does not depend on v */" in text
+
+
+def test_a_matrix_is_stored_in_the_order_that_holds_fewest_values():
+    """Two 2 × 2 outputs, one of sums over x1…x6 and a value of each column, the other over y1…y6:
+    taken column by column across them both sets are live at once, output after output one at a
+    time, so that order is chosen; its entries are stored as they are computed (A's before any y
+    is), and a program of vectors keeps its order, its stores at the end."""
+    import sympy as sp
+
+    from symdyn.codegen.emit.schedule import _ORDERS, _entry_schedule, peak_live, schedule
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    q = joint_symbols(2)[0]
+    xs = [sp.sqrt(q[0] ** 2 + k) for k in range(1, 7)]
+    ys = [sp.sqrt(q[1] ** 2 + k) for k in range(1, 7)]
+    A = sp.Matrix(2, 2, lambda i, j: sum(x * (i + 2 * j + 1) ** k for k, x in enumerate(xs)) + sp.sqrt(q[0] + j))
+    B = sp.Matrix(2, 2, lambda i, j: sum(y * (i + 2 * j + 2) ** k for k, y in enumerate(ys)) + sp.sqrt(q[1] + j))
+    p = make_program("two", [("q", q)], [("A", A), ("B", B)])
+    entries = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
+    columns, outputs = (peak_live(_entry_schedule(p, sorted(entries, key=key))) for key in _ORDERS)
+    plan = schedule(p)
+    assert outputs + 6 <= columns and peak_live(plan) == outputs
+    stored = [o for step in plan.steps for o, *_ in step.stores]
+    assert stored == ["A"] * 4 + ["B"] * 4 and not plan.tail
+    vector = make_program("v", [("q", q)], [("y", sp.Matrix(xs))])
+    plan = schedule(vector)
+    assert not any(step.stores for step in plan.steps) and [k for _, k, _ in plan.tail] == list(range(6))

@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 
 from ...derivation.program import Program, lower
-from . import Bundle, Infix, header_lines, seal, sincos_pairs
+from . import Bundle, Infix, header_lines, seal
 from .csimd import simd_source
+from .schedule import by_columns, defined, schedule
 
 __all__ = ["c_source", "h_source", "function_file", "prototypes", "Signature", "read_signatures", "signature"]
 
@@ -402,7 +403,7 @@ TRIG_LOOP_MIN = 4
 def _trig_loop(items: list, inputs) -> tuple[list[str], dict]:
     """The sin/cos pairs of plain coordinates of the first input (q), computed together: the
     preamble's sincos_loop_ over q[a..b] (sincosv_ in a loop the compiler vectorizes, the same bits
-    as sincos_ below |x| < 1e5; libm where a coordinate lies beyond), then each pair read from it where it stood.  With `_stores`'
+    as sincos_ below |x| < 1e5; libm where a coordinate lies beyond), then each pair read from it where it stood.  With `_zeros`'
     memset: Talos' 30-joint M 1002 → 769 ns, τ 801 → 664 ns (docs/whole_robots.md).  Returns (the
     loop's lines, {item index: its lines})."""
     if not inputs:
@@ -423,16 +424,6 @@ def _trig_loop(items: list, inputs) -> tuple[list[str], dict]:
         for i, k in pairs.items()
     }
     return loop, reads
-
-
-def _assignments(assignments, inputs=()) -> list[str]:
-    """C statements of the assignments; a sin/cos pair of one argument is one sincos_ call (those of
-    q's coordinates one vectorized loop, `_trig_loop`)."""
-    items = list(sincos_pairs(assignments))
-    lines, reads = _trig_loop(items, inputs)
-    for i, item in enumerate(items):
-        lines += reads[i] if i in reads else _statements(item)
-    return lines
 
 
 #: A single-state function of more assignments than this is emitted as parts of PART_SIZE
@@ -464,37 +455,51 @@ def _statements(item) -> list[str]:
     return [f"    double {a.name}, {b.name};", f"    sincos_({_text(x)}, &{a.name}, &{b.name});"]
 
 
-def _defined(item) -> list:
-    x, a, b = item
-    return [a] if x is None else [a, b]
-
-
 def _used(item) -> set:
     x, a, b = item
     return (b if x is None else x).free_symbols
 
 
-def _parts(model: str, p: Program, sig: Signature, qualifier: str = "", size: int | None = None) -> tuple:
-    """A large program's single-state body as parts of `size` assignments: (the part functions'
-    source, the body's statements that call them, the reads the outputs need); `qualifier`
-    precedes each part (CUDA's `SYMDYN_HD`); `size` defaults to PART_SIZE."""
+def _step_lines(steps, reads: dict, zeroed: set, first: int = 0) -> list[str]:
+    """The statements of `schedule` steps (item `first + i` read from the trigonometric loop
+    where `reads` has it), each followed by its stores."""
+    lines = []
+    for i, step in enumerate(steps, first):
+        lines += reads[i] if i in reads else _statements(step.item)
+        lines += _store_lines(step.stores, zeroed)
+    return lines
+
+
+def _parts(model: str, p: Program, qualifier: str = "", size: int | None = None) -> tuple:
+    """A large program's single-state body as parts of `size` `schedule` steps: (the part
+    functions' source, the body's statements that call them, its lines after the calls, the
+    reads those lines need); `qualifier` precedes each part (CUDA's `SYMDYN_HD`); `size` defaults
+    to PART_SIZE.  A part stores the output entries its steps complete; the entries stored at
+    the end (a program of vectors) are the body's, read from the parts' array."""
     size = size or PART_SIZE
-    items = list(sincos_pairs(p.assignments))
-    blocks = [items[i : i + size] for i in range(0, len(items), size)]
+    plan = schedule(p)
+    zero, zeroed = _zeros(p, bool(qualifier))
+    blocks = [plan.steps[i : i + size] for i in range(0, len(plan.steps), size)]
     inputs = {s for _, syms in p.inputs for s in syms}
-    home = {sym: k for k, block in enumerate(blocks) for item in block for sym in _defined(item)}
-    later: set = set()  # values a later part (or an output) reads
+    home = {sym: k for k, block in enumerate(blocks) for step in block for sym in defined(step.item)}
+
+    def needs(block, k) -> set:  # what a block's items and stores read (its first: the head's too)
+        stores = [e for step in block for *_, e in step.stores] + [e for *_, e in (plan.head if k == 0 else ())]
+        return set().union(*(_used(step.item) for step in block), *(e.free_symbols for e in stores))
+
+    later: set = set()  # values a later part (or the body's stores) reads
     for k, block in enumerate(blocks):
-        later |= {sym for item in block for sym in _used(item) if sym in home and home[sym] < k}
-    for _, mat in p.outputs:
-        later |= {sym for sym in mat.free_symbols if sym in home}
+        later |= {sym for sym in needs(block, k) if sym in home and home[sym] < k}
+    for *_, e in plan.tail:
+        later |= {sym for sym in e.free_symbols if sym in home}
     slot = {sym: i for i, sym in enumerate(sorted(later, key=lambda x: (home[x], x.name)))}
-    params = ", ".join([f"const double *{a}" for a, _ in p.inputs] + ["double *w_"])
+    outs = [o for o, _ in p.outputs] if any(step.stores for step in plan.steps) or plan.head else []
+    params = ", ".join([f"const double *{a}" for a, _ in p.inputs] + [f"double *{o}" for o in outs] + ["double *w_"])
     source, calls = [], []
     for k, block in enumerate(blocks):
-        used = set().union(*(_used(item) for item in block))
-        loop, reads = _trig_loop(block, p.inputs)
-        statements = [line for i, item in enumerate(block) for line in (reads[i] if i in reads else _statements(item))]
+        used = needs(block, k)
+        loop, reads = _trig_loop([step.item for step in block], p.inputs)
+        statements = (_store_lines(plan.head, zeroed) if k == 0 else []) + _step_lines(block, reads, zeroed)
         reads = [
             f"    const double {sym.name} = {a}[{j}];"
             for a, syms in p.inputs
@@ -507,16 +512,18 @@ def _parts(model: str, p: Program, sig: Signature, qualifier: str = "", size: in
             if sym in home and home[sym] < k
         ]
         body = _near_use(reads, loop + statements)
-        body += [f"    w_[{slot[sym]}] = {sym.name};" for item in block for sym in _defined(item) if sym in slot]
+        body += [f"    w_[{slot[sym]}] = {sym.name};" for step in block for sym in defined(step.item) if sym in slot]
         name = f"{model}_{p.name}_part{k + 1}"
         source.append(f"{qualifier}static SYMDYN_NOINLINE void {name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
-        calls.append(f"    {name}({', '.join([a for a, _ in p.inputs] + ['w_'])});")
-    used = set().union(*(mat.free_symbols for _, mat in p.outputs))
+        calls.append(f"    {name}({', '.join([a for a, _ in p.inputs] + outs + ['w_'])});")
+    used = set().union(*(e.free_symbols for *_, e in plan.tail))
     reads = [
         f"    const double {sym.name} = {a}[{j}];" for a, syms in p.inputs for j, sym in enumerate(syms) if sym in used
     ]
     reads += [f"    const double {sym.name} = w_[{slot[sym]}];" for sym in sorted(used & set(slot), key=str)]
-    return "\n".join(source) + "\n", [f"    double w_[{max(1, len(slot))}];", *calls], reads
+    early = by_columns(p)  # the zeros before the parts store, or with the body's stores
+    body = [f"    double w_[{max(1, len(slot))}];", *(zero if early else []), *calls]
+    return "\n".join(source) + "\n", body, (([] if early else zero) + _store_lines(plan.tail, zeroed)), reads
 
 
 def _near_use(reads: list[str], lines: list[str]) -> list[str]:
@@ -533,8 +540,11 @@ def _near_use(reads: list[str], lines: list[str]) -> list[str]:
 
 
 #: An output with at least this many exact zeros, a quarter of it or more, is zeroed by one memset
-#: and only its other entries stored (Talos' 36 × 36 M: 643 zeros, the tree's other branches).
-MEMSET_MIN = 16
+#: and only its other entries stored; fewer are stored one by one (gcc joins the runs into vector
+#: stores): memset is a call (every vector register saved around it) and glibc's rep stosb.  Scalar
+#: calls, ns: Talos' 36 × 36 M (643 zeros) 442 by memset, 484 by stores; Solo 12's M (128 zeros)
+#: 117 and 88; its four feet's `frame_kinematics` (252 zeros in J) 186 and 131.
+MEMSET_MIN = 512
 
 
 def _read(reads: list[str], lines: list[str]) -> list[str]:
@@ -544,24 +554,30 @@ def _read(reads: list[str], lines: list[str]) -> list[str]:
     return [r for r in reads if re.search(rf"\b{r.split()[2]}\b", text)]
 
 
-def _output_lines(p: Program) -> list[str]:
-    return [line for o, mat in p.outputs for line in _stores(o, mat)]
+def _zeros(p: Program, device: bool = False) -> tuple[list[str], set]:
+    """(the lines that zero each output of many exact zeros, `MEMSET_MIN`, by one memset, or on a
+    device, where no memset is declared, by a loop; the outputs so zeroed, whose zeros are then
+    not stored one by one)."""
+    lines, zeroed = [], set()
+    for out, mat in p.outputs:
+        zeros = sum(1 for e in mat if e == 0)
+        if zeros < MEMSET_MIN or 4 * zeros < len(mat):
+            continue
+        zeroed.add(out)
+        if device:
+            lines += [
+                f"    for (int z_ = 0; z_ < {len(mat)}; ++z_)  /* its {zeros} exact zeros */",
+                f"        {out}[z_] = 0.0;",
+            ]
+        else:
+            lines.append(f"    memset({out}, 0, sizeof(double) * {len(mat)});  /* its {zeros} exact zeros */")
+    return lines, zeroed
 
 
-def _stores(out: str, mat, device: bool = False) -> list[str]:
-    """The statements that write one output (on a device, where no memset is declared, its
-    zeros by a loop)."""
-    zeros = sum(1 for e in mat if e == 0)
-    if zeros < MEMSET_MIN or 4 * zeros < len(mat):
-        return [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat)]
-    if device:
-        lines = [
-            f"    for (int z_ = 0; z_ < {len(mat)}; ++z_)  /* its {zeros} exact zeros */",
-            f"        {out}[z_] = 0.0;",
-        ]
-    else:
-        lines = [f"    memset({out}, 0, sizeof(double) * {len(mat)});  /* its {zeros} exact zeros */"]
-    return lines + [f"    {out}[{k}] = {_text(e)};" for k, e in enumerate(mat) if e != 0]
+def _store_lines(entries, zeroed: set) -> list[str]:
+    """The statements that store output entries (output, index, expression), the zeros of an
+    output already zeroed left out."""
+    return [f"    {o}[{k}] = {_text(e)};" for o, k, e in entries if not (o in zeroed and e == 0)]
 
 
 def single_source(
@@ -572,30 +588,37 @@ def single_source(
     static: bool = False,
     part_size: int | None = None,
 ) -> str:
-    """The single-state C function of one program (one of more than `split_above` assignments,
-    default SPLIT_ABOVE, calls its parts of `part_size`, default PART_SIZE), each function
-    preceded by `qualifier` (the CUDA target's `SYMDYN_HD `, whose device code has no memset);
-    `static`: a helper of the public function after it (`ckkt`'s KKT parts)."""
+    """The single-state C function of one program in `schedule`'s order (one of more than
+    `split_above` assignments, default SPLIT_ABOVE, calls its parts of `part_size`, default
+    PART_SIZE), each function preceded by `qualifier` (the CUDA target's `SYMDYN_HD `, whose
+    device code has no memset); `static`: a helper of the public function after it (`ckkt`'s KKT
+    parts)."""
     split_above = SPLIT_ABOVE if split_above is None else split_above
     sig = signature(p)
     single, _ = _prototypes(model, sig)
     used = p.used_inputs()
-    parts, reads = "", None
     if len(p.assignments) > split_above:
-        parts, body, reads = _parts(model, p, sig, qualifier, part_size)
+        parts, body, after, reads = _parts(model, p, qualifier, part_size)
+        body += _near_use(reads, after)
     else:
-        body = []
-        program = _assignments(p.assignments, p.inputs) + _output_lines(p)
+        parts, body = "", []
+        plan = schedule(p)
+        zero, zeroed = _zeros(p, bool(qualifier))
+        loop, reads = _trig_loop([step.item for step in plan.steps], p.inputs)
+        early = by_columns(p)  # the zeros first, or with the stores at the end
+        program = (zero if early else []) + _store_lines(plan.head, zeroed) + _step_lines(plan.steps, reads, zeroed)
+        program = loop + program + ([] if early else zero) + _store_lines(plan.tail, zeroed)
         text = "\n".join(program)
+        near = []
         for a, syms in p.inputs:
             read = [f"    const double {s.name} = {a}[{k}];" for k, s in enumerate(syms) if s in used]
             read = _read(read, program)
             if not read and not re.search(rf"\b{a}\b", text):  # not even by the trigonometric loop
-                read = [f"    (void){a};  /* unused: this {p.name} does not depend on {a} */"]
-            body += read
-        body += _assignments(p.assignments, p.inputs)
-    stores = [line for o, mat in p.outputs for line in _stores(o, mat, device=bool(qualifier))]
-    body += stores if reads is None else _near_use(reads, stores)
+                body.append(f"    (void){a};  /* unused: this {p.name} does not depend on {a} */")
+            near += read
+        # a matrix's entries are stored as they are computed: each coordinate read where first used
+        # (the caller's outputs never overlap its inputs: `contract.separate`), not all held from the top
+        body += _near_use(near, program) if early else near + program
     doc = f"/* {p.doc} */\n" if p.doc else ""
     return parts + f"{doc}{qualifier}{'static ' if static else ''}{single}\n{{\n" + "\n".join(body) + "\n}\n"
 

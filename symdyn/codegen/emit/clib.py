@@ -165,12 +165,15 @@ def _import_extension(module: str, path: Path):
 # --------------------------------------------------------------------------- ctypes binding
 
 
-def check_out(function: str, out, shapes: list) -> list:
+def check_out(function: str, out, shapes: list, inputs=()) -> list:
     """The caller's out= as a list of arrays, one per output, each exactly a
-    C-contiguous writeable float64 ndarray of its shape.
+    C-contiguous writeable float64 ndarray of its shape sharing no memory with the
+    `inputs` ((name, array), …: a function stores a matrix's entries as it computes
+    them, before it has read every input).
 
     Raises:
-        ValueError: out is not such an array (or tuple of them, one per output).
+        ValueError: out is not such an array (or tuple of them, one per output), or shares
+            memory with an input (named).
     """
     arrays = [out] if len(shapes) == 1 else out
     if len(shapes) > 1 and (not isinstance(out, tuple) or len(out) != len(shapes)):
@@ -188,6 +191,12 @@ def check_out(function: str, out, shapes: list) -> list:
                 f"{function}(): out{'[k]' if len(shapes) > 1 else ''} must be a C-contiguous "
                 f"writeable float64 array of shape {shape}"
             )
+        for name, x in inputs:
+            if np.may_share_memory(a, x):
+                raise ValueError(
+                    f"{function}(): out{'[k]' if len(shapes) > 1 else ''} shares memory with the input "
+                    f"{name}: give it an array of its own"
+                )
     return list(arrays)
 
 
@@ -225,7 +234,8 @@ class _CtypesFunction:
     def __call__(self, *args, out=None, threads=None, **kwargs):
         arrays, lead = contract.arguments(self.sig.name, self.sig.inputs, args, kwargs, self._lead_max)
         shapes = [lead + shape for _, shape in self.sig.outputs]
-        outs = [np.empty(s) for s in shapes] if out is None else check_out(self.sig.name, out, shapes)
+        named = [(a, x) for (a, _), x in zip(self.sig.inputs, arrays)]
+        outs = [np.empty(s) for s in shapes] if out is None else check_out(self.sig.name, out, shapes, named)
         if threads is None:
             threads = cbuild.jobs()
         elif int(threads) < 1:

@@ -14,8 +14,9 @@ import math
 
 import sympy as sp
 
-from ...derivation.program import Program, evaluation_order, lower
-from . import Infix, sincos_pairs
+from ...derivation.program import Program, lower
+from . import Infix
+from .schedule import by_columns, schedule
 
 __all__ = ["simd_source"]
 
@@ -29,26 +30,18 @@ def _vector_text(expr) -> str:
     return lower(expr, VECTOR_ALGEBRA)[0]
 
 
-def _vector_assignments(assignments) -> list[str]:
-    """The lane loop's statements: as `_assignments`, with the vector sin/cos/sign,
-    and `bad += outside_(x)` for every sin/cos argument x."""
-    lines = []
-    for x, a, b in sincos_pairs(assignments):
-        if x is None:
-            lines += _trig_checks(b)
-            lines.append(f"        const double {a.name} = {_vector_text(b)};")
-        else:
-            x = _vector_text(x)
-            lines.append(f"        double {a.name}, {b.name};")
-            lines.append(f"        bad += outside_({x});")
-            lines.append(f"        sincosv_({x}, &{a.name}, &{b.name});")
-    return lines
-
-
-def _by_columns(p: Program) -> bool:
-    """Whether a kernel computes its outputs column by column (`_lane_statements`): a matrix among
-    them."""
-    return any(m.cols > 1 for _, m in p.outputs)
+def _vector_statements(item) -> list[str]:
+    """The lane loop's statements of one `sincos_pairs` item: as `c`'s, with the vector
+    sin/cos/sign, and `bad += outside_(x)` for every sin/cos argument x."""
+    x, a, b = item
+    if x is None:
+        return _trig_checks(b) + [f"        const double {a.name} = {_vector_text(b)};"]
+    x = _vector_text(x)
+    return [
+        f"        double {a.name}, {b.name};",
+        f"        bad += outside_({x});",
+        f"        sincosv_({x}, &{a.name}, &{b.name});",
+    ]
 
 
 def _trig_checks(e) -> list[str]:
@@ -66,37 +59,14 @@ def _vector_store(o: str, k: int, e) -> list[str]:
 
 
 def _lane_statements(p: Program) -> list[str]:
-    """The lane loop's statements (`_vector_assignments`).  With a matrix among the outputs, they
-    are computed output by output, the outputs taken column by column (a Jacobian's joint after
-    joint), each stored into its block as soon as its last operand is computed: a column's values
-    then die with it, not at the loop's end.  Talos' centroidal kernel holds 269 values live at
-    most instead of 493 and runs 166 → 131 ns a state in the caches on one thread (either change
-    alone: 171 or 196 ns).  Vectors keep the program's order, their stores at the end (in this
-    order Talos' τ kernel ran 147 → 176 ns)."""
-    if not _by_columns(p):
-        stores = [line for o, m in p.outputs for k, e in enumerate(m) for line in _vector_store(o, k, e)]
-        return _vector_assignments(p.assignments) + stores
-    nodes = dict(p.assignments)
-    outs = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
-    outs.sort(key=lambda t: t[:3])
-    ends: list[int] = []
-    order = evaluation_order(nodes, [e for *_, e in outs], ends)
-    stores: dict[int, list[str]] = {}
-    for at, (*_, o, k, e) in zip(ends, outs):
-        stores.setdefault(at, []).extend(_vector_store(o, k, e))
-    item = {}
-    for x, a, b in sincos_pairs([(s, nodes[s]) for s in order]):  # a sin/cos pair: where the first stood
-        if x is None:
-            item[a] = [(a, b)]
-        else:
-            item[a] = item[b] = [(a, nodes[a]), (b, nodes[b])]
-    lines, done = stores.pop(0, []), set()
-    for at, s in enumerate(order, 1):
-        if s not in done:
-            done.update(a for a, _ in item[s])
-            lines += _vector_assignments(item[s])
-        lines += stores.pop(at, [])
-    return lines
+    """The lane loop's statements in `schedule`'s order: a kernel of matrix outputs stores each
+    entry into its block as soon as its operands are computed, the matrices column by column."""
+    plan = schedule(p)
+    lines = [line for o, k, e in plan.head for line in _vector_store(o, k, e)]
+    for step in plan.steps:
+        lines += _vector_statements(step.item)
+        lines += [line for o, k, e in step.stores for line in _vector_store(o, k, e)]
+    return lines + [line for o, k, e in plan.tail for line in _vector_store(o, k, e)]
 
 
 def _balanced_sum(terms: list[str]) -> str:
@@ -158,7 +128,7 @@ def simd_source(model: str, p: Program, sig, prototype: str) -> str:
     ins = [(a, syms) for a, syms in p.inputs]
     if sum(len(syms) for _, syms in ins) + sum(math.prod(sh) for _, sh in sig.outputs) > LANE_REFERENCES:
         return _loop_source(f, ins, sig, prototype)
-    ahead = _by_columns(p)  # a kernel of matrix outputs: its blocks' output lines asked for ahead
+    ahead = by_columns(p)  # a kernel of matrix outputs: its blocks' output lines asked for ahead
     body = [
         f"static int {f}_lanes(long i0, int m, "
         + ", ".join([f"const double *{a}" for a, _ in ins] + [f"double *{o}" for o, _ in sig.outputs])

@@ -286,6 +286,29 @@ static PyObject *given_out(const spec_t *s, PyObject *outarg, int j, int nd, con
     return o;
 }
 
+/* 0 when no out= array shares memory with an input, else -1 with a ValueError naming the
+   first pair: a function stores a matrix's entries as it computes them, before it has read
+   every input (symdyn.codegen.emit.schedule). */
+static int separate(const spec_t *s, PyObject *const *args, PyObject *const *out)
+{
+    int i, j;
+    for (j = 0; j < s->nout; ++j) {
+        const char *o = PyArray_BYTES((PyArrayObject *)out[j]);
+        const npy_intp on = PyArray_NBYTES((PyArrayObject *)out[j]);
+        for (i = 0; i < s->nin; ++i) {
+            const char *x = PyArray_BYTES((PyArrayObject *)args[i]);
+            const npy_intp xn = PyArray_NBYTES((PyArrayObject *)args[i]);
+            if (on > 0 && xn > 0 && o < x + xn && x < o + on) {
+                PyErr_Format(PyExc_ValueError, "%s(): out%s shares memory with the input %S: give it an array of "
+                             "its own", s->cname, s->nout > 1 ? "[k]" : "",
+                             PyTuple_GET_ITEM(PyTuple_GET_ITEM(s->inputs, i), 0));
+                return -1;
+            }
+        }
+    }
+    return 0;
+}
+
 /* One output array per output, shaped leading + its own shape (or the caller's out=);
    single or batched call (threads= threads, default: the cores this process may use). */
 static PyObject *call(spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObject *kwnames)
@@ -330,6 +353,8 @@ static PyObject *call(spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObje
             goto done;
         pout[j] = (double *)PyArray_DATA((PyArrayObject *)out[j]);
     }
+    if (outarg && separate(s, args, out) < 0)
+        goto done;
     for (i = 0; i < s->nin; ++i)
         all[i] = pin[i];
     for (j = 0; j < s->nout; ++j)

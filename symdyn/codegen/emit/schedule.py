@@ -1,0 +1,102 @@
+"""The order a C function computes its values and stores its outputs in, shared by the scalar
+functions (`c`) and the SIMD kernels (`csimd`).
+
+A program whose outputs include a matrix is computed output entry by output entry, the matrices
+taken column by column (a Jacobian joint after joint, A_G's six rows of a joint together), each
+entry stored as soon as its operands are computed: a column's values then die with it instead of
+living to the function's end, where gcc, which does not reorder a long straight-line block to
+spare registers, spills them.  Talos' centroidal SIMD kernel held 269 values live at most, not
+493 (166 → 131 ns a state); its scalar `centroidal_map` runs in 336 ns a call, not 488 (one
+function, no parts; `scripts/schedule_ab.py`).  A program of vectors only keeps its own order and
+stores at its end (in the column order Talos' τ kernel ran 147 → 176 ns).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ...derivation.program import Program, evaluation_order
+from . import sincos_pairs
+
+__all__ = ["Step", "Schedule", "schedule", "by_columns", "defined", "peak_live"]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One `sincos_pairs` item (None, symbol, expression) or (x, sin symbol, cos symbol), and the
+    output entries (output name, flat index, expression) stored right after it."""
+
+    item: tuple
+    stores: tuple = ()
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """head: the entries stored before any assignment (constants); steps; tail: the entries
+    stored after the last step (a program of vectors: all of them)."""
+
+    head: tuple
+    steps: tuple
+    tail: tuple
+
+
+def by_columns(p: Program) -> bool:
+    """Whether a program is computed output entry by entry (`schedule`): a matrix among its outputs."""
+    return any(m.cols > 1 for _, m in p.outputs)
+
+
+def defined(item) -> list:
+    """The symbols a `sincos_pairs` item defines."""
+    x, a, b = item
+    return [a] if x is None else [a, b]
+
+
+def schedule(p: Program) -> Schedule:
+    """The program's steps and stores (module docstring), the matrices' entries in the order of
+    `_ORDERS` that holds the fewest values live at once; deterministic."""
+    if not by_columns(p):
+        steps = tuple(Step(item) for item in sincos_pairs(p.assignments))
+        return Schedule((), steps, tuple((o, k, e) for o, m in p.outputs for k, e in enumerate(m)))
+    entries = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
+    plans = [_entry_schedule(p, sorted(entries, key=key)) for key in _ORDERS]
+    return min(plans, key=peak_live)  # the first of equals: by columns
+
+
+#: The orders of the output entries tried, each key of (column, output, row, name, flat index, expression):
+#: column by column across the outputs (a Jacobian's joint after joint, A_G's six rows of a joint
+#: with the centre of mass's three), and output after output in storage order (a frame's pose, then
+#: the next frame's).  Fewest live values picked: Talos' `centroidal_map` 269 by columns, 495 by
+#: entries (381 against 545 ns a call); Solo 12's `frame_kinematics` 191 and 116 (160 against 131 ns).
+_ORDERS = (lambda t: t[:3], lambda t: (t[1], t[4]))
+
+
+def _entry_schedule(p: Program, entries: list) -> Schedule:
+    """The steps that compute `entries` in their order, each stored right after the step that
+    completes its operands."""
+    nodes = dict(p.assignments)
+    order = evaluation_order(nodes, [e for *_, e in entries])
+    items = list(sincos_pairs([(s, nodes[s]) for s in order]))  # a sin/cos pair where the first stood
+    step_of = {sym: i for i, item in enumerate(items) for sym in defined(item)}
+    head: list = []
+    attached: list[list] = [[] for _ in items]
+    for *_, o, k, e in entries:
+        after = [step_of[s] for s in e.free_symbols if s in step_of]
+        (attached[max(after)] if after else head).append((o, k, e))
+    return Schedule(tuple(head), tuple(Step(item, tuple(a)) for item, a in zip(items, attached)), ())
+
+
+def peak_live(plan: Schedule) -> int:
+    """The most values a schedule holds at once: each assigned value from its step to the last
+    step or store that reads it."""
+    last: dict = {}
+    for i, step in enumerate(plan.steps):
+        x, a, b = step.item
+        for sym in (b if x is None else x).free_symbols | {s for *_, e in step.stores for s in e.free_symbols}:
+            last[sym] = i
+    live: set = set()
+    most = 0
+    for i, step in enumerate(plan.steps):
+        live.update(sym for sym in defined(step.item) if last.get(sym, -1) > i)
+        most = max(most, len(live))
+        live = {sym for sym in live if last[sym] > i}
+    return most
