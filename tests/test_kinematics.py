@@ -73,3 +73,44 @@ def test_symbolic_dh_angles_are_a_clear_error_for_lagrange():
         derive(robot, "lagrange", cache=False)
     dyn = derive(robot, "newton-euler", cache=False)  # Newton–Euler handles it
     assert dyn.M.free_symbols >= {alpha}
+
+
+def test_a_joints_turn_of_an_inertia_is_r_j_rt_by_the_double_angle_where_it_can():
+    """turned_inertia gives R·J·Rᵀ for every joint rotation: a turn about x, y or z, after or
+    before a signed permutation (a URDF's right-angle rpy, standard DH's α = π/2), by the double
+    angle (it names C2); an offset angle or a general constant rotation by the plain product."""
+    import numpy as np
+    import sympy as sp
+
+    from symdyn.derivation.kinematics import turned_inertia
+    from symdyn.derivation.tape import Tape
+
+    q = sp.Symbol("q", real=True)
+    c, s = sp.cos(q), sp.sin(q)
+    turns = [
+        sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        sp.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    ]
+    P = sp.Matrix([[0, 0, 1], [1, 0, 0], [0, 1, 0]])  # rpy (π/2, 0, π/2)
+    Rx = sp.Matrix([[1, 0, 0], [0, 0, -1], [0, 1, 0]])  # DH's α = π/2
+    general = sp.Matrix(
+        [[sp.Rational(3, 5), sp.Rational(-4, 5), 0], [sp.Rational(4, 5), sp.Rational(3, 5), 0], [0, 0, 1]]
+    )
+    co, so = sp.Rational(3, 5), sp.Rational(4, 5)  # an offset angle, as link_frames writes it
+    ct, st = c * co - s * so, s * co + c * so
+    offset = sp.Matrix([[ct, -st, 0], [st, ct, 0], [0, 0, 1]])
+    cases = [(T, True) for T in turns] + [(P * turns[0], True), (turns[2] * Rx, True), (offset, False)]
+    cases += [(general * turns[1], False)]
+    rng = np.random.default_rng(3)
+    names = sp.symbols("J11 J12 J13 J22 J23 J33", real=True)
+    J = [[names[0], names[1], names[2]], [names[1], names[3], names[4]], [names[2], names[4], names[5]]]
+    for k, (R, cheap) in enumerate(cases):
+        tape = Tape()
+        got = sp.Matrix(turned_inertia(tape, R, J, f"t{k}"))
+        assert any(str(x).startswith("C2_") for x in tape.defs) == cheap, (k, R)
+        for _ in range(3):
+            at = dict(zip(names, rng.normal(size=6))) | {q: rng.uniform(-4, 4)}
+            want = np.array((R * sp.Matrix(J) * R.T).subs(at), dtype=float)
+            value = np.array(tape.full(got).subs(at), dtype=float)
+            assert np.abs(value - want).max() <= 1e-14 * max(1.0, np.abs(want).max()), (k, R)

@@ -20,7 +20,9 @@ against Pinocchio's per-call time.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import subprocess
 import time
 from dataclasses import dataclass
@@ -121,7 +123,7 @@ CASES = {
 }
 
 #: Where each input of a generated function lies in a state of the harness's file (q, v, a, τ).
-_STATE = {"q": "Q", "v": "V", "a": "A", "tau": "T", "v_before": "V"}
+_STATE = {"q": "Q", "v": "V", "a": "A", "tau": "T", "v_before": "V", "qd": "V", "qdd": "A"}
 
 
 def case_robot(case: Case) -> tuple[Robot, Path]:
@@ -185,9 +187,9 @@ def _check_lines(case: Case, sigs: dict, m: int) -> str:
     return check + "    }\n"
 
 
-def _harness_source(model: str, robot: Robot, case: Case, sigs: dict) -> str:
-    """A C harness timing one step of the case (its functions called in turn), then printing its
-    outputs at state 3 in pin_peer.cpp's layout (`_check_lines`)."""
+def _harness_source(model: str, robot: Robot, case: Case, sigs: dict, check: bool = True) -> str:
+    """A C harness timing one step of the case (its functions called in turn), then (`check`)
+    printing its outputs at state 3 in pin_peer.cpp's layout (`_check_lines`)."""
     from ..codegen.contact_functions import contact_count
 
     nq, nv, m = robot.nq, robot.nv, len(robot.task_frames)
@@ -240,22 +242,23 @@ int main(int argc, char **argv)
     printf("time step %.3f\\n", v[reps / 2]);
     k = 3; {calls}
     printf("check step");
-    {_check_lines(case, sigs, m)}    printf("\\n");
+    {_check_lines(case, sigs, m) if check else ""}    printf("\\n");
     (void)f; (void)sink;
     return 0;
 }}
 """
 
 
-def _symdyn_harness(robot: Robot, case: Case, log) -> Path:
-    """The harness compiled with the generated scalar C of the case's functions (cached by content)."""
+def _symdyn_harness(robot: Robot, case: Case, log, check: bool = True) -> Path:
+    """The harness compiled with the generated scalar C of the case's functions (cached by
+    content); `check`: it prints the outputs Pinocchio's are compared with."""
     from ..codegen import lazy
     from ..codegen.emit import identifier
 
     name = identifier(robot.name)
     sigs = {s.name: s for s in lazy.signatures(robot)}
     texts = {f"{f}.c": text for f, text in lazy.scalar_units(robot, case.functions).items()}
-    texts["task_harness.c"] = _harness_source(name, robot, case, sigs)
+    texts["task_harness.c"] = _harness_source(name, robot, case, sigs, check)
     return cached_program(f"task-{name}", texts, log=log)
 
 
@@ -303,6 +306,20 @@ def _batch_ns(robot: Robot, case: Case, count: int, threads: int | None) -> floa
     return 1e9 * best / count
 
 
+@contextlib.contextmanager
+def _fresh(binary: Path, folder: Path):
+    """A copy of a compiled program, removed after: each round runs from a new file, so from new
+    pages of memory.  Where a program's pages land moves its time (Talos' two centroidal calls: 770
+    ns from one file, 1 157 from another of the same bytes), so the rounds sample it, and the range
+    shows it, for Pinocchio's side and symdyn's alike."""
+    copy = folder / f"{binary.name}-{os.getpid()}-round"
+    shutil.copy(binary, copy)
+    try:
+        yield copy
+    finally:
+        copy.unlink(missing_ok=True)
+
+
 def bench_case(key: str, *, calls: int = 20000, reps: int = 7, rounds: int = 3, batch: int = 100_000, log=print):
     """Rows of one case (`CASES[key]`): per call, symdyn's generated C and Pinocchio's C++ on the
     same states in alternating rounds; per state over `batch` states on every core."""
@@ -317,9 +334,12 @@ def bench_case(key: str, *, calls: int = 20000, reps: int = 7, rounds: int = 3, 
         peer = pin_peer.peer_binary(log)
         symdyn_ns, peer_ns = [], []
         for r in range(rounds):
-            t, checks = pin_peer.run_peer(peer, arm, states, calls, reps, [case.algorithm])
+            with _fresh(peer, work) as peer_copy, _fresh(ours, work) as ours_copy:
+                t, checks = pin_peer.run_peer(peer_copy, arm, states, calls, reps, [case.algorithm])
+                run = subprocess.run(
+                    [str(ours_copy), str(states), str(calls), str(reps)], capture_output=True, text=True
+                )
             peer_ns.append(t[case.algorithm])
-            run = subprocess.run([str(ours), str(states), str(calls), str(reps)], capture_output=True, text=True)
             if run.returncode != 0:
                 raise RuntimeError(f"{ours} failed ({run.returncode}): {run.stderr.strip()}")
             t_ours, ours_checks = pin_peer.read_report(run.stdout)

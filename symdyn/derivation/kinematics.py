@@ -166,3 +166,69 @@ def jacob0(robot: Robot, q=None) -> sp.Matrix:
         else:
             J[:3, i] = v
     return J
+
+
+def _signed_permutation(M: sp.Matrix) -> bool:
+    return all(sum(1 for x in M.row(i) if x != 0) == 1 for i in range(3)) and all(x in (0, 1, -1) for x in M)
+
+
+def _turn(R: sp.Matrix) -> tuple | None:
+    """(a, i, j, c, s) when R is a turn about its axis a by the angle of cos c and sin s
+    (R[i][i] = R[j][j] = c, R[j][i] = −R[i][j] = s, (a, i, j) cyclic), else None."""
+    for a in range(3):
+        i, j = (a + 1) % 3, (a + 2) % 3
+        if R[a, a] == 1 and all(R[a, x] == 0 and R[x, a] == 0 for x in (i, j)):
+            c, s = R[i, i], R[j, i]
+            if c != 0 and s != 0 and sp.expand(R[j, j] - c) == 0 and sp.expand(R[i, j] + s) == 0:
+                return a, i, j, c, s
+    return None
+
+
+def turned_inertia(tape, R, J, label: str) -> list:
+    """R·J·Rᵀ of a symmetric J (its upper triangle read), R a joint's rotation, both 3×3 Matrices
+    or rows; as rows.
+
+    A revolute joint's R is P·Rot(a, q) or Rot(a, q)·P with P a signed permutation (a URDF
+    axis, DH's α of 0 or ±π/2): P only renames entries, and the turn changes one plane of J,
+    done with the double angle (cos 2q = c² − s², sin 2q = 2cs, named {label} C2, S2):
+    J'ᵢᵢ, J'ⱼⱼ = m ± t with m = (Jᵢᵢ + Jⱼⱼ)/2, d = (Jᵢᵢ − Jⱼⱼ)/2, t = d·C2 − Jᵢⱼ·S2, J'ᵢⱼ =
+    d·S2 + Jᵢⱼ·C2, and the axis's column turned as a vector: 22 operations against 27 for the
+    product (Talos' A_G: 3 639 → 3 529 operations).  Any other R: the product."""
+    R, given = sp.Matrix(R), sp.Matrix(J)
+    J = sp.Matrix(3, 3, lambda x, y: given[min(x, y), max(x, y)])
+    trig = {f for e in R for f in e.atoms(sp.cos, sp.sin)}
+    angles = {f.args[0] for f in trig}
+    if len(angles) == 1:
+        angle = angles.pop()
+        P = R.xreplace({sp.cos(angle): 1, sp.sin(angle): 0})
+        if _signed_permutation(P):
+            left = _turn((P.T * R).applyfunc(sp.expand))
+            right = None if left else _turn((R * P.T).applyfunc(sp.expand))
+            if left:
+                K = _turned(tape, J, *left, label)
+                return _rows(P * K * P.T)
+            if right:
+                return _rows(_turned(tape, P * J * P.T, *right, label))
+    RJ = R * J
+    return [[sp.Add(*(RJ[x, k] * R[y, k] for k in range(3))) for y in range(3)] for x in range(3)]
+
+
+def _turned(tape, J: sp.Matrix, a: int, i: int, j: int, c, s, label: str) -> sp.Matrix:
+    """Rot(a)·J·Rot(a)ᵀ by the double angle (`turned_inertia`)."""
+    C2 = tape.name(c * c - s * s, f"C2_{label}")
+    S2 = tape.name(2 * c * s, f"S2_{label}")
+    half = sp.Rational(1, 2)
+    mean = (J[i, i] + J[j, j]) * half
+    d = tape.name((J[i, i] - J[j, j]) * half, f"dJ{label}")
+    t = tape.name(d * C2 - J[i, j] * S2, f"tJ{label}")
+    out = sp.zeros(3, 3)
+    out[a, a] = J[a, a]
+    out[i, i], out[j, j] = mean + t, mean - t
+    out[i, j] = out[j, i] = d * S2 + J[i, j] * C2
+    out[i, a] = out[a, i] = c * J[i, a] - s * J[j, a]
+    out[j, a] = out[a, j] = s * J[i, a] + c * J[j, a]
+    return out
+
+
+def _rows(M: sp.Matrix) -> list:
+    return [[M[x, y] for y in range(3)] for x in range(3)]

@@ -26,7 +26,7 @@ import sympy as sp
 from ..model import Link, Robot
 from ..model.frames import Frame
 from . import floating
-from .kinematics import ancestors, link_frames
+from .kinematics import ancestors, link_frames, turned_inertia
 from .symbols import exact, joint_symbols
 from .tape import Tape
 
@@ -415,7 +415,7 @@ def _composites(tape: Tape, robot: Robot, links) -> tuple[list, tuple]:
         out[k] = (m, H, Jn)
         R, P = _rows(links[k].R), list(links[k].p)
         S = _times(R, H)
-        RJ = _matmul(R, Jn)
+        RJR = turned_inertia(tape, R, Jn, tag)
         PS, PP = sum(a * b for a, b in zip(P, S)), sum(a * a for a in P)
         parent = acc[links[k].parent]
         parent[0] = parent[0] + m
@@ -425,7 +425,7 @@ def _composites(tape: Tape, robot: Robot, links) -> tuple[list, tuple]:
                 shift = (
                     m * ((PP if i == j else 0) - P[i] * P[j]) + (2 * PS if i == j else 0) - S[i] * P[j] - P[i] * S[j]
                 )
-                value = parent[2][i][j] + sp.Add(*(RJ[i][x] * R[j][x] for x in range(3))) + shift
+                value = parent[2][i][j] + RJR[i][j] + shift
                 parent[2][i][j] = parent[2][j][i] = value
     m, H, J = acc[-1]
     return out, (m, tape.vector(H, "Hc0"), J)

@@ -7,7 +7,7 @@ entry stored as soon as its operands are computed: a column's values then die wi
 living to the function's end, where gcc, which does not reorder a long straight-line block to
 spare registers, spills them.  Talos' centroidal SIMD kernel held 269 values live at most, not
 493 (166 → 131 ns a state); its scalar `centroidal_map` runs in 336 ns a call, not 488 (one
-function, no parts; `scripts/schedule_ab.py`).  A program of vectors only keeps its own order and
+function, no parts; `scripts/scalar_calls.py`).  A program of vectors only keeps its own order and
 stores at its end (in the column order Talos' τ kernel ran 147 → 176 ns).
 """
 
