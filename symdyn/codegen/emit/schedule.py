@@ -13,6 +13,7 @@ stores at its end (in the column order Talos' τ kernel ran 147 → 176 ns).
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 from ...derivation.program import Program, evaluation_order
@@ -53,13 +54,24 @@ def defined(item) -> list:
 
 def schedule(p: Program) -> Schedule:
     """The program's steps and stores (module docstring), the matrices' entries in the order of
-    `_ORDERS` that holds the fewest values live at once; deterministic."""
+    `_ORDERS` that holds the fewest values live at once; deterministic.  Made once per program
+    (its scalar function and its SIMD kernel both ask)."""
+    found = _PLANS.get(id(p))
+    if found is not None and found[0]() is p:
+        return found[1]
     if not by_columns(p):
         steps = tuple(Step(item) for item in sincos_pairs(p.assignments))
-        return Schedule((), steps, tuple((o, k, e) for o, m in p.outputs for k, e in enumerate(m)))
-    entries = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
-    plans = [_entry_schedule(p, sorted(entries, key=key)) for key in _ORDERS]
-    return min(plans, key=peak_live)  # the first of equals: by columns
+        plan = Schedule((), steps, tuple((o, k, e) for o, m in p.outputs for k, e in enumerate(m)))
+    else:
+        entries = [(k % m.cols, i, k // m.cols, o, k, e) for i, (o, m) in enumerate(p.outputs) for k, e in enumerate(m)]
+        plans = [_entry_schedule(p, sorted(entries, key=key)) for key in _ORDERS]
+        plan = min(plans, key=peak_live)  # the first of equals: by columns
+    _PLANS[id(p)] = (weakref.ref(p, lambda _, key=id(p): _PLANS.pop(key, None)), plan)
+    return plan
+
+
+#: Each program's schedule while the program lives: id → (a weak reference to it, its schedule).
+_PLANS: dict[int, tuple] = {}
 
 
 #: The orders of the output entries tried, each key of (column, output, row, name, flat index, expression):
@@ -91,12 +103,19 @@ def peak_live(plan: Schedule) -> int:
     last: dict = {}
     for i, step in enumerate(plan.steps):
         x, a, b = step.item
-        for sym in (b if x is None else x).free_symbols | {s for *_, e in step.stores for s in e.free_symbols}:
+        for sym in (b if x is None else x).free_symbols:
             last[sym] = i
-    live: set = set()
-    most = 0
+        for *_, e in step.stores:
+            for sym in e.free_symbols:
+                last[sym] = i
+    change = [0] * (len(plan.steps) + 1)  # +1 where a value starts being held, −1 where it is let go
     for i, step in enumerate(plan.steps):
-        live.update(sym for sym in defined(step.item) if last.get(sym, -1) > i)
-        most = max(most, len(live))
-        live = {sym for sym in live if last[sym] > i}
+        for sym in defined(step.item):
+            if last.get(sym, -1) > i:
+                change[i] += 1
+                change[last[sym]] -= 1
+    most = held = 0
+    for delta in change:
+        held += delta
+        most = max(most, held)
     return most
