@@ -36,6 +36,8 @@ def main(argv=None) -> int:
     parser.add_argument("cases", nargs="+", help="functions, several joined by +")
     parser.add_argument("--copies", type=int, default=8)
     args = parser.parse_args(argv)
+    if args.copies < 1:
+        parser.error("--copies must be at least 1")
     base = task_bench.CASES[args.robot]
     robot, _ = task_bench.case_robot(base)
     states = write_states(

@@ -267,8 +267,8 @@ def test_an_input_only_the_trigonometric_loop_reads_is_not_called_unused():
 def test_a_matrix_is_stored_in_the_order_that_holds_fewest_values():
     """Two 2 × 2 outputs, one of sums over x1…x6 and a value of each column, the other over y1…y6:
     taken column by column across them both sets are live at once, output after output one at a
-    time, so that order is chosen; its entries are stored as they are computed (A's before any y
-    is), and a program of vectors keeps its order, its stores at the end."""
+    time, so that order is chosen; its entries are stored as they are computed (all of A's before
+    any of B's), and a program of vectors keeps its order, its stores at the end."""
     import sympy as sp
 
     from symdyn.codegen.emit.schedule import _ORDERS, _entry_schedule, peak_live, schedule
@@ -290,3 +290,58 @@ def test_a_matrix_is_stored_in_the_order_that_holds_fewest_values():
     vector = make_program("v", [("q", q)], [("y", sp.Matrix(xs))])
     plan = schedule(vector)
     assert not any(step.stores for step in plan.steps) and [k for _, k, _ in plan.tail] == list(range(6))
+
+
+def test_peak_live_holds_a_value_from_its_step_through_the_last_that_reads_it():
+    """a = q1², b = a + 1, c = a·b, d = c + q2 and stores of c and d: a and b are held through c's
+    step, where c starts (3); c through d's step and its store; a value a store of its own step
+    alone reads is not held."""
+    import sympy as sp
+
+    from symdyn.codegen.emit.schedule import Schedule, Step, peak_live
+
+    q1, q2, a, b, c, d = sp.symbols("q1 q2 a b c d")
+    steps = (
+        Step((None, a, q1**2)),
+        Step((None, b, a + 1)),
+        Step((None, c, a * b), (("y", 0, c),)),
+        Step((None, d, c + q2), (("y", 1, d + c),)),
+    )
+    assert peak_live(Schedule((), steps, ())) == 3
+    unused = (Step((None, a, q1**2)), Step((None, b, q2**2)), Step((None, c, a + b), (("y", 0, c),)))
+    assert peak_live(Schedule((), unused, ())) == 2  # a and b, both read at c's step
+
+
+@pytest.mark.parametrize("split", [False, True])
+@pytest.mark.parametrize("memset", [4, 10**9])
+def test_a_matrixs_zeros_and_entries_are_written_into_any_buffer_whole_or_in_parts(
+    tmp_path, monkeypatch, split, memset
+):
+    """A 4 × 5 matrix of 6 exact zeros, constants, an input alone and products, and a vector: every
+    entry written over a NaN-filled out=, zeros by memset or one by one, in one function or in parts
+    of 3 steps (each part storing what it completes), as sympy evaluates them."""
+    import sympy as sp
+
+    from symdyn.derivation.program import make_program
+    from symdyn.derivation.symbols import joint_symbols
+
+    monkeypatch.setenv("SYMDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(c_emit, "MEMSET_MIN", memset)
+    if split:
+        monkeypatch.setattr(c_emit, "SPLIT_ABOVE", 3)
+        monkeypatch.setattr(c_emit, "PART_SIZE", 3)
+    q = joint_symbols(3)[0]
+    s1, c2 = sp.sin(q[0]), sp.cos(q[1])
+    cells = [s1 * c2, 0, q[2], sp.Rational(3, 2), s1 + q[2] * c2, 0, c2**2, 0, s1 * q[1], 1, 0, q[0] * q[1] * q[2]]
+    cells += [s1 - c2, 0, 0, s1 * c2 * q[2], c2 + 2, q[1] ** 2, 5 * s1, sp.sqrt(q[2] ** 2 + 1)]
+    M, v = sp.Matrix(4, 5, cells), sp.Matrix([s1 * q[2], c2 - q[0]])
+    program = make_program("mix", [("q", q)], [("M", M), ("v", v)])
+    text, lib = _compiled(tmp_path, f"mix{int(split)}{memset}", program)
+    assert ("_mix_part2(" in text) == split and ("memset(M" in text) == (memset == 4)
+    f = sp.lambdify(q, [M, v], "numpy")
+    for x in np.random.default_rng(5).uniform(-2, 2, (4, 3)):
+        out = (np.full((4, 5), np.nan), np.full(2, np.nan))
+        got = lib.functions["mix"](x, out=out)
+        want = f(*x)
+        assert np.abs(got[0] - np.array(want[0], dtype=float)).max() <= 1e-15
+        assert np.abs(got[1] - np.array(want[1], dtype=float).ravel()).max() <= 1e-15

@@ -76,9 +76,10 @@ def test_symbolic_dh_angles_are_a_clear_error_for_lagrange():
 
 
 def test_a_joints_turn_of_an_inertia_is_r_j_rt_by_the_double_angle_where_it_can():
-    """turned_inertia gives R·J·Rᵀ for every joint rotation: a turn about x, y or z, after or
-    before a signed permutation (a URDF's right-angle rpy, standard DH's α = π/2), by the double
-    angle (it names C2); an offset angle or a general constant rotation by the plain product."""
+    """turned_inertia gives R·J·Rᵀ for every joint rotation: a turn about x, y or z, after a
+    signed permutation (a URDF's right-angle rpy) or before one (standard DH's Rz(q)·Rx(π/2)), by
+    the double angle (it names C2); an offset angle or a general constant rotation by the plain
+    product."""
     import numpy as np
     import sympy as sp
 

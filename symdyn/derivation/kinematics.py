@@ -189,7 +189,8 @@ def turned_inertia(tape, R, J, label: str) -> list:
     or rows; as rows.
 
     A revolute joint's R is P·Rot(a, q) or Rot(a, q)·P with P a signed permutation (a URDF
-    axis, DH's α of 0 or ±π/2): P only renames entries, and the turn changes one plane of J,
+    axis, DH's α of 0 or ±π/2; the second is P·Rot(b, q) too, b = Pᵀa, so Pᵀ·R is always the
+    turn): P only renames entries, and the turn changes one plane of J,
     done with the double angle (cos 2q = c² − s², sin 2q = 2cs, named {label} C2, S2):
     J'ᵢᵢ, J'ⱼⱼ = m ± t with m = (Jᵢᵢ + Jⱼⱼ)/2, d = (Jᵢᵢ − Jⱼⱼ)/2, t = d·C2 − Jᵢⱼ·S2, J'ᵢⱼ =
     d·S2 + Jᵢⱼ·C2, and the axis's column turned as a vector: 22 operations against 27 for the
@@ -201,14 +202,9 @@ def turned_inertia(tape, R, J, label: str) -> list:
     if len(angles) == 1:
         angle = angles.pop()
         P = R.xreplace({sp.cos(angle): 1, sp.sin(angle): 0})
-        if _signed_permutation(P):
-            left = _turn((P.T * R).applyfunc(sp.expand))
-            right = None if left else _turn((R * P.T).applyfunc(sp.expand))
-            if left:
-                K = _turned(tape, J, *left, label)
-                return _rows(P * K * P.T)
-            if right:
-                return _rows(_turned(tape, P * J * P.T, *right, label))
+        turn = _turn((P.T * R).applyfunc(sp.expand)) if _signed_permutation(P) else None
+        if turn:
+            return _rows(P * _turned(tape, J, *turn, label) * P.T)
     RJ = R * J
     return [[sp.Add(*(RJ[x, k] * R[y, k] for k in range(3))) for y in range(3)] for x in range(3)]
 

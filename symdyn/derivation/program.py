@@ -644,11 +644,10 @@ def _drop_aliases(nodes: dict, outs: list, named: set) -> tuple[dict, list]:
     return kept, [e.xreplace(alias) for e in outs]
 
 
-def evaluation_order(nodes: dict, roots: list, ends: list | None = None) -> list:
+def evaluation_order(nodes: dict, roots: list) -> list:
     """Depth-first post-order from the roots (the outputs), in their order: every symbol after
     its operands, each computed just before its first use (deterministic: operands in print
-    order).  `ends`, when given, receives for each root the length of the order once its
-    operands are all in it."""
+    order)."""
     order, done = [], set()
 
     def operands(expr):
@@ -667,8 +666,6 @@ def evaluation_order(nodes: dict, roots: list, ends: list | None = None) -> list
                 if node is not None and node not in done:
                     done.add(node)
                     order.append(node)
-        if ends is not None:
-            ends.append(len(order))
     return order
 
 

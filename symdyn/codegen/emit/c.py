@@ -15,7 +15,9 @@ outside |x| < 1e5 (or NaN) is recomputed by the scalar function, so the
 kernel's results are the scalar function's whatever n and the thread count.
 Matrices are row-major (`double M[36]`).  The header lists each function's
 signature in a machine-readable comment (`function: M(q: 6) -> M: 6x6`), which
-`symdyn.codegen.emit.clib` reads to bind the compiled library to Python.
+`symdyn.codegen.emit.clib` reads to bind the compiled library to Python.  An output
+must not overlap an input: a matrix's entries are stored as they are computed
+(`schedule`), before every input is read.
 """
 
 from __future__ import annotations
@@ -362,6 +364,8 @@ def h_source(bundle: Bundle) -> str:
         + [
             "",
             "Matrices are row-major; *_batch loops over n states stored contiguously;",
+            "an output must not overlap an input (a matrix's entries are stored as they",
+            "are computed, before every input is read);",
             "*_simd runs SYMDYN_W states per SIMD instruction on `threads` threads,",
             "with the results of the scalar function, and returns nonzero when an",
             "input is NaN or infinite (the outputs are then unspecified).",
@@ -460,11 +464,11 @@ def _used(item) -> set:
     return (b if x is None else x).free_symbols
 
 
-def _step_lines(steps, reads: dict, zeroed: set, first: int = 0) -> list[str]:
-    """The statements of `schedule` steps (item `first + i` read from the trigonometric loop
-    where `reads` has it), each followed by its stores."""
+def _step_lines(steps, reads: dict, zeroed: set) -> list[str]:
+    """The statements of `schedule` steps (item i read from the trigonometric loop where `reads`
+    has it), each followed by its stores."""
     lines = []
-    for i, step in enumerate(steps, first):
+    for i, step in enumerate(steps):
         lines += reads[i] if i in reads else _statements(step.item)
         lines += _store_lines(step.stores, zeroed)
     return lines
@@ -616,8 +620,9 @@ def single_source(
             if not read and not re.search(rf"\b{a}\b", text):  # not even by the trigonometric loop
                 body.append(f"    (void){a};  /* unused: this {p.name} does not depend on {a} */")
             near += read
-        # a matrix's entries are stored as they are computed: each coordinate read where first used
-        # (the caller's outputs never overlap its inputs: `contract.separate`), not all held from the top
+        # a matrix's entries are stored as they are computed: each coordinate read where first used,
+        # not all held from the top (outputs never overlap inputs: the header says so, and the
+        # bindings refuse such an out=, `clib.check_out` and glue.c's `separate`)
         body += _near_use(near, program) if early else near + program
     doc = f"/* {p.doc} */\n" if p.doc else ""
     return parts + f"{doc}{qualifier}{'static ' if static else ''}{single}\n{{\n" + "\n".join(body) + "\n}\n"

@@ -208,7 +208,9 @@ class CudaFunction:
         for (o, _), view in zip(sig.outputs, outs if out is not None else ()):
             for (a, _), x in zip(sig.inputs, flat):  # a matrix's entries are stored as they are computed
                 if cp.may_share_memory(view, x):
-                    raise ValueError(f"{sig.name}(): out= for {o} shares memory with the input {a}: give it its own")
+                    raise ValueError(
+                        f"{sig.name}(): out= for {o} shares memory with the input {a}: give it an array of its own"
+                    )
         if n:
             bad = cp.zeros(1, dtype=cp.int32)
             self.run(n, flat, outs, bad)

@@ -6,9 +6,10 @@ taken column by column (a Jacobian joint after joint, A_G's six rows of a joint 
 entry stored as soon as its operands are computed: a column's values then die with it instead of
 living to the function's end, where gcc, which does not reorder a long straight-line block to
 spare registers, spills them.  Talos' centroidal SIMD kernel held 269 values live at most, not
-493 (166 → 131 ns a state); its scalar `centroidal_map` runs in 336 ns a call, not 488 (one
-function, no parts; `scripts/scalar_calls.py`).  A program of vectors only keeps its own order and
-stores at its end (in the column order Talos' τ kernel ran 147 → 176 ns).
+493 (166 → 131 ns a state, docs/task_space.md); its scalar `centroidal_map` runs in 378 ns a
+call, not 565 (`scripts/scalar_calls.py`).  A program of vectors only keeps its own order and
+stores at its end (in the column order Talos' τ kernel ran 147 → 176 ns).  A caller's outputs
+must not overlap its inputs: entries are stored before every input is read.
 """
 
 from __future__ import annotations
@@ -77,8 +78,8 @@ _PLANS: dict[int, tuple] = {}
 #: The orders of the output entries tried, each key of (column, output, row, name, flat index, expression):
 #: column by column across the outputs (a Jacobian's joint after joint, A_G's six rows of a joint
 #: with the centre of mass's three), and output after output in storage order (a frame's pose, then
-#: the next frame's).  Fewest live values picked: Talos' `centroidal_map` 269 by columns, 495 by
-#: entries (381 against 545 ns a call); Solo 12's `frame_kinematics` 191 and 116 (160 against 131 ns).
+#: the next frame's).  Fewest live values picked: Talos' `centroidal_map` 272 by columns, 491 by
+#: outputs (381 against 545 ns a call); Solo 12's `frame_kinematics` 191 and 116 (160 against 131).
 _ORDERS = (lambda t: t[:3], lambda t: (t[1], t[4]))
 
 
@@ -113,7 +114,7 @@ def peak_live(plan: Schedule) -> int:
         for sym in defined(step.item):
             if last.get(sym, -1) > i:
                 change[i] += 1
-                change[last[sym]] -= 1
+                change[last[sym] + 1] -= 1  # held through the step that last reads it
     most = held = 0
     for delta in change:
         held += delta

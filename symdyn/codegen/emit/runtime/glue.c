@@ -21,6 +21,7 @@
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>
 #include <limits.h>
+#include <stdint.h>
 #include <math.h>
 #include <string.h>
 
@@ -293,12 +294,12 @@ static int separate(const spec_t *s, PyObject *const *args, PyObject *const *out
 {
     int i, j;
     for (j = 0; j < s->nout; ++j) {
-        const char *o = PyArray_BYTES((PyArrayObject *)out[j]);
+        const uintptr_t o = (uintptr_t)PyArray_BYTES((PyArrayObject *)out[j]);
         const npy_intp on = PyArray_NBYTES((PyArrayObject *)out[j]);
         for (i = 0; i < s->nin; ++i) {
-            const char *x = PyArray_BYTES((PyArrayObject *)args[i]);
+            const uintptr_t x = (uintptr_t)PyArray_BYTES((PyArrayObject *)args[i]);
             const npy_intp xn = PyArray_NBYTES((PyArrayObject *)args[i]);
-            if (on > 0 && xn > 0 && o < x + xn && x < o + on) {
+            if (on > 0 && xn > 0 && o < x + (uintptr_t)xn && x < o + (uintptr_t)on) {
                 PyErr_Format(PyExc_ValueError, "%s(): out%s shares memory with the input %S: give it an array of "
                              "its own", s->cname, s->nout > 1 ? "[k]" : "",
                              PyTuple_GET_ITEM(PyTuple_GET_ITEM(s->inputs, i), 0));
