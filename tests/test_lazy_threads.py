@@ -97,3 +97,34 @@ def test_a_background_derivation_failure_is_raised_by_the_first_call(tmp_path, m
         with pytest.raises(ValueError, match="the derivation broke"):
             model.tau(z, z, z)
     assert calls == [robot.name]  # derived once, on the background thread; raised, not re-derived
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX's")
+def test_a_fork_waits_while_a_lock_file_is_being_opened_or_closed():
+    """A thread between opening a build lock's file and registering it (or unregistering and
+    closing it) holds `_HELD_LOCK`: a fork then waits, so the child never inherits a lock file it
+    does not know to close; the child gets a free lock of its own."""
+    from symdyn.derivation import cache
+
+    inside, release = threading.Event(), threading.Event()
+
+    def opening() -> None:
+        with cache._HELD_LOCK:
+            inside.set()
+            release.wait(5)
+
+    thread = threading.Thread(target=opening)
+    thread.start()
+    inside.wait(5)
+    threading.Timer(0.3, release.set).start()
+    start = time.monotonic()
+    pid = os.fork()
+    if pid == 0:
+        os._exit(0 if cache._HELD_LOCK.acquire(timeout=1) else 4)
+    waited = time.monotonic() - start
+    _, status = os.waitpid(pid, 0)
+    thread.join(5)
+    assert waited >= 0.25, waited
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, status
+    assert cache._HELD_LOCK.acquire(timeout=1)  # the parent's is free again after the fork
+    cache._HELD_LOCK.release()

@@ -158,20 +158,22 @@ def build_lock(path: Path):
 
         folder = Path(tempfile.gettempdir()) / f"symdyn-locks-{os.getuid()}"
         folder.mkdir(mode=0o700, exist_ok=True)
-        handle = open(folder / f"{hashlib.sha256(str(path).encode()).hexdigest()[:32]}.lock", "a")
+        with _HELD_LOCK:  # opened and registered with no fork between (`_fresh_locks_in_child`)
+            handle = open(folder / f"{hashlib.sha256(str(path).encode()).hexdigest()[:32]}.lock", "a")
+            _HELD.add(handle)
     except (ImportError, AttributeError, OSError):
         yield
         return
-    with handle:
-        _HELD.add(handle)
+    try:
         try:
-            try:
-                fcntl.flock(handle, fcntl.LOCK_EX)
-            except OSError:
-                pass
-            yield
-        finally:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except OSError:
+            pass
+        yield
+    finally:
+        with _HELD_LOCK:  # unregistered and closed with no fork between
             _HELD.discard(handle)
+            handle.close()
 
 
 def cached(kind: str, entry_key: str, build: Callable[[], Any], *, use_cache: bool = True) -> tuple[Any, bool]:
@@ -210,11 +212,17 @@ def fork_safe(obj: object, attribute: str) -> None:
 
 #: The lock files this process holds now (`build_lock`): a forked child closes its copies, else
 #: the lock (shared by parent and child through the inherited descriptor) outlives the parent's
-#: release and the child waits on itself forever.
+#: release and the child waits on itself forever.  `_HELD_LOCK` keeps a fork out of the moments
+#: between a file's opening and its registration, and between its unregistration and closing: a
+#: child forked there kept a copy it never closed (a test's child waited 60 s on itself once, on
+#: a loaded machine).
 _HELD: set = set()
+_HELD_LOCK = threading.Lock()
 
 
 def _fresh_locks_in_child() -> None:
+    global _HELD_LOCK
+    _HELD_LOCK = threading.Lock()  # the parent's, taken for the fork, is not released here
     for obj, attribute in list(_FORK_SAFE.items()):
         setattr(obj, attribute, threading.RLock())
     for handle in list(_HELD):
@@ -225,4 +233,12 @@ def _fresh_locks_in_child() -> None:
     _HELD.clear()
 
 
-os.register_at_fork(after_in_child=_fresh_locks_in_child)
+def _before_fork() -> None:
+    _HELD_LOCK.acquire()
+
+
+def _after_fork_in_parent() -> None:
+    _HELD_LOCK.release()
+
+
+os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_in_parent, after_in_child=_fresh_locks_in_child)
