@@ -517,6 +517,8 @@ def _parts(model: str, p: Program, qualifier: str = "", size: int | None = None)
         ]
         body = _near_use(reads, loop + statements)
         body += [f"    w_[{slot[sym]}] = {sym.name};" for step in block for sym in defined(step.item) if sym in slot]
+        named = set(re.findall(r"\b[A-Za-z_]\w*", "\n".join(body)))  # a parameter the part leaves alone: said so
+        body = [f"    (void){x};" for x in [a for a, _ in p.inputs] + outs + ["w_"] if x not in named] + body
         name = f"{model}_{p.name}_part{k + 1}"
         source.append(f"{qualifier}static SYMDYN_NOINLINE void {name}({params})\n{{\n" + "\n".join(body) + "\n}\n")
         calls.append(f"    {name}({', '.join([a for a, _ in p.inputs] + outs + ['w_'])});")
