@@ -204,7 +204,7 @@ def turned_inertia(tape, R, J, label: str) -> list:
         P = R.xreplace({sp.cos(angle): 1, sp.sin(angle): 0})
         turn = _turn((P.T * R).applyfunc(sp.expand)) if _signed_permutation(P) else None
         if turn:
-            return _rows(P * _turned(tape, J, *turn, label) * P.T)
+            return rows(P * _turned(tape, J, *turn, label) * P.T)
     RJ = R * J
     return [[sp.Add(*(RJ[x, k] * R[y, k] for k in range(3))) for y in range(3)] for x in range(3)]
 
@@ -226,5 +226,6 @@ def _turned(tape, J: sp.Matrix, a: int, i: int, j: int, c, s, label: str) -> sp.
     return out
 
 
-def _rows(M: sp.Matrix) -> list:
-    return [[M[x, y] for y in range(3)] for x in range(3)]
+def rows(M: sp.Matrix) -> list:
+    """A matrix as a list of its rows (lists of entries)."""
+    return [[M[i, j] for j in range(M.cols)] for i in range(M.rows)]

@@ -26,7 +26,7 @@ import sympy as sp
 from ..model import Link, Robot
 from ..model.frames import Frame
 from . import floating
-from .kinematics import ancestors, link_frames, turned_inertia
+from .kinematics import ancestors, link_frames, rows, turned_inertia
 from .symbols import exact, joint_symbols
 from .tape import Tape
 
@@ -187,10 +187,6 @@ def _matmul(A, B) -> list:
     return [[sp.Add(*(A[i][k] * B[k][j] for k in range(3))) for j in range(3)] for i in range(3)]
 
 
-def _rows(M) -> list:
-    return [[M[i, j] for j in range(M.cols)] for i in range(M.rows)]
-
-
 # --------------------------------------------------------------------------- the recursion
 
 
@@ -228,7 +224,7 @@ def _base(tape: Tape, robot: Robot) -> tuple[_Body, list[_Column], tuple, tuple,
     if kind is None:
         return _Body(Rb, pb, zero, zero, zero, zero), [], (), (), ()
     qb, vb, ab = floating.base_symbols(kind)
-    R = _rot(tape, _matmul(Rb, _rows(floating.base_rotation(kind, qb))), "R0")
+    R = _rot(tape, _matmul(Rb, rows(floating.base_rotation(kind, qb))), "R0")
     place = [qb[0], qb[1], qb[2] if kind == "free" else 0]
     o = tape.vector(_plus(pb, _times(Rb, place)), "o0")
     lin, ang = floating.spatial(kind, vb)
@@ -263,7 +259,7 @@ def task_space(robot: Robot, frames: tuple[Frame, ...] | None = None) -> TaskSpa
     for k, f in enumerate(links):
         p = base if f.parent < 0 else bodies[f.parent]
         tag = k + 1
-        R = _rot(tape, _matmul(p.R, _rows(f.R)), f"R{tag}")
+        R = _rot(tape, _matmul(p.R, rows(f.R)), f"R{tag}")
         r = tape.vector(_times(p.R, list(f.p)), f"r{tag}")
         o = tape.vector(_plus(p.o, r), f"o{tag}")
         z = tape.vector(_times(R, f.S[:3]), f"z{tag}")
@@ -413,7 +409,7 @@ def _composites(tape: Tape, robot: Robot, links) -> tuple[list, tuple]:
             for j in range(i, 3):
                 Jn[i][j] = Jn[j][i] = tape.name(J[i][j], f"Jc{tag}_{i + 1}{j + 1}")
         out[k] = (m, H, Jn)
-        R, P = _rows(links[k].R), list(links[k].p)
+        R, P = rows(links[k].R), list(links[k].p)
         S = _times(R, H)
         RJR = turned_inertia(tape, R, Jn, tag)
         PS, PP = sum(a * b for a, b in zip(P, S)), sum(a * a for a in P)
@@ -494,7 +490,7 @@ def _rest_wrench(tape: Tape, robot: Robot, links) -> tuple[list, list]:
         state = {-1: (list(ang), zero, _cross(ang, lin))}
     for k, f in enumerate(links):
         wp, dwp, ap = state[f.parent]
-        R, p, tag = _rows(f.R), list(f.p), k + 1
+        R, p, tag = rows(f.R), list(f.p), k + 1
         spin, slide = _scale(f.S[:3], qd[k]), _scale(f.S[3:], qd[k])
         wr = tape.vector(_times_t(R, wp), f"wr{tag}")
         w = tape.vector(_plus(wr, spin), f"wl{tag}")
@@ -513,7 +509,7 @@ def _rest_wrench(tape: Tape, robot: Robot, links) -> tuple[list, list]:
     for k in range(robot.n - 1, -1, -1):
         f, n = total.pop(k)
         f, n = tape.vector(f, f"Fl{k + 1}"), tape.vector(n, f"Nl{k + 1}")
-        R, p = _rows(links[k].R), list(links[k].p)
+        R, p = rows(links[k].R), list(links[k].p)
         Rf = _times(R, f)
         parent = total[links[k].parent]
         total[links[k].parent] = [_plus(parent[0], Rf), _plus(parent[1], _times(R, n), _cross(p, Rf))]
