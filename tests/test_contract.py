@@ -141,3 +141,24 @@ def test_an_out_array_sharing_memory_with_an_input_is_refused(binding):
     own = np.full((6, 6), np.nan)
     assert model.M(q[0], out=own) is own
     assert_close(own, model.M(q[0]), "M into out=")
+
+
+@pytest.mark.parametrize("binding", ["extension", "ctypes"])
+def test_out_arrays_sharing_memory_with_each_other_are_refused(binding):
+    """Two outputs of one call in one piece of memory would overwrite each other's entries: refused
+    by position (both bindings, one state and a batch); side by side in one buffer, accepted."""
+    model = codegen.load("puma560", "c", options=CompileOptions(binding=binding))
+    q, qd, qdd, _ = _states(3)
+    store = np.zeros(6 + 36 + 36)
+    tau, dq, dv = store[:6], store[6:42].reshape(6, 6), store[42:].reshape(6, 6)
+    with pytest.raises(ValueError, match=r"tau_derivatives\(\): out\[1\] and out\[2\] share memory"):
+        model.tau_derivatives(q[0], qd[0], qdd[0], out=(tau, dq, store[36:72].reshape(6, 6)))
+    batch = np.zeros(3 * 78)
+    with pytest.raises(ValueError, match=r"out\[0\] and out\[1\] share memory"):
+        model.tau_derivatives(
+            q, qd, qdd, out=(batch[:18].reshape(3, 6), batch[:108].reshape(3, 6, 6), np.zeros((3, 6, 6)))
+        )
+    got = model.tau_derivatives(q[0], qd[0], qdd[0], out=(tau, dq, dv))
+    assert got[0] is tau and got[2] is dv
+    for a, b, name in zip(got, model.tau_derivatives(q[0], qd[0], qdd[0]), ("tau", "dtau_dq", "dtau_dqd")):
+        assert_close(a, b, f"{name} side by side in one buffer")

@@ -241,6 +241,47 @@ def test_an_unknown_frame_names_the_closest_known_ones():
         panda.with_frames("tool")
 
 
+def test_a_misspelt_frame_is_matched_in_any_case_and_by_part_and_else_every_frame_is_listed():
+    panda = models.load("panda")
+    with pytest.raises(ValueError, match="closest known are panda_hand_tcp"):
+        panda.with_frames(["tcp"])
+    with pytest.raises(ValueError, match="closest known are panda_hand,"):
+        panda.with_frames(["PANDA_HAND"])
+    with pytest.raises(ValueError, match=r"no frame 'zzzz'; its frames are panda_link0, .*, tool$"):
+        panda.with_frames(["zzzz"])
+
+
+def test_frames_given_once_as_a_generator_are_served():
+    panda = models.load("panda")
+    chosen = panda.with_frames(name for name in ("panda_hand", "panda_link5"))
+    assert [f.name for f in chosen.task_frames] == ["panda_hand", "panda_link5"]
+
+
+def test_the_readers_take_frames_and_a_tree_read_by_its_tips_serves_them():
+    """frames= on from_urdf and from_mjcf; the tips a tree was read with are its default frames
+    (Solo's feet, links merged onto the lower legs), and a chain on a free base serves its tool."""
+    from symdyn.model.example_robots import robots_folder
+
+    solo = robots_folder() / "solo_description" / "robots" / "solo12.urdf"
+    feet = ["FL_FOOT", "HR_FOOT"]
+    by_tips = Robot.from_urdf(solo, tips=feet, base_joint="free")
+    assert [f.name for f in by_tips.task_frames] == feet
+    chosen = Robot.from_urdf(solo, tips="all", base_joint="free", frames=["HR_FOOT", "base_link"])
+    assert [f.name for f in chosen.task_frames] == ["HR_FOOT", "base_link"]
+    assert chosen.dynamics_fingerprint() == Robot.from_urdf(solo, tips="all", base_joint="free").fingerprint()
+    chain = Robot.from_urdf(solo, tip_link="FL_FOOT", base_joint="free")
+    assert [f.name for f in chain.task_frames] == ["tool"]
+    foot = next(f for f in chain.frame_catalog if f.name == "FL_FOOT")
+    assert (foot.link, foot.placement) == (chain.n - 1, chain.tool)  # the tool is the foot
+    with pytest.raises(ValueError, match="no frame 'fl_fot'.*FL_FOOT"):
+        Robot.from_urdf(solo, tips="all", base_joint="free", frames=["fl_fot"])
+    pytest.importorskip("mujoco", reason="MJCF files are compiled by MuJoCo (the test extra)")
+    path = Path(__file__).parent / "mjcf_fixtures" / "menagerie_arm.xml"
+    arm = Robot.from_mjcf(str(path), frames=["attachment_site", "shoulder_link"])
+    assert [f.name for f in arm.task_frames] == ["attachment_site", "shoulder_link"]
+    assert [f.name for f in Robot.from_mjcf(str(path), tips=["forearm_link"]).task_frames] == ["forearm_link"]
+
+
 def test_chosen_frames_enter_the_fingerprint_and_the_default_does_not():
     puma = models.load("puma560")
     assert puma.with_frames(["link3"]).fingerprint() != puma.fingerprint()

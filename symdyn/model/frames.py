@@ -7,7 +7,7 @@ of the file, moving, locked or merged by a fixed joint; each MJCF body and site:
 `Robot.frame_catalog`) and, always, "tool" (the tool on the last link) and, where no file
 names them, "base" and "link1", "link2", … (the links' own frames).  `Robot.frames` selects
 the frames the generated task-space functions serve, in order; by default the tool of a
-chain, or each leaf link of a tree.
+chain, the tips a tree was read with, or each leaf link of a tree.
 """
 
 from __future__ import annotations
@@ -16,7 +16,16 @@ import difflib
 import math
 from dataclasses import dataclass
 
-__all__ = ["Frame", "known_frames", "resolve", "default_names", "contact_set", "baumgarte_gains", "CONTACT_KINDS"]
+__all__ = [
+    "Frame",
+    "known_frames",
+    "resolve",
+    "default_names",
+    "served",
+    "contact_set",
+    "baumgarte_gains",
+    "CONTACT_KINDS",
+]
 
 #: The kinds of contact (`Robot.with_contacts`) and the rows each constrains.
 CONTACT_KINDS = {"point": 3, "surface": 6}
@@ -59,10 +68,11 @@ def known_frames(robot) -> dict[str, Frame]:
 
 
 def default_names(robot) -> tuple[str, ...]:
-    """The frames served when none are chosen: the tool of a chain; each leaf link of a tree
-    (a link no other hangs on), named as the file names its frame (else link<k>); the body of
-    a robot without joints."""
-    if robot.is_chain:
+    """The frames served when none are chosen: the tool of a chain (on any base); each leaf
+    link of a tree (a link no other hangs on), named as the file names its frame (else
+    link<k>); the body of a robot without joints.  (A tree read with named tips serves those
+    tips: the readers choose them.)"""
+    if robot.n and all(link.parent is None for link in robot.links):
         return ("tool",)
     if robot.n == 0:  # a single body on its base joint (a drone): the body's own frame
         own = [f.name for f in robot.frame_catalog if f.link == -1 and _is_identity(f)]
@@ -71,6 +81,14 @@ def default_names(robot) -> tuple[str, ...]:
     leaves = [k for k in range(robot.n) if k not in parents]
     own = {f.link: f.name for f in reversed(robot.frame_catalog) if _is_identity(f)}
     return tuple(own.get(k, f"link{k + 1}") for k in leaves)
+
+
+def served(robot, names, tips):
+    """A file reader's robot serving the frames `names`, or by default the tips it was read
+    with ("all" names none: the default of `default_names`)."""
+    if names is None and tips not in (None, "all"):
+        names = tips
+    return robot if names is None else robot.with_frames(names)
 
 
 def _is_identity(frame: Frame) -> bool:
@@ -93,16 +111,26 @@ def resolve(robot, names) -> tuple[Frame, ...]:
     out = []
     for name in names:
         if not isinstance(name, str) or name not in known:
-            close = difflib.get_close_matches(str(name), list(known), n=5, cutoff=0.4)
-            hint = f"; the closest known are {', '.join(close)}" if close else ""
-            raise ValueError(
-                f"robot {robot.name!r} has no frame {name!r}{hint} (robot.frame_names lists all {len(known)})"
-            )
+            close = _closest(str(name), list(known))
+            if close or len(known) > 40:
+                hint = f"; the closest known are {', '.join(close)}" if close else ""
+                hint += f" (robot.frame_names lists all {len(known)})"
+            else:
+                hint = f"; its frames are {', '.join(known)}"
+            raise ValueError(f"robot {robot.name!r} has no frame {name!r}{hint}")
         out.append(known[name])
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise ValueError(f"frames of robot {robot.name!r}: {', '.join(map(repr, repeated))} given more than once")
     return tuple(out)
+
+
+def _closest(name: str, known: list[str]) -> list[str]:
+    """Up to five known names near `name`: those containing it (any case), then the most alike."""
+    lower = {k.lower(): k for k in known}
+    within = [k for k in known if name and name.lower() in k.lower()]
+    alike = [lower[k] for k in difflib.get_close_matches(name.lower(), list(lower), n=5, cutoff=0.4)]
+    return list(dict.fromkeys(within + alike))[:5]
 
 
 def contact_set(robot, contacts) -> tuple:

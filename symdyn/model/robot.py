@@ -447,8 +447,9 @@ class Robot:
             ValueError: a name the robot does not know (the closest known ones are named),
                 a name given twice, or no name.
         """
+        names = names if isinstance(names, str) else tuple(names)  # a generator is read once
         frames.resolve(self, names)
-        return dataclasses.replace(self, frames=tuple(names))
+        return dataclasses.replace(self, frames=names)
 
     def with_contacts(self, contacts: Mapping[str, str], *, kp: float = 0.0, kd: float = 0.0) -> "Robot":
         """A copy whose contact functions (`contact_fdyn`, `contact_impulse` and their derivatives)

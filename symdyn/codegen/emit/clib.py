@@ -169,11 +169,11 @@ def check_out(function: str, out, shapes: list, inputs=()) -> list:
     """The caller's out= as a list of arrays, one per output, each exactly a
     C-contiguous writeable float64 ndarray of its shape sharing no memory with the
     `inputs` ((name, array), …: a function stores a matrix's entries as it computes
-    them, before it has read every input).
+    them, before it has read every input) or with another output.
 
     Raises:
         ValueError: out is not such an array (or tuple of them, one per output), or shares
-            memory with an input (named).
+            memory with an input (named) or with another output (both named by position).
     """
     arrays = [out] if len(shapes) == 1 else out
     if len(shapes) > 1 and (not isinstance(out, tuple) or len(out) != len(shapes)):
@@ -197,6 +197,10 @@ def check_out(function: str, out, shapes: list, inputs=()) -> list:
                     f"{function}(): out{'[k]' if len(shapes) > 1 else ''} shares memory with the input "
                     f"{name}: give it an array of its own"
                 )
+    for j, a in enumerate(arrays[1:], 1):
+        for k, b in enumerate(arrays[:j]):
+            if np.may_share_memory(a, b):
+                raise ValueError(f"{function}(): out[{k}] and out[{j}] share memory: give each an array of its own")
     return list(arrays)
 
 

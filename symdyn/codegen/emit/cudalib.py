@@ -205,12 +205,16 @@ class CudaFunction:
             cp.ascontiguousarray(cp.broadcast_to(x.astype(dtype, copy=False), (*lead, x.shape[-1]))) for x in arrays
         ]
         outs = self._outputs(out, lead, dtype)
-        for (o, _), view in zip(sig.outputs, outs if out is not None else ()):
+        chosen = list(zip(sig.outputs, outs)) if out is not None else []
+        for j, ((o, _), view) in enumerate(chosen):
             for (a, _), x in zip(sig.inputs, flat):  # a matrix's entries are stored as they are computed
                 if cp.may_share_memory(view, x):
                     raise ValueError(
                         f"{sig.name}(): out= for {o} shares memory with the input {a}: give it an array of its own"
                     )
+            for (p, _), other in chosen[:j]:
+                if cp.may_share_memory(view, other):
+                    raise ValueError(f"{sig.name}(): out= for {o} and {p} share memory: give each an array of its own")
         if n:
             bad = cp.zeros(1, dtype=cp.int32)
             self.run(n, flat, outs, bad)

@@ -28,7 +28,7 @@ from typing import Iterable
 
 import numpy as np
 
-from ..frames import Frame
+from ..frames import Frame, served
 from ..placement import compose, exact, link_number
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import Snapping
@@ -52,6 +52,7 @@ def from_mjcf(
     exclude: str | Iterable[str] = (),
     snap: bool = True,
     name: str | None = None,
+    frames: Iterable[str] | None = None,
 ) -> Robot:
     """A `Robot` (general convention) of the chain from `base_body` (default: the world) to
     `tip_body` (default: the only leaf) of an MJCF file (or its text), compiled by MuJoCo.
@@ -61,7 +62,9 @@ def from_mjcf(
     their subtrees before compiling.  snap: orientations and axes near exact values become
     exact (`symdyn.model.snapping`); False keeps MuJoCo's compiled numbers.  name: default
     the file's name without .xml, as on the command line (text: its `<mujoco model>`).
-    The robot's `mjcf` records all of it.
+    The robot's `mjcf` records all of it.  frames: the frames its task-space functions serve,
+    in order (`Robot.with_frames`: any body or site of the file); default: the tips when `tips`
+    names them, else `Robot.task_frames`'.
 
     tips: "all" moves every hinge and slide joint below the base (`locked` ones held), a
     list of bodies the joints on the paths from the base to each; the links then come in
@@ -85,7 +88,8 @@ def from_mjcf(
             inertia `Link` refuses; tips with tip_body, tips neither "all" nor body names,
             a tip that is not a body below the base; base_joint not None, "free" or
             "planar", or "planar" for a file whose root body has a free joint; a
-            floating base body (not the free joint's) that has joints of its own.
+            floating base body (not the free joint's) that has joints of its own; a frame the
+            file does not have (the closest are named) or given twice.
 
     Warns:
         MJCFWarning: what MuJoCo adds to the dynamics of the moving part that symdyn does
@@ -144,12 +148,12 @@ def from_mjcf(
             moving = [j for j in lockable if int(m.jnt_bodyid[j]) in on_path and j not in given]
         reader.values = lock_values(reader, [j for j in lockable if j not in moving], given)
         held = set(given) if tip_list == "all" else {j for j in given if int(m.jnt_bodyid[j]) in on_path}
-        carriers, base_mass, frames = _walk(reader, base, set(moving), held, base_joint is not None)
-        reader.frames.update(frames)
+        carriers, base_mass, reached = _walk(reader, base, set(moving), held, base_joint is not None)
+        reader.frames.update(reached)
         if not carriers and base_joint is None:  # on a base joint, the body alone (a drone) moves
             raise MJCFError(f"{label}: no hinge or slide joint moves below {reader.body(base)!r}")
         tip = tip_list[0] if tip_list != "all" and len(tip_list) == 1 else None
-        pending = frames[tip][1] if tip is not None else IDENTITY
+        pending = reached[tip][1] if tip is not None else IDENTITY
     else:
         if tip_body:
             tip = body_id(tip_body, "tip_body")
@@ -327,7 +331,7 @@ def from_mjcf(
         record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, mjcf=None)))
     for message in notes:
         warnings.warn(f"{label}: {message}", MJCFWarning, stacklevel=2)
-    return dataclasses.replace(robot, mjcf=record)
+    return served(dataclasses.replace(robot, mjcf=record), frames, tips)
 
 
 def _given(reader: Compiled, locked: dict | None, below_base: set, base: int, label: str) -> dict[int, float]:

@@ -26,7 +26,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from ..placement import compose, joint_motion, link_number, placement, rpy_rotation
-from ..frames import Frame
+from ..frames import Frame, served
 from ..robot import BASE_JOINTS, IDENTITY, Link, Robot
 from ..snapping import Snapping, snap_angle, snap_axis
 from .xacro import Expansion, XacroError, expand, is_xacro
@@ -291,6 +291,7 @@ def from_urdf(
     package_paths: Iterable[str | os.PathLike[str]] = (),
     inertia: str = "check",
     massless: bool = False,
+    frames: Iterable[str] | None = None,
 ) -> Robot:
     """A `Robot` (general convention) of the chain from `base_link` (default: the
     root) to `tip_link` (default: the only leaf) of a URDF file or its text, or of a
@@ -334,6 +335,8 @@ def from_urdf(
     moving links carry no mass at all (a file without `<inertial>`s, written for
     kinematics), with a warning naming them, instead of refusing it: its M(q) is
     singular for every q, so it serves kinematics, printing and pictures only.
+    frames: the frames its task-space functions serve, in order (`Robot.with_frames`: any
+    link of the file); default: the tips when `tips` names them, else `Robot.task_frames`'.
 
     Raises:
         URDFError: (a `ValueError`) an unreadable file or text that is not a URDF
@@ -353,7 +356,8 @@ def from_urdf(
             is not a link below the base or is excluded, a mimic joint or a joint
             that is neither revolute, continuous, prismatic nor fixed on the way
             to a tip, no joint that moves; `base_joint` not None, "free" or
-            "planar", or the file's own root joint of the other kind.  Its
+            "planar", or the file's own root joint of the other kind; a frame the
+            file does not have (the closest are named) or given twice.  Its
             `command_line` is the message in the command line's words (--tip,
             --tips, --exclude, …).
         XacroError: (a `URDFError`) a xacro file that cannot be expanded: the xacro
@@ -411,7 +415,7 @@ def from_urdf(
         warnings.warn(message, URDFWarning, stacklevel=2)
     for r in record.repairs:
         warnings.warn(f"impossible inertia made physical (inertia='balance'): {r.line()}", URDFWarning, stacklevel=2)
-    return dataclasses.replace(robot, urdf=record)
+    return served(dataclasses.replace(robot, urdf=record), frames, tips)
 
 
 def _nothing_moves(tree, base_link: str | None) -> bool:

@@ -287,25 +287,34 @@ static PyObject *given_out(const spec_t *s, PyObject *outarg, int j, int nd, con
     return o;
 }
 
-/* 0 when no out= array shares memory with an input, else -1 with a ValueError naming the
-   first pair: a function stores a matrix's entries as it computes them, before it has read
-   every input (symdyn.codegen.emit.schedule). */
+/* Whether two arrays' bytes overlap. */
+static int overlap(PyObject *a, PyObject *b)
+{
+    const uintptr_t x = (uintptr_t)PyArray_BYTES((PyArrayObject *)a), y = (uintptr_t)PyArray_BYTES((PyArrayObject *)b);
+    const npy_intp xn = PyArray_NBYTES((PyArrayObject *)a), yn = PyArray_NBYTES((PyArrayObject *)b);
+    return xn > 0 && yn > 0 && x < y + (uintptr_t)yn && y < x + (uintptr_t)xn;
+}
+
+/* 0 when no out= array shares memory with an input or another output, else -1 with a
+   ValueError naming the first pair: a function stores a matrix's entries as it computes
+   them, before it has read every input (symdyn.codegen.emit.schedule). */
 static int separate(const spec_t *s, PyObject *const *args, PyObject *const *out)
 {
     int i, j;
     for (j = 0; j < s->nout; ++j) {
-        const uintptr_t o = (uintptr_t)PyArray_BYTES((PyArrayObject *)out[j]);
-        const npy_intp on = PyArray_NBYTES((PyArrayObject *)out[j]);
-        for (i = 0; i < s->nin; ++i) {
-            const uintptr_t x = (uintptr_t)PyArray_BYTES((PyArrayObject *)args[i]);
-            const npy_intp xn = PyArray_NBYTES((PyArrayObject *)args[i]);
-            if (on > 0 && xn > 0 && o < x + (uintptr_t)xn && x < o + (uintptr_t)on) {
+        for (i = 0; i < s->nin; ++i)
+            if (overlap(out[j], args[i])) {
                 PyErr_Format(PyExc_ValueError, "%s(): out%s shares memory with the input %S: give it an array of "
                              "its own", s->cname, s->nout > 1 ? "[k]" : "",
                              PyTuple_GET_ITEM(PyTuple_GET_ITEM(s->inputs, i), 0));
                 return -1;
             }
-        }
+        for (i = 0; i < j; ++i)
+            if (overlap(out[j], out[i])) {
+                PyErr_Format(PyExc_ValueError, "%s(): out[%d] and out[%d] share memory: give each an array of its "
+                             "own", s->cname, i, j);
+                return -1;
+            }
     }
     return 0;
 }
