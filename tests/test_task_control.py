@@ -42,14 +42,52 @@ def test_inverse_kinematics_moves_a_free_base_on_its_manifold():
     assert abs(np.linalg.norm(ik.q[3:7]) - 1) < 1e-12
 
 
+def bad_poses():
+    """(pose, what the error says): a sheared, a scaled and a reflected rotation, a wrong last
+    row, NaN, the wrong shape."""
+    sheared, scaled, mirrored, row, nan = (np.eye(4) for _ in range(5))
+    sheared[0, 1] = 0.5
+    scaled[:3, :3] *= 0.2
+    mirrored[2, 2] = -1
+    row[3] = (1, 2, 3, 4)
+    nan[0, 3] = np.nan
+    return [
+        (sheared, "not orthonormal"),
+        (scaled, "not orthonormal"),
+        (mirrored, "reflection"),
+        (row, r"last row .* \[0 0 0 1\]"),
+        (nan, "NaN"),
+        (np.eye(3), "4x4"),
+    ]
+
+
 def test_inverse_kinematics_refuses_bad_input(panda):
+    """A target that is no pose would be read as another one (SciPy takes the nearest rotation) or
+    never met: refused by name, as are an unknown frame and a q0 of the wrong size or not finite."""
     robot, f = panda
-    with pytest.raises(ValueError, match="4x4"):
-        inverse_kinematics(f, robot, np.eye(3), robot.qr)
+    for pose, why in bad_poses():
+        with pytest.raises(ValueError, match=f"target.*{why}"):
+            inverse_kinematics(f, robot, pose, robot.qr)
     with pytest.raises(ValueError, match="frame 3 out of range"):
         inverse_kinematics(f, robot, np.eye(4), robot.qr, frame=3)
+    with pytest.raises(ValueError, match="serves no frame 'panda_hand'; it serves tool"):
+        inverse_kinematics(f, robot, np.eye(4), robot.qr, frame="panda_hand")
     with pytest.raises(ValueError, match=r"q0 must have shape \(7,\)"):
         inverse_kinematics(f, robot, np.eye(4), robot.qr[:6])
+    with pytest.raises(ValueError, match="q0 must be finite"):
+        inverse_kinematics(f, robot, np.eye(4), robot.qr * np.nan)
+
+
+def test_inverse_kinematics_and_the_controller_take_frames_by_name():
+    robot = arms.load("panda").with_frames(["panda_link5", "panda_hand_tcp"])
+    f = load(robot, "c")
+    target = f.frame_pose(robot.qr + 0.1)[1]
+    ik = inverse_kinematics(f, robot, target, robot.qr, frame="panda_hand_tcp")
+    assert ik.converged and np.abs(pose_error(target, f.frame_pose(ik.q)[1])).max() < 1e-10
+    path = lambda t: (target[:3, 3], np.zeros(3), np.zeros(3))  # noqa: E731
+    assert OperationalSpaceController(f, robot, path, target[:3, :3], frame="panda_hand_tcp").frame == 1
+    with pytest.raises(ValueError, match="R_goal.*not orthonormal"):
+        OperationalSpaceController(f, robot, path, 2 * target[:3, :3], frame=1)
 
 
 def test_operational_space_control_gives_the_commanded_task_acceleration_whatever_the_posture(panda):

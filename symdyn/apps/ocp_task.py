@@ -1,12 +1,15 @@
-"""Task-space goals and obstacles for the optimal-control layer, on the generated frame poses.
+"""Task-space goals, obstacles and costs for the optimal-control layer, on the generated frame poses.
 
 A `TaskGoal` replaces a problem's final configuration by the pose of one frame (position, and
 orientation unless told otherwise) and keeps chosen frames — points on the links, each with
-a radius — clear of spheres at every node of the grid.  It is built on the generated CasADi
-`frame_pose` of a robot with those frames (`symdyn.load(robot.with_frames([...]), "casadi")`),
-so its constraints and their derivatives are the generated code's.  `Problem(task=…)` takes
-it (`symdyn.apps.ocp`); the problem's `qf` is then only the end of the starting guess (an
-inverse-kinematics solution, say), and the re-simulation is judged against the optimised end.
+a radius — clear of spheres at every node of the grid.  A `FrameCost` weighs a frame's distance
+from a target (a fixed pose or position, or one per node: a path to follow) along the motion or
+at its end.  Both are built on the generated CasADi `frame_pose` of a robot with those frames
+(`symdyn.load(robot.with_frames([...]), "casadi")`: the model, or its `frame_pose`), so their
+constraints, costs and derivatives are the generated code's; given the robot too, they take the
+frames by name.  `Problem(task=…, task_costs=(…))` takes them (`symdyn.apps.ocp`); with a
+`TaskGoal` the problem's `qf` is only the end of the starting guess (an inverse-kinematics
+solution, say), and the re-simulation is judged against the optimised end.
 """
 
 from __future__ import annotations
@@ -16,7 +19,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-__all__ = ["Sphere", "TaskGoal", "clearance"]
+from .task_control import check_pose, frame_index
+
+__all__ = ["Sphere", "TaskGoal", "FrameCost", "clearance"]
 
 
 @dataclass(frozen=True)
@@ -34,38 +39,68 @@ class Sphere:
             raise ValueError(f"Sphere: radius must be a positive number, got {self.radius!r}")
 
 
-@dataclass(frozen=True)
-class TaskGoal:
-    """The end pose of frame `frame` (its index among the robot's task frames) and the clearance
-    of the frames `clear` ((index, radius) pairs: balls on the links) from `obstacles` at every node.
-
-    frame_pose: the generated CasADi `frame_pose` (q) → (4m × 4) of the robot with its frames;
-    pose: the goal (4 × 4, world); orientation: whether its rotation is imposed too (three
-    equations: the skew part of R*ᵀR is zero, with tr(R*ᵀR) ≥ 1 to exclude the half turn).
+def _pose_function(given, robot, what: str) -> ca.Function:
+    """The CasADi frame_pose (q) → (4m × 4) of `given`: the function itself, or a generated
+    CasADi model's; checked against `robot` (its q's size and frame count) when given.
 
     Raises:
-        ValueError: pose not 4 × 4 or not finite; a frame index out of range; a clearance radius
-            that is negative.
+        ValueError: naming `what`: neither; a function of another robot's frames or q.
+    """
+    if not isinstance(given, ca.Function):
+        function = getattr(given, "functions", {}).get("frame_pose")
+        given = getattr(function, "function", function)
+        if not isinstance(given, ca.Function):
+            raise ValueError(
+                f"{what}: frame_pose must be the generated CasADi frame_pose or its model "
+                "(symdyn.load(robot.with_frames([...]), 'casadi'))"
+            )
+    if given.n_in() != 1 or given.size2_out(0) != 4 or given.size1_out(0) % 4:
+        raise ValueError(f"{what}: frame_pose must map q to the frames' stacked 4x4 poses, got {given}")
+    if robot is not None:
+        m = len(robot.task_frames)
+        if (given.numel_in(0), given.size1_out(0)) != (robot.nq, 4 * m):
+            raise ValueError(
+                f"{what}: frame_pose takes q of {given.numel_in(0)} and serves {given.size1_out(0) // 4} frames; "
+                f"robot {robot.name!r} has nq = {robot.nq} and serves {m} frames: build it on this robot"
+            )
+    return given
+
+
+@dataclass(frozen=True)
+class TaskGoal:
+    """The end pose of frame `frame` and the clearance of the frames `clear` ((frame, radius)
+    pairs: balls on the links) from `obstacles` at every node; a frame is its index among the
+    robot's task frames, or its name when `robot` is given.
+
+    frame_pose: the generated CasADi `frame_pose` (q) → (4m × 4) of the robot with its frames, or
+    that generated model; pose: the goal (4 × 4, world, a proper rotation); orientation: whether its
+    rotation is imposed too (three equations: the skew part of R*ᵀR is zero, with tr(R*ᵀR) ≥ 1 to
+    exclude the half turn).
+
+    Raises:
+        ValueError: pose not a pose (`check_pose`: 4 × 4, finite, [0 0 0 1], a rotation); an
+            unknown frame or an index out of range; a clearance radius that is negative; a
+            frame_pose that is not one, or not `robot`'s.
     """
 
     frame_pose: ca.Function
     pose: np.ndarray
-    frame: int = 0
+    frame: int | str = 0
     orientation: bool = True
     obstacles: tuple = ()
     clear: tuple = ()
+    robot: object = None
 
     def __post_init__(self) -> None:
-        pose = np.asarray(self.pose, dtype=float)
-        if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-            raise ValueError(f"TaskGoal: pose must be a finite 4x4 transform, got shape {pose.shape}")
-        m = self.frames
-        for index in [self.frame, *(j for j, _ in self.clear)]:
-            if not (isinstance(index, (int, np.integer)) and 0 <= index < m):
-                raise ValueError(f"TaskGoal: frame index {index!r} out of range: frame_pose serves {m} frames")
-        if any(not r >= 0 for _, r in self.clear):
+        function = _pose_function(self.frame_pose, self.robot, "TaskGoal")
+        pose = check_pose(self.pose, "TaskGoal: pose")
+        m = function.size1_out(0) // 4
+        frame = frame_index(self.robot, self.frame, "TaskGoal", m)
+        clear = tuple((frame_index(self.robot, j, "TaskGoal clear", m), r) for j, r in self.clear)
+        if any(not r >= 0 for _, r in clear):
             raise ValueError(f"TaskGoal: clearance radii must be ≥ 0, got {self.clear!r}")
-        object.__setattr__(self, "pose", pose)
+        for name, value in (("frame_pose", function), ("pose", pose), ("frame", frame), ("clear", clear)):
+            object.__setattr__(self, name, value)
 
     @property
     def frames(self) -> int:
@@ -90,6 +125,86 @@ class TaskGoal:
             for s in self.obstacles:
                 c = ca.DM(np.asarray(s.center, dtype=float))
                 opti.subject_to(ca.sum1((p - c) ** 2) >= (s.radius + r) ** 2)
+
+
+@dataclass(frozen=True)
+class FrameCost:
+    """A task-space cost on frame `frame` (index, or name with `robot`): at each node k,
+
+        c_k = position·|p_k − p*_k|² + orientation·(3 − tr(R*_kᵀ R_k))
+
+    (3 − tr(R*ᵀR) = 2(1 − cos θ) ≈ θ², θ the angle between the orientations), summed over the
+    motion by the trapezoidal rule, ∫ c dt (`over="path"`), or taken at the last node alone
+    (`over="end"`: a soft goal).  target: a pose (4 × 4) or a position (3,), or one per node
+    ((N + 1, 4, 4) or (N + 1, 3): a path to follow); a position alone leaves the orientation free
+    (its weight must then be 0).  frame_pose: as `TaskGoal`'s.
+
+    Raises:
+        ValueError: a target that is neither (poses `check_pose`d, positions finite); weights
+            not finite ≥ 0, or an orientation weight on a position target; `over` neither
+            "path" nor "end"; an unknown frame; a frame_pose that is not one, or not `robot`'s.
+    """
+
+    frame_pose: ca.Function
+    target: np.ndarray
+    frame: int | str = 0
+    position: float = 1.0
+    orientation: float = 0.0
+    over: str = "path"
+    robot: object = None
+
+    def __post_init__(self) -> None:
+        function = _pose_function(self.frame_pose, self.robot, "FrameCost")
+        frame = frame_index(self.robot, self.frame, "FrameCost", function.size1_out(0) // 4)
+        if self.over not in ("path", "end"):
+            raise ValueError(f"FrameCost: over must be 'path' (∫ c dt) or 'end' (the last node), got {self.over!r}")
+        for name in ("position", "orientation"):
+            w = getattr(self, name)
+            if isinstance(w, bool) or not isinstance(w, (int, float, np.floating)) or not (np.isfinite(w) and w >= 0):
+                raise ValueError(f"FrameCost: the weight {name} must be a finite number ≥ 0, got {w!r}")
+        target = np.asarray(self.target, dtype=float)
+        if target.shape[-1:] == (3,) and target.ndim in (1, 2):
+            if not np.all(np.isfinite(target)):
+                raise ValueError("FrameCost: the target positions must be finite")
+            if self.orientation:
+                raise ValueError("FrameCost: an orientation weight needs target poses (4x4), not positions")
+        elif target.shape[-2:] == (4, 4) and target.ndim in (2, 3):
+            target = np.array([check_pose(t, f"FrameCost: target {k}") for k, t in enumerate(target.reshape(-1, 4, 4))])
+            target = target.reshape(self.target.shape if np.ndim(self.target) == 3 else (4, 4))
+        else:
+            raise ValueError(
+                "FrameCost: target must be a pose (4x4), a position (3,), or one per node (N+1, 4, 4) or (N+1, 3); "
+                f"got shape {target.shape}"
+            )
+        for name, value in (("frame_pose", function), ("frame", frame), ("target", target)):
+            object.__setattr__(self, name, value)
+
+    def cost(self, Q, h):
+        """The cost over the nodes Q (n × (N + 1)) spaced h apart (a number or an expression).
+
+        Raises:
+            ValueError: a target per node whose count is not N + 1.
+        """
+        K = Q.shape[1]
+        pose = self.target.shape[-2:] == (4, 4)
+        per_node = self.target.ndim == (3 if pose else 2)
+        if per_node and self.target.shape[0] != K:
+            raise ValueError(f"FrameCost: {self.target.shape[0]} targets for the problem's {K} nodes (N + 1)")
+        nodes = range(K) if self.over == "path" else [K - 1]
+        f = self.frame
+        poses = self.frame_pose.map(len(nodes))(Q[:, list(nodes)])  # (4m, 4K')
+        terms = []
+        for i, k in enumerate(nodes):
+            goal = self.target[k] if per_node else self.target
+            T = poses[4 * f : 4 * f + 3, 4 * i : 4 * i + 4]
+            p_goal = goal[:3, 3] if pose else goal
+            c = self.position * ca.sumsqr(T[:, 3] - ca.DM(p_goal))
+            if self.orientation:
+                c += self.orientation * (3 - ca.trace(ca.mtimes(ca.DM(goal[:3, :3]).T, T[:, :3])))
+            terms.append(c)
+        if self.over == "end":
+            return terms[0]
+        return h * (sum(terms[1:-1]) + (terms[0] + terms[-1]) / 2)
 
 
 def clearance(goal: TaskGoal, poses: np.ndarray) -> float:

@@ -19,7 +19,69 @@ from scipy.spatial.transform import Rotation
 
 from ..model import Robot
 
-__all__ = ["IKResult", "inverse_kinematics", "pose_error", "OperationalSpaceController"]
+__all__ = ["IKResult", "inverse_kinematics", "pose_error", "check_pose", "frame_index", "OperationalSpaceController"]
+
+#: How far a given rotation may be from orthonormal (|RᵀR − 1|, largest entry) and a pose's last
+#: row from [0 0 0 1]: a rounded matrix passes, a sheared or scaled one does not.
+POSE_TOL = 1e-6
+
+
+def check_pose(pose, what: str) -> np.ndarray:
+    """`pose` as a float 4 × 4 homogeneous transform, checked: finite, its last row [0 0 0 1] and
+    its rotation proper (RᵀR = 1, det R = +1, to `POSE_TOL`) — a matrix that is not would be
+    read as some other rotation (SciPy takes the nearest) or make a goal unreachable.
+
+    Raises:
+        ValueError: naming `what`: not 4 × 4, NaN or infinite, a wrong last row, a rotation that
+            is not orthonormal (by how much) or is a reflection.
+    """
+    try:
+        T = np.asarray(pose, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a 4x4 pose, got {pose!r}") from None
+    if T.shape != (4, 4):
+        raise ValueError(f"{what} must be a 4x4 pose, got shape {T.shape}")
+    if not np.all(np.isfinite(T)):
+        raise ValueError(f"{what} must be finite: it has a NaN or infinite entry")
+    if np.abs(T[3] - (0, 0, 0, 1)).max() > POSE_TOL:
+        raise ValueError(f"{what}: the last row of a pose is [0 0 0 1], got {T[3].tolist()}")
+    R = T[:3, :3]
+    off = float(np.abs(R.T @ R - np.eye(3)).max())
+    if off > POSE_TOL:
+        raise ValueError(
+            f"{what}: the rotation is not orthonormal (RᵀR differs from 1 by {off:.3g}): give a rotation "
+            "matrix (scipy's Rotation.as_matrix(), say)"
+        )
+    if np.linalg.det(R) < 0:
+        raise ValueError(f"{what}: the rotation is a reflection (det R = -1), not a rotation")
+    return T
+
+
+def frame_index(robot, frame, what: str, served: int | None = None) -> int:
+    """The index of `frame` (a name of `robot.task_frames`, or an index) among the frames a
+    function serves (`served` of them, default `robot`'s count; `robot` None: indices only).
+
+    Raises:
+        ValueError: naming `what`: an unknown name (the served ones listed), an index out of range.
+    """
+    names = [f.name for f in robot.task_frames] if robot is not None else None
+    m = served if served is not None else len(names)
+    if isinstance(frame, str):
+        if names is None:
+            raise ValueError(
+                f"{what}: frame {frame!r} is a name: give robot= (the robot whose frames the function serves) "
+                f"or its index (0 … {m - 1})"
+            )
+        if frame not in names:
+            raise ValueError(
+                f"{what}: the model serves no frame {frame!r}; it serves {', '.join(names)} "
+                f"(build it on robot.with_frames([..., {frame!r}]))"
+            )
+        return names.index(frame)
+    if isinstance(frame, (int, np.integer)) and not isinstance(frame, bool) and 0 <= frame < m:
+        return int(frame)
+    served_names = f": {', '.join(names)}" if names else ""
+    raise ValueError(f"{what}: frame {frame!r} out of range: the model serves {m} frames{served_names}")
 
 
 def pose_error(target, T) -> np.ndarray:
@@ -47,15 +109,15 @@ def inverse_kinematics(
     target,
     q0,
     *,
-    frame: int = 0,
+    frame: int | str = 0,
     axes=(True,) * 6,
     damping: float = 1e-3,
     tol: float = 1e-10,
     max_iter: int = 200,
     limits: bool = True,
 ) -> IKResult:
-    """Joint coordinates that put frame `frame` (its index in `robot.task_frames`) at the pose
-    `target` (4 × 4, world), by damped least squares (Levenberg–Marquardt) on the generated
+    """Joint coordinates that put frame `frame` (its name or index in `robot.task_frames`) at the
+    pose `target` (4 × 4, world), by damped least squares (Levenberg–Marquardt) on the generated
     `frame_pose` and `frame_jacobian_aligned`: Δq = Jᵀ(J Jᵀ + λ²1)⁻¹ e with e = `pose_error`,
     λ² = damping·(1 + |e|²) (firm far away, vanishing at the solution, where the steps become
     Newton's), q ← q ⊕ Δq (`robot.integrate`: a free base's quaternion stays on its manifold).
@@ -63,18 +125,17 @@ def inverse_kinematics(
     `limits`: joints clipped into `robot.qlim` after each step.
 
     Raises:
-        ValueError: target not 4 × 4, q0 of the wrong size, a frame index out of range.
+        ValueError: target not a pose (`check_pose`: 4 × 4, finite, a proper rotation), q0 of the
+            wrong size or not finite, an unknown frame or an index out of range.
     """
-    target = np.asarray(target, float)
-    if target.shape != (4, 4):
-        raise ValueError(f"inverse_kinematics: target must be a 4x4 pose, got shape {target.shape}")
-    m = len(robot.task_frames)
-    if not 0 <= frame < m:
-        raise ValueError(f"inverse_kinematics: frame {frame} out of range: the robot serves {m} frames")
+    target = check_pose(target, "inverse_kinematics: target")
+    frame = frame_index(robot, frame, "inverse_kinematics")
     rows = np.flatnonzero(np.asarray(axes, bool))
     q = np.array(q0, float)
     if q.shape != (robot.nq,):
         raise ValueError(f"inverse_kinematics: q0 must have shape ({robot.nq},), got {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise ValueError("inverse_kinematics: q0 must be finite: it has a NaN or infinite entry")
     lo, hi = robot.qlim.T
     joints = slice(robot.nq - robot.n, robot.nq)
     for k in range(max_iter + 1):
@@ -103,6 +164,10 @@ class OperationalSpaceController:
     `path(t)` → (p*, ṗ*, p̈*) (3,) each, the frame's position; its orientation is held at R*.
     Everything comes from the generated functions of `model` (frame_pose,
     frame_jacobian_aligned, frame_drift, M, tau).  Stateless: a pure function of (t, q, v).
+    `frame`: the frame's name or index in `robot.task_frames`.
+
+    Raises:
+        ValueError: a floating base; an unknown frame; R_goal not a 3 × 3 rotation (`check_pose`).
     """
 
     def __init__(
@@ -112,7 +177,7 @@ class OperationalSpaceController:
         path: Callable,
         R_goal,
         *,
-        frame: int = 0,
+        frame: int | str = 0,
         Kp: float = 400.0,
         Kv: float = 40.0,
         posture=None,
@@ -120,8 +185,13 @@ class OperationalSpaceController:
         Kqv: float = 10.0,
     ) -> None:
         robot.require_fixed_base("OperationalSpaceController")
-        self.model, self.robot, self.path, self.frame = model, robot, path, frame
-        self.R_goal = np.asarray(R_goal, float)
+        self.model, self.robot, self.path = model, robot, path
+        self.frame = frame_index(robot, frame, "OperationalSpaceController")
+        if np.shape(R_goal) != (3, 3):
+            raise ValueError(f"OperationalSpaceController: R_goal must be a 3x3 rotation, got shape {np.shape(R_goal)}")
+        pose = np.eye(4)
+        pose[:3, :3] = R_goal
+        self.R_goal = check_pose(pose, "OperationalSpaceController: R_goal")[:3, :3]
         self.Kp, self.Kv, self.Kq, self.Kqv = Kp, Kv, Kq, Kqv
         self.posture = np.zeros(robot.n) if posture is None else np.asarray(posture, float)
 

@@ -172,7 +172,8 @@ class Problem:
             or without any finite torque or speed limit; q0, qf, qd0, qdf of
             different lengths or with a NaN or infinite entry; joint limits not
             (n, 2); speed or torque limits that are not n positive numbers (or a
-            NaN one: `Limits`); cost weights that are not n entries; `unactuated`
+            NaN one: `Limits`); cost weights that are not n entries; task_costs that are
+            not `FrameCost` terms; `unactuated`
             indices that are not distinct integers in 0 … n − 1, or all of them; a
             guess that is not (t, q, v) with t increasing from 0, q and v (len(t), n), finite.
     """
@@ -198,6 +199,9 @@ class Problem:
     #: A task-space goal (`symdyn.apps.ocp_task.TaskGoal`): a frame's end pose instead of qf (which
     #: then only ends the starting guess) and obstacles that chosen frames clear at every node.
     task: object = None
+    #: Task-space cost terms (`symdyn.apps.ocp_task.FrameCost`): a frame's distance from a target
+    #: pose, position or path, along the motion or at its end, added to the cost.
+    task_costs: tuple = ()
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -224,6 +228,10 @@ class Problem:
                     raise ValueError(f"{name} must be finite: joint {j + 1} has {float(values[j])}, got {v!r}")
         if self.guess is not None:
             _check_guess(self.guess, n)
+        if isinstance(self.task_costs, (str, bytes)) or not all(
+            callable(getattr(c, "cost", None)) for c in self.task_costs
+        ):
+            raise ValueError(f"task_costs must be a tuple of FrameCost terms, got {self.task_costs!r}")
         held = list(self.unactuated)
         if not all(isinstance(i, numbers.Integral) and 0 <= i < n for i in held) or len(set(held)) != len(held):
             raise ValueError(f"unactuated must be distinct joint indices in 0 … {n - 1}, got {self.unactuated!r}")

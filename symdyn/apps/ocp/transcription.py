@@ -104,7 +104,8 @@ def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
     _bound_states(opti, lim, Q, QD)
     handles = {"Q": Q, "QD": QD, "T": T}
     pose = _multiple_shooting if problem.method == "multiple-shooting" else _collocation
-    return handles, problem.cost.time * T + pose(problem, arm, opti, handles, T / N, guess)
+    task = sum((c.cost(Q, T / N) for c in problem.task_costs), 0)  # on the nodes' frame poses
+    return handles, problem.cost.time * T + pose(problem, arm, opti, handles, T / N, guess) + task
 
 
 def _weighted(problem: Problem):

@@ -112,13 +112,14 @@ def reach_problem(N: int = 30, T: float = 2.0):
     goal = start.copy()
     goal[:3, 3] += (0.0, 0.5, 0.0)
     center = (start[:3, 3] + goal[:3, 3]) / 2
-    ik = inverse_kinematics(f, robot, goal, robot.qr)
-    pose_function = f.functions["frame_pose"]
+    ik = inverse_kinematics(f, robot, goal, robot.qr, frame="panda_hand_tcp")
     task = TaskGoal(
-        getattr(pose_function, "function", pose_function),  # the casadi.Function itself
+        f,
         goal,
+        frame="panda_hand_tcp",
         obstacles=(Sphere(tuple(center), 0.10),),
-        clear=tuple((j, r) for j, r in enumerate(REACH_RADII)),
+        clear=tuple(zip(REACH_FRAMES, REACH_RADII)),
+        robot=robot,
     )
     problem = Problem(robot.qr, ik.q, T=T, N=N, limits=Limits.for_robot(robot), cost=Cost(effort=1.0), task=task)
     return robot, problem, task, ik
