@@ -67,6 +67,21 @@ def test_regenerate_line_rebuilds_the_files_byte_for_byte(generated, tmp_path, m
         assert (tmp_path / name).read_bytes() == (generated / name).read_bytes(), name
 
 
+@pytest.mark.parametrize("model", ["branches.urdf", "puma560"])
+def test_chosen_frames_are_on_the_regenerate_line_and_rebuild_the_files(model, tmp_path, monkeypatch):
+    """--frames changes the generated code: the header's command says them, and rebuilds the files
+    byte for byte (a file's tree and a shipped arm)."""
+    monkeypatch.chdir(URDF.parent)
+    options, link = (OPTIONS, "l2") if model.endswith(".urdf") else ([], "link2")
+    argv = ["generate", model, *options, "--frames", link, "tool", "--target", "numpy", "--out", str(tmp_path / "a")]
+    assert cli.main(argv) == 0
+    (written,) = (tmp_path / "a").iterdir()
+    command = shlex.split(_field(_header(written), "regenerate"))
+    assert command[-5:] == ["--frames", link, "tool", "--target", "numpy"], command
+    assert cli.main([*command[1:], "--out", str(tmp_path / "b")]) == 0
+    assert (tmp_path / "b" / written.name).read_bytes() == written.read_bytes()
+
+
 def test_generate_without_out_writes_out_and_the_file_stem(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert (

@@ -15,6 +15,7 @@ edited; into a temporary folder if the cache cannot be written).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib.util
 import os
 import re
@@ -117,25 +118,27 @@ def _provenance_lines(robot: Robot) -> tuple[str, tuple, str]:
     """(model source, further lines, regenerate arguments) of the files' headers.  A robot read
     from a URDF, xacro or MJCF file (`robot.urdf`, `robot.mjcf`; not a shipped arm) names the file
     and its sha256 — never its folder, which is the reader's, not the model's —, lists what was
-    locked, excluded and snapped, and rebuilds by `symdyn generate FILE --tip … [--name NAME]`,
-    run beside the file."""
+    locked, excluded and snapped, and rebuilds by `symdyn generate FILE --tip … [--name NAME]
+    [--frames …]`, run beside the file."""
     record = getattr(robot, "urdf", None) or getattr(robot, "mjcf", None)
+    frames = " --frames " + shlex.join(robot.frames) if robot.frames else ""
     if is_shipped(robot):
         return robot.source, (), robot.name
+    if not robot.contacts and is_shipped(dataclasses.replace(robot, frames=())):  # a shipped arm's frames
+        return robot.source, (), robot.name + frames
     if record is None:  # built in Python: no name or file the command line knows rebuilds it
         return robot.source, (), ""
-    if not record.describes(robot):  # changed after reading (a payload, new parameters): no command rebuilds it
-        return (
-            f"{robot.source}, changed after reading (the file alone does not rebuild it)",
-            tuple(record.lines()[1:]),
-            "",
-        )
+    if not record.describes(robot) or robot.contacts:  # changed after reading (a payload, new
+        # parameters) or a contact set (not on the command line): no command rebuilds it
+        why = "a contact set chosen" if record.describes(robot) else "changed after reading"
+        return (f"{robot.source}, {why} (the file alone does not rebuild it)", tuple(record.lines()[1:]), "")
     lines = list(record.lines())
     command = record.command_args()
     if command.split(" ", 1)[0] != shlex.quote(record.file):
         command = f"{shlex.quote(record.file)} {command}"
     if identifier(robot.name) != identifier(Path(record.file).stem):
         command += f" --name {shlex.quote(robot.name)}"
+    command += frames
     in_folder = re.compile(r"[^\s'\"(\[]*[/\\]" + re.escape(record.file))
 
     def local(line: str) -> str:  # a warning that quotes the file by its path names it alone

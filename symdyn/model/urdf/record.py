@@ -89,8 +89,9 @@ class FileRecord:
     snaps: tuple
 
     def describes(self, robot) -> bool:
-        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …)."""
-        return robot.fingerprint() == self.fingerprint
+        """Whether `robot` is still the robot as read (not changed since by payload, subs, replace …),
+        its chosen frames and contact set aside (`Robot.dynamics_fingerprint`)."""
+        return robot.dynamics_fingerprint() == self.fingerprint
 
     @property
     def max_snap(self) -> float:
