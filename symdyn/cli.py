@@ -98,6 +98,12 @@ def _cmd_print(args: argparse.Namespace) -> int:
     if args.frames is not None:  # the task space: each frame's forward kinematics and Jacobian
         from .presentation.task_space import frames_constant_form, frames_form
 
+        joint_space = [f"--{k}" for k, v in (("term", args.term != "all"), ("layout", args.layout != "auto")) if v]
+        joint_space += ["--prune"] if args.prune is not None else []
+        if joint_space:
+            verb = "applies" if len(joint_space) == 1 else "apply"
+            raise ValueError(f"{' and '.join(joint_space)} {verb} to the joint-space equations, not to --frames")
+
         if args.constants:
             print(frames_constant_form(dyn, args.format, digits=args.digits))
         else:

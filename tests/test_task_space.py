@@ -346,15 +346,29 @@ def test_print_frames_gives_the_two_link_arms_forward_kinematics_as_a_textbook(c
     assert "J1_1 = -a1*sin(q1) - a2*sin(q1 + q2)" in out and "J1_2 = -a2*sin(q1 + q2)" in out
 
 
-def test_the_pumas_tool_pose_in_named_constants_is_its_forward_kinematics(capsys):
-    """Every printed element (DH lengths a2, a3, d3, d4 and abbreviations C1, S23, …) evaluated
-    at random q equals the reference's forward kinematics."""
+def test_print_frames_refuses_the_joint_space_options_and_names_only_numbers(capsys):
+    """--term, --layout and --prune shape the joint-space equations: with --frames they are an error,
+    not ignored; a symbolic arm's lengths are its own symbols, so no empty 'where' line."""
+    from symdyn.cli import main
+
+    assert main(["print", "twolink", "--frames", "--term", "M", "--prune", "1e-3"]) != 0
+    assert "--term and --prune apply to the joint-space equations, not to --frames" in capsys.readouterr().err
+    assert main(["print", "twolink", "--frames", "--constants"]) == 0
+    out = capsys.readouterr().out
+    assert "where" not in out and "x = C1*a1 + C12*a2" in out, out
+
+
+@pytest.mark.parametrize("name", ["puma560", "puma560_mdh"])
+def test_the_pumas_tool_pose_in_named_constants_is_its_forward_kinematics(name, capsys):
+    """Every printed element (DH lengths a2, a3, d3, d4 — Craig's names in either convention: a
+    modified-DH link i holds a_{i-1} — and abbreviations C1, S23, …) evaluated at random q equals
+    the reference's forward kinematics."""
     import sympy as sp
 
     from symdyn import reference
     from symdyn.cli import main
 
-    assert main(["print", "puma560", "--frames", "--constants"]) == 0
+    assert main(["print", name, "--frames", "--constants"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert "x = C1*C2*a2 + C1*C23*a3 - C1*S23*d4 + S1*d3" in lines
     where = dict(item.split(" = ") for item in lines[-2].lstrip("# where").split(", "))
@@ -363,7 +377,7 @@ def test_the_pumas_tool_pose_in_named_constants_is_its_forward_kinematics(capsys
     q = sp.symbols("q1:7", real=True)
     table = {sp.Symbol(k, real=True): sp.sympify(v, locals=dict(zip(map(str, q), q))) for k, v in abbr.items()}
     elements = dict(line.split(" = ", 1) for line in lines if " = " in line and not line.startswith("#"))
-    puma = models.load("puma560")
+    puma = models.load(name)
     for qn in np.random.default_rng(3).uniform(-2, 2, (5, 6)):
         T = reference.fkine(puma, qn)
         at = {**values, **{s: float(e.subs(dict(zip(q, qn)))) for s, e in table.items()}}

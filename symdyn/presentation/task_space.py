@@ -61,9 +61,11 @@ def frames_form(dyn: Dynamics, fmt: str = "text", *, digits: int = 5, form: str 
 
 def _named_lengths(robot) -> tuple:
     """The robot with its non-zero DH lengths a_i, d_i as symbols a1, d3, … (numbers elsewhere),
-    and {symbol: value}."""
+    and {symbol: value}: named as the convention's table names them (modified DH, Craig's: link
+    i holds a_{i-1}, so the Puma's 0.4318 m is a2)."""
     values: dict = {}
     links = []
+    shift = 1 if robot.convention == "modified" else 0
     for i, link in enumerate(robot.links, start=1):
         fields = {}
         for name in ("a", "d"):
@@ -71,7 +73,7 @@ def _named_lengths(robot) -> tuple:
             if name == "d" and not link.is_revolute:
                 continue  # a prismatic joint's d is its coordinate
             if isinstance(value, (int, float)) and value != 0:
-                sym = sp.Symbol(f"{name}{i}", real=True)
+                sym = sp.Symbol(f"{name}{i - shift if name == 'a' else i}", real=True)
                 values[sym] = value
                 fields[name] = sym
         links.append(dataclasses.replace(link, **fields))
@@ -117,4 +119,5 @@ def frames_constant_form(dyn: Dynamics, fmt: str = "text", *, digits: int = 5) -
     where = ", ".join(f"{s} = {number(float(v), digits)} m" for s, v in values.items())
     order = sorted(abbreviations, key=lambda s: (s.name[0] == "S", len(s.name), s.name))
     abbr = ", ".join(f"{s} = {abbreviations[s]}" for s in order)
-    return "\n\n".join(blocks) + f"\n{comment} where {where}\n{comment} {abbr}"
+    where = f"\n{comment} where {where}" if where else ""  # a symbolic arm's lengths are named already
+    return "\n\n".join(blocks) + where + f"\n{comment} {abbr}"
