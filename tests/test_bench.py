@@ -530,3 +530,15 @@ def test_max_bytes_skips_a_batch_too_large_and_is_a_command_line_option():
     assert not result.times and result.notes == ["tau at N = 10: outputs 0.0 GB > --max-bytes, skipped"]
     with pytest.raises(ValueError, match="--max-bytes must be a positive number of bytes, got 0.0"):
         compare.main(["--model", "twolink", "--batched", "--max-bytes", "0"])
+
+
+def test_the_task_space_help_names_every_case(capsys, monkeypatch):
+    from symdyn.bench import task_bench
+    from symdyn.cli import main
+
+    monkeypatch.setenv("COLUMNS", "2000")  # argparse would wrap a name at its hyphen
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    missing = [case for case in task_bench.CASES if not re.search(rf"(?<![\w-]){case}(?![\w-])", text)]
+    assert not missing, missing

@@ -426,8 +426,10 @@ def configure_parser(p: argparse.ArgumentParser) -> None:
         default=None,
         help="the task-space table instead of the per-call section: frame poses, Jacobians and drifts, "
         "centre of mass and centroidal map against Pinocchio's C++ per call, and the batch per state "
-        "with its memory bound; cases solo12 (four feet), panda (the hand), talos (com + A_G; "
-        "example-robot-data for solo12 and talos); default all",
+        "with its memory bound; cases (example-robot-data's robots but the Panda): solo12 (four feet, one "
+        "call), solo12-separate (three calls), panda (the hand), talos (com + A_G, one call), talos-separate "
+        "(com_jacobian + centroidal_map), solo12-contacts, solo12-contact-derivatives, talos-contacts, "
+        "talos-contact-derivatives (contact dynamics and their derivatives); default: all",
     )
     p.add_argument(
         "--sizes",
