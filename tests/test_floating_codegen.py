@@ -201,3 +201,31 @@ def test_derivatives_equal_pinocchios(case, target):
     model = symdyn.load(robot, target)
     model = _EachState(model) if target == "c" and robot.base_joint != "free" else model
     _check_pinocchio(pin, model, robot, q, qd, a, want, target)
+
+
+@pytest.mark.parametrize("target", ["c-extension", "c-ctypes", "numpy", "casadi"])
+def test_a_zero_quaternion_is_refused_by_name_and_any_other_read_by_its_direction(target):
+    """A free base's q[3:7] = 0 is no rotation (the generated code would divide by |q|² = 0):
+    a ValueError naming it, one state or the state of a batch at fault — as a quaternion whose
+    square underflows to zero; a quaternion of another length gives the unit one's values."""
+    from symdyn.codegen.emit.clib import CompileOptions
+
+    robot = random_tree_robot(1, n=2, base_joint="free")
+    binding = target.split("-")[1] if target.startswith("c-") else None
+    model = symdyn.load(robot, "c", options=CompileOptions(binding=binding)) if binding else symdyn.load(robot, target)
+    q = np.tile(robot.integrate(robot.neutral(), np.full(robot.nv, 0.4)), (5, 1))
+    v = np.full((5, robot.nv), 0.3)
+    for bad in (0.0, 1e-200):
+        one = q[0].copy()
+        one[3:7] *= bad
+        with pytest.raises(ValueError, match=r"^tau\(\): the base's quaternion q\[3:7\] is zero: a rotation"):
+            model.tau(one, v[0], v[0])
+        many = q.copy()
+        many[3, 3:7] *= bad
+        with pytest.raises(ValueError, match=r"quaternion q\[3:7\] is zero \(state 3\)"):
+            model.tau(many, v, v)
+        with pytest.raises(ValueError, match=r"^M\(\): the base's quaternion q\[3:7\] is zero"):
+            model.M(one)  # M does not depend on the base's turn, and still refuses no rotation
+    scaled = q.copy()
+    scaled[:, 3:7] *= 0.5
+    _close(model.tau(scaled, v, v), model.tau(q, v, v), "tau with a half-length quaternion")

@@ -4,7 +4,8 @@ Each argument is array-like of real numbers, shape (size,) for one state or
 (..., size) for many; the leading shapes broadcast together as NumPy's do and
 lead the outputs' shapes; arguments go by position or by their documented
 names.  NaN, infinity, complex numbers, a scalar for a vector and a wrong last
-dimension are ValueErrors naming the argument.  Written once: the NumPy
+dimension are ValueErrors naming the argument, and so is a free base's quaternion
+(q[3:7]) that is zero: any other is read by its direction.  Written once: the NumPy
 target prints `argument` and `leading` into its module (which imports only
 numpy and math); the C bindings and the CasADi target call `arguments`.
 """
@@ -16,16 +17,17 @@ import math
 
 import numpy as np
 
-__all__ = ["MAXDIMS", "argument", "leading", "given", "arguments", "source"]
+__all__ = ["MAXDIMS", "argument", "leading", "given", "arguments", "free_base", "source"]
 
 #: NumPy's limit on the dimensions of an array (32 before NumPy 2).
 MAXDIMS = 64
 
 
-def argument(x, size, name, lead, function):
+def argument(x, size, name, lead, function, quaternion=False):
     """x as a finite real float array of shape (..., size) with at most `lead`
     leading dimensions (the result's own follow them), or a ValueError naming
-    it as an argument of `function`."""
+    it as an argument of `function`; `quaternion`: x is a free base's q, whose
+    quaternion x[..., 3:7] must not be zero (a rotation is read from its direction)."""
     x = np.asarray(x)
     if x.dtype.kind == "c":
         raise ValueError(f"{function}(): {name} is complex; the dynamics take real numbers")
@@ -42,6 +44,15 @@ def argument(x, size, name, lead, function):
         )
     if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
         raise ValueError(f"{function}(): {name} contains NaN or infinity")
+    if quaternion:
+        zero = np.flatnonzero(((x[..., 3:7] ** 2).sum(axis=-1) == 0).ravel())
+        if zero.size:
+            index = tuple(int(i) for i in np.unravel_index(zero[0], x.shape[:-1]))
+            where = f" (state {index[0] if len(index) == 1 else index})" if index else ""
+            raise ValueError(
+                f"{function}(): the base's quaternion {name}[3:7] is zero{where}: a rotation needs a "
+                "non-zero quaternion (any other is read by its direction)"
+            )
     return x
 
 
@@ -89,19 +100,30 @@ def given(function: str, inputs, args: tuple, kwargs: dict) -> dict:
     return values
 
 
-def arguments(function: str, inputs, args: tuple, kwargs: dict, lead: int):
+def arguments(function: str, inputs, args: tuple, kwargs: dict, lead: int, quaternion=None):
     """One call's arguments (`given`), checked and broadcast: (C-contiguous float arrays of shape
     leading + (size,), one per input, leading).
 
-    inputs: ((name, size), …) in order; lead: the most leading dimensions allowed.
+    inputs: ((name, size), …) in order; lead: the most leading dimensions allowed; quaternion:
+    the name of the input that is a free base's q (`free_base`), or None.
     """
     names = [a for a, _ in inputs]
     values = given(function, inputs, args, kwargs)
-    arrays = [argument(values[a], size, a, lead, function) for a, size in inputs]
+    arrays = [argument(values[a], size, a, lead, function, a == quaternion) for a, size in inputs]
     shape = leading(function, names, arrays)
     return tuple(
         np.ascontiguousarray(np.broadcast_to(x, shape + x.shape[-1:]) if x.shape[:-1] != shape else x) for x in arrays
     ), shape
+
+
+def free_base(signatures) -> bool:
+    """Whether the functions' inputs ((name, ((input, size), …)), …) are a free base's: q has one
+    coordinate more than v (its quaternion's four for the three of the body's turn)."""
+    sizes = {}
+    for _, inputs in signatures:
+        sizes.update(inputs)
+    velocity = sizes.get("qd", sizes.get("v"))
+    return "q" in sizes and velocity is not None and sizes["q"] == velocity + 1
 
 
 def source() -> str:

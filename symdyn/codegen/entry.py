@@ -459,7 +459,7 @@ def _compile_casadi(model: "CasadiModel", names: tuple) -> "CasadiModel":
             f"{', '.join(model.functions)}"
         )
     numeric = {f: getattr(model, f) for f in model.functions}
-    numeric.update({f: Numeric(compiled(numeric[f].function), numeric[f].shapes) for f in names})
+    numeric.update({f: Numeric(compiled(numeric[f].function), numeric[f].shapes, numeric[f].quaternion) for f in names})
     out = CasadiModel(model.name, model.n, model.target, model.fingerprint, model.folder, numeric)
     out.nq, out.nv = model.nq, model.nv
     return out

@@ -133,7 +133,10 @@ def deserialize(path: Path) -> tuple[dict, list["Numeric"]]:
     head, content = read(path)
     _, shapes, encoded = content.split("\n", 2)
     shapes = json.loads(shapes)
-    return head, [Numeric(f, shapes[f.name()]) for f in ca.StringDeserializer(encoded).unpack()]
+    functions = ca.StringDeserializer(encoded).unpack()
+    inputs = [(f.name(), [(f.name_in(i), f.size1_in(i)) for i in range(f.n_in())]) for f in functions]
+    quaternion = "q" if contract.free_base(inputs) else None
+    return head, [Numeric(f, shapes[f.name()], quaternion) for f in functions]
 
 
 class Numeric:
@@ -143,8 +146,9 @@ class Numeric:
     bad input refused.  Called with CasADi values (SX, MX, DM), and in every
     attribute (name_in, map, factory, …), it is the Function itself."""
 
-    def __init__(self, function: ca.Function, shapes) -> None:
+    def __init__(self, function: ca.Function, shapes, quaternion: str | None = None) -> None:
         self.function = function
+        self.quaternion = quaternion  # the input that is a free base's q (`contract.free_base`)
         self.shapes = tuple(tuple(s) for s in shapes)
         self.inputs = tuple((function.name_in(i), function.size1_in(i)) for i in range(function.n_in()))
         self.__name__ = function.name()
@@ -163,7 +167,7 @@ class Numeric:
     def __call__(self, *args, **kwargs):
         if any(isinstance(x, (ca.SX, ca.MX, ca.DM)) for x in (*args, *kwargs.values())):
             return self.function(*args, **kwargs)
-        arrays, lead = contract.arguments(self.__name__, self.inputs, args, kwargs, self._lead)
+        arrays, lead = contract.arguments(self.__name__, self.inputs, args, kwargs, self._lead, self.quaternion)
         count = int(np.prod(lead))
         if lead and not count:
             outs = tuple(np.empty(lead + s) for s in self.shapes)

@@ -140,12 +140,20 @@ def load_units(
     except RuntimeError:  # say so now, not at the first call, unless every unit is built
         if not isinstance(texts, dict) or not all(cbuild.intact(units.unit(*u).path) for u in texts):
             raise
+    free = contract.free_base([(s.name, s.inputs) for s in sigs])  # q's quaternion checked
     if headers is None:
-        functions = {s.name: _CtypesFunction(model, s, units) for s in sigs}
+        functions = {s.name: _CtypesFunction(model, s, units, "q" if free else None) for s in sigs}
         return CLibrary(model, sigs, cache_dir() / "c" / "units", functions, "ctypes", units)
     ext = _glue(options.flags, headers)
     functions = {
-        s.name: ext._function(s.name, _doc(s), tuple(s.inputs), tuple(shape for _, shape in s.outputs), units)
+        s.name: ext._function(
+            s.name,
+            _doc(s),
+            tuple(s.inputs),
+            tuple(shape for _, shape in s.outputs),
+            units,
+            [a for a, _ in s.inputs].index("q") if free and "q" in dict(s.inputs) else -1,
+        )
         for s in sigs
     }
     return CLibrary(model, sigs, Path(ext.__file__), functions, "extension", units)
@@ -210,8 +218,8 @@ class _CtypesFunction:
     ctypes releases the GIL); its compiled code is built and bound at the first
     call that needs it (`Units`)."""
 
-    def __init__(self, model: str, sig: Signature, units: Units) -> None:
-        self.sig, self._units = sig, units
+    def __init__(self, model: str, sig: Signature, units: Units, quaternion: str | None = None) -> None:
+        self.sig, self._units, self._quaternion = sig, units, quaternion
         nargs = len(sig.inputs) + len(sig.outputs)
         self._one_type = ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * nargs)
         self._many_type = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int, *[ctypes.c_void_p] * nargs)
@@ -236,7 +244,9 @@ class _CtypesFunction:
             one(*(x[k].ctypes.data for x in flat))
 
     def __call__(self, *args, out=None, threads=None, **kwargs):
-        arrays, lead = contract.arguments(self.sig.name, self.sig.inputs, args, kwargs, self._lead_max)
+        arrays, lead = contract.arguments(
+            self.sig.name, self.sig.inputs, args, kwargs, self._lead_max, self._quaternion
+        )
         shapes = [lead + shape for _, shape in self.sig.outputs]
         named = [(a, x) for (a, _), x in zip(self.sig.inputs, arrays)]
         outs = [np.empty(s) for s in shapes] if out is None else check_out(self.sig.name, out, shapes, named)

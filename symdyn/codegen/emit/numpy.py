@@ -320,9 +320,10 @@ def _check_names(p: Program) -> None:
         )
 
 
-def _dispatch_lines(p: Program) -> list[str]:
-    """Argument checks; one state or a few: the scalar body (a zero division
-    or math domain error there falls through to NumPy's inf/nan)."""
+def _dispatch_lines(p: Program, free: bool) -> list[str]:
+    """Argument checks (`free`: q is a free base's, its quaternion must not be zero); one state
+    or a few: the scalar body (a zero division or math domain error there falls through to
+    NumPy's inf/nan)."""
     args = [a for a, _ in p.inputs]
     shapes = repr(p.output_shapes())
     lead = f"MAXDIMS - {max(map(len, p.output_shapes()))}"
@@ -330,7 +331,10 @@ def _dispatch_lines(p: Program) -> list[str]:
         "        except (ArithmeticError, ValueError):",
         "            pass  # a zero division or math domain error: inf/nan as NumPy gives below",
     ]
-    checks = ", ".join(f"argument({a}, {len(s)}, {a!r}, {lead}, {p.name!r})" for a, s in p.inputs)
+    checks = ", ".join(
+        f"argument({a}, {len(s)}, {a!r}, {lead}, {p.name!r}{', True' if free and a == 'q' else ''})"
+        for a, s in p.inputs
+    )
     return [
         f"    {', '.join(args)} = {checks}",
         f"    if {' == '.join(f'{a}.ndim' for a in args)} == 1:",
@@ -404,12 +408,12 @@ def _columns(cols: list[int]) -> str:
     return repr(cols)
 
 
-def batched_source(p: Program, chunk: int = CHUNK) -> str:
-    """The public function: argument checks, the scalar body for one state or
-    a few, else the batched body, `chunk` states at a time."""
+def batched_source(p: Program, chunk: int = CHUNK, free: bool = False) -> str:
+    """The public function: argument checks (`free`: of a free base's q too), the scalar body
+    for one state or a few, else the batched body, `chunk` states at a time."""
     _check_names(p)
     head = [f"def {p.name}({', '.join(a for a, _ in p.inputs)}):"] + ([f'    """{p.doc}"""'] if p.doc else [])
-    return "\n".join(head + _dispatch_lines(p) + _loop_lines(p, _plan(p), chunk))
+    return "\n".join(head + _dispatch_lines(p, free) + _loop_lines(p, _plan(p), chunk))
 
 
 def module_source(bundle: Bundle) -> str:
@@ -435,5 +439,5 @@ def module_source(bundle: Bundle) -> str:
         _HELPERS,
     ]
     for p in bundle.programs:
-        parts += ["\n\n" + batched_source(p), "\n\n" + scalar_source(p)]
+        parts += ["\n\n" + batched_source(p, free=bundle.nq == bundle.nv + 1), "\n\n" + scalar_source(p)]
     return seal("\n".join(parts) + "\n")

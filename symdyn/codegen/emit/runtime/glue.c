@@ -44,6 +44,7 @@ typedef struct {
     const char *cname;
     int nin, nout;
     npy_intp in_size[MAXARGS];
+    int quaternion;   /* the input that is a free base's q (its quaternion at 3:7 must not be zero), or -1 */
     int out_nd[MAXARGS];
     npy_intp out_dims[MAXARGS][3];
     void *one, *many;
@@ -166,10 +167,14 @@ static int plain(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObj
             return 0;
         if (PyArray_DIMS(a)[nd - 1] != s->in_size[i])
             return 0;
-        if (nd > 1)
-            continue;
         size = PyArray_SIZE(a);
         x = (const double *)PyArray_DATA(a);
+        if (i == s->quaternion)   /* a quaternion whose |q|² is zero (underflow too): the contract names it */
+            for (k = 0; k + 7 <= size; k += s->in_size[i])
+                if (x[k + 3] * x[k + 3] + x[k + 4] * x[k + 4] + x[k + 5] * x[k + 5] + x[k + 6] * x[k + 6] == 0.0)
+                    return 0;
+        if (nd > 1)
+            continue;
         for (k = 0; k < size; ++k)
             if (!isfinite(x[k]))
                 return 0;
@@ -204,7 +209,9 @@ static PyObject *checked(const spec_t *s, PyObject *const *args, Py_ssize_t narg
     for (i = 0; i < nkw; ++i)
         if (PyDict_SetItem(kw, PyTuple_GET_ITEM(kwnames, i), args[nargs + i]) < 0)
             goto done;
-    result = PyObject_CallFunction(arguments, "OOOOi", s->name, s->inputs, pos, kw, NPY_MAXDIMS - out_nd);
+    result = PyObject_CallFunction(arguments, "OOOOiO", s->name, s->inputs, pos, kw, NPY_MAXDIMS - out_nd,
+                                   s->quaternion < 0 ? Py_None
+                                                     : PyTuple_GET_ITEM(PyTuple_GET_ITEM(s->inputs, s->quaternion), 0));
 done:
     Py_XDECREF(pos);
     Py_XDECREF(kw);
@@ -479,22 +486,26 @@ static PyTypeObject spec_type = {
     .tp_methods = spec_methods,
 };
 
-/* _function(name, doc, inputs, outputs, builder): a new Python function for a
+/* _function(name, doc, inputs, outputs, builder[, quaternion]): a new Python function for a
    generated function of inputs ((name, size), ...) and outputs' shapes ((rows,),
    (rows, cols) or (m, rows, cols), ...), unbound: its first call asks builder(name, kind) for the address
-   of its compiled code.  Every call makes a new table, so that two models of one name
-   never share their code. */
+   of its compiled code; quaternion: the index of the input that is a free base's q, or -1 (default).
+   Every call makes a new table, so that two models of one name never share their code. */
 static PyObject *py_function(PyObject *self, PyObject *args)
 {
     PyObject *name, *doc, *inputs, *outputs, *builder, *fn;
     spec_t *s;
     Py_ssize_t i;
+    int quaternion = -1;
     (void)self;
-    if (!PyArg_ParseTuple(args, "UUO!O!O", &name, &doc, &PyTuple_Type, &inputs, &PyTuple_Type, &outputs, &builder))
+    if (!PyArg_ParseTuple(args, "UUO!O!O|i", &name, &doc, &PyTuple_Type, &inputs, &PyTuple_Type, &outputs, &builder,
+                          &quaternion))
         return NULL;
     if (PyTuple_GET_SIZE(inputs) < 1 || PyTuple_GET_SIZE(inputs) > MAXARGS || PyTuple_GET_SIZE(outputs) < 1
         || PyTuple_GET_SIZE(outputs) > MAXARGS)
         return PyErr_Format(PyExc_ValueError, "_function: 1 to %d inputs and outputs", MAXARGS);
+    if (quaternion < -1 || quaternion >= PyTuple_GET_SIZE(inputs))
+        return PyErr_Format(PyExc_ValueError, "_function: quaternion %d is not an input's index", quaternion);
     s = PyObject_New(spec_t, &spec_type);
     if (!s)
         return NULL;
@@ -509,6 +520,7 @@ static PyObject *py_function(PyObject *self, PyObject *args)
     s->builder = builder;
     s->nin = (int)PyTuple_GET_SIZE(inputs);
     s->nout = (int)PyTuple_GET_SIZE(outputs);
+    s->quaternion = quaternion;
     s->cname = PyUnicode_AsUTF8(name);
     if (!s->cname || !PyUnicode_AsUTF8(doc))
         goto fail;
@@ -551,7 +563,8 @@ fail:
 }
 
 static PyMethodDef methods[] = {
-    {"_function", py_function, METH_VARARGS, "_function(name, doc, inputs, outputs, builder): a new function"},
+    {"_function", py_function, METH_VARARGS,
+     "_function(name, doc, inputs, outputs, builder[, quaternion]): a new function"},
     {"_set_threads", py_set_threads, METH_O, "default number of threads of a batched call"},
     {NULL, NULL, 0, NULL}
 };
