@@ -259,7 +259,8 @@ def test_frames_given_once_as_a_generator_are_served():
 
 def test_the_readers_take_frames_and_a_tree_read_by_its_tips_serves_them():
     """frames= on from_urdf and from_mjcf; the tips a tree was read with are its default frames
-    (Solo's feet, links merged onto the lower legs), and a chain on a free base serves its tool."""
+    (Solo's feet, links merged onto the lower legs), and a chain (on a free base, or read by one
+    tip) serves its tool, which is the tip."""
     from symdyn.model.example_robots import robots_folder
 
     solo = robots_folder() / "solo_description" / "robots" / "solo12.urdf"
@@ -279,7 +280,9 @@ def test_the_readers_take_frames_and_a_tree_read_by_its_tips_serves_them():
     path = Path(__file__).parent / "mjcf_fixtures" / "menagerie_arm.xml"
     arm = Robot.from_mjcf(str(path), frames=["attachment_site", "shoulder_link"])
     assert [f.name for f in arm.task_frames] == ["attachment_site", "shoulder_link"]
-    assert [f.name for f in Robot.from_mjcf(str(path), tips=["forearm_link"]).task_frames] == ["forearm_link"]
+    one = Robot.from_mjcf(str(path), tips=["forearm_link"])  # one tip: a chain, whose tool is the tip
+    forearm = next(f for f in one.frame_catalog if f.name == "forearm_link")
+    assert [f.name for f in one.task_frames] == ["tool"] and (forearm.link, forearm.placement) == (one.n - 1, one.tool)
 
 
 def test_chosen_frames_enter_the_fingerprint_and_the_default_does_not():

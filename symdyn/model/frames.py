@@ -84,9 +84,9 @@ def default_names(robot) -> tuple[str, ...]:
 
 
 def served(robot, names, tips):
-    """A file reader's robot serving the frames `names`, or by default the tips it was read
-    with ("all" names none: the default of `default_names`)."""
-    if names is None and tips not in (None, "all"):
+    """A file reader's robot serving the frames `names`, or by default the tips a tree was read
+    with (one tip makes a chain, whose tool is that tip; "all" names none: `default_names`)."""
+    if names is None and tips not in (None, "all") and default_names(robot) != ("tool",):
         names = tips
     return robot if names is None else robot.with_frames(names)
 
