@@ -22,7 +22,7 @@ from .derivatives import (
     tau_derivatives_spec,
 )
 from .shipped import is_shipped
-from .functions import NAMES, FunctionSpec, candidates, fdyn_spec, regressor_spec
+from .functions import NAMES, FunctionSpec, SingularMass, candidates, fdyn_spec, regressor_spec
 from .contact_functions import ContactSpecs, contact_names, derivatives_program, parts_program
 from .task_functions import TaskPrograms
 
@@ -234,21 +234,26 @@ class Programs:
             self._specs["Minv"] = minv_spec(self.chosen("M")[0], tree=self.tree)
         return self._specs["Minv"]
 
-    def all(self, label: str = "") -> list[Program]:
-        """Every function's program, in the order of `names`; a job over REPORT_AFTER_S says on
-        stderr which function it is at and about how long is left (`label` names it)."""
+    def all(self, label: str = "") -> tuple[list[Program], dict[str, str]]:
+        """(every function's program in the order of `names`, {function: why it is absent}): a
+        robot whose M(q) is singular for every q (one read for its kinematics) has no forward
+        dynamics, M⁻¹ or contact functions, and says so; its other functions are built.  A job over
+        REPORT_AFTER_S says on stderr which function it is at and about how long is left (`label`)."""
         bar = progress.Progress(label or "symdyn: programs", len(self.names), after=progress.REPORT_AFTER_S)
-        out = []
+        out, absent = [], {}
         for name in self.names:
-            out.append(self.program(name))
+            try:
+                out.append(self.program(name))
+            except SingularMass as exc:
+                absent[name] = str(exc)
             bar.step(name)
         bar.done()
-        return out
+        return out, absent
 
 
 def programs(
     dyns: Sequence[Dynamics], regressor=None, origins: Sequence[str] | None = None, label: str = ""
-) -> list[Program]:
-    """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is
-    given), tau_derivatives, fdyn_derivatives and Minv (`Programs`, all built)."""
+) -> tuple[list[Program], dict[str, str]]:
+    """The programs of tau, M, C, Cqd, G, F, fdyn (and Y when `regressor` is given),
+    tau_derivatives, fdyn_derivatives, Minv and the task space, and those absent (`Programs.all`)."""
     return Programs(dyns, regressor, origins).all(label)

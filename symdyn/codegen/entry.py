@@ -23,6 +23,7 @@ import shlex
 import shutil
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 from .. import __version__
@@ -94,11 +95,15 @@ def bundle(robot: Robot) -> Bundle:
     dyns, origins = derivations(robot)
     reg = regressor(robot)
     try:
-        progs = programs(dyns, reg, origins, f"symdyn: programs of {robot.name}")
+        progs, absent = programs(dyns, reg, origins, f"symdyn: programs of {robot.name}")
     except ValueError as exc:
         raise ValueError(f"cannot generate code for {robot.name!r}: {exc}") from None
     used = sorted({p.origin for p in progs}, key=str)
     source, notes, command = _provenance_lines(robot)
+    if absent:  # M(q) singular (a robot read for its kinematics): said in the files and now
+        why = f"not generated: {', '.join(absent)}: {next(iter(absent.values()))}"
+        notes += (why,)
+        warnings.warn(f"{robot.name}: {why}", stacklevel=2)
     return Bundle(
         name=identifier(robot.name),
         n=robot.n,
@@ -280,6 +285,15 @@ class GeneratedModel:
 
     def __repr__(self) -> str:
         return f"<{self.name} model code ({self.target}): {', '.join(self.functions)}>"
+
+    def __getattr__(self, name: str):
+        """Only for a name that is not a function of the model (those are plain attributes)."""
+        if name.startswith("_") or "functions" not in self.__dict__:
+            raise AttributeError(name)
+        raise AttributeError(
+            f"{self.name}'s {self.target} code has no function {name!r} (its files' header says why one is "
+            f"not generated); it has {', '.join(self.functions)}"
+        )
 
 
 def _sized(model: GeneratedModel, robot: Robot) -> GeneratedModel:

@@ -21,6 +21,7 @@ from ..derivation.dynamics import Dynamics
 from ..derivation.program import Program, make_program
 
 __all__ = [
+    "SingularMass",
     "FunctionSpec",
     "candidates",
     "fdyn_spec",
@@ -33,6 +34,12 @@ __all__ = [
 ]
 
 NAMES = ("tau", "M", "C", "Cqd", "G", "F", "fdyn")
+
+
+class SingularMass(ValueError):
+    """M(q) is singular for every q (a joint that moves no mass and has no rotor): what solves
+    with M (forward dynamics, M⁻¹, contacts) cannot be generated."""
+
 
 _DOCS = {
     "tau": "Inverse dynamics tau = M(q) qdd + C(q, qd) qd + F(qd) + G(q), ({n},).",
@@ -134,7 +141,7 @@ def ldlt_factor(M: sp.Matrix, order: Sequence[int] | None = None) -> tuple[list,
         D = name("D", Ms[j][j] - sp.Add(*(W[j][k] * L[j][k] for k in range(j))), order[j])
         if D == 0:
             joint = order[j] + 1
-            raise ValueError(
+            raise SingularMass(
                 f"M(q) is singular for every q: pivot {joint} of its LDLᵀ is exactly 0 (joint "
                 f"{joint} moves no mass and has no rotor inertia); forward dynamics is undefined. "
                 "Give a link beyond that joint mass and inertia, or the joint a rotor (Jm and G)"
