@@ -112,6 +112,26 @@ def test_a_frame_cost_on_a_path_makes_the_hand_follow_it(arm2):
     assert free > 0.5 and held < 0.005, (free, held)
 
 
+def test_a_soft_goal_at_the_end_of_a_free_end_reaches_the_pose_as_its_weight_grows(arm2):
+    """A FrameCost at the last node on a free end configuration (qf only ends the guess): the hand
+    ends nearer the target pose the larger the weight, within a millimetre at the largest; with
+    the end configuration imposed instead, the cost cannot move it."""
+    robot, f, c = arm2
+    q0, target = np.array([0.3, 1.0]), c.frame_pose(np.array([1.4, 0.4]))[0]
+    arm = ocp.dynamics(robot.nofriction(all=True), "plain", compiled=False)
+
+    def miss(weight, free_end=True):
+        end = FrameCost(f, target, position=weight, orientation=weight, over="end", robot=robot)
+        problem = ocp.Problem(q0, q0, T=1.0, N=16, method="trapezoidal", task_costs=(end,), free_end=free_end)
+        sol = ocp.solve(problem, arm)
+        assert sol.stats["success"], sol.stats["status"]
+        return np.abs(c.frame_pose(sol.q[-1])[0] - target).max()
+
+    misses = [miss(w) for w in (1.0, 1e2, 1e5)]
+    assert misses[0] > misses[1] > misses[2] and misses[2] < 1e-3, misses
+    assert miss(1e5, free_end=False) == pytest.approx(np.abs(c.frame_pose(q0)[0] - target).max())
+
+
 def test_a_goal_with_obstacles_clears_them_with_named_frames():
     """The Panda's reach (the study, coarse): every ball keeps clear of the sphere at the nodes."""
     from symdyn.apps.ocp_task import clearance

@@ -135,7 +135,8 @@ class FrameCost:
 
     (3 − tr(R*ᵀR) = 2(1 − cos θ) ≈ θ², θ the angle between the orientations), summed over the
     motion by the trapezoidal rule, ∫ c dt (`over="path"`), or taken at the last node alone
-    (`over="end"`: a soft goal).  target: a pose (4 × 4) or a position (3,), or one per node
+    (`over="end"`: a soft goal, with `Problem(free_end=True)`).  target: a pose (4 × 4) or a
+    position (3,), or one per node
     ((N + 1, 4, 4) or (N + 1, 3): a path to follow); a position alone leaves the orientation free
     (its weight must then be 0).  frame_pose: as `TaskGoal`'s.
 

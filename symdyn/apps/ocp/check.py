@@ -167,7 +167,7 @@ def verify(
         raise ValueError(f"unknown replay {replay!r}: expected 'open-loop' or 'intervals'")
     _, q, qd = resimulate(robot, solution, substeps=substeps, restart=replay == "intervals")
     _, _, qf, qdf = problem.boundary()
-    if problem.task is not None:  # the goal is a pose: the optimised end reaches it
+    if problem.task is not None or problem.free_end:  # the goal is a pose, or the cost's: the optimised end
         qf = solution.q[-1]
     return Check(
         success=solution.stats["success"],

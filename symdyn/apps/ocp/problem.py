@@ -202,6 +202,9 @@ class Problem:
     #: Task-space cost terms (`symdyn.apps.ocp_task.FrameCost`): a frame's distance from a target
     #: pose, position or path, along the motion or at its end, added to the cost.
     task_costs: tuple = ()
+    #: Whether the end configuration is free: qf then only ends the starting guess, and the end is
+    #: what the cost makes it (a `FrameCost` at the end: a soft task-space goal).
+    free_end: bool = False
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:

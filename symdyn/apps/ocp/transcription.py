@@ -97,10 +97,10 @@ def _pose(problem: Problem, arm: ArmFunctions, opti: ca.Opti):
     opti.set_initial(Q, guess[0][::2].T)
     opti.set_initial(QD, guess[1][::2].T)
     opti.subject_to([Q[:, 0] == q0, QD[:, 0] == qd0, QD[:, N] == qdf])
-    if problem.task is None:
-        opti.subject_to(Q[:, N] == qf)
-    else:  # the frame's end pose, and the obstacles cleared at every node
+    if problem.task is not None:  # the frame's end pose, and the obstacles cleared at every node
         problem.task.constrain(opti, Q)
+    elif not problem.free_end:
+        opti.subject_to(Q[:, N] == qf)
     _bound_states(opti, lim, Q, QD)
     handles = {"Q": Q, "QD": QD, "T": T}
     pose = _multiple_shooting if problem.method == "multiple-shooting" else _collocation
