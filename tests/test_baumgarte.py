@@ -104,6 +104,10 @@ def test_corrected_dynamics_equal_pinocchio_on_a_point_and_a_surface(tree, corre
         assert _relative(got[0], want[0]) < RTOL and _relative(got[1], want[1]) < RTOL
     plain = pinocchio_contacts(tree.with_contacts({"f2": "point", "f5": "surface"}), q[0], v[0], tau[0])
     assert _relative(plain[1], f.contact_fdyn(q[0], v[0], tau[0], setup[-1])[1]) > 1e-3  # the gains act
+    scaled = setup[-1].copy()
+    scaled[-4:] *= -2.5  # the surface's quaternion, another length and sign: the same rotation
+    for a, b in zip(f.contact_fdyn(q[-1], v[-1], tau[-1], scaled), f.contact_fdyn(q[-1], v[-1], tau[-1], setup[-1])):
+        assert _relative(a, b) < RTOL
 
 
 @pytest.mark.slow

@@ -162,7 +162,9 @@ def _anchor_errors(robot: Robot, poses: list) -> tuple[tuple, list, list]:
         if kind == "point":
             errors += [p[i] - a[i] for i in range(3)]
             continue
-        target = sp.Matrix(3, 3, [name("R", e) for e in quaternion_entries(*a[3:])])
+        x, y, z, w = a[3:]  # any non-zero quaternion, read by its direction as a base's is
+        k = name("k", 2 / (x * x + y * y + z * z + w * w))
+        target = sp.Matrix(3, 3, [name("R", e) for e in quaternion_entries(x, y, z, w, k)])
         relative = sp.Matrix(3, 3, [name("Rr", e) for e in R.T * target])
         linear, angular = _log6(relative, R.T * (sp.Matrix(a[:3]) - p), name)
         errors += [-e for e in R * sp.Matrix(linear)] + [-e for e in R * sp.Matrix(angular)]

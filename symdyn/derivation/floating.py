@@ -16,6 +16,8 @@ import functools
 
 import sympy as sp
 
+from ..model.rotations import quaternion_entries
+
 __all__ = [
     "base_symbols",
     "base_rotation",
@@ -61,14 +63,7 @@ def base_rotation(kind: str, qb) -> sp.Matrix:
         c, s = sp.cos(qb[2]), sp.sin(qb[2])
         return sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
     x, y, z, w = qb[3:7]
-    k = 2 / (x * x + y * y + z * z + w * w)
-    return sp.Matrix(
-        [
-            [1 - k * (y * y + z * z), k * (x * y - z * w), k * (x * z + y * w)],
-            [k * (x * y + z * w), 1 - k * (x * x + z * z), k * (y * z - x * w)],
-            [k * (x * z - y * w), k * (y * z + x * w), 1 - k * (x * x + y * y)],
-        ]
-    )
+    return sp.Matrix(3, 3, quaternion_entries(x, y, z, w, 2 / (x * x + y * y + z * z + w * w)))
 
 
 def spatial(kind: str, values) -> tuple[list, list]:

@@ -460,8 +460,8 @@ class Robot:
         `kp`, `kd` ≥ 0: Baumgarte gains, as Pinocchio's `BaumgarteCorrectorParameters` on each
         contact: `contact_fdyn` then holds J a + γ = −kd J v − kp e.  With kp > 0 it and its
         derivatives take one more input, `anchor`: where each contact should be, in the world —
-        x y z for a point, x y z qx qy qz qw for a surface (Pinocchio's XYZQUAT, a unit
-        quaternion) — and e is the frame's error from it: p − p_anchor for a point, −log₆ of the
+        x y z for a point, x y z qx qy qz qw for a surface (Pinocchio's XYZQUAT; any non-zero
+        quaternion, read by its direction) — and e is the frame's error from it: p − p_anchor for a point, −log₆ of the
         frame's placement relative to the anchor in world axes for a surface (`docs/contacts.md`).
         The impact (`contact_impulse`) has no corrector.
 

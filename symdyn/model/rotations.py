@@ -33,11 +33,12 @@ def quaternion_matrix(quat, order: str = "xyzw") -> np.ndarray:
     return R
 
 
-def quaternion_entries(x, y, z, w) -> tuple:
-    """The nine entries, row by row, of the rotation of the unit quaternion (x, y, z, w): numbers,
-    arrays or symbols (the generated contact anchors' use the last)."""
+def quaternion_entries(x, y, z, w, k=2) -> tuple:
+    """The nine entries, row by row, of the rotation of the quaternion (x, y, z, w): numbers,
+    arrays or symbols (the generated contact anchors' and floating bases' use the last).  k = 2
+    for a unit quaternion; k = 2/|q|² reads any non-zero one by its direction."""
     return (
-        *(1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
-        *(2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
-        *(2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
+        *(1 - k * (y * y + z * z), k * (x * y - z * w), k * (x * z + y * w)),
+        *(k * (x * y + z * w), 1 - k * (x * x + z * z), k * (y * z - x * w)),
+        *(k * (x * z - y * w), k * (y * z + x * w), 1 - k * (x * x + y * y)),
     )
