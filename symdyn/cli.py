@@ -94,15 +94,15 @@ def _cmd_print(args: argparse.Namespace) -> int:
     robot = command_line.from_args(args, symbolic=not args.numeric, massless=True)
     if not 1 <= args.digits <= 17:
         raise ValueError(f"--digits must be between 1 and 17, got {args.digits}")
-    dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
-    if args.frames is not None:  # the task space: each frame's forward kinematics and Jacobian
-        from .presentation.task_space import frames_constant_form, frames_form
-
+    if args.frames is not None:  # refused before a derivation that may take minutes
         joint_space = [f"--{k}" for k, v in (("term", args.term != "all"), ("layout", args.layout != "auto")) if v]
         joint_space += ["--prune"] if args.prune is not None else []
         if joint_space:
             verb = "applies" if len(joint_space) == 1 else "apply"
             raise ValueError(f"{' and '.join(joint_space)} {verb} to the joint-space equations, not to --frames")
+    dyn = derive(robot, args.method, cache=not args.no_cache, progress=True)
+    if args.frames is not None:  # the task space: each frame's forward kinematics and Jacobian
+        from .presentation.task_space import frames_constant_form, frames_form
 
         if args.constants:
             print(frames_constant_form(dyn, args.format, digits=args.digits))

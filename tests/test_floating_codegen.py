@@ -206,8 +206,8 @@ def test_derivatives_equal_pinocchios(case, target):
 @pytest.mark.parametrize("target", ["c-extension", "c-ctypes", "numpy", "casadi"])
 def test_a_zero_quaternion_is_refused_by_name_and_any_other_read_by_its_direction(target):
     """A free base's q[3:7] = 0 is no rotation (the generated code would divide by |q|² = 0):
-    a ValueError naming it, one state or the state of a batch at fault — as a quaternion whose
-    square underflows to zero; a quaternion of another length gives the unit one's values."""
+    a ValueError naming it, one state or the state of a batch at fault — as a quaternion so short
+    that 2/|q|² overflows; a quaternion of another length gives the unit one's values."""
     from symdyn.codegen.emit.clib import CompileOptions
 
     robot = random_tree_robot(1, n=2, base_joint="free")
@@ -215,10 +215,10 @@ def test_a_zero_quaternion_is_refused_by_name_and_any_other_read_by_its_directio
     model = symdyn.load(robot, "c", options=CompileOptions(binding=binding)) if binding else symdyn.load(robot, target)
     q = np.tile(robot.integrate(robot.neutral(), np.full(robot.nv, 0.4)), (5, 1))
     v = np.full((5, robot.nv), 0.3)
-    for bad in (0.0, 1e-200):
+    for bad in (0.0, 1e-160, 1e-200):  # zero, |q|² subnormal (2/|q|² overflows), |q|² underflowing to 0
         one = q[0].copy()
         one[3:7] *= bad
-        with pytest.raises(ValueError, match=r"^tau\(\): the base's quaternion q\[3:7\] is zero: a rotation"):
+        with pytest.raises(ValueError, match=r"^tau\(\): the base's quaternion q\[3:7\] is zero \(\|q\|² below"):
             model.tau(one, v[0], v[0])
         many = q.copy()
         many[3, 3:7] *= bad

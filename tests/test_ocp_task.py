@@ -84,8 +84,14 @@ def test_frame_costs_refuse_bad_targets_weights_and_frames(arm2):
         FrameCost(f, np.zeros(3), over="middle")
     with pytest.raises(ValueError, match=r"got shape \(2,\)"):
         FrameCost(f, np.zeros(2))
-    with pytest.raises(ValueError, match="task_costs must be a tuple of FrameCost terms"):
-        ocp.Problem(np.zeros(2), np.ones(2), T=1.0, task_costs=("tool",))
+    for bad in (("tool",), FrameCost(f, np.zeros(3)), (term for term in [FrameCost(f, np.zeros(3))])):
+        with pytest.raises(ValueError, match="task_costs must be a tuple of FrameCost terms"):
+            ocp.Problem(np.zeros(2), np.ones(2), T=1.0, task_costs=bad)
+    panda = models.load("panda")
+    with pytest.raises(ValueError, match="FrameCost's frame_pose takes q of 2, the problem's q0 has 7"):
+        ocp.Problem(panda.qr, panda.qr, T=1.0, task_costs=(FrameCost(f, np.zeros(3)),))
+    listed = [np.eye(4).tolist()] * 3  # one pose per node, as nested lists; weights any real number
+    assert FrameCost(f, listed, position=np.int64(2), orientation=1).target.shape == (3, 4, 4)
 
 
 def test_a_frame_cost_on_a_path_makes_the_hand_follow_it(arm2):

@@ -280,6 +280,8 @@ def test_the_readers_take_frames_and_a_tree_read_by_its_tips_serves_them():
     path = Path(__file__).parent / "mjcf_fixtures" / "menagerie_arm.xml"
     arm = Robot.from_mjcf(str(path), frames=["attachment_site", "shoulder_link"])
     assert [f.name for f in arm.task_frames] == ["attachment_site", "shoulder_link"]
+    twice = Robot.from_mjcf(str(path), tips=iter(["forearm_link", "shoulder_link", "forearm_link"]))
+    assert [f.name for f in twice.task_frames] == ["forearm_link", "shoulder_link"]  # each once, on one path
     one = Robot.from_mjcf(str(path), tips=["forearm_link"])  # one tip: a chain, whose tool is the tip
     forearm = next(f for f in one.frame_catalog if f.name == "forearm_link")
     assert [f.name for f in one.task_frames] == ["tool"] and (forearm.link, forearm.placement) == (one.n - 1, one.tool)

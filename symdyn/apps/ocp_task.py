@@ -14,6 +14,8 @@ solution, say), and the re-simulation is judged against the optimised end.
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 
 import casadi as ca
@@ -161,7 +163,7 @@ class FrameCost:
             raise ValueError(f"FrameCost: over must be 'path' (∫ c dt) or 'end' (the last node), got {self.over!r}")
         for name in ("position", "orientation"):
             w = getattr(self, name)
-            if isinstance(w, bool) or not isinstance(w, (int, float, np.floating)) or not (np.isfinite(w) and w >= 0):
+            if isinstance(w, bool) or not isinstance(w, numbers.Real) or not (math.isfinite(w) and w >= 0):
                 raise ValueError(f"FrameCost: the weight {name} must be a finite number ≥ 0, got {w!r}")
         target = np.asarray(self.target, dtype=float)
         if target.shape[-1:] == (3,) and target.ndim in (1, 2):
@@ -170,8 +172,9 @@ class FrameCost:
             if self.orientation:
                 raise ValueError("FrameCost: an orientation weight needs target poses (4x4), not positions")
         elif target.shape[-2:] == (4, 4) and target.ndim in (2, 3):
+            shape = target.shape
             target = np.array([check_pose(t, f"FrameCost: target {k}") for k, t in enumerate(target.reshape(-1, 4, 4))])
-            target = target.reshape(self.target.shape if np.ndim(self.target) == 3 else (4, 4))
+            target = target.reshape(shape)
         else:
             raise ValueError(
                 "FrameCost: target must be a pose (4x4), a position (3,), or one per node (N+1, 4, 4) or (N+1, 3); "

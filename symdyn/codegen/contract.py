@@ -27,7 +27,8 @@ def argument(x, size, name, lead, function, quaternion=False):
     """x as a finite real float array of shape (..., size) with at most `lead`
     leading dimensions (the result's own follow them), or a ValueError naming
     it as an argument of `function`; `quaternion`: x is a free base's q, whose
-    quaternion x[..., 3:7] must not be zero (a rotation is read from its direction)."""
+    quaternion x[..., 3:7] must not be zero, nor |q|² subnormal (a rotation is read from its
+    direction, through 2/|q|²)."""
     x = np.asarray(x)
     if x.dtype.kind == "c":
         raise ValueError(f"{function}(): {name} is complex; the dynamics take real numbers")
@@ -44,14 +45,14 @@ def argument(x, size, name, lead, function, quaternion=False):
         )
     if not (all(map(math.isfinite, x.ravel().tolist())) if x.size <= 64 else np.isfinite(x).all()):
         raise ValueError(f"{function}(): {name} contains NaN or infinity")
-    if quaternion:
-        zero = np.flatnonzero(((x[..., 3:7] ** 2).sum(axis=-1) == 0).ravel())
+    if quaternion:  # |q|² below the smallest normal double: 2/|q|² would overflow
+        zero = np.flatnonzero(((x[..., 3:7] ** 2).sum(axis=-1) < 2.2250738585072014e-308).ravel())
         if zero.size:
             index = tuple(int(i) for i in np.unravel_index(zero[0], x.shape[:-1]))
             where = f" (state {index[0] if len(index) == 1 else index})" if index else ""
             raise ValueError(
-                f"{function}(): the base's quaternion {name}[3:7] is zero{where}: a rotation needs a "
-                "non-zero quaternion (any other is read by its direction)"
+                f"{function}(): the base's quaternion {name}[3:7] is zero{where} (|q|² below 2.2e-308): a "
+                "rotation needs a non-zero quaternion (any other is read by its direction)"
             )
     return x
 

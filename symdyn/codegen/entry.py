@@ -290,9 +290,10 @@ class GeneratedModel:
         """Only for a name that is not a function of the model (those are plain attributes)."""
         if name.startswith("_") or "functions" not in self.__dict__:
             raise AttributeError(name)
+        absent = "fdyn" not in self.functions  # M(q) singular: the header says which are not generated and why
+        why = " (M(q) is singular: its files' header says which functions are not generated)" if absent else ""
         raise AttributeError(
-            f"{self.name}'s {self.target} code has no function {name!r} (its files' header says why one is "
-            f"not generated); it has {', '.join(self.functions)}"
+            f"{self.name}'s {self.target} code has no function {name!r}{why}; it has {', '.join(self.functions)}"
         )
 
 

@@ -73,7 +73,8 @@ def add_arguments(p: argparse.ArgumentParser, *, nargs: str | None = None) -> No
         default=None,
         help="the frames the task-space functions serve, in order: any link of the file (moving, locked or "
         "merged by a fixed joint), an MJCF body or site, tool, or for a robot without a file base, link1 … "
-        "(default: the tool of a chain, each leaf link of a tree); `symdyn print --frames` prints their "
+        "(default: the tool of a chain, the tips of --tips A,B,…, else each leaf link of a tree); "
+        "`symdyn print --frames` prints their "
         "forward kinematics and Jacobians",
     )
     add_urdf_options(p)

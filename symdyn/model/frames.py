@@ -83,10 +83,11 @@ def default_names(robot) -> tuple[str, ...]:
     return tuple(own.get(k, f"link{k + 1}") for k in leaves)
 
 
-def served(robot, names, tips):
-    """A file reader's robot serving the frames `names`, or by default the tips a tree was read
-    with (one tip makes a chain, whose tool is that tip; "all" names none: `default_names`)."""
-    if names is None and tips not in (None, "all") and default_names(robot) != ("tool",):
+def served(robot, names, tips: tuple):
+    """A file reader's robot serving the frames `names`, or by default the tips it was read with
+    when it names several (one tip makes a chain, whose tool is that tip; "all" names none:
+    `default_names`).  tips: the tip names as read, each once, or ("all",) or ()."""
+    if names is None and len(tips) > 1:
         names = tips
     return robot if names is None else robot.with_frames(names)
 

@@ -173,7 +173,7 @@ class Problem:
             different lengths or with a NaN or infinite entry; joint limits not
             (n, 2); speed or torque limits that are not n positive numbers (or a
             NaN one: `Limits`); cost weights that are not n entries; task_costs that are
-            not `FrameCost` terms; `unactuated`
+            not a tuple of `FrameCost` terms, or a task or cost on another robot's frames; `unactuated`
             indices that are not distinct integers in 0 … n − 1, or all of them; a
             guess that is not (t, q, v) with t increasing from 0, q and v (len(t), n), finite.
     """
@@ -203,7 +203,7 @@ class Problem:
     #: pose, position or path, along the motion or at its end, added to the cost.
     task_costs: tuple = ()
     #: Whether the end configuration is free: qf then only ends the starting guess, and the end is
-    #: what the cost makes it (a `FrameCost` at the end: a soft task-space goal).
+    #: what the cost makes it (a `FrameCost` at the end: a soft task-space goal; a `task` frees it too).
     free_end: bool = False
 
     def __post_init__(self) -> None:
@@ -231,10 +231,18 @@ class Problem:
                     raise ValueError(f"{name} must be finite: joint {j + 1} has {float(values[j])}, got {v!r}")
         if self.guess is not None:
             _check_guess(self.guess, n)
-        if isinstance(self.task_costs, (str, bytes)) or not all(
+        if not isinstance(self.task_costs, (tuple, list)) or not all(
             callable(getattr(c, "cost", None)) for c in self.task_costs
         ):
             raise ValueError(f"task_costs must be a tuple of FrameCost terms, got {self.task_costs!r}")
+        object.__setattr__(self, "task_costs", tuple(self.task_costs))
+        for term in (self.task, *self.task_costs):
+            pose = getattr(term, "frame_pose", None)
+            if pose is not None and pose.numel_in(0) != n:
+                raise ValueError(
+                    f"{type(term).__name__}'s frame_pose takes q of {pose.numel_in(0)}, the problem's q0 has {n}: "
+                    "build it on the problem's robot"
+                )
         held = list(self.unactuated)
         if not all(isinstance(i, numbers.Integral) and 0 <= i < n for i in held) or len(set(held)) != len(held):
             raise ValueError(f"unactuated must be distinct joint indices in 0 … {n - 1}, got {self.unactuated!r}")

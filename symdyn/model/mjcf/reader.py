@@ -64,7 +64,7 @@ def from_mjcf(
     the file's name without .xml, as on the command line (text: its `<mujoco model>`).
     The robot's `mjcf` records all of it.  frames: the frames its task-space functions serve,
     in order (`Robot.with_frames`: any body or site of the file); default: the tips when `tips`
-    names them, else `Robot.task_frames`'.
+    names several, else `Robot.task_frames`'.
 
     tips: "all" moves every hinge and slide joint below the base (`locked` ones held), a
     list of bodies the joints on the paths from the base to each; the links then come in
@@ -108,6 +108,11 @@ def from_mjcf(
         )
     if isinstance(tips, str) and tips != "all":
         raise MJCFError(f"tips={tips!r}: expected 'all' or a list of body names (one chain: tip_body={tips!r})")
+    if tips is not None and not isinstance(tips, str):  # read once: a generator too, and the file read twice
+        try:
+            tips = tuple(tips)
+        except TypeError:
+            raise MJCFError(f"tips must be 'all' or a list of body names, got {tips!r}") from None
     mj = mujoco_module()
     excluded = (exclude,) if isinstance(exclude, str) else tuple(exclude)
     compiled = compile_mjcf(path, excluded, base_body, tip_body)
@@ -331,7 +336,7 @@ def from_mjcf(
         record = dataclasses.replace(record, snapping=Snapping(robot, dataclasses.replace(literal, mjcf=None)))
     for message in notes:
         warnings.warn(f"{label}: {message}", MJCFWarning, stacklevel=2)
-    return served(dataclasses.replace(robot, mjcf=record), frames, tips)
+    return served(dataclasses.replace(robot, mjcf=record), frames, record.tips)
 
 
 def _given(reader: Compiled, locked: dict | None, below_base: set, base: int, label: str) -> dict[int, float]:

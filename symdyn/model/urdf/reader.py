@@ -336,7 +336,7 @@ def from_urdf(
     kinematics), with a warning naming them, instead of refusing it: its M(q) is
     singular for every q, so it serves kinematics, printing and pictures only.
     frames: the frames its task-space functions serve, in order (`Robot.with_frames`: any
-    link of the file); default: the tips when `tips` names them, else `Robot.task_frames`'.
+    link of the file); default: the tips when `tips` names several, else `Robot.task_frames`'.
 
     Raises:
         URDFError: (a `ValueError`) an unreadable file or text that is not a URDF
@@ -415,7 +415,7 @@ def from_urdf(
         warnings.warn(message, URDFWarning, stacklevel=2)
     for r in record.repairs:
         warnings.warn(f"impossible inertia made physical (inertia='balance'): {r.line()}", URDFWarning, stacklevel=2)
-    return served(dataclasses.replace(robot, urdf=record), frames, tips)
+    return served(dataclasses.replace(robot, urdf=record), frames, record.tips)
 
 
 def _nothing_moves(tree, base_link: str | None) -> bool:

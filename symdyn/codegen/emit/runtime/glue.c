@@ -22,6 +22,7 @@
 #include <numpy/arrayobject.h>
 #include <limits.h>
 #include <stdint.h>
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -169,9 +170,9 @@ static int plain(const spec_t *s, PyObject *const *args, Py_ssize_t nargs, PyObj
             return 0;
         size = PyArray_SIZE(a);
         x = (const double *)PyArray_DATA(a);
-        if (i == s->quaternion)   /* a quaternion whose |q|² is zero (underflow too): the contract names it */
+        if (i == s->quaternion)   /* |q|² below DBL_MIN (2/|q|² would overflow): the contract names it */
             for (k = 0; k + 7 <= size; k += s->in_size[i])
-                if (x[k + 3] * x[k + 3] + x[k + 4] * x[k + 4] + x[k + 5] * x[k + 5] + x[k + 6] * x[k + 6] == 0.0)
+                if (x[k + 3] * x[k + 3] + x[k + 4] * x[k + 4] + x[k + 5] * x[k + 5] + x[k + 6] * x[k + 6] < DBL_MIN)
                     return 0;
         if (nd > 1)
             continue;
