@@ -363,6 +363,55 @@ def test_print_frames_refuses_the_joint_space_options_and_names_only_numbers(cap
     assert "where" not in out and "x = C1*a1 + C12*a2" in out, out
 
 
+def test_a_floating_base_prints_its_frames_in_the_base_axes_and_the_world_follows(capsys):
+    """Solo's feet on a free base printed in the base body's axes (functions of the joints alone,
+    rounded to --digits 17): composed with the base's pose as the printed note says, p0 + R0·p,
+    R0·R and [[R0, −R0[p×], R0 J_lin], [0, R0, R0 J_ang]], they are the generated functions at
+    random states."""
+    import sympy as sp
+    from scipy.spatial.transform import Rotation
+
+    from symdyn.cli import main
+    from symdyn.model.example_robots import robots_folder
+
+    solo = robots_folder() / "solo_description" / "robots" / "solo12.urdf"
+    argv = ["print", str(solo), "--tips", "FL_FOOT,HR_FOOT", "--base-joint", "free", "--frames", "HR_FOOT"]
+    assert main([*argv, "--digits", "17"]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "in the world,\n#   origin p0 + R0 (x, y, z), rotation R0 R" in out
+        and "base_q" not in out.split("# the base")[0]
+    )
+    robot = Robot.from_urdf(solo, tips=["FL_FOOT", "HR_FOOT"], base_joint="free").with_frames(["HR_FOOT"])
+    lines: list[str] = []
+    for line in out.splitlines():  # a long element goes on over indented lines
+        if line.startswith("    ") and lines:
+            lines[-1] += " " + line.strip()
+        else:
+            lines.append(line)
+    q = sp.symbols(f"q1:{robot.n + 1}", real=True)
+    names = dict(zip(map(str, q), q))
+    elements = {
+        k: sp.lambdify(q, sp.sympify(v, locals=names))
+        for k, v in (line.split(" = ", 1) for line in lines if " = " in line and not line.startswith("#"))
+    }
+    f = task_module(robot)
+    for qi in states(robot, 5, seed=2)[0]:
+        joints = qi[7:]
+        p = np.array([elements[a](*joints) for a in "xyz"], dtype=float)
+        R = np.array([[elements[f"R{r}{c}"](*joints) for c in (1, 2, 3)] for r in (1, 2, 3)], dtype=float)
+        Jb = np.zeros((6, robot.n))
+        for key, g in elements.items():
+            if key.startswith("J"):
+                r, c = map(int, key[1:].split("_"))
+                Jb[r - 1, c - 1] = g(*joints)
+        R0, p0 = Rotation.from_quat(qi[3:7]).as_matrix(), qi[:3]  # scalar last, as Pinocchio's q
+        px = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
+        J = np.block([[R0, -R0 @ px, R0 @ Jb[:3]], [np.zeros((3, 3)), R0, R0 @ Jb[3:]]])
+        assert_close(f["frame_pose"](qi)[0], np.block([[R0 @ R, (p0 + R0 @ p)[:, None]], [0, 0, 0, 1]]), "pose")
+        assert_close(f["frame_jacobian_aligned"](qi)[0], J, "the world-aligned Jacobian")
+
+
 @pytest.mark.parametrize("name", ["puma560", "puma560_mdh"])
 def test_the_pumas_tool_pose_in_named_constants_is_its_forward_kinematics(name, capsys):
     """Every printed element (DH lengths a2, a3, d3, d4 — Craig's names in either convention: a

@@ -16,16 +16,25 @@ import sympy as sp
 from ..derivation.dynamics import Dynamics
 from ..derivation.simplify import tidy
 from ..derivation.task_space import task_space
+from ..model.frames import IDENTITY
 from .constants import abbreviation
 from .printing import _display, number, render
 
-__all__ = ["frame_elements", "frames_form", "frames_constant_form"]
+__all__ = ["in_base_axes", "frame_elements", "frames_form", "frames_constant_form"]
+
+
+def in_base_axes(robot):
+    """A floating-base robot with its base held at the origin: its frames' poses and Jacobians
+    are the floating robot's in the base body's axes, functions of the joints alone."""
+    return dataclasses.replace(robot, base_joint=None, base_body=None, base=IDENTITY, urdf=None, mjcf=None)
 
 
 def frame_elements(dyn: Dynamics, form: str = "book") -> list[tuple[str, list]]:
     """[(frame name, [(element name, expr)])]: x, y, z of the frame's origin in the world, its
-    rotation R11 … R33, and its Jacobian's non-zero entries J11 … (rows vx, vy, vz, wx, wy, wz)."""
-    ts = task_space(dyn.robot)
+    rotation R11 … R33, and its Jacobian's non-zero entries J11 … (rows vx, vy, vz, wx, wy, wz).
+    On a floating base, all of them in the base body's axes (`in_base_axes`), the Jacobian's
+    columns the joints': the world's follow by the base's pose (`frames_form` says how)."""
+    ts = task_space(in_base_axes(dyn.robot) if dyn.robot.base_joint is not None else dyn.robot)
     pose, J = ts.full("frame_pose"), ts.full("frame_jacobian_aligned")
     out = []
     for j, frame in enumerate(ts.frames):
@@ -48,15 +57,46 @@ def frames_form(dyn: Dynamics, fmt: str = "text", *, digits: int = 5, form: str 
     """Every task frame's forward kinematics and Jacobian, rendered (`frame_elements`)."""
     comment = "%" if fmt == "latex" else "#"
     blocks = []
+    floating = dyn.robot.base_joint is not None
     for name, items in frame_elements(dyn, form):
         link = next(f.link for f in dyn.robot.task_frames if f.name == name)
         on = "the base" if link < 0 else f"link {link + 1}"
+        where = "the base body's axes (below)" if floating else "the world"
         head = (
-            f"{comment} frame {name!r} on {on}: its origin (x, y, z) and rotation R in the world; its Jacobian "
-            "J (rows vx vy vz wx wy wz, LOCAL_WORLD_ALIGNED; zero entries not shown)"
+            f"{comment} frame {name!r} on {on}: its origin (x, y, z) and rotation R in {where}; its Jacobian "
+            "J (rows vx vy vz wx wy wz, LOCAL_WORLD_ALIGNED; zero entries not shown"
+            + ("; columns: the joints')" if floating else ")")
         )
         blocks.append(head + "\n" + render(items, fmt, digits=digits, document=False))
+    if floating:
+        blocks.append(_base_note(dyn.robot, comment))
     return "\n\n".join(blocks)
+
+
+def _base_note(robot, comment: str) -> str:
+    """How a floating base's frames printed in its axes are placed in the world."""
+    if robot.base_joint == "free":
+        turn = (
+            "R0 the rotation of the quaternion u = (base_qx, base_qy, base_qz), w = base_qw: "
+            "R0 = 1 + 2/|q|^2 (w [u×] + [u×]^2)"
+        )
+        base = "p0 = (base_x, base_y, base_z)"
+        twist = "v = (base velocity, angular velocity) in the base's axes"
+    else:
+        turn = "R0 the turn by base_yaw about z"
+        base = "p0 = (base_x, base_y, 0)"
+        twist = "v = (vx, vy, 0) and angular velocity (0, 0, wz) in the base's axes"
+    lines = [
+        f"the base at {base}, turned by {turn}: in the world,",
+        "  origin p0 + R0 (x, y, z), rotation R0 R, and Jacobian",
+        "  [[R0, -R0 [p×], R0 J_lin], [0, R0, R0 J_ang]] with p = (x, y, z) and J = [J_lin; J_ang] above,",
+        f"  its first columns the base's: {twist}",
+    ]
+    if robot.base != IDENTITY:  # the world's frame {0} placed by robot.base
+        lines.append(
+            f"  all of it then placed by the robot's base B = {[[float(x) for x in row] for row in robot.base]}"
+        )
+    return "\n".join(f"{comment} {line}" for line in lines)
 
 
 def _named_lengths(robot) -> tuple:
