@@ -363,12 +363,44 @@ def test_print_frames_refuses_the_joint_space_options_and_names_only_numbers(cap
     assert "where" not in out and "x = C1*a1 + C12*a2" in out, out
 
 
-def test_a_floating_base_prints_its_frames_in_the_base_axes_and_the_world_follows(capsys):
-    """Solo's feet on a free base printed in the base body's axes (functions of the joints alone,
-    rounded to --digits 17): composed with the base's pose as the printed note says, p0 + R0·p,
-    R0·R and [[R0, −R0[p×], R0 J_lin], [0, R0, R0 J_ang]], they are the generated functions at
-    random states."""
+def printed_elements(out: str, n: int) -> dict:
+    """{element name: function of the joints} of a printed frame (its lines joined where a long
+    element goes on over indented lines)."""
     import sympy as sp
+
+    lines: list[str] = []
+    for line in out.splitlines():
+        if line.startswith("    ") and lines:
+            lines[-1] += " " + line.strip()
+        else:
+            lines.append(line)
+    q = sp.symbols(f"q1:{n + 1}", real=True)
+    names = dict(zip(map(str, q), q))
+    return {
+        k: sp.lambdify(q, sp.sympify(v, locals=names))
+        for k, v in (line.split(" = ", 1) for line in lines if " = " in line and not line.startswith("#"))
+    }
+
+
+def placed_by_the_base(elements: dict, joints, R0, p0, n: int):
+    """(pose, world-aligned Jacobian with the free base's six columns first) of the printed frame,
+    placed as the printed note says: p0 + R0·p, R0·R, [[R0, −R0[p×], R0 J_lin], [0, R0, R0 J_ang]]."""
+    p = np.array([elements[a](*joints) for a in "xyz"], dtype=float)
+    R = np.array([[elements[f"R{r}{c}"](*joints) for c in (1, 2, 3)] for r in (1, 2, 3)], dtype=float)
+    Jb = np.zeros((6, n))
+    for key, g in elements.items():
+        if key.startswith("J"):
+            r, c = map(int, key[1:].split("_"))
+            Jb[r - 1, c - 1] = g(*joints)
+    px = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
+    J = np.block([[R0, -R0 @ px, R0 @ Jb[:3]], [np.zeros((3, 3)), R0, R0 @ Jb[3:]]])
+    return np.block([[R0 @ R, (p0 + R0 @ p)[:, None]], [0, 0, 0, 1]]), J
+
+
+def test_a_floating_base_prints_its_frames_in_the_base_axes_and_the_world_follows(capsys):
+    """Solo's foot on a free base printed in the base body's axes (functions of the joints alone,
+    to --digits 17): placed by the base's pose as the printed note says, it is the generated
+    pose and world-aligned Jacobian at random states."""
     from scipy.spatial.transform import Rotation
 
     from symdyn.cli import main
@@ -378,38 +410,35 @@ def test_a_floating_base_prints_its_frames_in_the_base_axes_and_the_world_follow
     argv = ["print", str(solo), "--tips", "FL_FOOT,HR_FOOT", "--base-joint", "free", "--frames", "HR_FOOT"]
     assert main([*argv, "--digits", "17"]) == 0
     out = capsys.readouterr().out
-    assert (
-        "in the world,\n#   origin p0 + R0 (x, y, z), rotation R0 R" in out
-        and "base_q" not in out.split("# the base")[0]
-    )
+    assert "in the world,\n#   origin p0 + R0 (x, y, z)" in out and "base_q" not in out.split("# the base")[0]
     robot = Robot.from_urdf(solo, tips=["FL_FOOT", "HR_FOOT"], base_joint="free").with_frames(["HR_FOOT"])
-    lines: list[str] = []
-    for line in out.splitlines():  # a long element goes on over indented lines
-        if line.startswith("    ") and lines:
-            lines[-1] += " " + line.strip()
-        else:
-            lines.append(line)
-    q = sp.symbols(f"q1:{robot.n + 1}", real=True)
-    names = dict(zip(map(str, q), q))
-    elements = {
-        k: sp.lambdify(q, sp.sympify(v, locals=names))
-        for k, v in (line.split(" = ", 1) for line in lines if " = " in line and not line.startswith("#"))
-    }
-    f = task_module(robot)
+    elements, f = printed_elements(out, robot.n), task_module(robot)
     for qi in states(robot, 5, seed=2)[0]:
-        joints = qi[7:]
-        p = np.array([elements[a](*joints) for a in "xyz"], dtype=float)
-        R = np.array([[elements[f"R{r}{c}"](*joints) for c in (1, 2, 3)] for r in (1, 2, 3)], dtype=float)
-        Jb = np.zeros((6, robot.n))
-        for key, g in elements.items():
-            if key.startswith("J"):
-                r, c = map(int, key[1:].split("_"))
-                Jb[r - 1, c - 1] = g(*joints)
-        R0, p0 = Rotation.from_quat(qi[3:7]).as_matrix(), qi[:3]  # scalar last, as Pinocchio's q
-        px = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
-        J = np.block([[R0, -R0 @ px, R0 @ Jb[:3]], [np.zeros((3, 3)), R0, R0 @ Jb[3:]]])
-        assert_close(f["frame_pose"](qi)[0], np.block([[R0 @ R, (p0 + R0 @ p)[:, None]], [0, 0, 0, 1]]), "pose")
+        R0 = Rotation.from_quat(qi[3:7]).as_matrix()  # scalar last, as Pinocchio's q
+        pose, J = placed_by_the_base(elements, qi[7:], R0, qi[:3], robot.n)
+        assert_close(f["frame_pose"](qi)[0], pose, "pose")
         assert_close(f["frame_jacobian_aligned"](qi)[0], J, "the world-aligned Jacobian")
+
+
+def test_a_planar_base_prints_its_frames_the_same_way_under_the_robots_base_placement():
+    """A random tree on a planar base whose world frame {0} is placed by a general `robot.base` B:
+    the printed frame, placed by Rz(yaw), (x, y, 0) and then B as the note says (the base's
+    columns vx, vy, wz of the free base's six), is the generated pose and Jacobian."""
+    from symdyn.derivation.entry import derive
+    from symdyn.presentation.task_space import frames_form
+
+    robot = random_tree_robot(5, n=2, base_joint="planar").with_frames(["link2"])
+    out = frames_form(derive(robot, "newton-euler"), digits=17)
+    assert "all of it then placed by the robot's base B" in out
+    B = np.array(robot.base, dtype=float)
+    elements, f = printed_elements(out, robot.n), task_module(robot)
+    for qi in states(robot, 5, seed=3)[0]:
+        c, s = np.cos(qi[2]), np.sin(qi[2])
+        R0 = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        pose, J = placed_by_the_base(elements, qi[3:], R0, np.r_[qi[:2], 0], robot.n)
+        turn = np.kron(np.eye(2), B[:3, :3])
+        assert_close(f["frame_pose"](qi)[0], B @ pose, "pose")
+        assert_close(f["frame_jacobian_aligned"](qi)[0], turn @ J[:, [0, 1, 5, *range(6, 6 + robot.n)]], "Jacobian")
 
 
 @pytest.mark.parametrize("name", ["puma560", "puma560_mdh"])
