@@ -94,7 +94,8 @@ def test_frame_costs_refuse_bad_targets_weights_and_frames(arm2):
     assert FrameCost(f, listed, position=np.int64(2), orientation=1).target.shape == (3, 4, 4)
 
 
-def test_a_frame_cost_on_a_path_makes_the_hand_follow_it(arm2):
+@pytest.mark.parametrize("method", ocp.METHODS)
+def test_a_frame_cost_on_a_path_makes_the_hand_follow_it(arm2, method):
     """The two-link arm from q0 to qf: at minimum effort the hand strays from the straight line
     between its end points (timed as a minimum-jerk path, at rest at both ends) by over a metre;
     with a FrameCost on that path (one position per node) it stays within millimetres of it, and
@@ -107,7 +108,7 @@ def test_a_frame_cost_on_a_path_makes_the_hand_follow_it(arm2):
     arm = ocp.dynamics(robot.nofriction(all=True), "plain", compiled=False)
 
     def largest_miss(task_costs):
-        problem = ocp.Problem(q0, qf, T=1.0, N=N, method="trapezoidal", task_costs=task_costs)
+        problem = ocp.Problem(q0, qf, T=1.0, N=N, method=method, task_costs=task_costs)
         sol = ocp.solve(problem, arm)
         assert sol.stats["success"], sol.stats["status"]
         assert np.abs(sol.q[-1] - qf).max() < 1e-8
